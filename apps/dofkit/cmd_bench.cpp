@@ -1,0 +1,14 @@
+// TEMPORARY placeholder: `dofkit bench` is being written (see the open issue); it reports
+// that it is unavailable rather than pretending to work.
+#include "commands.hpp"
+#include "dofkit/error.hpp"
+
+namespace dofkit::cli {
+
+void add_bench_command(CLI::App& app) {
+  auto* cmd = app.add_subcommand("bench", "(not available yet)");
+  cmd->allow_extras();
+  cmd->callback([] { throw_internal("dofkit bench is not implemented yet"); });
+}
+
+}  // namespace dofkit::cli

@@ -1,0 +1,74 @@
+// dofkit — rendering depth of field.
+#pragma once
+#include <map>
+#include <string>
+#include <vector>
+
+#include "dofkit/coc.hpp"
+#include "dofkit/error.hpp"
+#include "dofkit/frame.hpp"
+#include "dofkit/image.hpp"
+
+namespace dofkit {
+
+/// Everything a render needs besides the frame.
+struct RenderSettings {
+  /// Technique: "reference" (exact single-layer scatter, the default), "mcguire", "sterna",
+  /// "starcraft", "layered", … — see methods().
+  std::string method = "reference";
+  /// The camera: CoC model, reference width, clamp.
+  CameraModel camera;
+  /// Method parameters as key → value text (the CLI's `--set k=v`). Unknown keys and
+  /// out-of-range values throw Error(usage) naming the key.
+  std::map<std::string, std::string> params;
+  /// Worker threads; 0 = all hardware threads. Output is identical for every count.
+  int threads = 0;
+  /// Name of an intermediate buffer to return in RenderResult::debug ("" = none).
+  /// See MethodInfo::debug_views.
+  std::string debug_view;
+};
+
+/// The result of a render.
+struct RenderResult {
+  Image image;  ///< RGBA premultiplied, linear, same size as the input colour
+  Image coc;    ///< signed CoC radius in pixels used for the render (1 plane)
+  Image debug;  ///< the requested debug view (empty if none was requested)
+};
+
+/// Renders depth of field. Throws dofkit::Error on bad input or settings.
+RenderResult render(const Frame& frame, const RenderSettings& settings);
+
+/// Computes the signed, clamped CoC map (pixels) of a depth map for a camera.
+Image compute_coc(const Image& depth, const CameraModel& camera, int threads = 0);
+
+/// Description of a method parameter (for --help and docs).
+struct ParamInfo {
+  std::string name;           ///< key for RenderSettings::params
+  std::string default_value;  ///< as text
+  std::string help;           ///< meaning, with units and range
+};
+
+/// Description of a debug view.
+struct DebugViewInfo {
+  std::string name;
+  std::string help;
+};
+
+/// Description of a technique.
+struct MethodInfo {
+  std::string name;
+  std::string summary;
+  std::vector<ParamInfo> params;
+  std::vector<DebugViewInfo> debug_views;
+};
+
+/// All available techniques, sorted by name.
+std::vector<MethodInfo> methods();
+
+/// Focus distance (scene units) read from a depth map around pixel (x, y): the median of
+/// the finite depths in a (2·radius+1)² window, so a pixel on an edge still gives a
+/// sensible value. Throws Error(usage) if (x, y) is outside the image or the window holds
+/// no finite depth.
+double focus_from_depth(const Image& depth, int x, int y, int radius = 3);
+
+}  // namespace dofkit

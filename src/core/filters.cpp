@@ -1,0 +1,118 @@
+#include "core/filters.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "core/parallel.hpp"
+
+namespace dofkit::core {
+
+namespace {
+inline int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+}  // namespace
+
+void extended_box_params(float sigma, int passes, int& r, float& alpha) {
+  // One pass of weights {alpha at ±(r+1), 1 for |i| <= r} / (2r + 1 + 2 alpha) has variance
+  // (r(r+1)(2r+1)/3 + 2 alpha (r+1)²) / (2r + 1 + 2 alpha). Setting it to s = sigma²/passes
+  // and solving for alpha gives the expression below; choosing r = floor((sqrt(12 s + 1) − 1)/2)
+  // keeps alpha in [0, 1).
+  const double s = static_cast<double>(sigma) * sigma / passes;
+  r = static_cast<int>(std::floor((std::sqrt(12.0 * s + 1.0) - 1.0) / 2.0));
+  if (r < 0) r = 0;
+  const double rr = r;
+  double a = (2 * rr + 1) * (s - rr * (rr + 1) / 3.0) / (2.0 * ((rr + 1) * (rr + 1) - s));
+  alpha = static_cast<float>(std::clamp(a, 0.0, 1.0));
+}
+
+void extended_box_x(float* data, int w, int h, int r, float alpha) {
+  const double norm = 1.0 / (2.0 * r + 1.0 + 2.0 * alpha);
+  parallel_for(h, [&](int y0, int y1) {
+    std::vector<float> row(w);
+    for (int y = y0; y < y1; ++y) {
+      float* p = data + static_cast<std::size_t>(y) * w;
+      std::copy(p, p + w, row.begin());
+      auto at = [&](int i) { return static_cast<double>(row[clampi(i, 0, w - 1)]); };
+      double sum = 0;
+      for (int i = -r; i <= r; ++i) sum += at(i);
+      for (int x = 0; x < w; ++x) {
+        p[x] = static_cast<float>((sum + alpha * (at(x - r - 1) + at(x + r + 1))) * norm);
+        sum += at(x + r + 1) - at(x - r);
+      }
+    }
+  }, 8);
+}
+
+void extended_box_y(float* data, int w, int h, int r, float alpha) {
+  const double norm = 1.0 / (2.0 * r + 1.0 + 2.0 * alpha);
+  constexpr int kBlock = 64;
+  const int blocks = (w + kBlock - 1) / kBlock;
+  parallel_for(blocks, [&](int b0, int b1) {
+    std::vector<float> col(static_cast<std::size_t>(h) * kBlock);
+    std::vector<double> sum(kBlock);
+    for (int b = b0; b < b1; ++b) {
+      const int x0 = b * kBlock, nx = std::min(kBlock, w - x0);
+      for (int y = 0; y < h; ++y)
+        std::copy(data + static_cast<std::size_t>(y) * w + x0,
+                  data + static_cast<std::size_t>(y) * w + x0 + nx, col.begin() + y * kBlock);
+      auto rowp = [&](int y) { return col.data() + static_cast<std::size_t>(clampi(y, 0, h - 1)) * kBlock; };
+      std::fill(sum.begin(), sum.end(), 0.0);
+      for (int i = -r; i <= r; ++i) {
+        const float* q = rowp(i);
+        for (int x = 0; x < nx; ++x) sum[x] += q[x];
+      }
+      for (int y = 0; y < h; ++y) {
+        const float* lo = rowp(y - r - 1);
+        const float* hi = rowp(y + r + 1);
+        const float* out_lo = rowp(y - r);
+        float* dst = data + static_cast<std::size_t>(y) * w + x0;
+        for (int x = 0; x < nx; ++x) {
+          dst[x] = static_cast<float>((sum[x] + alpha * (static_cast<double>(lo[x]) + hi[x])) * norm);
+          sum[x] += static_cast<double>(hi[x]) - out_lo[x];
+        }
+      }
+    }
+  });
+}
+
+void box_blur_plane(const float* src, float* dst, int w, int h, int rx, int ry) {
+  if (src != dst) std::copy(src, src + static_cast<std::size_t>(w) * h, dst);
+  if (rx > 0) extended_box_x(dst, w, h, rx, 0.0f);
+  if (ry > 0) extended_box_y(dst, w, h, ry, 0.0f);
+}
+
+void gaussian_blur_plane(float* data, int w, int h, float sigma_x, float sigma_y, int passes) {
+  if (w <= 0 || h <= 0) return;
+  if (sigma_x > 0) {
+    int r; float a;
+    extended_box_params(sigma_x, passes, r, a);
+    for (int i = 0; i < passes; ++i) extended_box_x(data, w, h, r, a);
+  }
+  if (sigma_y > 0) {
+    int r; float a;
+    extended_box_params(sigma_y, passes, r, a);
+    for (int i = 0; i < passes; ++i) extended_box_y(data, w, h, r, a);
+  }
+}
+
+void gaussian_blur(Image& img, float sigma, int passes) {
+  if (!(sigma > 0)) return;
+  for (int c = 0; c < img.channels(); ++c)
+    gaussian_blur_plane(img.plane(c), img.width(), img.height(), sigma, sigma, passes);
+}
+
+float sample_bilinear(const float* plane, int w, int h, float x, float y) {
+  const float fx = x - 0.5f, fy = y - 0.5f;
+  const float x0f = std::floor(fx), y0f = std::floor(fy);
+  const float tx = fx - x0f, ty = fy - y0f;
+  const int x0 = static_cast<int>(x0f), y0 = static_cast<int>(y0f);
+  const int xa = clampi(x0, 0, w - 1), xb = clampi(x0 + 1, 0, w - 1);
+  const int ya = clampi(y0, 0, h - 1), yb = clampi(y0 + 1, 0, h - 1);
+  const float* ra = plane + static_cast<std::size_t>(ya) * w;
+  const float* rb = plane + static_cast<std::size_t>(yb) * w;
+  const float top = ra[xa] + (ra[xb] - ra[xa]) * tx;
+  const float bot = rb[xa] + (rb[xb] - rb[xa]) * tx;
+  return top + (bot - top) * ty;
+}
+
+}  // namespace dofkit::core

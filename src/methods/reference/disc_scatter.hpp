@@ -1,0 +1,26 @@
+// Shared machinery of the two scatter methods (`reference` and the depth-blind `scatter`
+// baseline): every source pixel spreads its colour over a disc of radius |r| with an
+// anti-aliased edge, energy-normalised so the disc's weights sum to 1.
+#pragma once
+#include "dofkit/image.hpp"
+
+namespace dofkit::detail {
+
+struct DiscScatterOptions {
+  /// true: depth-ordered compositing (the reference); false: one normalised sum that
+  /// ignores depth (what common lens-blur filters do).
+  bool depth_order = true;
+  /// Relative inverse-depth difference over which a source goes from "same surface" to
+  /// "in front of the receiver" (soft, so a continuous surface shows no seams).
+  float depth_softness = 0.05f;
+};
+
+/// colour: RGBA premultiplied; depth: z; coc: signed px. Writes RGBA into `out`.
+void disc_scatter(const Image& colour, const Image& depth, const Image& coc, const DiscScatterOptions& opt,
+                  Image& out);
+
+/// Weight-sum of a disc of radius r (px) sampled at pixel centres with the coverage
+/// saturate(r − d + 0.5): the energy normaliser (exact, not π r²).
+double disc_area(double r);
+
+}  // namespace dofkit::detail

@@ -1,0 +1,24 @@
+// `reference`: the most accurate result one RGB-D layer allows — an energy-normalised,
+// depth-ordered disc scatter (see disc_scatter.cpp). Slow by design; the oracle the fast
+// methods are compared with.
+#include "methods/method.hpp"
+#include "methods/reference/disc_scatter.hpp"
+
+namespace dofkit::detail {
+
+const MethodDef& reference_method() {
+  static const MethodDef def{
+      "reference",
+      "exact single-layer scatter: every pixel spreads its disc of confusion, composited in depth order",
+      {{"depth_softness", "0.05", "relative inverse-depth difference over which a source becomes 'in front' (0.001-1)"}},
+      {},
+      [](const MethodContext& ctx, Image& out) {
+        DiscScatterOptions opt;
+        opt.depth_order = true;
+        opt.depth_softness = static_cast<float>(ctx.params.get_double("depth_softness", 0.05, 0.001, 1.0));
+        disc_scatter(ctx.frame.color, ctx.frame.depth, ctx.coc, opt, out);
+      }};
+  return def;
+}
+
+}  // namespace dofkit::detail

@@ -1,0 +1,197 @@
+// render(): validates settings and input, computes the CoC map and runs the chosen method.
+#include "dofkit/render.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "core/parallel.hpp"
+#include "methods/method.hpp"
+
+namespace dofkit {
+
+namespace detail {
+
+const MethodDef* find_method(const std::string& name) {
+  for (const MethodDef* m : all_methods())
+    if (m->name == name) return m;
+  return nullptr;
+}
+
+namespace {
+std::string known_names(const std::vector<std::string>& names) {
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
+  return s;
+}
+[[noreturn]] void bad_param(const std::string& method, const std::string& key, const std::string& value,
+                            const std::string& why) {
+  throw_usage("--set " + key + "=" + value + ": " + why + " (method " + method + ")");
+}
+}  // namespace
+
+double Params::get_double(const std::string& key, double def, double lo, double hi) const {
+  auto it = values_.find(key);
+  if (it == values_.end()) return def;
+  const std::string& v = it->second;
+  double d;
+  try {
+    std::size_t used = 0;
+    d = std::stod(v, &used);
+    if (used != v.size()) throw std::invalid_argument(v);
+  } catch (const std::exception&) {
+    bad_param(method_, key, v, "not a number");
+  }
+  if (!(d >= lo && d <= hi)) {
+    std::ostringstream s;
+    s << "must be in [" << lo << ", " << hi << "]";
+    bad_param(method_, key, v, s.str());
+  }
+  return d;
+}
+
+int Params::get_int(const std::string& key, int def, int lo, int hi) const {
+  const double d = get_double(key, def, lo, hi);
+  if (d != std::floor(d)) bad_param(method_, key, values_.at(key), "must be an integer");
+  return static_cast<int>(d);
+}
+
+bool Params::get_bool(const std::string& key, bool def) const {
+  auto it = values_.find(key);
+  if (it == values_.end()) return def;
+  const std::string& v = it->second;
+  if (v == "on" || v == "true" || v == "1" || v == "yes") return true;
+  if (v == "off" || v == "false" || v == "0" || v == "no") return false;
+  bad_param(method_, key, v, "must be on or off");
+}
+
+std::string Params::get_choice(const std::string& key, const std::string& def,
+                               const std::vector<std::string>& choices) const {
+  auto it = values_.find(key);
+  if (it == values_.end()) return def;
+  if (std::find(choices.begin(), choices.end(), it->second) == choices.end())
+    bad_param(method_, key, it->second, "must be one of " + known_names(choices));
+  return it->second;
+}
+
+}  // namespace detail
+
+void validate_frame(const Frame& frame, const char* what) {
+  const std::string src = what ? what : "frame";
+  if (frame.color.empty() || frame.color.width() <= 0 || frame.color.height() <= 0)
+    throw_bad_input(src + ": colour image is empty");
+  if (frame.color.channels() != 4)
+    throw_bad_input(src + ": colour must have 4 planes (RGBA), has " + std::to_string(frame.color.channels()));
+  if (frame.depth.channels() != 1 || !frame.depth.same_size(frame.color))
+    throw_bad_input(src + ": depth is " + std::to_string(frame.depth.width()) + "x" +
+                    std::to_string(frame.depth.height()) + " but colour is " + std::to_string(frame.color.width()) +
+                    "x" + std::to_string(frame.color.height()));
+  std::size_t bad = 0, first = 0;
+  const float* z = frame.depth.plane(0);
+  for (std::size_t i = 0; i < frame.depth.plane_size(); ++i)
+    if (!(z[i] > 0)) {
+      if (bad++ == 0) first = i;
+    }
+  if (bad)
+    throw_bad_input(src + ": depth has " + std::to_string(bad) + " NaN, zero or negative value(s), first at pixel (" +
+                    std::to_string(first % frame.depth.width()) + ", " + std::to_string(first / frame.depth.width()) +
+                    ") = " + std::to_string(z[first]));
+  if (frame.layer_color.size() != frame.layer_depth.size())
+    throw_bad_input(src + ": layer colour/depth counts differ");
+  for (std::size_t l = 0; l < frame.layer_color.size(); ++l) {
+    if (frame.layer_color[l].channels() != 4 || !frame.layer_color[l].same_size(frame.color) ||
+        frame.layer_depth[l].channels() != 1 || !frame.layer_depth[l].same_size(frame.color))
+      throw_bad_input(src + ": layer " + std::to_string(l) + " does not match the colour image size");
+  }
+}
+
+Image compute_coc(const Image& depth, const CameraModel& camera, int threads) {
+  validate(camera);
+  Image coc(depth.width(), depth.height(), 1);
+  const CocFunction f(camera, depth.width());
+  core::with_threads(threads, [&] {
+    core::parallel_for(depth.height(), [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y) {
+        const float* z = depth.row(0, y);
+        float* r = coc.row(0, y);
+        for (int x = 0; x < depth.width(); ++x) r[x] = f(z[x]);
+      }
+    }, 16);
+  });
+  return coc;
+}
+
+std::vector<MethodInfo> methods() {
+  std::vector<MethodInfo> out;
+  for (const auto* m : detail::all_methods()) out.push_back({m->name, m->summary, m->params, m->debug_views});
+  std::sort(out.begin(), out.end(), [](const MethodInfo& a, const MethodInfo& b) { return a.name < b.name; });
+  return out;
+}
+
+RenderResult render(const Frame& frame, const RenderSettings& settings) {
+  const detail::MethodDef* method = detail::find_method(settings.method);
+  if (!method) {
+    std::vector<std::string> names;
+    for (const auto* m : detail::all_methods()) names.push_back(m->name);
+    throw_usage("--method " + settings.method + ": unknown method (known: " + detail::known_names(names) + ")");
+  }
+  for (const auto& [key, value] : settings.params) {
+    const bool known = std::any_of(method->params.begin(), method->params.end(),
+                                   [&](const ParamInfo& p) { return p.name == key; });
+    if (!known) {
+      std::vector<std::string> names;
+      for (const auto& p : method->params) names.push_back(p.name);
+      throw_usage("--set " + key + "=" + value + ": unknown parameter for method " + method->name +
+                  (names.empty() ? std::string(" (it has none)") : " (known: " + detail::known_names(names) + ")"));
+    }
+  }
+  if (!settings.debug_view.empty()) {
+    const bool known = std::any_of(method->debug_views.begin(), method->debug_views.end(),
+                                   [&](const DebugViewInfo& v) { return v.name == settings.debug_view; });
+    if (!known) {
+      std::vector<std::string> names;
+      for (const auto& v : method->debug_views) names.push_back(v.name);
+      throw_usage("--debug-view " + settings.debug_view + ": method " + method->name + " has no such view (" +
+                  (names.empty() ? std::string("it has none") : "known: " + detail::known_names(names)) + ")");
+    }
+  }
+  if (settings.threads < 0) throw_usage("--threads: must be >= 0");
+  validate(settings.camera);
+  validate_frame(frame);
+
+  RenderResult result;
+  const detail::Params params(method->name, settings.params);
+  detail::DebugSink sink(settings.debug_view);
+  const int threads = settings.threads > 0 ? settings.threads : core::hardware_threads();
+  core::with_threads(settings.threads, [&] {
+    result.coc = compute_coc(frame.depth, settings.camera, 0);
+    const CocFunction coc_of(settings.camera, frame.width());
+    const detail::MethodContext ctx{frame, result.coc, settings.camera, coc_of, params, sink, threads};
+    result.image.resize(frame.width(), frame.height(), 4);
+    method->render(ctx, result.image);
+  });
+  if (!settings.debug_view.empty()) {
+    if (!sink.found())
+      throw_internal("method " + method->name + " did not produce debug view " + settings.debug_view);
+    result.debug = std::move(sink.result());
+  }
+  return result;
+}
+
+double focus_from_depth(const Image& depth, int x, int y, int radius) {
+  if (x < 0 || y < 0 || x >= depth.width() || y >= depth.height())
+    throw_usage("--focus-at " + std::to_string(x) + "," + std::to_string(y) + ": outside the " +
+                std::to_string(depth.width()) + "x" + std::to_string(depth.height()) + " image");
+  std::vector<float> v;
+  for (int j = std::max(0, y - radius); j <= std::min(depth.height() - 1, y + radius); ++j)
+    for (int i = std::max(0, x - radius); i <= std::min(depth.width() - 1, x + radius); ++i) {
+      const float z = depth.at(i, j);
+      if (std::isfinite(z) && z > 0) v.push_back(z);
+    }
+  if (v.empty())
+    throw_usage("--focus-at " + std::to_string(x) + "," + std::to_string(y) + ": no finite depth around that pixel");
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace dofkit

@@ -38,6 +38,13 @@ struct RenderResult {
 /// Renders depth of field. Throws dofkit::Error on bad input or settings.
 RenderResult render(const Frame& frame, const RenderSettings& settings);
 
+/// Transparency (StarCraft II, algorithms.md §4.4): renders `frame` as usual, then
+/// re-applies depth of field over the region where `mask` (1 plane, 0..1, same size) is
+/// non-zero using `mask_depth` (1 plane, z) as the depth there — e.g. the depth of a key
+/// transparency that did not write depth — and blends the second result in by the mask.
+RenderResult render_masked(const Frame& frame, const Image& mask, const Image& mask_depth,
+                           const RenderSettings& settings);
+
 /// Computes the signed, clamped CoC map (pixels) of a depth map for a camera.
 Image compute_coc(const Image& depth, const CameraModel& camera, int threads = 0);
 

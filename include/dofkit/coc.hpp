@@ -109,9 +109,13 @@ double focus_distance_m(const CocModelKind& model);
 CocModelKind with_focus(const CocModelKind& model, double focus_m);
 
 // Conversions of algorithms.md §1.5. Pixel radii stay at the same reference width.
-/// Thin lens (as BlurAtInfinity) → four planes with maxima R_n, R_f; z_fb = +inf if R_f >= K.
+/// Thin lens (as BlurAtInfinity) → four planes with maxima R_n, R_f and ramps linear in 1/z,
+/// sharp planes at the focus distance: reproduces the physical curve exactly up to the
+/// blurry planes (z_fb = +inf if R_f >= K).
 FourPlane to_four_plane(const BlurAtInfinity& lens, double near_radius_px, double far_radius_px);
-/// Four planes → thin lens through the sharp planes: z_F harmonic mean, K = 0.5 z_ns/(z_F − z_ns).
+/// Four planes → thin lens: z_F = harmonic mean of the sharp planes; K through the sharp
+/// planes (K = 0.5 z_ns/(z_F − z_ns)) for linear ramps with a plateau, else through the
+/// near-blurry plane (exact inverse of the conversion above).
 BlurAtInfinity to_thin_lens(const FourPlane& planes);
 /// StarCraft II → four planes (symmetric).
 FourPlane to_four_plane(const StarCraft& sc);

@@ -195,10 +195,13 @@ CocModelKind with_focus(const CocModelKind& model, double focus_m) {
 }
 
 FourPlane to_four_plane(const BlurAtInfinity& lens, double near_radius_px, double far_radius_px) {
+  // The artist ramps start from 0 px at the sharp planes. With ramps linear in 1/z (the
+  // physical law) the conversion is exact when both sharp planes sit at the focus distance,
+  // where the physical radius is 0: r_art(z) = R_n (1/z − 1/z_F)/(1/z_nb − 1/z_F) = K (z_F/z − 1).
   const double zf = lens.focus_distance_m, k = lens.blur_at_infinity_px;
   FourPlane p;
-  p.near_sharp_m = thin_lens_depth_for_coc(zf, k, +0.5);
-  p.far_sharp_m = thin_lens_depth_for_coc(zf, k, -0.5);
+  p.near_sharp_m = zf;
+  p.far_sharp_m = zf;
   p.near_blurry_m = thin_lens_depth_for_coc(zf, k, near_radius_px);
   p.far_blurry_m = thin_lens_depth_for_coc(zf, k, -far_radius_px);
   p.near_radius_px = near_radius_px;
@@ -209,8 +212,14 @@ FourPlane to_four_plane(const BlurAtInfinity& lens, double near_radius_px, doubl
 
 BlurAtInfinity to_thin_lens(const FourPlane& planes) {
   const double zf = 2 * planes.near_sharp_m * planes.far_sharp_m / (planes.near_sharp_m + planes.far_sharp_m);
-  const double k = zf > planes.near_sharp_m ? 0.5 * planes.near_sharp_m / (zf - planes.near_sharp_m) : 0.0;
-  return {zf, k};
+  if (planes.linear_in_inverse_depth || !(zf > planes.near_sharp_m)) {
+    // No plateau (or 1/z ramps): K from the near-blurry plane, r(z_nb) = R_n = K (z_F/z_nb − 1).
+    const double t = zf / planes.near_blurry_m - 1.0;
+    return {zf, t > 0 ? planes.near_radius_px / t : 0.0};
+  }
+  // Linear ramps with a sharp plateau: fit through the sharp planes, where the physical
+  // radius is 0.5 px: 0.5 = K (z_F/z_ns − 1).
+  return {zf, 0.5 * planes.near_sharp_m / (zf - planes.near_sharp_m)};
 }
 
 FourPlane to_four_plane(const StarCraft& sc) {

@@ -1,0 +1,144 @@
+// Properties of the reference method (depth-ordered disc scatter) and of the depth-blind
+// scatter baseline.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "dofkit/render.hpp"
+#include "methods/reference/disc_scatter.hpp"
+
+using namespace dofkit;
+
+namespace {
+
+Frame make_frame(int w, int h, float z, float r = 0.5f, float g = 0.5f, float b = 0.5f) {
+  Frame f;
+  f.color = Image(w, h, 4);
+  f.depth = Image(w, h, 1, z);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      f.color.at(x, y, 0) = r;
+      f.color.at(x, y, 1) = g;
+      f.color.at(x, y, 2) = b;
+      f.color.at(x, y, 3) = 1.0f;
+    }
+  return f;
+}
+
+// Deterministic texture so that identity tests are not trivially satisfied.
+void texture(Frame& f) {
+  for (int y = 0; y < f.height(); ++y)
+    for (int x = 0; x < f.width(); ++x)
+      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 0.1f + 0.8f * std::fabs(std::sin(0.37f * x * (c + 1) + 0.23f * y));
+}
+
+RenderSettings settings(double focus, double k, const char* method = "reference") {
+  RenderSettings s;
+  s.method = method;
+  s.camera.model = BlurAtInfinity{focus, k};
+  return s;
+}
+
+}  // namespace
+
+TEST(Reference, InFocusIsIdentity) {
+  Frame f = make_frame(64, 48, 4.0f);
+  texture(f);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) f.depth.at(x, y) = 4.0f + 0.01f * ((x + y) % 3);  // |r| < 0.5
+  const RenderResult r = render(f, settings(4.0, 8.0));
+  for (int c = 0; c < 4; ++c)
+    for (std::size_t i = 0; i < f.color.plane_size(); ++i) ASSERT_EQ(r.image.plane(c)[i], f.color.plane(c)[i]);
+}
+
+TEST(Reference, ConstantImageStaysConstant) {
+  Frame f = make_frame(80, 60, 1.0f, 0.3f, 0.6f, 0.9f);
+  for (int y = 0; y < 60; ++y)
+    for (int x = 0; x < 80; ++x) f.depth.at(x, y) = (x < 40) ? 1.0f : (y < 30 ? 10.0f : 3.0f);
+  const RenderResult r = render(f, settings(3.0, 6.0));
+  const float want[4] = {0.3f, 0.6f, 0.9f, 1.0f};
+  for (int c = 0; c < 4; ++c)
+    for (std::size_t i = 0; i < f.color.plane_size(); ++i) ASSERT_NEAR(r.image.plane(c)[i], want[c], 1e-5);
+}
+
+TEST(Reference, SharpForegroundNotCoveredByBlurredBackground) {
+  // Left half: in focus at 2 m. Right half: far background (r = −K·(1 − 2/50) ≈ −11.5 px), bright.
+  Frame f = make_frame(96, 32, 2.0f, 0.1f, 0.2f, 0.3f);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 48; x < 96; ++x) {
+      f.depth.at(x, y) = 50.0f;
+      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 5.0f;
+    }
+  const RenderResult r = render(f, settings(2.0, 12.0));
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 48; ++x)
+      for (int c = 0; c < 4; ++c) ASSERT_EQ(r.image.at(x, y, c), f.color.at(x, y, c)) << x << "," << y;
+  // … while the background itself is blurred towards the edge (it loses nothing to the left).
+  EXPECT_GT(r.image.at(50, 16, 0), 4.0f);
+}
+
+TEST(Reference, BrightFarPixelBecomesDiscWithItsEnergy) {
+  const int w = 81, h = 81;
+  Frame f = make_frame(w, h, 100.0f, 0, 0, 0);
+  f.color.at(40, 40, 0) = 1000.0f;
+  // K = 10 px, focus 1 m: a point at 100 m has r = 10·(1/100 − 1) = −9.9 px.
+  const RenderResult r = render(f, settings(1.0, 10.0));
+  double energy = 0, inside_min = 1e30, outside_max = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double v = r.image.at(x, y, 0), d = std::hypot(x - 40.0, y - 40.0);
+      energy += v;
+      if (d < 9.9 - 0.6) inside_min = std::min(inside_min, v);
+      if (d > 9.9 + 0.6) outside_max = std::max(outside_max, v);
+    }
+  EXPECT_NEAR(energy, 1000.0, 1000.0 * 1e-3);
+  EXPECT_EQ(outside_max, 0.0);
+  const double flat = 1000.0 / detail::disc_area(9.9);
+  EXPECT_NEAR(inside_min, flat, flat * 1e-3);  // uniform disc inside the anti-aliased rim
+}
+
+TEST(Reference, DiscAreaIsCloseToPiR2) {
+  for (double r : {3.0, 7.5, 20.0}) EXPECT_NEAR(detail::disc_area(r), M_PI * r * r, 0.02 * M_PI * r * r);
+  EXPECT_DOUBLE_EQ(detail::disc_area(0.5), 1.0);
+}
+
+TEST(Reference, IdenticalAcrossThreadCounts) {
+  Frame f = make_frame(120, 70, 1.0f);
+  texture(f);
+  for (int y = 0; y < 70; ++y)
+    for (int x = 0; x < 120; ++x) f.depth.at(x, y) = 0.8f + 0.05f * x + (y > 35 ? 3.0f : 0.0f);
+  RenderSettings s = settings(3.0, 9.0);
+  s.threads = 1;
+  const RenderResult a = render(f, s);
+  s.threads = 2;
+  const RenderResult b = render(f, s);
+  ASSERT_EQ(a.image.data(), b.image.data());
+}
+
+TEST(Reference, NearBlurSpreadsOverSharpBackground) {
+  // A near bright bar in front of an in-focus dark background: the bar's blur must spread
+  // outward over the background (near-field spreading), unlike far blur.
+  Frame f = make_frame(96, 32, 4.0f, 0, 0, 0);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 40; x < 56; ++x) {
+      f.depth.at(x, y) = 1.0f;  // r = 4·(4/1 − 1) = 12 px
+      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 1.0f;
+    }
+  const RenderResult r = render(f, settings(4.0, 4.0));
+  EXPECT_GT(r.image.at(36, 16, 0), 0.2f);  // 4 px outside the bar: roughly the disc fraction
+  EXPECT_LT(r.image.at(36, 16, 0), 0.6f);
+  EXPECT_EQ(r.image.at(10, 16, 0), 0.0f);  // far from the bar: untouched
+}
+
+TEST(Scatter, IgnoresDepthOrder) {
+  // The depth-blind baseline does bleed blurred background over a sharp foreground.
+  Frame f = make_frame(96, 32, 2.0f, 0.1f, 0.2f, 0.3f);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 48; x < 96; ++x) {
+      f.depth.at(x, y) = 50.0f;
+      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 5.0f;
+    }
+  const RenderResult r = render(f, settings(2.0, 12.0, "scatter"));
+  EXPECT_GT(r.image.at(46, 16, 0), 0.5f);
+}

@@ -1,14 +1,249 @@
-// TEMPORARY placeholder: `dofkit bench` is being written (see the open issue); it reports
-// that it is unavailable rather than pretending to work.
+// `dofkit bench`: end-to-end timing of every method on a synthetic frame with a realistic
+// CoC distribution, against the cost of copying the frame once (the memory floor).
+//
+// Each (method, size) runs in a child process (this executable re-invoked with the hidden
+// `bench --child` flags) so that its peak resident memory is its own, not the largest of
+// all methods run before it.
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <spawn.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/core.h>
+#include <nlohmann/json.hpp>
+
 #include "commands.hpp"
-#include "dofkit/error.hpp"
+#include "dofkit/render.hpp"
+
+extern char** environ;
 
 namespace dofkit::cli {
 
+namespace {
+
+struct Size {
+  int w = 0, h = 0;
+};
+
+Size parse_size(const std::string& s) {
+  Size z;
+  char x = 0;
+  std::istringstream in(s);
+  if (!(in >> z.w >> x >> z.h) || (x != 'x' && x != 'X') || z.w < 1 || z.h < 1 || z.w > 16384 || z.h > 16384)
+    throw_usage("--size " + s + ": expected WxH with 1 <= W, H <= 16384");
+  return z;
+}
+
+// Synthetic frame: textured colour; depth with a far wall (upper part, receding to +inf at
+// the top), an in-focus subject in the middle, a ground plane from near to far along the
+// bottom and a near bar on the left whose CoC reaches the clamp. Focus 4 m,
+// K = 1.5 % of the width, clamp 3 % of the width.
+Frame bench_frame(int w, int h) {
+  Frame f;
+  f.color = Image(w, h, 4, 1.0f);
+  f.depth = Image(w, h, 1);
+  for (int y = 0; y < h; ++y) {
+    const float v = (y + 0.5f) / h;
+    for (int x = 0; x < w; ++x) {
+      const float u = (x + 0.5f) / w;
+      float z;
+      if (u > 0.08f && u < 0.16f) z = 1.2f;                                  // near bar
+      else if (std::hypot(u - 0.55f, v - 0.5f) < 0.18f) z = 4.0f;             // subject in focus
+      else if (v > 0.65f) z = 1.5f / std::max(0.02f, (v - 0.6f) * 2.6f) ;     // ground
+      else z = v < 0.1f ? std::numeric_limits<float>::infinity() : 8.0f + 60.0f * (0.65f - v);  // far wall / sky
+      f.depth.at(x, y) = z;
+      const float t = std::sin(0.11f * x) * std::sin(0.07f * y) + 0.3f * std::sin(1.7f * x + 0.9f * y);
+      f.color.at(x, y, 0) = 0.45f + 0.35f * t;
+      f.color.at(x, y, 1) = 0.40f + 0.30f * std::sin(0.05f * x + 0.5f * t);
+      f.color.at(x, y, 2) = 0.50f + 0.30f * std::cos(0.03f * y + t);
+      if ((x * 7 + y * 13) % 997 == 0) f.color.at(x, y, 0) = f.color.at(x, y, 1) = f.color.at(x, y, 2) = 40.0f;
+    }
+  }
+  return f;
+}
+
+RenderSettings bench_settings(const std::string& method_spec, int w, int threads) {
+  RenderSettings s;
+  const auto colon = method_spec.find(':');
+  s.method = method_spec.substr(0, colon);
+  if (colon != std::string::npos) {
+    std::istringstream in(method_spec.substr(colon + 1));
+    std::string kv;
+    while (std::getline(in, kv, ',')) {
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos) throw_usage("--methods " + method_spec + ": expected name:key=value,...");
+      s.params[kv.substr(0, eq)] = kv.substr(eq + 1);
+    }
+  }
+  s.camera.model = BlurAtInfinity{4.0, 0.015 * w};
+  s.camera.max_coc_px = 0.03 * w;
+  s.threads = threads;
+  return s;
+}
+
+double peak_rss_mb() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return ru.ru_maxrss / 1024.0;  // KiB on Linux
+}
+
+// Runs one measurement in this process and prints one JSON object.
+void run_child(const std::string& method, Size size, int threads, int iterations) {
+  const Frame frame = bench_frame(size.w, size.h);
+  std::vector<double> ms;
+  using clock = std::chrono::steady_clock;
+  if (method == "copy") {
+    // The memory floor: read the RGBA float frame once and write it once.
+    Image out(size.w, size.h, 4);
+    for (int i = 0; i < iterations + 1; ++i) {
+      const auto t0 = clock::now();
+      std::memcpy(out.data().data(), frame.color.data().data(), frame.color.data().size() * sizeof(float));
+      const auto t1 = clock::now();
+      if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    }
+  } else {
+    const RenderSettings s = bench_settings(method, size.w, threads);
+    for (int i = 0; i < iterations + 1; ++i) {
+      const auto t0 = clock::now();
+      RenderResult r = render(frame, s);
+      const auto t1 = clock::now();
+      if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    }
+  }
+  std::sort(ms.begin(), ms.end());
+  nlohmann::json j;
+  j["method"] = method;
+  j["width"] = size.w;
+  j["height"] = size.h;
+  j["threads"] = threads;
+  j["median_ms"] = ms[ms.size() / 2];
+  j["min_ms"] = ms.front();
+  j["mpix_per_s"] = size.w * double(size.h) / 1e6 / (ms[ms.size() / 2] / 1000.0);
+  j["peak_rss_mb"] = peak_rss_mb();
+  std::cout << j.dump() << std::endl;
+}
+
+nlohmann::json spawn_child(const std::string& method, Size size, int threads, int iterations) {
+  const std::string self = "/proc/self/exe";
+  std::vector<std::string> args = {"dofkit", "bench", "--child", method, "--size",
+                                   std::to_string(size.w) + "x" + std::to_string(size.h), "--threads",
+                                   std::to_string(threads), "--iterations", std::to_string(iterations)};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  int fds[2];
+  if (pipe(fds) != 0) throw_internal("bench: pipe failed");
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_adddup2(&fa, fds[1], 1);
+  posix_spawn_file_actions_addclose(&fa, fds[0]);
+  pid_t pid;
+  char exe[4096];
+  const ssize_t n = readlink(self.c_str(), exe, sizeof(exe) - 1);
+  if (n <= 0) throw_internal("bench: cannot find own executable");
+  exe[n] = 0;
+  if (posix_spawn(&pid, exe, &fa, nullptr, argv.data(), environ) != 0) throw_internal("bench: spawn failed");
+  posix_spawn_file_actions_destroy(&fa);
+  close(fds[1]);
+  std::string out;
+  char buf[4096];
+  ssize_t k;
+  while ((k = read(fds[0], buf, sizeof buf)) > 0) out.append(buf, k);
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw_internal("bench: method " + method + " failed at " + std::to_string(size.w) + "x" + std::to_string(size.h));
+  return nlohmann::json::parse(out);
+}
+
+}  // namespace
+
 void add_bench_command(CLI::App& app) {
-  auto* cmd = app.add_subcommand("bench", "(not available yet)");
-  cmd->allow_extras();
-  cmd->callback([] { throw_internal("dofkit bench is not implemented yet"); });
+  struct Opts {
+    std::vector<std::string> sizes;
+    std::string methods;
+    int threads = 0;
+    int iterations = 7;
+    bool json = false;
+    std::string child;
+  };
+  auto opts = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("bench",
+                                 "time every method on a synthetic frame (focus 4 m, K = 1.5 % of the width, "
+                                 "CoC clamp 3 % of the width) against one frame copy\n"
+                                 "example: dofkit bench --size 1920x1080 --methods mcguire,sterna --threads 2");
+  cmd->add_option("--size", opts->sizes, "frame size WxH (repeatable; default 1920x1080 and 3840x2160)");
+  cmd->add_option("--methods", opts->methods,
+                  "comma-separated methods, optionally with parameters as name:key=value (default: all)");
+  cmd->add_option("--threads", opts->threads, "worker threads (default: all hardware threads)");
+  cmd->add_option("--iterations", opts->iterations, "timed runs per method after one warm-up (default 7)")
+      ->check(CLI::Range(1, 1000));
+  cmd->add_flag("--json", opts->json, "print a JSON list instead of a table");
+  cmd->add_option("--child", opts->child, "internal: run one measurement")->group("");
+  cmd->callback([opts] {
+    std::vector<Size> sizes;
+    for (const auto& s : opts->sizes) sizes.push_back(parse_size(s));
+    if (sizes.empty()) sizes = {{1920, 1080}, {3840, 2160}};
+    if (opts->threads < 0) throw_usage("--threads: must be >= 0");
+    const int threads = opts->threads;
+    if (!opts->child.empty()) {
+      run_child(opts->child, sizes.front(), threads, opts->iterations);
+      return;
+    }
+    std::vector<std::string> names;
+    if (opts->methods.empty()) {
+      for (const auto& m : methods())
+        if (m.name != "scatter") names.push_back(m.name);
+    } else {
+      std::istringstream in(opts->methods);
+      std::string m;
+      while (std::getline(in, m, ',')) {
+        const std::string base = m.substr(0, m.find(':'));
+        bool known = false;
+        for (const auto& info : methods()) known |= info.name == base;
+        if (!known) throw_usage("--methods: unknown method " + base + " (see dofkit methods)");
+        names.push_back(m);
+      }
+    }
+    nlohmann::json rows = nlohmann::json::array();
+    for (const Size& size : sizes) {
+      nlohmann::json copy = spawn_child("copy", size, threads, std::max(opts->iterations, 15));
+      copy["ratio_to_copy"] = 1.0;
+      rows.push_back(copy);
+      if (!opts->json)
+        std::cerr << fmt::format("{}x{}: copy {:.2f} ms\n", size.w, size.h, copy["median_ms"].get<double>());
+      for (const auto& m : names) {
+        nlohmann::json r = spawn_child(m, size, threads, opts->iterations);
+        r["ratio_to_copy"] = r["median_ms"].get<double>() / copy["median_ms"].get<double>();
+        if (!opts->json)
+          std::cerr << fmt::format("{}x{}: {} {:.2f} ms\n", size.w, size.h, m, r["median_ms"].get<double>());
+        rows.push_back(r);
+      }
+    }
+    if (opts->json) {
+      std::cout << rows.dump(2) << "\n";
+      return;
+    }
+    std::cout << fmt::format("| method | size | threads | median ms | min ms | Mpix/s | peak RSS MB | × copy |\n");
+    std::cout << "|---|---|---|---:|---:|---:|---:|---:|\n";
+    for (const auto& r : rows)
+      std::cout << fmt::format("| {} | {}x{} | {} | {:.2f} | {:.2f} | {:.1f} | {:.0f} | {:.1f} |\n",
+                               r["method"].get<std::string>(), r["width"].get<int>(), r["height"].get<int>(),
+                               r["threads"].get<int>(), r["median_ms"].get<double>(), r["min_ms"].get<double>(),
+                               r["mpix_per_s"].get<double>(), r["peak_rss_mb"].get<double>(),
+                               r["ratio_to_copy"].get<double>());
+  });
 }
 
 }  // namespace dofkit::cli

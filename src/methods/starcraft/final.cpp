@@ -1,0 +1,108 @@
+// C5 — the final pass, per full-resolution pixel (chapter Listing 2, algorithms.md §4.3):
+//  1. own level c_own (C1, full resolution — the quarter-res one would not match the pixel);
+//  2. depth test (rule 3): if the blurred neighbourhood lies behind the pixel (blurred 1/z
+//     <= own 1/z) keep c_own, otherwise take the blurred CoC (rule 2), so blurry foreground
+//     spreads over its surroundings but blurry background never spreads over foreground;
+//  3. small level from four bilinear taps at (0.5,−1.5), (−1.5,−0.5), (−0.5,1.5), (1.5,0.5)
+//     px, 4/17 each. Each tap lies on a pixel corner, so it is the mean of a 2×2 block and the
+//     four taps cover 16 pixels in a pinwheel around the centre, each with weight 1/17;
+//  4. level weights (source, small, medium, large) from c;
+//  5. rgba = y'·small + z'·medium + w·large, alpha = (16/17)·y' + z' + w, blended over the
+//     source as out = rgba + (1 − alpha)·source: the source term carries both the source
+//     level and the small blur's missing centre tap (1/17 of y').
+#include <algorithm>
+#include <cmath>
+
+#include "core/parallel.hpp"
+#include "methods/starcraft/starcraft.hpp"
+
+namespace dofkit::detail::starcraft {
+
+namespace {
+
+inline int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+
+/// Bilinear footprint of a full-res pixel centre on the quarter-res grid.
+struct Bilerp {
+  std::size_t i00, i01, i10, i11;
+  float w00, w01, w10, w11;
+  float at(const float* p) const { return w00 * p[i00] + w01 * p[i01] + w10 * p[i10] + w11 * p[i11]; }
+};
+
+Bilerp quarter_bilerp(int x, int y, int lw, int lh) {
+  const float fx = (x + 0.5f) / kDown - 0.5f, fy = (y + 0.5f) / kDown - 0.5f;
+  const float x0f = std::floor(fx), y0f = std::floor(fy);
+  const float tx = fx - x0f, ty = fy - y0f;
+  const int x0 = static_cast<int>(x0f), y0 = static_cast<int>(y0f);
+  const std::size_t xa = clampi(x0, 0, lw - 1), xb = clampi(x0 + 1, 0, lw - 1);
+  const std::size_t ya = clampi(y0, 0, lh - 1), yb = clampi(y0 + 1, 0, lh - 1);
+  return {ya * lw + xa, ya * lw + xb, yb * lw + xa, yb * lw + xb,
+          (1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty};
+}
+
+// Top-left pixel of the 2×2 block each small tap averages (tap offset − (0.5, 0.5), floored).
+constexpr int kTapBlock[4][2] = {{0, -2}, {-2, -1}, {-1, 1}, {1, 0}};
+
+}  // namespace
+
+void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium,
+                const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
+                const FinalDebug& dbg) {
+  const int w = color.width(), h = color.height();
+  const int lw = large.width(), lh = large.height();
+  out.resize(w, h, 4);
+  if (dbg.used_level) dbg.used_level->resize(w, h, 1);
+  if (dbg.small) dbg.small->resize(w, h, 4);
+  if (dbg.weights) dbg.weights->resize(w, h, 4);
+  const float* lnum[4] = {large.plane(0), large.plane(1), large.plane(2), large.plane(3)};
+  const float* lden = large.plane(4);
+  const float* lz = inv_depth.plane(0);
+  constexpr float kTiny = 1e-6f;
+  constexpr float kTieTolerance = 1e-5f;
+
+  core::parallel_for(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* cown = level.row(0, y);
+      const float* z = depth.row(0, y);
+      for (int x = 0; x < w; ++x) {
+        const Bilerp b = quarter_bilerp(x, y, lw, lh);
+        const float inv_own = 1.0f / z[x];
+        const float inv_blur = b.at(lz);
+        const float c_blur = b.at(lden);
+        float c = inv_blur <= inv_own * (1.0f + kTieTolerance) ? cown[x] : c_blur;
+        if (keep_own_blur) c = std::max(c, cown[x]);
+        const LevelWeights lwt = level_weights(c);
+        const float alpha = (16.0f / 17.0f) * lwt.small + lwt.medium + lwt.large;
+        if (dbg.used_level) dbg.used_level->row(0, y)[x] = c;
+        if (dbg.weights) {
+          dbg.weights->row(0, y)[x] = lwt.source;
+          dbg.weights->row(1, y)[x] = lwt.small;
+          dbg.weights->row(2, y)[x] = lwt.medium;
+          dbg.weights->row(3, y)[x] = lwt.large;
+        }
+        for (int ch = 0; ch < 4; ++ch) {
+          const float src = color.row(ch, y)[x];
+          if (alpha == 0.0f && !dbg.small) {  // in focus: the source, bit for bit
+            out.row(ch, y)[x] = src;
+            continue;
+          }
+          float small = 0;
+          for (const auto& t : kTapBlock) {
+            const int xa = clampi(x + t[0], 0, w - 1), xb = clampi(x + t[0] + 1, 0, w - 1);
+            const float* ra = color.row(ch, clampi(y + t[1], 0, h - 1));
+            const float* rb = color.row(ch, clampi(y + t[1] + 1, 0, h - 1));
+            small += ra[xa] + ra[xb] + rb[xa] + rb[xb];
+          }
+          small *= 1.0f / 17.0f;  // 4/17 per tap × mean of 4 pixels
+          const float med = medium.row(ch, y)[x];
+          const float lg = c_blur > kTiny ? b.at(lnum[ch]) / c_blur : med;
+          const float mixed = lwt.small * small + lwt.medium * med + lwt.large * lg;
+          out.row(ch, y)[x] = alpha == 0.0f ? src : mixed + (1.0f - alpha) * src;
+          if (dbg.small) dbg.small->row(ch, y)[x] = small + src / 17.0f;
+        }
+      }
+    }
+  }, 8);
+}
+
+}  // namespace dofkit::detail::starcraft

@@ -1,0 +1,56 @@
+// C3 — the large level and the blurred CoC, at W/4 × H/4 (5 planes).
+// The chapter downsamples the source colour and the level c into one buffer (colour in RGB,
+// c in alpha), blurs the colour with every tap weighted by its c and blurs c unweighted.
+// As a normalised convolution both are one Gaussian: planes 0-3 hold G * (c·rgba), plane 4
+// holds G * c. Plane 4 is at once the normaliser of the colour and the blurred CoC of rule 2
+// ("blurry pixels make their neighbours blurry"); the final pass divides after up-sampling,
+// so the weighting stays consistent between grid points.
+//
+// Reduction of each 4×4 block ([uncertain] in the chapter): the block's colour is the
+// c-weighted mean of its pixels, so a sharp pixel inside a block adds nothing to the large
+// level even before the blur; the block's level is the mean c (default) or the max c.
+#include <algorithm>
+
+#include "core/filters.hpp"
+#include "core/parallel.hpp"
+#include "methods/starcraft/starcraft.hpp"
+
+namespace dofkit::detail::starcraft {
+
+void large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large) {
+  const int w = color.width(), h = color.height();
+  const int lw = down_size(w), lh = down_size(h);
+  large.resize(lw, lh, 5);
+  core::parallel_for(lh, [&](int j0, int j1) {
+    for (int j = j0; j < j1; ++j) {
+      for (int i = 0; i < lw; ++i) {
+        double wsum[4] = {0, 0, 0, 0}, plain[4] = {0, 0, 0, 0}, csum = 0;
+        float cmax = 0;
+        int n = 0;
+        for (int y = j * kDown; y < std::min(h, (j + 1) * kDown); ++y) {
+          const float* c = level.row(0, y);
+          for (int x = i * kDown; x < std::min(w, (i + 1) * kDown); ++x, ++n) {
+            csum += c[x];
+            cmax = std::max(cmax, c[x]);
+            for (int ch = 0; ch < 4; ++ch) {
+              const float v = color.row(ch, y)[x];
+              wsum[ch] += static_cast<double>(c[x]) * v;
+              plain[ch] += v;
+            }
+          }
+        }
+        const double cb = reduce_max ? cmax : csum / n;
+        for (int ch = 0; ch < 4; ++ch) {
+          // c_block · (c-weighted block colour); with the mean reduction this is Σ c·rgba / n.
+          const double col = csum > 0 ? wsum[ch] / csum : plain[ch] / n;
+          large.row(ch, j)[i] = static_cast<float>(cb * col);
+        }
+        large.row(4, j)[i] = static_cast<float>(cb);
+      }
+    }
+  }, 4);
+  const float s = quarter_res_sigma(sigma_total);
+  for (int ch = 0; ch < 5; ++ch) core::gaussian_blur_plane(large.plane(ch), lw, lh, s, s);
+}
+
+}  // namespace dofkit::detail::starcraft

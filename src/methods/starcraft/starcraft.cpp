@@ -1,0 +1,114 @@
+// `starcraft`: StarCraft II depth of field (Filion & McNaughton 2008; algorithms.md §4).
+// Pass order: C1 levels → C2 medium → C3 large + blurred CoC → C4 blurred depth → C5 final.
+// See starcraft.hpp for the rules and the deviations, docs/methods/starcraft.md for the
+// parameters' measured effect.
+#include <cmath>
+#include <limits>
+
+#include "methods/method.hpp"
+#include "methods/starcraft/starcraft.hpp"
+
+namespace dofkit::detail {
+
+namespace {
+
+using namespace starcraft;
+
+Image quarter_plane(const Image& src, int plane) {
+  Image out(src.width(), src.height(), 1);
+  std::copy(src.plane(plane), src.plane(plane) + src.plane_size(), out.plane(0));
+  return out;
+}
+
+void render_starcraft(const MethodContext& ctx, Image& out) {
+  Settings s;
+  s.large_radius_px = ctx.params.get_double("large_radius_px", 0.0, 0.0, 4096.0);
+  s.medium_fraction = ctx.params.get_double("medium_fraction", s.medium_fraction, 0.05, 0.95);
+  s.sigma_per_radius = ctx.params.get_double("sigma_per_radius", s.sigma_per_radius, 0.1, 2.0);
+  s.depth_blur = ctx.params.get_double("depth_blur", s.depth_blur, 0.1, 4.0);
+  s.keep_own_blur = ctx.params.get_bool("keep_own_blur", s.keep_own_blur);
+  s.coc_reduce_max = ctx.params.get_choice("coc_reduce", "mean", {"mean", "max"}) == "max";
+
+  const LevelGeometry g = make_geometry(ctx, s);
+  const Image& color = ctx.frame.color;
+
+  Image level;
+  compute_levels(ctx, g, level);
+  ctx.debug.offer("coc", level);
+
+  Image medium;
+  medium_blur(color, level, g.sigma_medium, medium);
+  ctx.debug.offer("medium", medium);
+
+  Image large;
+  large_blur(color, level, g.sigma_large, s.coc_reduce_max, large);
+  ctx.debug.offer("blurred_coc", [&] { return quarter_plane(large, 4); });
+  ctx.debug.offer("large", [&] {
+    Image img(large.width(), large.height(), 4);
+    for (std::size_t i = 0; i < large.plane_size(); ++i) {
+      const float den = large.plane(4)[i];
+      for (int ch = 0; ch < 4; ++ch) img.plane(ch)[i] = den > 1e-6f ? large.plane(ch)[i] / den : 0.0f;
+    }
+    return img;
+  });
+
+  Image inv_depth;
+  depth_blur(ctx.frame.depth, g.sigma_depth, inv_depth);
+  ctx.debug.offer("blurred_depth", [&] {
+    Image img(inv_depth.width(), inv_depth.height(), 1);
+    for (std::size_t i = 0; i < img.plane_size(); ++i) {
+      const float v = inv_depth.plane(0)[i];
+      img.plane(0)[i] = v > 0 ? 1.0f / v : std::numeric_limits<float>::infinity();
+    }
+    return img;
+  });
+
+  Image used, small, weights;
+  FinalDebug dbg;
+  if (ctx.debug.wants("used_coc")) dbg.used_level = &used;
+  if (ctx.debug.wants("small")) dbg.small = &small;
+  if (ctx.debug.wants("weights")) dbg.weights = &weights;
+  final_pass(color, ctx.frame.depth, level, medium, large, inv_depth, s.keep_own_blur, out, dbg);
+  if (dbg.used_level) ctx.debug.offer("used_coc", used);
+  if (dbg.small) ctx.debug.offer("small", small);
+  if (dbg.weights) ctx.debug.offer("weights", weights);
+}
+
+}  // namespace
+
+const MethodDef& starcraft_method() {
+  static const MethodDef def{
+      "starcraft",
+      "StarCraft II (2008): sharp/small/medium/large blur levels mixed by CoC, CoC-weighted blurs, "
+      "blurred CoC, blurred-depth ordering",
+      {
+          {"large_radius_px", "0",
+           "disc radius (px at the camera's reference width) the large level stands for; 0 = auto: the "
+           "camera's characteristic radius (thin lens: K, the blur at infinity; artist models: their maximum "
+           "radius; StarCraft: max_radius_px). Radii beyond it saturate at the large level (0-4096)"},
+          {"medium_fraction", "0.5", "radius of the medium level as a fraction of the large level's (0.05-0.95)"},
+          {"sigma_per_radius", "0.5",
+           "Gaussian sigma per disc radius for the medium and large levels; 0.5 matches the disc's variance "
+           "(0.1-2)"},
+          {"depth_blur", "1",
+           "sigma of the depth blur of the ordering test relative to the CoC blur (0.1-4)"},
+          {"keep_own_blur", "off",
+           "on: a pixel is never sharper than its own CoC (max of own and blurred level); off: the chapter's "
+           "rule (blurred level when the neighbourhood is in front)"},
+          {"coc_reduce", "mean", "how a 4x4 block's CoC is reduced to the quarter-res map: mean or max"},
+      },
+      {
+          {"coc", "blur level c in [0,1] per pixel (full resolution)"},
+          {"blurred_coc", "blurred level map, W/4 x H/4 (rule 2)"},
+          {"blurred_depth", "blurred depth z of the ordering test, W/4 x H/4 (blurred as 1/z)"},
+          {"used_coc", "level after the depth test, the one that selects the weights (full resolution)"},
+          {"small", "small level: 17-tap pinwheel incl. the centre (RGBA)"},
+          {"medium", "medium level: CoC-weighted full-resolution Gaussian (RGBA)"},
+          {"large", "large level: CoC-weighted Gaussian, W/4 x H/4 (RGBA, normalised)"},
+          {"weights", "level weights: planes source, small, medium, large (sum 1)"},
+      },
+      render_starcraft};
+  return def;
+}
+
+}  // namespace dofkit::detail

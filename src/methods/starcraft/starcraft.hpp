@@ -1,0 +1,115 @@
+// StarCraft II depth of field (Filion & McNaughton, SIGGRAPH 2008 course, §5.6;
+// algorithms.md §4): four fixed blur levels — sharp source, "small" 4-tap blur, "medium"
+// full-resolution Gaussian, "large" W/4 × H/4 Gaussian — cross-faded by a per-pixel blur
+// level c ∈ [0, 1]. Three rules shape the level:
+//   1. sharp pixels do not leak into blurry neighbours: the medium and large blurs weight
+//      every tap by its level c (normalised convolution: blur(c·rgba) / blur(c));
+//   2. blurry pixels make their neighbours blurry: the quarter-res level map is blurred;
+//   3. background never blurs over foreground: a pixel whose blurred (quarter-res)
+//      neighbourhood lies behind it keeps its own level instead of the blurred one.
+//
+// One file per pass: coc.cpp (C1 level map + level geometry), medium_blur.cpp (C2),
+// large_blur.cpp (C3), depth_blur.cpp (C4), final.cpp (C5); starcraft.cpp wires them up.
+//
+// Deviations from the chapter (all documented in docs/methods/starcraft.md):
+// * Kernel sizes are not published; here they follow the camera (see LevelGeometry).
+// * The depth map is reduced and blurred as inverse depth 1/z, so +inf (sky) stays finite
+//   and the average follows the CoC, which is linear in 1/z.
+// * RGBA premultiplied throughout; alpha is blurred like colour.
+// * A tie in the depth test (flat neighbourhood) keeps the pixel's own level.
+#pragma once
+#include <vector>
+
+#include "dofkit/image.hpp"
+#include "methods/method.hpp"
+
+namespace dofkit::detail::starcraft {
+
+/// Down-scale factor of the large level, the blurred CoC and the blurred depth
+/// ("a quarter of the size on each side").
+inline constexpr int kDown = 4;
+
+/// Offsets (source pixels) and weight of the chapter's small 4-tap blur; the missing 1/17
+/// is the centre tap, supplied by the source through the final alpha blend.
+inline constexpr float kSmallTaps[4][2] = {{0.5f, -1.5f}, {-1.5f, -0.5f}, {-0.5f, 1.5f}, {1.5f, 0.5f}};
+inline constexpr float kSmallWeight = 4.0f / 17.0f;
+
+/// How big the blur levels are, in image pixels, and how a signed CoC radius maps onto a
+/// level c. Level c = 0 is the source, 0.5 the small blur, 0.75 the medium blur and 1 the
+/// large blur (the chapter's breakpoints d0 = 0.5, d1 = d2 = 0.25).
+struct LevelGeometry {
+  /// Disc radius (px) whose second moment equals that of the small 4-tap kernel (fixed in
+  /// pixels, as in the chapter): per axis the 17-tap footprint has variance
+  /// 16/17 · mean(0.5, 2.5, 0.5, 2.5) = 24/17 px² (each bilinear tap at ±0.5 / ±1.5 spreads
+  /// over two pixels), and a disc of radius R has R²/4 → R = 2·sqrt(24/17) ≈ 2.38 px.
+  float r_small = 0;
+  float r_medium = 0;  ///< disc radius (px) the medium level stands for
+  float r_large = 0;   ///< disc radius (px) the large level stands for
+  float sigma_medium = 0;  ///< Gaussian σ of the medium level, full-res px
+  float sigma_large = 0;   ///< total Gaussian σ of the large level, full-res px (incl. resampling)
+  float sigma_depth = 0;   ///< total Gaussian σ of the blurred depth, full-res px
+  bool native = false;     ///< the camera is the StarCraft model: c comes from its formula
+  /// Map a signed CoC radius (px) to a level c. The levels are Gaussians, so they are matched
+  /// by variance: a disc of radius r has variance r²/4 per axis, and a cross-fade
+  /// (1 − t)·A + t·B of two centred kernels has variance (1 − t)·var A + t·var B. Between
+  /// two levels the level c therefore moves linearly in r². The in-focus tolerance is
+  /// removed first (r² − 0.25), so |r| <= 0.5 px gives c = 0 exactly.
+  float level_of_radius(float r) const;
+};
+
+/// Tunable parameters (the --set keys; see starcraft.cpp for the documentation).
+struct Settings {
+  double large_radius_px = 0;    ///< 0 = auto (camera's characteristic radius)
+  double medium_fraction = 0.5;  ///< r_medium / r_large
+  double sigma_per_radius = 0.5; ///< Gaussian σ per disc radius
+  double depth_blur = 1.0;       ///< σ of the depth blur relative to the CoC blur
+  bool keep_own_blur = false;    ///< c = max(c_used, c_own): a pixel never gets sharper
+  bool coc_reduce_max = false;   ///< quarter-res level = block max (else block mean)
+};
+
+LevelGeometry make_geometry(const MethodContext& ctx, const Settings& s);
+
+/// Quarter-resolution size of a full-resolution extent.
+inline int down_size(int n) { return (n + kDown - 1) / kDown; }
+
+/// C1: full-resolution level c per pixel (1 plane).
+void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& level);
+
+/// C2: medium level, full resolution, RGBA: CoC-weighted Gaussian of σ = sigma_medium,
+/// normalised; where no tap carries weight the source colour is kept.
+void medium_blur(const Image& color, const Image& level, float sigma, Image& medium);
+
+/// C3: large level at W/4 × H/4. `large` gets 5 planes: blur(c·rgba) (4 planes, not yet
+/// divided) and blur(c) — the blurred CoC, which is also the normaliser. `reduce_max`: the
+/// quarter-res level of a block is its max instead of its mean (colour stays c-weighted).
+void large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large);
+
+/// C4: inverse depth 1/z reduced to W/4 × H/4 (block mean) and blurred (1 plane).
+void depth_blur(const Image& depth, float sigma_total, Image& inv_depth);
+
+/// Converts a total (full-res px) Gaussian σ into the σ to apply on the quarter-res grid,
+/// removing the variance the 4×4 box reduction and the bilinear up-sampling add.
+float quarter_res_sigma(float sigma_total);
+
+/// Optional outputs of the final pass (debug views); null = not wanted.
+struct FinalDebug {
+  Image* used_level = nullptr;  ///< level c after the depth test (1 plane)
+  Image* small = nullptr;       ///< the small level incl. its centre tap (RGBA)
+  Image* weights = nullptr;     ///< 4 planes: source, small, medium, large weights
+};
+
+/// C5: per full-res pixel — depth test, level weights, mix, blend over the source.
+void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium,
+                const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
+                const FinalDebug& dbg = {});
+
+/// The chapter's level weights for a level c: {source, small, medium, large}; they sum to 1.
+/// x = sat(1 − c/d0), y = sat((1 − d2)/d1 − c/d1), z = sat(1/d2 − c/d2),
+/// w = sat((d2 − 1)/d2 + c/d2); y' = min(y, 1 − x), z' = min(z, 1 − y); the source weight is
+/// what the final alpha leaves: 1 − (y' + z' + w) (= x).
+struct LevelWeights {
+  float source, small, medium, large;
+};
+LevelWeights level_weights(float c);
+
+}  // namespace dofkit::detail::starcraft

@@ -36,7 +36,11 @@ struct DepthOptions {
 Image read_color(const std::string& path);
 
 /// Reads a depth map: a single-channel file whatever its channel name, or the Z / depth.Z
-/// channel of a multi-channel EXR; converts it to planar z per `opt`.
+/// channel of a multi-channel EXR (or R of a grey image stored as identical R, G, B);
+/// converts it to planar z per `opt`. 8/16-bit values are normalised to [0, 1] (no sRGB
+/// decode). +inf is valid; values that are invalid for the kind (NaN, z <= 0, negative
+/// disparity, NDC outside [0, 1]) throw Error(bad_input) with their count and the first
+/// pixel, unless opt.invalid_as_far (they become +inf).
 Image read_depth(const std::string& path, const DepthOptions& opt);
 
 /// True if the file is an EXR with a Z (or depth.Z) channel.
@@ -44,17 +48,50 @@ bool has_depth_channel(const std::string& path);
 
 enum class Encoding { automatic, linear, srgb };
 
-/// Writes an image. Format from the extension (.exr float/half, .png 8/16-bit, .jpg, .tif).
-/// 1-plane images are written as one channel (EXR channel name `channel_name`, default "Y"),
-/// 4-plane RGBA premultiplied colour is un-premultiplied and sRGB-encoded for 8/16-bit
-/// formats (automatic), kept linear and premultiplied for EXR.
+/// Writes an image. Format from the extension (.exr, .png, .jpg/.jpeg, .tif/.tiff).
+/// 1-plane images are written as one channel (EXR channel name `channel_name`, default "Y");
+/// 3- and 4-plane images are colour (R, G, B [, A]). Other plane counts are written as
+/// generic channels (EXR and TIFF only).
+/// Colour (3/4 planes) is encoded per `encoding`: automatic = linear for EXR and 32-bit
+/// float TIFF, sRGB for 8/16-bit files. 4-plane colour is premultiplied in memory; EXR keeps
+/// it premultiplied (the OpenEXR convention), 8/16-bit PNG/TIFF get un-premultiplied,
+/// sRGB-encoded colour with a straight alpha; formats or options without alpha (JPEG,
+/// keep_alpha = false) get the premultiplied colour, i.e. the image over black.
+/// Values outside [0, 1] are clamped in 8/16-bit files.
+/// The file appears atomically (temporary file + rename, see atomic_write.hpp): on any
+/// error an existing file of that name is untouched and no partial file is left.
 struct WriteOptions {
   Encoding encoding = Encoding::automatic;
-  int bits = 0;                         ///< 0 = format default (PNG 8, EXR half → use 32 for float)
+  /// Bits per channel; 0 = format default: EXR 32 (float), PNG/TIFF/JPEG 8.
+  /// EXR: 16 (half) or 32 (float); PNG: 8 or 16; TIFF: 8, 16 or 32 (float); JPEG: 8.
+  int bits = 0;
   std::string channel_name = "Y";       ///< for single-channel EXR
   bool keep_alpha = true;               ///< write A (else RGB only)
+  int jpeg_quality = 95;                ///< JPEG quality, 1..100
 };
 void write_image(const std::string& path, const Image& img, const WriteOptions& opt = {});
+
+/// Like write_image but writes straight into `file` (no temporary file), choosing the
+/// format from `format_path`'s extension. Used to fill an AtomicFile / OutputSet temporary.
+void encode_image(const std::string& file, const std::string& format_path, const Image& img,
+                  const WriteOptions& opt = {});
+
+/// Throws Error(usage) naming `flag` if `path`'s extension is not a writable format or
+/// `opt.bits` does not suit it. Lets a command reject an output name before rendering.
+void check_output_format(const std::string& path, const WriteOptions& opt, const std::string& flag);
+
+/// Reads a mask (1 plane, 0..1): a single-channel file whatever its name, or the A channel
+/// of a multi-channel file. 8/16-bit values are taken as linear coverage (no sRGB decode).
+Image read_mask(const std::string& path);
+
+/// Parses a --depth-kind name: z, distance, disparity, ndc, ndc-reversed (Error(usage)).
+DepthKind parse_depth_kind(const std::string& name);
+/// The --depth-kind name of a kind.
+const char* depth_kind_name(DepthKind kind);
+
+/// Limits checked from a file's header before any pixel memory is allocated.
+inline constexpr long long kMaxPixels = 1LL << 28;  ///< width × height
+inline constexpr int kMaxChannels = 64;
 
 /// Loads a frame from colour + optional depth file (depth from the colour EXR's Z channel
 /// when depth_path is empty) and validates it (sizes, invalid depth per opt).

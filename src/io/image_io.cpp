@@ -1,0 +1,562 @@
+// Image IO through OpenImageIO 2.4 (see image_io.hpp for the conventions).
+//
+// Reading: the header is opened first and its size checked against kMaxPixels /
+// kMaxChannels before any pixel buffer is allocated; pixels are read as float (OIIO maps
+// 8/16-bit integers to [0, 1] exactly: v/255, v/65535). Alpha handling: OIIO would
+// premultiply straight-alpha PNG/TIFF data in the *encoded* (sRGB) domain, which darkens
+// semi-transparent edges; we ask it for the file's own values ("oiio:UnassociatedAlpha")
+// and premultiply after decoding to linear light instead.
+#include "io/image_io.hpp"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <numbers>
+#include <sstream>
+
+#include "dofkit/error.hpp"
+#include "io/atomic_write.hpp"
+
+namespace fs = std::filesystem;
+
+namespace dofkit::io {
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// --- sRGB transfer (IEC 61966-2-1) ------------------------------------------------------
+
+double srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
+double linear_to_srgb(double v) { return v <= 0.0031308 ? v * 12.92 : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055; }
+
+// Every 8- and 16-bit code is k/65535 for an integer k (8-bit: k = 257·v), so one 65536-entry
+// table decodes both exactly.
+const std::vector<float>& srgb_decode_table() {
+  static const std::vector<float> table = [] {
+    std::vector<float> t(65536);
+    for (int k = 0; k < 65536; ++k) t[k] = static_cast<float>(srgb_to_linear(k / 65535.0));
+    return t;
+  }();
+  return table;
+}
+
+float decode_srgb(float v) {
+  if (!(v > 0)) return 0.0f;
+  if (v >= 1) return 1.0f;
+  return srgb_decode_table()[static_cast<std::size_t>(std::lround(v * 65535.0f))];
+}
+
+float encode_srgb(float v) {
+  if (!(v > 0)) return 0.0f;
+  if (v >= 1) return 1.0f;
+  return static_cast<float>(linear_to_srgb(v));
+}
+
+// --- opening files ----------------------------------------------------------------------
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+std::string extension_of(const std::string& path) { return lower(fs::path(path).extension().string()); }
+
+std::string oiio_error(const OIIO::ImageInput* in) {
+  std::string e = in ? in->geterror() : OIIO::geterror();
+  if (e.empty()) e = OIIO::geterror();
+  // OIIO messages can span lines; the CLI promises one.
+  std::replace(e.begin(), e.end(), '\n', ' ');
+  while (!e.empty() && e.back() == ' ') e.pop_back();
+  return e.empty() ? "unknown error" : e;
+}
+
+bool is_integer_format(OIIO::TypeDesc t) {
+  return t.basetype != OIIO::TypeDesc::FLOAT && t.basetype != OIIO::TypeDesc::HALF &&
+         t.basetype != OIIO::TypeDesc::DOUBLE;
+}
+
+struct OpenedFile {
+  std::unique_ptr<OIIO::ImageInput> in;
+  OIIO::ImageSpec spec;
+  bool integer = false;       // 8/16-bit (or other integer) samples, normalised to [0, 1]
+  bool unassociated = false;  // alpha is straight (not premultiplied) in the file
+};
+
+OpenedFile open_checked(const std::string& path, const char* role) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (ec || !fs::exists(st)) throw_bad_input(path + ": " + role + " file does not exist");
+  if (fs::is_directory(st)) throw_bad_input(path + ": " + role + " path is a folder, not an image");
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  OpenedFile f;
+  try {
+    f.in = OIIO::ImageInput::open(path, &config);
+  } catch (const std::exception& e) {
+    throw_bad_input(path + ": cannot read " + role + " image: " + e.what());
+  }
+  if (!f.in) throw_bad_input(path + ": cannot read " + role + " image: " + oiio_error(nullptr));
+  f.spec = f.in->spec();
+  const long long w = f.spec.width, h = f.spec.height;
+  if (w <= 0 || h <= 0) throw_bad_input(path + ": " + role + " image has an empty size");
+  if (w > kMaxPixels || h > kMaxPixels || w * h > kMaxPixels)
+    throw_bad_input(path + ": " + role + " image declares " + std::to_string(w) + "x" + std::to_string(h) +
+                    " pixels, more than the limit of " + std::to_string(kMaxPixels));
+  if (f.spec.nchannels <= 0 || f.spec.nchannels > kMaxChannels)
+    throw_bad_input(path + ": " + role + " image declares " + std::to_string(f.spec.nchannels) +
+                    " channels (limit " + std::to_string(kMaxChannels) + ")");
+  if (f.spec.depth > 1) throw_bad_input(path + ": " + role + " is a volume image (depth > 1), not supported");
+  if (f.spec.deep) throw_bad_input(path + ": " + role + " is a deep image; read it with --layers");
+  f.integer = is_integer_format(f.spec.format);
+  f.unassociated = f.spec.get_int_attribute("oiio:UnassociatedAlpha", 0) != 0;
+  return f;
+}
+
+// Reads channels [cb, ce) as float, interleaved, W·H·(ce − cb) values.
+std::vector<float> read_channels(OpenedFile& f, const std::string& path, const char* role, int cb, int ce) {
+  const std::size_t n = static_cast<std::size_t>(f.spec.width) * f.spec.height * (ce - cb);
+  std::vector<float> buf(n);
+  bool ok = false;
+  try {
+    ok = f.in->read_image(0, 0, cb, ce, OIIO::TypeDesc::FLOAT, buf.data());
+  } catch (const std::exception& e) {
+    throw_bad_input(path + ": cannot read " + role + " pixels: " + e.what());
+  }
+  if (!ok) throw_bad_input(path + ": cannot read " + role + " pixels (corrupt or truncated?): " + oiio_error(f.in.get()));
+  return buf;
+}
+
+// Index of the channel named `want` (exact), else of a layer-qualified "<layer>.<want>";
+// -1 if none.
+int find_channel(const OIIO::ImageSpec& spec, const std::string& want) {
+  for (int c = 0; c < spec.nchannels; ++c)
+    if (spec.channelnames[c] == want) return c;
+  const std::string suffix = "." + want;
+  for (int c = 0; c < spec.nchannels; ++c) {
+    const std::string& n = spec.channelnames[c];
+    if (n.size() > suffix.size() && n.compare(n.size() - suffix.size(), suffix.size(), suffix) == 0) return c;
+  }
+  return -1;
+}
+
+int find_depth_channel(const OIIO::ImageSpec& spec) {
+  if (spec.nchannels == 1) return 0;
+  int c = find_channel(spec, "Z");
+  if (c < 0) {
+    for (int i = 0; i < spec.nchannels; ++i)
+      if (lower(spec.channelnames[i]) == "depth") return i;
+  }
+  return c;
+}
+
+std::string channel_list(const OIIO::ImageSpec& spec) {
+  std::string s;
+  for (int c = 0; c < spec.nchannels && c < 12; ++c) s += (c ? "," : "") + spec.channelnames[c];
+  if (spec.nchannels > 12) s += ",…";
+  return s;
+}
+
+std::string fmt_num(double v) {
+  std::ostringstream o;
+  o << v;
+  return o.str();
+}
+
+}  // namespace
+
+// --- colour -------------------------------------------------------------------------------
+
+Image read_color(const std::string& path) {
+  OpenedFile f = open_checked(path, "colour");
+  const OIIO::ImageSpec& spec = f.spec;
+  int r = find_channel(spec, "R"), g = find_channel(spec, "G"), b = find_channel(spec, "B");
+  int a = find_channel(spec, "A");
+  if (a < 0 && spec.alpha_channel >= 0) a = spec.alpha_channel;
+  if (r < 0 || g < 0 || b < 0) {
+    // No named RGB: grey (Y / one channel, optionally with alpha) or the first three
+    // non-alpha, non-depth channels.
+    std::vector<int> plain;
+    for (int c = 0; c < spec.nchannels; ++c)
+      if (c != a && c != spec.z_channel && spec.channelnames[c] != "Z") plain.push_back(c);
+    if (plain.empty()) throw_bad_input(path + ": colour image has no colour channel (channels " + channel_list(spec) + ")");
+    if (plain.size() < 3) r = g = b = plain[0];
+    else r = plain[0], g = plain[1], b = plain[2];
+  }
+  const int cb = std::min({r, g, b, a < 0 ? r : a});
+  const int ce = std::max({r, g, b, a < 0 ? r : a}) + 1;
+  const std::vector<float> buf = read_channels(f, path, "colour", cb, ce);
+  const int stride = ce - cb;
+  const int W = spec.width, H = spec.height;
+  Image img(W, H, 4);
+  float* out[4] = {img.plane(0), img.plane(1), img.plane(2), img.plane(3)};
+  const int src[3] = {r - cb, g - cb, b - cb};
+  const bool has_alpha = a >= 0;
+  const std::size_t n = img.plane_size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* p = buf.data() + i * stride;
+    const float alpha = has_alpha ? p[a - cb] : 1.0f;
+    out[3][i] = alpha;
+    for (int c = 0; c < 3; ++c) {
+      float v = p[src[c]];
+      if (f.integer) {
+        // Integer files hold sRGB-encoded colour. With straight alpha the stored value is the
+        // encoded colour itself; with associated alpha it is encoded·α (the encoder's
+        // premultiplication), so divide α out before decoding and multiply it back after.
+        if (has_alpha && !f.unassociated) v = alpha > 0 ? v / alpha : 0.0f;
+        v = decode_srgb(v);
+        if (has_alpha) v *= alpha;
+      } else if (has_alpha && f.unassociated) {
+        v *= alpha;  // a float file that declares straight alpha
+      }
+      out[c][i] = v;
+    }
+  }
+  return img;
+}
+
+// --- depth --------------------------------------------------------------------------------
+
+DepthKind parse_depth_kind(const std::string& name) {
+  if (name == "z") return DepthKind::z;
+  if (name == "distance") return DepthKind::distance;
+  if (name == "disparity") return DepthKind::disparity;
+  if (name == "ndc") return DepthKind::ndc;
+  if (name == "ndc-reversed") return DepthKind::ndc_reversed;
+  throw_usage("--depth-kind " + name + ": unknown kind (known: z, distance, disparity, ndc, ndc-reversed)");
+}
+
+const char* depth_kind_name(DepthKind kind) {
+  switch (kind) {
+    case DepthKind::z: return "z";
+    case DepthKind::distance: return "distance";
+    case DepthKind::disparity: return "disparity";
+    case DepthKind::ndc: return "ndc";
+    case DepthKind::ndc_reversed: return "ndc-reversed";
+  }
+  return "?";
+}
+
+namespace {
+
+void check_depth_options(const DepthOptions& opt) {
+  switch (opt.kind) {
+    case DepthKind::z: break;
+    case DepthKind::distance:
+      if (!(opt.fov_deg > 0 && opt.fov_deg < 180))
+        throw_usage("--fov-deg: --depth-kind distance needs the horizontal field of view in degrees, 0 < FOV < 180 (got " +
+                    fmt_num(opt.fov_deg) + ")");
+      break;
+    case DepthKind::disparity:
+      if (!(opt.disparity_scale > 0 && std::isfinite(opt.disparity_scale)))
+        throw_usage("--disparity-scale: must be > 0 (got " + fmt_num(opt.disparity_scale) + ")");
+      break;
+    case DepthKind::ndc:
+    case DepthKind::ndc_reversed:
+      if (!(opt.clip_near > 0 && std::isfinite(opt.clip_near)))
+        throw_usage("--clip: NEAR must be > 0 (got " + fmt_num(opt.clip_near) + ")");
+      if (!(opt.clip_far > opt.clip_near))
+        throw_usage("--clip: FAR must be greater than NEAR, or inf (got " + fmt_num(opt.clip_near) + "," +
+                    fmt_num(opt.clip_far) + ")");
+      break;
+  }
+}
+
+// Converts one stored value to planar z; NaN marks an invalid value.
+struct DepthConverter {
+  DepthOptions opt;
+  int W = 0, H = 0;
+  double focal_px = 0;  // distance kind: pinhole focal length in pixels
+
+  DepthConverter(const DepthOptions& o, int w, int h) : opt(o), W(w), H(h) {
+    if (opt.kind == DepthKind::distance) {
+      // A horizontal FOV θ spans W pixels: tan(θ/2) = (W/2) / F.
+      focal_px = (W / 2.0) / std::tan(opt.fov_deg * std::numbers::pi / 360.0);
+    }
+  }
+
+  double operator()(double d, int x, int y) const {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    if (std::isnan(d)) return nan;
+    const double n = opt.clip_near, f = opt.clip_far;
+    switch (opt.kind) {
+      case DepthKind::z: return d > 0 ? d : nan;
+      case DepthKind::distance: {
+        if (!(d > 0)) return nan;
+        // The ray through the pixel centre makes angle φ with the axis, tan φ = ρ / F where
+        // ρ is the centre's distance from the principal point (W/2, H/2) in pixels; planar
+        // z = d cos φ = d / sqrt(1 + ρ²/F²).
+        const double dx = x + 0.5 - W / 2.0, dy = y + 0.5 - H / 2.0;
+        return d / std::sqrt(1.0 + (dx * dx + dy * dy) / (focal_px * focal_px));
+      }
+      case DepthKind::disparity:
+        if (d < 0) return nan;
+        return d == 0 ? std::numeric_limits<double>::infinity() : opt.disparity_scale / d;
+      case DepthKind::ndc:
+        // Standard window depth: d = 0 at the near plane, 1 at the far plane.
+        // z = n f / (f − d (f − n)); for f → ∞ this is n / (1 − d).
+        if (d < 0 || d > 1) return nan;
+        if (std::isinf(f)) return d >= 1 ? std::numeric_limits<double>::infinity() : n / (1.0 - d);
+        return n * f / (f - d * (f - n));
+      case DepthKind::ndc_reversed:
+        // Reversed-Z: d = 1 at the near plane, 0 at the far plane.
+        // z = n f / (n + d (f − n)); for f → ∞ this is n / d.
+        if (d < 0 || d > 1) return nan;
+        if (std::isinf(f)) return d <= 0 ? std::numeric_limits<double>::infinity() : n / d;
+        return n * f / (n + d * (f - n));
+    }
+    return nan;
+  }
+};
+
+const char* valid_range_text(DepthKind k) {
+  switch (k) {
+    case DepthKind::z:
+    case DepthKind::distance: return "NaN, zero or negative";
+    case DepthKind::disparity: return "NaN or negative";
+    case DepthKind::ndc:
+    case DepthKind::ndc_reversed: return "NaN or outside [0, 1]";
+  }
+  return "invalid";
+}
+
+}  // namespace
+
+Image read_depth(const std::string& path, const DepthOptions& opt) {
+  check_depth_options(opt);
+  OpenedFile f = open_checked(path, "depth");
+  const OIIO::ImageSpec& spec = f.spec;
+  int c = find_depth_channel(spec);
+  bool grey_rgb = false;
+  if (c < 0) {
+    // A grey depth map saved as RGB(A) (common for 8/16-bit disparity maps): accept it if
+    // R, G and B are identical everywhere, checked below.
+    const int r = find_channel(spec, "R"), g = find_channel(spec, "G"), b = find_channel(spec, "B");
+    if (r == 0 && g == 1 && b == 2) {
+      c = 0;
+      grey_rgb = true;
+    } else {
+      throw_bad_input(path + ": depth image has " + std::to_string(spec.nchannels) + " channels (" + channel_list(spec) +
+                      ") and none is named Z or depth.Z; give a single-channel depth file");
+    }
+  }
+  const int W = spec.width, H = spec.height;
+  Image depth(W, H, 1);
+  if (grey_rgb) {
+    const std::vector<float> buf = read_channels(f, path, "depth", 0, 3);
+    for (std::size_t i = 0; i < depth.plane_size(); ++i) {
+      const float* p = buf.data() + 3 * i;
+      if (!(p[0] == p[1] && p[0] == p[2]) && !(std::isnan(p[0]) && std::isnan(p[1]) && std::isnan(p[2])))
+        throw_bad_input(path + ": depth image has channels " + channel_list(spec) +
+                        " that differ (not a grey depth map) and no Z channel; give a single-channel depth file");
+      depth.plane(0)[i] = p[0];
+    }
+  } else {
+    const std::vector<float> buf = read_channels(f, path, "depth", c, c + 1);
+    std::copy(buf.begin(), buf.end(), depth.plane(0));
+  }
+
+  const DepthConverter conv(opt, W, H);
+  std::size_t bad = 0, first = 0;
+  float first_value = 0;
+  for (int y = 0; y < H; ++y) {
+    float* row = depth.row(0, y);
+    for (int x = 0; x < W; ++x) {
+      const double z = conv(row[x], x, y);
+      if (std::isnan(z) || !(z > 0)) {
+        if (bad++ == 0) {
+          first = static_cast<std::size_t>(y) * W + x;
+          first_value = row[x];
+        }
+        row[x] = kInf;
+      } else {
+        row[x] = static_cast<float>(z);
+        // A finite z that rounds to 0 or overflows to inf in float stays valid (inf = far).
+        if (!(row[x] > 0)) row[x] = std::numeric_limits<float>::min();
+      }
+    }
+  }
+  if (bad && !opt.invalid_as_far) {
+    throw_bad_input(path + ": depth has " + std::to_string(bad) + " invalid value(s) (" + valid_range_text(opt.kind) +
+                    " for --depth-kind " + depth_kind_name(opt.kind) + "), first at pixel (" +
+                    std::to_string(first % W) + ", " + std::to_string(first / W) + ") = " + fmt_num(first_value) +
+                    "; use --invalid-depth far to treat them as infinitely far");
+  }
+  return depth;
+}
+
+bool has_depth_channel(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return false;
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) {
+    OIIO::geterror();  // clear the pending message
+    return false;
+  }
+  const OIIO::ImageSpec& spec = in->spec();
+  return spec.nchannels > 1 && find_channel(spec, "Z") >= 0;
+}
+
+Image read_mask(const std::string& path) {
+  OpenedFile f = open_checked(path, "mask");
+  int c = 0;
+  if (f.spec.nchannels > 1) {
+    c = find_channel(f.spec, "A");
+    if (c < 0) c = f.spec.alpha_channel;
+    if (c < 0)
+      throw_bad_input(path + ": mask image has " + std::to_string(f.spec.nchannels) + " channels (" +
+                      channel_list(f.spec) + ") and no alpha; give a single-channel mask");
+  }
+  const std::vector<float> buf = read_channels(f, path, "mask", c, c + 1);
+  Image m(f.spec.width, f.spec.height, 1);
+  for (std::size_t i = 0; i < buf.size(); ++i) {
+    const float v = buf[i];
+    if (std::isnan(v))
+      throw_bad_input(path + ": mask has NaN at pixel (" + std::to_string(i % f.spec.width) + ", " +
+                      std::to_string(i / f.spec.width) + ")");
+    m.plane(0)[i] = std::clamp(v, 0.0f, 1.0f);
+  }
+  return m;
+}
+
+Frame load_frame(const std::string& color_path, const std::string& depth_path, const DepthOptions& opt) {
+  check_depth_options(opt);
+  Frame frame;
+  frame.color = read_color(color_path);
+  if (depth_path.empty()) {
+    if (!has_depth_channel(color_path))
+      throw_usage("--depth: not given and " + color_path + " has no Z channel; pass a depth file with --depth");
+    frame.depth = read_depth(color_path, opt);
+  } else {
+    frame.depth = read_depth(depth_path, opt);
+  }
+  if (!frame.depth.same_size(frame.color)) {
+    throw_bad_input((depth_path.empty() ? color_path : depth_path) + ": depth is " + std::to_string(frame.depth.width()) +
+                    "x" + std::to_string(frame.depth.height()) + " but colour " + color_path + " is " +
+                    std::to_string(frame.color.width()) + "x" + std::to_string(frame.color.height()));
+  }
+  // Depth values were already checked (or mapped to +inf) above; this catches anything else.
+  validate_frame(frame, color_path.c_str());
+  return frame;
+}
+
+// --- writing ------------------------------------------------------------------------------
+
+namespace {
+
+enum class Format { exr, png, jpeg, tiff, unknown };
+
+Format format_of(const std::string& path) {
+  const std::string e = extension_of(path);
+  if (e == ".exr") return Format::exr;
+  if (e == ".png") return Format::png;
+  if (e == ".jpg" || e == ".jpeg") return Format::jpeg;
+  if (e == ".tif" || e == ".tiff") return Format::tiff;
+  return Format::unknown;
+}
+
+int effective_bits(Format fmt, int bits) {
+  if (bits != 0) return bits;
+  return fmt == Format::exr ? 32 : 8;
+}
+
+}  // namespace
+
+void check_output_format(const std::string& path, const WriteOptions& opt, const std::string& flag) {
+  const Format fmt = format_of(path);
+  if (fmt == Format::unknown)
+    throw_usage(flag + " " + path + ": unsupported output format '" + extension_of(path) +
+                "' (use .exr, .png, .jpg, .jpeg, .tif or .tiff)");
+  const int bits = effective_bits(fmt, opt.bits);
+  const bool ok = (fmt == Format::exr && (bits == 16 || bits == 32)) || (fmt == Format::png && (bits == 8 || bits == 16)) ||
+                  (fmt == Format::jpeg && bits == 8) || (fmt == Format::tiff && (bits == 8 || bits == 16 || bits == 32));
+  if (!ok)
+    throw_usage(flag + " " + path + ": " + std::to_string(bits) +
+                " bits per channel is not available for this format (EXR 16/32, PNG 8/16, JPEG 8, TIFF 8/16/32)");
+  if (opt.jpeg_quality < 1 || opt.jpeg_quality > 100) throw_usage(flag + ": JPEG quality must be 1..100");
+}
+
+void encode_image(const std::string& file, const std::string& format_path, const Image& img, const WriteOptions& opt) {
+  check_output_format(format_path, opt, "output");
+  if (img.empty() || img.width() <= 0 || img.height() <= 0) throw_internal(format_path + ": cannot write an empty image");
+  const Format fmt = format_of(format_path);
+  const int bits = effective_bits(fmt, opt.bits);
+  const bool float_file = fmt == Format::exr || bits == 32;
+  const int C = img.channels();
+  const bool colour = C == 3 || C == 4;
+  if (!colour && C != 1 && (fmt == Format::png || fmt == Format::jpeg))
+    throw_usage(format_path + ": cannot write a " + std::to_string(C) + "-channel image as " + extension_of(format_path) +
+                " (use .exr or .tif)");
+  const bool srgb = colour && (opt.encoding == Encoding::srgb || (opt.encoding == Encoding::automatic && !float_file));
+  const bool in_alpha = C == 4;
+  const bool out_alpha = in_alpha && opt.keep_alpha && fmt != Format::jpeg;
+  // Straight alpha in integer files (PNG's definition; TIFF written as "unassociated").
+  const bool straight = out_alpha && !float_file;
+  const int out_c = colour ? (out_alpha ? 4 : 3) : C;
+
+  OIIO::TypeDesc type = fmt == Format::exr ? (bits == 16 ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT)
+                        : bits == 32       ? OIIO::TypeDesc::FLOAT
+                        : bits == 16       ? OIIO::TypeDesc::UINT16
+                                           : OIIO::TypeDesc::UINT8;
+  OIIO::ImageSpec spec(img.width(), img.height(), out_c, type);
+  if (colour) {
+    spec.channelnames = {"R", "G", "B"};
+    if (out_alpha) {
+      spec.channelnames.push_back("A");
+      spec.alpha_channel = 3;
+    }
+  } else if (C == 1) {
+    spec.channelnames = {fmt == Format::exr ? opt.channel_name : std::string("Y")};
+    spec.alpha_channel = -1;
+  } else {
+    spec.alpha_channel = -1;
+  }
+  if (straight) spec.attribute("oiio:UnassociatedAlpha", 1);
+  if (fmt == Format::jpeg) spec.attribute("Compression", "jpeg:" + std::to_string(opt.jpeg_quality));
+  if (!float_file) spec.attribute("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
+
+  // Interleave (and encode) into one buffer.
+  const std::size_t n = img.plane_size();
+  std::vector<float> buf(n * out_c);
+  for (std::size_t i = 0; i < n; ++i) {
+    float* o = buf.data() + i * out_c;
+    if (!colour) {
+      for (int c = 0; c < C; ++c) o[c] = img.plane(c)[i];
+      continue;
+    }
+    const float alpha = in_alpha ? img.plane(3)[i] : 1.0f;
+    for (int c = 0; c < 3; ++c) {
+      float v = img.plane(c)[i];
+      if (straight) v = alpha > 0 ? v / alpha : 0.0f;
+      if (srgb) v = encode_srgb(v);
+      o[c] = v;
+    }
+    if (out_alpha) o[3] = alpha;
+  }
+
+  std::unique_ptr<OIIO::ImageOutput> out;
+  try {
+    out = OIIO::ImageOutput::create(format_path);
+  } catch (const std::exception& e) {
+    throw_internal(format_path + ": no writer for this format: " + e.what());
+  }
+  if (!out) throw_internal(format_path + ": no writer for this format: " + oiio_error(nullptr));
+  bool ok = out->open(file, spec) && out->write_image(OIIO::TypeDesc::FLOAT, buf.data()) && out->close();
+  if (!ok) {
+    std::string e = out->geterror();
+    std::replace(e.begin(), e.end(), '\n', ' ');
+    throw_bad_input(format_path + ": cannot write: " + (e.empty() ? oiio_error(nullptr) : e));
+  }
+}
+
+void write_image(const std::string& path, const Image& img, const WriteOptions& opt) {
+  check_output_format(path, opt, "output");
+  write_atomically(path, [&](const std::string& temp) { encode_image(temp, path, img, opt); });
+}
+
+}  // namespace dofkit::io

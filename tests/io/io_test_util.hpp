@@ -1,0 +1,102 @@
+// Helpers shared by the IO tests: scratch folders, reference sRGB curves, raw OIIO writes
+// (to create inputs that dofkit itself would never write, e.g. odd channel names).
+#pragma once
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "dofkit/image.hpp"
+
+namespace dofkit::test {
+
+namespace fs = std::filesystem;
+
+/// A fresh, empty folder per test, removed afterwards.
+class ScratchDir {
+ public:
+  ScratchDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string name = std::string(info ? info->test_suite_name() : "t") + "_" + (info ? info->name() : "t");
+    for (char& c : name)
+      if (c == '/') c = '_';
+    path_ = fs::temp_directory_path() / ("dofkit-test-" + std::to_string(::getpid()) + "-" + name);
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  std::string operator/(const std::string& file) const { return (path_ / file).string(); }
+  const fs::path& path() const { return path_; }
+  /// Names of every entry in the folder (to check that no temporary file was left behind).
+  std::vector<std::string> entries() const {
+    std::vector<std::string> v;
+    for (const auto& e : fs::directory_iterator(path_)) v.push_back(e.path().filename().string());
+    std::sort(v.begin(), v.end());
+    return v;
+  }
+
+ private:
+  fs::path path_;
+};
+
+inline double ref_srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
+inline double ref_linear_to_srgb(double v) {
+  v = std::clamp(v, 0.0, 1.0);
+  return v <= 0.0031308 ? v * 12.92 : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+}
+
+/// Writes interleaved float data with the given channel names and pixel type through OIIO.
+inline void raw_write(const std::string& path, int w, int h, const std::vector<std::string>& names,
+                      const std::vector<float>& interleaved, OIIO::TypeDesc type = OIIO::TypeDesc::FLOAT,
+                      bool unassociated = false) {
+  OIIO::ImageSpec spec(w, h, static_cast<int>(names.size()), type);
+  spec.channelnames = names;
+  spec.alpha_channel = -1;
+  for (int c = 0; c < static_cast<int>(names.size()); ++c)
+    if (names[c] == "A") spec.alpha_channel = c;
+  spec.z_channel = -1;
+  if (unassociated) spec.attribute("oiio:UnassociatedAlpha", 1);
+  auto out = OIIO::ImageOutput::create(path);
+  ASSERT_TRUE(out) << OIIO::geterror();
+  ASSERT_TRUE(out->open(path, spec)) << out->geterror();
+  ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, interleaved.data())) << out->geterror();
+  ASSERT_TRUE(out->close());
+}
+
+/// A test RGBA premultiplied image with smooth gradients, HDR values and varying alpha.
+inline Image test_rgba(int w, int h, bool opaque = false, bool hdr = false) {
+  Image img(w, h, 4);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float a = opaque ? 1.0f : 0.1f + 0.9f * static_cast<float>(x) / (w - 1);
+      const float r = static_cast<float>(x) / (w - 1), g = static_cast<float>(y) / (h - 1);
+      const float b = 0.5f + 0.4f * std::sin(0.3f * x + 0.2f * y);
+      const float s = hdr ? 4.0f : 1.0f;
+      img.at(x, y, 0) = r * s * a;
+      img.at(x, y, 1) = g * a;
+      img.at(x, y, 2) = b * a;
+      img.at(x, y, 3) = a;
+    }
+  return img;
+}
+
+inline void write_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream f(path, std::ios::binary);
+  f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+inline std::string read_bytes(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+}  // namespace dofkit::test

@@ -1,0 +1,309 @@
+// Colour round trips through every supported format, and the sRGB decode of integer files.
+#include <gtest/gtest.h>
+
+#include "dofkit/error.hpp"
+#include "io/image_io.hpp"
+#include "io/io_test_util.hpp"
+
+using namespace dofkit;
+using namespace dofkit::test;
+using dofkit::io::Encoding;
+using dofkit::io::WriteOptions;
+
+namespace {
+
+// Largest |a − b| over all samples.
+double max_diff(const Image& a, const Image& b) {
+  EXPECT_TRUE(a.same_size(b));
+  EXPECT_EQ(a.channels(), b.channels());
+  double m = 0;
+  for (std::size_t i = 0; i < a.data().size(); ++i) m = std::max(m, std::abs(double(a.data()[i]) - b.data()[i]));
+  return m;
+}
+
+// Largest difference of the straight (un-premultiplied) colour in the sRGB-encoded domain, for
+// pixels whose alpha is at least `min_alpha` (8/16-bit files store exactly that quantity).
+double max_encoded_diff(const Image& a, const Image& b, double min_alpha = 0.0) {
+  double m = 0;
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x) {
+      const double aa = a.at(x, y, 3), ab = b.at(x, y, 3);
+      if (aa < min_alpha) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double va = ref_linear_to_srgb(a.at(x, y, c) / aa), vb = ref_linear_to_srgb(b.at(x, y, c) / ab);
+        m = std::max(m, std::abs(va - vb));
+      }
+      m = std::max(m, std::abs(aa - ab));
+    }
+  return m;
+}
+
+}  // namespace
+
+TEST(RoundTrip, ExrFloatRgbaIsExact) {
+  ScratchDir dir;
+  const Image img = test_rgba(37, 23, false, true);
+  io::write_image(dir / "a.exr", img);  // default: 32-bit float
+  const Image back = io::read_color(dir / "a.exr");
+  EXPECT_EQ(max_diff(img, back), 0.0);
+  auto in = OIIO::ImageInput::open(dir / "a.exr");
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().format, OIIO::TypeDesc::FLOAT);
+}
+
+TEST(RoundTrip, ExrHalfRgba) {
+  ScratchDir dir;
+  const Image img = test_rgba(37, 23, false, true);
+  WriteOptions o;
+  o.bits = 16;
+  io::write_image(dir / "a.exr", img, o);
+  auto in = OIIO::ImageInput::open(dir / "a.exr");
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().format, OIIO::TypeDesc::HALF);
+  const Image back = io::read_color(dir / "a.exr");
+  for (std::size_t i = 0; i < img.data().size(); ++i)
+    EXPECT_NEAR(back.data()[i], img.data()[i], 1e-3 * std::max(1.0f, std::abs(img.data()[i])));  // half: 11-bit mantissa
+}
+
+TEST(RoundTrip, ExrRgbWithoutAlphaReadsOpaque) {
+  ScratchDir dir;
+  const Image img = test_rgba(20, 10, true, true);
+  WriteOptions o;
+  o.keep_alpha = false;
+  io::write_image(dir / "rgb.exr", img, o);
+  auto in = OIIO::ImageInput::open(dir / "rgb.exr");
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().nchannels, 3);
+  EXPECT_EQ(max_diff(img, io::read_color(dir / "rgb.exr")), 0.0);
+}
+
+TEST(RoundTrip, ExrWithZChannel) {
+  ScratchDir dir;
+  const int w = 6, h = 4;
+  std::vector<float> px;
+  for (int i = 0; i < w * h; ++i) {
+    const float z = 1.0f + i;
+    px.insert(px.end(), {0.25f, 0.5f, 0.75f, 1.0f, z});
+  }
+  px[4] = std::numeric_limits<float>::infinity();  // +inf = infinitely far, valid
+  raw_write(dir / "rgbaz.exr", w, h, {"R", "G", "B", "A", "Z"}, px);
+  EXPECT_TRUE(io::has_depth_channel(dir / "rgbaz.exr"));
+  const Frame f = io::load_frame(dir / "rgbaz.exr", "", {});
+  EXPECT_EQ(f.color.channels(), 4);
+  EXPECT_FLOAT_EQ(f.color.at(3, 2, 0), 0.25f);
+  EXPECT_FLOAT_EQ(f.color.at(3, 2, 2), 0.75f);
+  EXPECT_TRUE(std::isinf(f.depth.at(0, 0)));
+  EXPECT_FLOAT_EQ(f.depth.at(3, 2), 1.0f + 2 * w + 3);
+}
+
+TEST(RoundTrip, ExrWithLayerQualifiedDepthZ) {
+  ScratchDir dir;
+  std::vector<float> px;
+  for (int i = 0; i < 4; ++i) px.insert(px.end(), {0.1f, 0.2f, 0.3f, 2.0f + i});
+  raw_write(dir / "c.exr", 2, 2, {"R", "G", "B", "depth.Z"}, px);
+  EXPECT_TRUE(io::has_depth_channel(dir / "c.exr"));
+  const Frame f = io::load_frame(dir / "c.exr", "", {});
+  EXPECT_FLOAT_EQ(f.depth.at(1, 1), 5.0f);
+  EXPECT_FLOAT_EQ(f.color.at(1, 1, 3), 1.0f);
+}
+
+TEST(RoundTrip, ColourWithoutZNeedsDepthFile) {
+  ScratchDir dir;
+  io::write_image(dir / "c.exr", test_rgba(4, 4));
+  EXPECT_FALSE(io::has_depth_channel(dir / "c.exr"));
+  try {
+    io::load_frame(dir / "c.exr", "", {});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::usage);
+    EXPECT_NE(std::string(e.what()).find("--depth"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RoundTrip, Png8Rgba) {
+  ScratchDir dir;
+  const Image img = test_rgba(37, 23);
+  io::write_image(dir / "a.png", img);
+  const Image back = io::read_color(dir / "a.png");
+  // 8-bit straight colour: half a code step in the encoded domain; alpha quantisation adds
+  // error after dividing it out, so only well-covered pixels get the tight bound.
+  EXPECT_LE(max_encoded_diff(img, back, 0.5), 0.5 / 255 + 0.5 / 255 / 0.5 + 1e-6);
+  EXPECT_LE(max_encoded_diff(img, back, 0.0), 0.5 / 255 + 0.5 / 255 / 0.1 + 1e-6);
+}
+
+TEST(RoundTrip, Png16Rgba) {
+  ScratchDir dir;
+  const Image img = test_rgba(37, 23);
+  WriteOptions o;
+  o.bits = 16;
+  io::write_image(dir / "a.png", img, o);
+  auto in = OIIO::ImageInput::open(dir / "a.png");
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().format, OIIO::TypeDesc::UINT16);
+  const Image back = io::read_color(dir / "a.png");
+  EXPECT_LE(max_encoded_diff(img, back), 0.5 / 65535 + 0.5 / 65535 / 0.1 + 1e-6);
+}
+
+TEST(RoundTrip, Png8OpaqueRgb) {
+  ScratchDir dir;
+  const Image img = test_rgba(16, 8, true);
+  WriteOptions o;
+  o.keep_alpha = false;
+  io::write_image(dir / "a.png", img, o);
+  auto in = OIIO::ImageInput::open(dir / "a.png");
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().nchannels, 3);
+  EXPECT_LE(max_encoded_diff(img, io::read_color(dir / "a.png")), 0.5 / 255 + 1e-6);
+}
+
+TEST(RoundTrip, JpegWithinTolerance) {
+  ScratchDir dir;
+  const Image img = test_rgba(64, 48, true);
+  io::write_image(dir / "a.jpg", img);
+  const Image back = io::read_color(dir / "a.jpg");
+  ASSERT_TRUE(back.same_size(img));
+  // Lossy: bound the mean error in the encoded domain (measured 0.0086 at quality 95 with
+  // OIIO's default 4:2:0 chroma subsampling).
+  double sum = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x)
+      for (int c = 0; c < 3; ++c)
+        sum += std::abs(ref_linear_to_srgb(img.at(x, y, c)) - ref_linear_to_srgb(back.at(x, y, c)));
+  EXPECT_LT(sum / (img.plane_size() * 3), 0.01);
+  EXPECT_EQ(back.at(5, 5, 3), 1.0f);
+}
+
+TEST(RoundTrip, Tiff8And16AndFloat) {
+  ScratchDir dir;
+  const Image img = test_rgba(21, 13);
+  io::write_image(dir / "a8.tif", img);
+  EXPECT_LE(max_encoded_diff(img, io::read_color(dir / "a8.tif"), 0.5), 0.5 / 255 + 0.5 / 255 / 0.5 + 1e-6);
+  WriteOptions o16;
+  o16.bits = 16;
+  io::write_image(dir / "a16.tiff", img, o16);
+  EXPECT_LE(max_encoded_diff(img, io::read_color(dir / "a16.tiff")), 0.5 / 65535 + 0.5 / 65535 / 0.1 + 1e-6);
+  WriteOptions o32;
+  o32.bits = 32;
+  const Image hdr = test_rgba(21, 13, false, true);
+  io::write_image(dir / "a32.tif", hdr, o32);
+  EXPECT_EQ(max_diff(hdr, io::read_color(dir / "a32.tif")), 0.0);  // float TIFF is linear, premultiplied
+}
+
+TEST(RoundTrip, SingleChannelExrKeepsName) {
+  ScratchDir dir;
+  Image coc(5, 3, 1);
+  for (std::size_t i = 0; i < coc.plane_size(); ++i) coc.plane(0)[i] = -20.0f + 3.5f * i;
+  WriteOptions o;
+  o.channel_name = "coc";
+  io::write_image(dir / "coc.exr", coc, o);
+  auto in = OIIO::ImageInput::open(dir / "coc.exr");
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().nchannels, 1);
+  EXPECT_EQ(in->spec().channelnames[0], "coc");
+  EXPECT_EQ(in->spec().format, OIIO::TypeDesc::FLOAT);
+  std::vector<float> v(15);
+  ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, v.data()));
+  for (int i = 0; i < 15; ++i) EXPECT_EQ(v[i], coc.plane(0)[i]);
+}
+
+TEST(SrgbDecode, EightBitCodesDecodeExactly) {
+  ScratchDir dir;
+  const std::vector<int> codes = {0, 1, 10, 11, 64, 128, 200, 255};
+  std::vector<float> px;
+  for (int c : codes) px.insert(px.end(), {c / 255.0f, c / 255.0f, c / 255.0f});
+  raw_write(dir / "g.png", static_cast<int>(codes.size()), 1, {"R", "G", "B"}, px, OIIO::TypeDesc::UINT8);
+  const Image img = io::read_color(dir / "g.png");
+  for (std::size_t i = 0; i < codes.size(); ++i) {
+    const double want = ref_srgb_to_linear(codes[i] / 255.0);
+    EXPECT_NEAR(img.at(static_cast<int>(i), 0, 0), want, 1e-7) << "code " << codes[i];
+    EXPECT_EQ(img.at(static_cast<int>(i), 0, 3), 1.0f);
+  }
+  EXPECT_NEAR(img.at(5, 0, 1), 0.2158605, 1e-6);  // code 128 → 0.2158605 linear
+}
+
+TEST(SrgbDecode, SixteenBitAndStraightAlphaPremultipliedInLinear) {
+  ScratchDir dir;
+  // One pixel, code 32768 of 65535 with straight alpha 0.5: linear colour decoded first,
+  // then premultiplied (not premultiplied in the encoded domain).
+  const float v = 32768 / 65535.0f;
+  raw_write(dir / "p.png", 1, 1, {"R", "G", "B", "A"}, {v, v, v, 0.5f}, OIIO::TypeDesc::UINT16, true);
+  const Image img = io::read_color(dir / "p.png");
+  const double a = std::round(0.5 * 65535) / 65535;
+  EXPECT_NEAR(img.at(0, 0, 3), a, 1e-7);
+  EXPECT_NEAR(img.at(0, 0, 0), ref_srgb_to_linear(32768 / 65535.0) * a, 1e-6);
+}
+
+TEST(SrgbDecode, ExrIsLinear) {
+  ScratchDir dir;
+  raw_write(dir / "l.exr", 1, 1, {"R", "G", "B"}, {0.5f, 2.0f, 0.001f});
+  const Image img = io::read_color(dir / "l.exr");
+  EXPECT_EQ(img.at(0, 0, 0), 0.5f);
+  EXPECT_EQ(img.at(0, 0, 1), 2.0f);
+  EXPECT_EQ(img.at(0, 0, 2), 0.001f);
+}
+
+TEST(SrgbDecode, GreyscalePngIsReplicated) {
+  ScratchDir dir;
+  raw_write(dir / "g.png", 2, 1, {"Y"}, {0.0f, 128 / 255.0f}, OIIO::TypeDesc::UINT8);
+  const Image img = io::read_color(dir / "g.png");
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(img.at(1, 0, c), 0.2158605, 1e-6);
+}
+
+TEST(Write, LinearEncodingOptionKeepsValues) {
+  ScratchDir dir;
+  Image img(1, 1, 4, 1.0f);
+  img.at(0, 0, 0) = 0.2f;
+  WriteOptions o;
+  o.encoding = Encoding::linear;
+  o.bits = 16;
+  io::write_image(dir / "lin.png", img, o);
+  auto in = OIIO::ImageInput::open(dir / "lin.png");
+  std::vector<float> v(4);
+  ASSERT_TRUE(in->read_image(0, 0, 0, 4, OIIO::TypeDesc::FLOAT, v.data()));
+  EXPECT_NEAR(v[0], 0.2, 1.0 / 65535);
+}
+
+TEST(Write, UnsupportedExtensionOrBitsIsUsageError) {
+  ScratchDir dir;
+  const Image img = test_rgba(4, 4);
+  try {
+    io::write_image(dir / "a.bmp", img);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::usage);
+    EXPECT_NE(std::string(e.what()).find("a.bmp"), std::string::npos);
+  }
+  WriteOptions o;
+  o.bits = 16;
+  EXPECT_THROW(io::write_image(dir / "a.jpg", img, o), Error);
+  EXPECT_TRUE(dir.entries().empty());
+}
+
+TEST(Write, FailedWriteLeavesExistingFileUntouchedAndNoTemporary) {
+  ScratchDir dir;
+  write_bytes(dir / "keep.png", "previous content");
+  Image five(4, 4, 5, 0.5f);  // a 5-channel image cannot be a PNG: fails inside the encoder
+  EXPECT_THROW(io::write_image(dir / "keep.png", five), Error);
+  EXPECT_EQ(read_bytes(dir / "keep.png"), "previous content");
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"keep.png"});
+}
+
+TEST(Write, MissingFolderIsBadInputAndCreatesNothing) {
+  ScratchDir dir;
+  try {
+    io::write_image(dir / "no/such/out.exr", test_rgba(4, 4));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::bad_input);
+    EXPECT_NE(std::string(e.what()).find("does not exist"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(dir.entries().empty());
+}
+
+TEST(Write, ReplacesExistingFileAtomically) {
+  ScratchDir dir;
+  write_bytes(dir / "o.exr", "old");
+  io::write_image(dir / "o.exr", test_rgba(4, 4));
+  EXPECT_EQ(io::read_color(dir / "o.exr").width(), 4);
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"o.exr"});
+}

@@ -112,10 +112,11 @@ void run_child(const std::string& method, Size size, int threads, int iterations
       if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     }
   } else {
-    const RenderSettings s = bench_settings(method, size.w, threads);
+    // A Renderer, as a game loop would use it: buffers are kept between frames.
+    Renderer renderer(bench_settings(method, size.w, threads));
     for (int i = 0; i < iterations + 1; ++i) {
       const auto t0 = clock::now();
-      RenderResult r = render(frame, s);
+      renderer.render(frame);
       const auto t1 = clock::now();
       if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     }

@@ -1,6 +1,7 @@
 // dofkit — rendering depth of field.
 #pragma once
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -36,7 +37,26 @@ struct RenderResult {
 };
 
 /// Renders depth of field. Throws dofkit::Error on bad input or settings.
+/// (One-shot convenience; for sequences use Renderer, which keeps its buffers.)
 RenderResult render(const Frame& frame, const RenderSettings& settings);
+
+/// Renders a sequence of frames with the same settings, keeping every intermediate buffer
+/// (and the result) between frames of the same size, so steady-state rendering does no
+/// per-frame allocation. Not thread-safe: one Renderer per thread of the caller.
+class Renderer {
+ public:
+  explicit Renderer(RenderSettings settings);
+  ~Renderer();
+  Renderer(Renderer&&) noexcept;
+  Renderer& operator=(Renderer&&) noexcept;
+  /// Renders one frame; the returned reference stays valid until the next call.
+  const RenderResult& render(const Frame& frame);
+  const RenderSettings& settings() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 /// Transparency (StarCraft II, algorithms.md §4.4): renders `frame` as usual, then
 /// re-applies depth of field over the region where `mask` (1 plane, 0..1, same size) is

@@ -105,19 +105,24 @@ void validate_frame(const Frame& frame, const char* what) {
   }
 }
 
+namespace {
+// Signed, clamped CoC of every pixel (image pixels).
+void fill_coc(const Image& depth, const CocFunction& f, Image& coc) {
+  coc.resize(depth.width(), depth.height(), 1);
+  core::parallel_for(depth.height(), [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* z = depth.row(0, y);
+      float* r = coc.row(0, y);
+      for (int x = 0; x < depth.width(); ++x) r[x] = f(z[x]);
+    }
+  }, 16);
+}
+}  // namespace
+
 Image compute_coc(const Image& depth, const CameraModel& camera, int threads) {
   validate(camera);
-  Image coc(depth.width(), depth.height(), 1);
-  const CocFunction f(camera, depth.width());
-  core::with_threads(threads, [&] {
-    core::parallel_for(depth.height(), [&](int y0, int y1) {
-      for (int y = y0; y < y1; ++y) {
-        const float* z = depth.row(0, y);
-        float* r = coc.row(0, y);
-        for (int x = 0; x < depth.width(); ++x) r[x] = f(z[x]);
-      }
-    }, 16);
-  });
+  Image coc;
+  core::with_threads(threads, [&] { fill_coc(depth, CocFunction(camera, depth.width()), coc); });
   return coc;
 }
 
@@ -128,7 +133,9 @@ std::vector<MethodInfo> methods() {
   return out;
 }
 
-RenderResult render(const Frame& frame, const RenderSettings& settings) {
+namespace {
+
+const detail::MethodDef& checked_method(const RenderSettings& settings) {
   const detail::MethodDef* method = detail::find_method(settings.method);
   if (!method) {
     std::vector<std::string> names;
@@ -157,25 +164,56 @@ RenderResult render(const Frame& frame, const RenderSettings& settings) {
   }
   if (settings.threads < 0) throw_usage("--threads: must be >= 0");
   validate(settings.camera);
-  validate_frame(frame);
+  return *method;
+}
 
+}  // namespace
+
+struct Renderer::Impl {
+  RenderSettings settings;
+  const detail::MethodDef* method = nullptr;
+  detail::Workspace workspace;
   RenderResult result;
-  const detail::Params params(method->name, settings.params);
+};
+
+Renderer::Renderer(RenderSettings settings) : impl_(std::make_unique<Impl>()) {
+  impl_->method = &checked_method(settings);
+  impl_->settings = std::move(settings);
+}
+Renderer::~Renderer() = default;
+Renderer::Renderer(Renderer&&) noexcept = default;
+Renderer& Renderer::operator=(Renderer&&) noexcept = default;
+const RenderSettings& Renderer::settings() const { return impl_->settings; }
+
+const RenderResult& Renderer::render(const Frame& frame) {
+  const RenderSettings& settings = impl_->settings;
+  const detail::MethodDef& method = *impl_->method;
+  validate_frame(frame);
+  RenderResult& result = impl_->result;
+  const detail::Params params(method.name, settings.params);
   detail::DebugSink sink(settings.debug_view);
   const int threads = settings.threads > 0 ? settings.threads : core::hardware_threads();
   core::with_threads(settings.threads, [&] {
-    result.coc = compute_coc(frame.depth, settings.camera, 0);
     const CocFunction coc_of(settings.camera, frame.width());
-    const detail::MethodContext ctx{frame, result.coc, settings.camera, coc_of, params, sink, threads};
+    fill_coc(frame.depth, coc_of, result.coc);
+    const detail::MethodContext ctx{frame, result.coc, settings.camera, coc_of, params, sink, threads,
+                                    impl_->workspace};
     result.image.resize(frame.width(), frame.height(), 4);
-    method->render(ctx, result.image);
+    method.render(ctx, result.image);
   });
+  result.debug = Image();
   if (!settings.debug_view.empty()) {
     if (!sink.found())
-      throw_internal("method " + method->name + " did not produce debug view " + settings.debug_view);
+      throw_internal("method " + method.name + " did not produce debug view " + settings.debug_view);
     result.debug = std::move(sink.result());
   }
   return result;
+}
+
+RenderResult render(const Frame& frame, const RenderSettings& settings) {
+  Renderer renderer(settings);
+  // The renderer is discarded: move its result out instead of copying it.
+  return std::move(const_cast<RenderResult&>(renderer.render(frame)));
 }
 
 double focus_from_depth(const Image& depth, int x, int y, int radius) {

@@ -11,10 +11,11 @@
 
 namespace dofkit::detail::starcraft {
 
-void medium_blur(const Image& color, const Image& level, float sigma, Image& medium) {
+void medium_blur(const Image& color, const Image& level, float sigma, Image& medium, Image& weight) {
   const int w = color.width(), h = color.height();
   medium.resize(w, h, 4);
-  std::vector<float> weight(level.data().begin(), level.data().end());
+  weight.resize(w, h, 1);
+  std::copy(level.data().begin(), level.data().end(), weight.data().begin());
   core::parallel_for(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* c = level.row(0, y);
@@ -26,14 +27,14 @@ void medium_blur(const Image& color, const Image& level, float sigma, Image& med
     }
   }, 16);
   for (int ch = 0; ch < 4; ++ch) core::gaussian_blur_plane(medium.plane(ch), w, h, sigma, sigma);
-  core::gaussian_blur_plane(weight.data(), w, h, sigma, sigma);
+  core::gaussian_blur_plane(weight.plane(0), w, h, sigma, sigma);
   // Where the weight vanishes no tap was blurry: the level is unused there (its weight in
   // the final mix is 0 unless the pixel's own c > 0.5, and then its own tap counts), so any
   // finite value will do; the source keeps the result free of 0/0.
   constexpr float kTiny = 1e-6f;
   core::parallel_for(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
-      const float* wt = weight.data() + static_cast<std::size_t>(y) * w;
+      const float* wt = weight.row(0, y);
       for (int ch = 0; ch < 4; ++ch) {
         const float* s = color.row(ch, y);
         float* d = medium.row(ch, y);

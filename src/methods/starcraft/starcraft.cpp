@@ -32,15 +32,19 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   const LevelGeometry g = make_geometry(ctx, s);
   const Image& color = ctx.frame.color;
 
-  Image level;
+  const int w = ctx.frame.width(), h = ctx.frame.height();
+  const int lw = down_size(w), lh = down_size(h);
+  // Intermediate buffers live in the renderer's workspace: no allocation per frame.
+  Image& level = ctx.workspace.image("starcraft.level", w, h, 1);
   compute_levels(ctx, g, level);
   ctx.debug.offer("coc", level);
 
-  Image medium;
-  medium_blur(color, level, g.sigma_medium, medium);
+  Image& medium = ctx.workspace.image("starcraft.medium", w, h, 4);
+  Image& medium_weight = ctx.workspace.image("starcraft.medium_weight", w, h, 1);
+  medium_blur(color, level, g.sigma_medium, medium, medium_weight);
   ctx.debug.offer("medium", medium);
 
-  Image large;
+  Image& large = ctx.workspace.image("starcraft.large", lw, lh, 5);
   large_blur(color, level, g.sigma_large, s.coc_reduce_max, large);
   ctx.debug.offer("blurred_coc", [&] { return quarter_plane(large, 4); });
   ctx.debug.offer("large", [&] {
@@ -52,7 +56,7 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
     return img;
   });
 
-  Image inv_depth;
+  Image& inv_depth = ctx.workspace.image("starcraft.inv_depth", lw, lh, 1);
   depth_blur(ctx.frame.depth, g.sigma_depth, inv_depth);
   ctx.debug.offer("blurred_depth", [&] {
     Image img(inv_depth.width(), inv_depth.height(), 1);

@@ -76,8 +76,8 @@ inline int down_size(int n) { return (n + kDown - 1) / kDown; }
 void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& level);
 
 /// C2: medium level, full resolution, RGBA: CoC-weighted Gaussian of σ = sigma_medium,
-/// normalised; where no tap carries weight the source colour is kept.
-void medium_blur(const Image& color, const Image& level, float sigma, Image& medium);
+/// normalised; where no tap carries weight the source colour is kept. `weight` is scratch.
+void medium_blur(const Image& color, const Image& level, float sigma, Image& medium, Image& weight);
 
 /// C3: large level at W/4 × H/4. `large` gets 5 planes: blur(c·rgba) (4 planes, not yet
 /// divided) and blur(c) — the blurred CoC, which is also the normaliser. `reduce_max`: the

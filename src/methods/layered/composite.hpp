@@ -1,0 +1,34 @@
+// Blurring and composition of the layer stack (algorithms.md §5.5).
+#pragma once
+#include "dofkit/image.hpp"
+
+namespace dofkit::detail::layered {
+
+/// dst = front over back (premultiplied): dst = front + (1 − front.a) · back. dst may alias
+/// either input.
+void over(const Image& front, const Image& back, Image& dst);
+
+/// A recursively blurred accumulator (S4's F or B). Blurs are deferred and merged: by the
+/// Gaussian semigroup, H(σ₂) ∗ H(σ₁) ∗ X = H(sqrt(σ₁² + σ₂²)) ∗ X, so consecutive steps with
+/// nothing composited in between (empty layers) cost one blur, not several.
+class Accumulator {
+ public:
+  bool has_content() const { return has_; }
+  /// img = layer over img (layer in front); first call takes the layer as is.
+  void composite_front(const Image& layer);
+  /// img = img over layer (the accumulator is in front: the near-field recursion).
+  void composite_back(const Image& layer);
+  /// Records a blur of σ px to be applied before the next composite or read.
+  void blur(double sigma) { if (has_) pending_var_ += sigma * sigma; }
+  /// Applies any pending blur and returns the image.
+  const Image& resolved();
+  double pending_sigma() const;
+
+ private:
+  void flush();
+  Image img_;
+  bool has_ = false;
+  double pending_var_ = 0;
+};
+
+}  // namespace dofkit::detail::layered

@@ -1,0 +1,148 @@
+// `layered`: Schedl & Wimmer, "Simulating Partial Occlusion in Post-Processing Depth-of-Field
+// Methods" (GPU Pro 4 ch. 2; algorithms.md §5). The fragments (one per pixel for an RGB-D
+// frame, several front to back for deep / layered input) are matted into K layers at anchor
+// CoCs; the layers are blurred with Gaussians recursively from the outermost layers toward
+// the focus layer and composited front (F) over focus over back (B). Hidden fragments in the
+// farther layers show through a blurred foreground: partial occlusion.
+//
+// Deviations from S4 and resolutions of its reconstructed parts (see docs/methods/layered.md):
+//  * matting and anchors in signed-CoC space (anchors.hpp), which covers every CoC model;
+//  * one matte family (anchors.cpp, LayerPlan::weight) instead of ω for visible and ω̂ for
+//    hidden fragments: full weight in the farther of the two bracketing layers and a ramp in
+//    the nearer one, so an unblurred stack reproduces the input and the blur is interpolated
+//    linearly between anchors;
+//  * single RGB-D input: each layer's disoccluded pixels (those covered by nearer layers) are
+//    filled by push-pull inpainting from the layer's own content (inpaint.hpp); the farthest
+//    layer is filled opaque so the result never turns transparent or black;
+//  * step sizes are scaled per side so the outermost anchor sits on the scene's extreme CoC.
+// Memory: the current layer, F, B and the focus layer (4 RGBA frames) whatever K is.
+#include <cmath>
+#include <string>
+
+#include "core/filters.hpp"
+#include "core/parallel.hpp"
+#include "methods/layered/anchors.hpp"
+#include "methods/layered/composite.hpp"
+#include "methods/layered/inpaint.hpp"
+#include "methods/layered/matting.hpp"
+#include "methods/method.hpp"
+
+namespace dofkit::detail {
+
+namespace {
+
+constexpr int kMaxLayers = 16;
+
+std::vector<DebugViewInfo> debug_views() {
+  std::vector<DebugViewInfo> v;
+  for (int k = 0; k < kMaxLayers; ++k) {
+    v.push_back({"layer_" + std::to_string(k) + "_matted",
+                 "layer k (0 = nearest) after matting (and hole filling for single-layer input), RGBA premultiplied"});
+    v.push_back({"layer_" + std::to_string(k) + "_blurred",
+                 "layer k alone blurred by its effective sigma (what it contributes to the stack)"});
+  }
+  v.push_back({"front", "front accumulator F: the near layers composited and recursively blurred"});
+  v.push_back({"back", "back accumulator B: the far layers composited and recursively blurred"});
+  return v;
+}
+
+void render_layered(const MethodContext& ctx, Image& out) {
+  using namespace layered;
+  const int cap = ctx.params.get_int("layers", 9, 3, kMaxLayers);
+  const double c = ctx.params.get_double("sigma_per_radius", 0.5, 0.1, 2.0);
+  const std::string fill = ctx.params.get_choice("fill", "auto", {"auto", "on", "off"});
+  const Frame& frame = ctx.frame;
+  const bool multi = frame.has_layers();
+  const bool do_fill = fill == "on" || (fill == "auto" && !multi);
+
+  Fragments frags;
+  std::vector<Image> owned_coc;
+  if (multi) {
+    owned_coc.resize(frame.layer_depth.size());
+    for (std::size_t i = 0; i < frame.layer_depth.size(); ++i) {
+      const Image& z = frame.layer_depth[i];
+      Image& r = owned_coc[i];
+      r.resize(z.width(), z.height(), 1);
+      core::parallel_for(z.height(), [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y)
+          for (int x = 0; x < z.width(); ++x) r.row(0, y)[x] = ctx.coc_of(z.row(0, y)[x]);
+      }, 8);
+    }
+    for (std::size_t i = 0; i < frame.layer_color.size(); ++i) {
+      frags.color.push_back(&frame.layer_color[i]);
+      frags.coc.push_back(&owned_coc[i]);
+    }
+  } else {
+    frags.color.push_back(&frame.color);
+    frags.coc.push_back(&ctx.coc);
+  }
+
+  double near_px, far_px;
+  coc_extremes(frags, near_px, far_px);
+  const LayerPlan plan = plan_layers(near_px, far_px, cap, c);
+
+  Image layer, focus_layer;
+  std::vector<std::uint8_t> hole;
+  auto offer_layer = [&](int k, const Image& img) {
+    const std::string m = "layer_" + std::to_string(k) + "_matted";
+    const std::string b = "layer_" + std::to_string(k) + "_blurred";
+    ctx.debug.offer(m.c_str(), img);
+    ctx.debug.offer(b.c_str(), std::function<Image()>([&] {
+      Image copy = img;
+      core::gaussian_blur(copy, static_cast<float>(plan.total_sigma[k]));
+      return copy;
+    }));
+  };
+  // Mattes layer k into `dst` and fills its disocclusions; returns false if it is empty.
+  auto make_layer = [&](int k, Image& dst, bool opaque_fill) {
+    const MatteStats s = matte_layer(frags, plan, k, dst, do_fill ? &hole : nullptr);
+    if (do_fill && !s.empty && s.holes) push_pull_fill(dst, hole, opaque_fill);
+    offer_layer(k, dst);
+    return !s.empty;
+  };
+
+  // Back: B = H(σ_{K−1}) L_{K−1}; B = H(σ_k)(L_k over B) for k = K−2 … k_focus+1.
+  Accumulator back;
+  for (int k = plan.count - 1; k > plan.focus; --k) {
+    if (make_layer(k, layer, !back.has_content())) back.composite_front(layer);
+    back.blur(plan.step_sigma[k]);
+  }
+  // Focus layer, unblurred; the opaque backstop if nothing lies behind it.
+  const bool focus_full = make_layer(plan.focus, focus_layer, !back.has_content());
+  // Front: F = H(σ_0) L_0; F = H(σ_k)(F over L_k) for k = 1 … k_focus−1.
+  Accumulator front;
+  for (int k = 0; k < plan.focus; ++k) {
+    if (make_layer(k, layer, false)) front.composite_back(layer);
+    front.blur(plan.step_sigma[k]);
+  }
+
+  // I = F over L_focus over B (S4 Eq. 2.7).
+  const int w = frame.width(), h = frame.height();
+  if (focus_full) out = focus_layer; else out = Image(w, h, 4, 0.0f);
+  if (back.has_content()) {
+    const Image& b = back.resolved();
+    ctx.debug.offer("back", b);
+    over(out, b, out);
+  }
+  if (front.has_content()) {
+    const Image& f = front.resolved();
+    ctx.debug.offer("front", f);
+    over(f, out, out);
+  }
+}
+
+}  // namespace
+
+const MethodDef& layered_method() {
+  static const MethodDef def{
+      "layered",
+      "Schedl & Wimmer layered DoF: depth layers blurred recursively and composited; partial occlusion from deep/multi-layer input",
+      {{"layers", "9", "maximum number of depth layers K (3-16); fewer are used when the CoC range needs fewer"},
+       {"sigma_per_radius", "0.5", "Gaussian sigma per px of CoC radius (0.1-2); 0.5 = S4's d_pix = 4 sigma"},
+       {"fill", "auto", "inpaint disoccluded layer pixels by push-pull: auto (single-layer input only), on, off"}},
+      debug_views(),
+      render_layered};
+  return def;
+}
+
+}  // namespace dofkit::detail

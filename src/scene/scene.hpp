@@ -1,6 +1,7 @@
 // Built-in procedural scenes and the thin-lens ray tracer that renders their ground truth.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,19 @@ struct SceneOptions {
   int blades = 0;
   double blade_rotation_deg = 0;
   std::uint64_t seed = 1;
+  /// Worker threads (0 = all hardware threads). The output does not depend on it.
+  int threads = 0;
+  /// Optional progress callback for the ground truth: fraction done in [0, 1]. Called from
+  /// worker threads (must be thread-safe).
+  std::function<void(double)> progress;
+};
+
+/// The camera and sampling a scene render resolves to for given options (defaults filled in).
+struct SceneDefaults {
+  double focus_m = 0;              ///< z_F, metres
+  double blur_at_infinity_px = 0;  ///< K, px at opt.width
+  int samples = 0;                 ///< lens samples per pixel
+  double hfov_deg = 0;             ///< horizontal field of view, degrees
 };
 
 /// A rendered scene: the pinhole RGB-D input (+ layers) and the thin-lens ground truth.
@@ -40,6 +54,10 @@ struct SceneRender {
 std::vector<std::string> scene_names();
 /// One-line description of a scene.
 std::string scene_description(const std::string& name);
+
+/// Resolves the scene's defaults for `opt` (throws Error(usage) for an unknown name or a bad
+/// option).
+SceneDefaults scene_defaults(const std::string& name, const SceneOptions& opt);
 
 /// Renders the pinhole frame only (fast).
 SceneRender render_pinhole(const std::string& name, const SceneOptions& opt);

@@ -1,0 +1,497 @@
+// The ray tracer of raytracer.hpp: intersections, procedural textures, pinhole and thin-lens
+// passes.
+#include "scene/raytracer.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <numbers>
+
+#include "core/parallel.hpp"
+#include "dofkit/error.hpp"
+#include "scene/sampling.hpp"
+
+namespace dofkit::scene {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kEps = 1e-9;  // smallest accepted ray parameter (metres of depth)
+constexpr int kTile = 16;      // tile side, px (the unit of primitive culling and of threading)
+
+Vec3 cross(Vec3 a, Vec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+Vec3 normalize(Vec3 a) { return a * (1.0 / std::sqrt(dot(a, a))); }
+double smooth5(double t) { return t * t * t * (t * (t * 6 - 15) + 10); }  // C2 fade
+double clamp01(double t) { return t < 0 ? 0 : (t > 1 ? 1 : t); }
+
+// Lattice value in [0, 1) at integer point (ix, iy) of the noise with seed `seed`.
+double lattice(std::int64_t ix, std::int64_t iy, std::uint32_t seed) {
+  std::uint32_t h = detail::hash_combine(seed, static_cast<std::uint32_t>(ix));
+  h = detail::hash_combine(h, static_cast<std::uint32_t>(ix >> 32));
+  h = detail::hash_combine(h, static_cast<std::uint32_t>(iy));
+  h = detail::hash_combine(h, static_cast<std::uint32_t>(iy >> 32));
+  return h * (1.0 / 4294967296.0);
+}
+
+// Value noise: lattice values blended with a C2 fade; values in [0, 1], period-free.
+double value_noise(double x, double y, std::uint32_t seed) {
+  const double fx = std::floor(x), fy = std::floor(y);
+  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy);
+  const double tx = smooth5(x - fx), ty = smooth5(y - fy);
+  const double v00 = lattice(ix, iy, seed), v10 = lattice(ix + 1, iy, seed);
+  const double v01 = lattice(ix, iy + 1, seed), v11 = lattice(ix + 1, iy + 1, seed);
+  const double a = v00 + (v10 - v00) * tx, b = v01 + (v11 - v01) * tx;
+  return a + (b - a) * ty;
+}
+
+// Fractal sum of octaves; each octave is rotated by an irrational-ish angle and shifted so
+// the lattices of different octaves never line up (no visible grid at any scale). The sum is
+// re-centred and its contrast doubled (a sum of n octaves has a smaller spread than one).
+double fbm(const Texture& t, double u, double v) {
+  if (t.octaves <= 0) return 0;
+  double x = u / t.noise_scale_m, y = v / t.noise_scale_m;
+  double sum = 0, amp = 1, norm = 0;
+  const double c = std::cos(0.61), s = std::sin(0.61);
+  for (int k = 0; k < t.octaves; ++k) {
+    sum += amp * value_noise(x, y, t.seed + 977u * static_cast<std::uint32_t>(k));
+    norm += amp;
+    amp *= t.gain;
+    const double nx = 2 * (c * x - s * y) + 17.3, ny = 2 * (s * x + c * y) - 5.9;
+    x = nx;
+    y = ny;
+  }
+  return clamp01(0.5 + 2.0 * (sum / norm - 0.5));
+}
+
+Rgb lerp(Rgb a, Rgb b, double t) {
+  return {static_cast<float>(a.r + (b.r - a.r) * t), static_cast<float>(a.g + (b.g - a.g) * t),
+          static_cast<float>(a.b + (b.b - a.b) * t)};
+}
+
+// Any unit vector perpendicular to `a`.
+Vec3 perpendicular(Vec3 a) {
+  const Vec3 h = std::abs(a.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+  return normalize(cross(a, h));
+}
+
+// Smallest t > kEps where the ray crosses the surface of a convex solid, given the parameters
+// of two roots (kInf if none).
+double first_positive(double t0, double t1) {
+  if (t0 > kEps) return t0;
+  if (t1 > kEps) return t1;
+  return kInf;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Textures
+
+Rgb shade(const Texture& t, double u, double v) {
+  Rgb c = t.octaves > 0 ? lerp(t.a, t.b, fbm(t, u, v)) : t.a;
+  double m = t.emission;
+  if (t.checker_m > 0) {
+    const auto cx = static_cast<std::int64_t>(std::floor(u / t.checker_m));
+    const auto cy = static_cast<std::int64_t>(std::floor(v / t.checker_m));
+    m *= ((cx + cy) & 1) ? 1 + t.checker_contrast : 1 - t.checker_contrast;
+  }
+  if (t.line_spacing_m > 0) {
+    const double fu = u / t.line_spacing_m - std::floor(u / t.line_spacing_m);
+    const double fv = v / t.line_spacing_m - std::floor(v / t.line_spacing_m);
+    const double w = t.line_width_m / t.line_spacing_m;
+    if (fu < w || fv < w) m *= 1 - t.line_darkness;
+  }
+  return {static_cast<float>(c.r * m), static_cast<float>(c.g * m), static_cast<float>(c.b * m)};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Primitives
+
+Primitive Primitive::plane(Vec3 point, Vec3 normal, Vec3 u_axis, Texture t, std::string name) {
+  Primitive p;
+  p.kind = Kind::plane;
+  p.p0 = point;
+  p.p1 = normalize(normal);
+  // Remove any normal component so (u, v, n) is orthonormal.
+  p.axis_u = normalize(u_axis - p.p1 * dot(u_axis, p.p1));
+  p.tex = t;
+  p.name = std::move(name);
+  return p;
+}
+
+Primitive Primitive::box(Vec3 lo, Vec3 hi, Texture t, std::string name) {
+  Primitive p;
+  p.kind = Kind::box;
+  p.p0 = {std::min(lo.x, hi.x), std::min(lo.y, hi.y), std::min(lo.z, hi.z)};
+  p.p1 = {std::max(lo.x, hi.x), std::max(lo.y, hi.y), std::max(lo.z, hi.z)};
+  p.tex = t;
+  p.name = std::move(name);
+  return p;
+}
+
+Primitive Primitive::sphere(Vec3 centre, double r, Texture t, std::string name) {
+  Primitive p;
+  p.kind = Kind::sphere;
+  p.p0 = centre;
+  p.radius = r;
+  p.tex = t;
+  p.name = std::move(name);
+  return p;
+}
+
+Primitive Primitive::cylinder(Vec3 a, Vec3 b, double r, Texture t, std::string name) {
+  Primitive p;
+  p.kind = Kind::cylinder;
+  p.p0 = a;
+  p.p1 = b;
+  p.radius = r;
+  p.axis_u = perpendicular(normalize(b - a));
+  p.tex = t;
+  p.name = std::move(name);
+  return p;
+}
+
+double intersect(const Primitive& p, Vec3 o, Vec3 d) {
+  switch (p.kind) {
+    case Primitive::Kind::plane: {
+      const double dn = dot(d, p.p1);
+      if (dn == 0) return kInf;
+      const double t = dot(p.p0 - o, p.p1) / dn;
+      return t > kEps ? t : kInf;
+    }
+    case Primitive::Kind::box: {
+      // Slab test: the entry is the largest of the per-axis entry parameters.
+      double t0 = -kInf, t1 = kInf;
+      const double os[3] = {o.x, o.y, o.z}, ds[3] = {d.x, d.y, d.z};
+      const double lo[3] = {p.p0.x, p.p0.y, p.p0.z}, hi[3] = {p.p1.x, p.p1.y, p.p1.z};
+      for (int a = 0; a < 3; ++a) {
+        if (ds[a] == 0) {
+          if (os[a] < lo[a] || os[a] > hi[a]) return kInf;
+          continue;
+        }
+        const double inv = 1.0 / ds[a];
+        double ta = (lo[a] - os[a]) * inv, tb = (hi[a] - os[a]) * inv;
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+      }
+      if (t0 > t1) return kInf;
+      return first_positive(t0, t1);
+    }
+    case Primitive::Kind::sphere: {
+      // |o + t d − c|² = R²: a t² + 2 b t + c = 0.
+      const Vec3 oc = o - p.p0;
+      const double a = dot(d, d), b = dot(oc, d), c = dot(oc, oc) - p.radius * p.radius;
+      const double disc = b * b - a * c;
+      if (disc < 0) return kInf;
+      const double s = std::sqrt(disc);
+      return first_positive((-b - s) / a, (-b + s) / a);
+    }
+    case Primitive::Kind::cylinder: {
+      const Vec3 axis = p.p1 - p.p0;
+      const double len = std::sqrt(dot(axis, axis));
+      const Vec3 ax = axis * (1.0 / len);
+      const Vec3 w = o - p.p0;
+      const double dw = dot(d, ax), ww = dot(w, ax);
+      // Lateral surface: components perpendicular to the axis satisfy |w⊥ + t d⊥|² = R².
+      const Vec3 dp = d - ax * dw, wp = w - ax * ww;
+      double best = kInf;
+      const double a = dot(dp, dp), b = dot(wp, dp), c = dot(wp, wp) - p.radius * p.radius;
+      const double disc = b * b - a * c;
+      if (a > 0 && disc >= 0) {
+        const double s = std::sqrt(disc);
+        for (double t : {(-b - s) / a, (-b + s) / a}) {
+          const double h = ww + t * dw;
+          if (t > kEps && h >= 0 && h <= len) best = std::min(best, t);
+        }
+      }
+      // End caps: discs in the planes h = 0 and h = len.
+      if (dw != 0) {
+        for (double h : {0.0, len}) {
+          const double t = (h - ww) / dw;
+          if (t > kEps && t < best) {
+            const Vec3 q = wp + dp * t;
+            if (dot(q, q) <= p.radius * p.radius) best = t;
+          }
+        }
+      }
+      return best;
+    }
+  }
+  return kInf;
+}
+
+Rgb shade_at(const Primitive& p, Vec3 x) {
+  switch (p.kind) {
+    case Primitive::Kind::plane: {
+      const Vec3 q = x - p.p0;
+      const Vec3 v_axis = cross(p.p1, p.axis_u);
+      return shade(p.tex, dot(q, p.axis_u), dot(q, v_axis));
+    }
+    case Primitive::Kind::box: {
+      // Face = the axis along which the point is farthest out relative to the half size.
+      const Vec3 c = (p.p0 + p.p1) * 0.5, h = (p.p1 - p.p0) * 0.5;
+      const double qx = std::abs(x.x - c.x) / std::max(h.x, 1e-12);
+      const double qy = std::abs(x.y - c.y) / std::max(h.y, 1e-12);
+      const double qz = std::abs(x.z - c.z) / std::max(h.z, 1e-12);
+      const Vec3 r = x - p.p0;
+      if (qx >= qy && qx >= qz) return shade(p.tex, r.z, r.y);
+      if (qy >= qz) return shade(p.tex, r.x, r.z);
+      return shade(p.tex, r.x, r.y);
+    }
+    case Primitive::Kind::sphere: {
+      const Vec3 q = x - p.p0;
+      const double phi = std::atan2(q.x, -q.z);  // 0 facing the camera
+      const double theta = std::acos(std::clamp(q.y / p.radius, -1.0, 1.0));
+      return shade(p.tex, phi * p.radius, theta * p.radius);
+    }
+    case Primitive::Kind::cylinder: {
+      const Vec3 axis = p.p1 - p.p0;
+      const double len = std::sqrt(dot(axis, axis));
+      const Vec3 ax = axis * (1.0 / len);
+      const Vec3 w = x - p.p0;
+      const double h = dot(w, ax);
+      const Vec3 q = w - ax * h;
+      const Vec3 e2 = cross(ax, p.axis_u);
+      const double qu = dot(q, p.axis_u), qv = dot(q, e2);
+      // The nearest of the three surfaces (lateral, either cap) holds the point; deciding by
+      // distance keeps a point known only approximately (e.g. from a float depth) on its face.
+      const double lateral = std::abs(std::sqrt(qu * qu + qv * qv) - p.radius);
+      if (std::min(std::abs(h), std::abs(h - len)) < lateral) return shade(p.tex, qu, qv + h);  // cap
+      return shade(p.tex, std::atan2(qv, qu) * p.radius, h);
+    }
+  }
+  return {};
+}
+
+Rgb shade_background(const Background& bg, Vec3 d) {
+  const double tx = d.x / d.z, ty = d.y / d.z;
+  const double up = clamp01(-ty / 0.4);  // y points down: −ty = tan(elevation)
+  const Rgb g = lerp(bg.horizon, bg.top, up);
+  const Rgb c = shade(bg.clouds, tx, ty);
+  return {g.r * c.r, g.g * c.g, g.b * c.b};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Camera
+
+double LensCamera::f_px() const {
+  return 0.5 * width / std::tan(0.5 * hfov_deg * std::numbers::pi / 180.0);
+}
+double LensCamera::lens_radius_m() const { return k_px * focus_m / f_px(); }
+double LensCamera::coc_px(double z) const { return k_px * (focus_m / z - 1.0); }
+
+// ---------------------------------------------------------------------------------------------
+// Rendering
+
+namespace {
+
+// Screen-space culling. A point Q at depth z seen through any lens point lands within |r(z)|
+// pixels of its pinhole projection (derivation in raytracer.hpp), so the rays of a tile can
+// only hit primitives whose projected bounding box, grown by the largest |r| over their depth
+// range, overlaps the tile. |r| is monotone on each side of the focus, so its maximum over
+// [z_min, z_max] is at an end. Unbounded primitives (planes) and any that reach the lens plane
+// are always candidates.
+struct Culler {
+  struct Bounds {
+    double x0, y0, x1, y1;
+    bool always;
+  };
+  std::vector<Bounds> bounds;
+
+  Culler(const Scene& scene, const LensCamera& cam, bool lens) {
+    const double f = cam.f_px();
+    for (const Primitive& p : scene.prims) {
+      Vec3 lo, hi;
+      switch (p.kind) {
+        case Primitive::Kind::plane:
+          bounds.push_back({0, 0, 0, 0, true});
+          continue;
+        case Primitive::Kind::box:
+          lo = p.p0;
+          hi = p.p1;
+          break;
+        case Primitive::Kind::sphere:
+          lo = p.p0 - Vec3{p.radius, p.radius, p.radius};
+          hi = p.p0 + Vec3{p.radius, p.radius, p.radius};
+          break;
+        case Primitive::Kind::cylinder: {
+          const Vec3 r{p.radius, p.radius, p.radius};
+          lo = Vec3{std::min(p.p0.x, p.p1.x), std::min(p.p0.y, p.p1.y), std::min(p.p0.z, p.p1.z)} - r;
+          hi = Vec3{std::max(p.p0.x, p.p1.x), std::max(p.p0.y, p.p1.y), std::max(p.p0.z, p.p1.z)} + r;
+          break;
+        }
+      }
+      if (lo.z <= 1e-6) {
+        bounds.push_back({0, 0, 0, 0, true});
+        continue;
+      }
+      Bounds b{kInf, kInf, -kInf, -kInf, false};
+      for (int i = 0; i < 8; ++i) {
+        const Vec3 c{(i & 1) ? hi.x : lo.x, (i & 2) ? hi.y : lo.y, (i & 4) ? hi.z : lo.z};
+        const double sx = f * c.x / c.z + 0.5 * cam.width, sy = f * c.y / c.z + 0.5 * cam.height;
+        b.x0 = std::min(b.x0, sx);
+        b.x1 = std::max(b.x1, sx);
+        b.y0 = std::min(b.y0, sy);
+        b.y1 = std::max(b.y1, sy);
+      }
+      const double grow = (lens ? std::max(std::abs(cam.coc_px(lo.z)), std::abs(cam.coc_px(hi.z))) : 0) + 1;
+      b.x0 -= grow;
+      b.y0 -= grow;
+      b.x1 += grow;
+      b.y1 += grow;
+      bounds.push_back(b);
+    }
+  }
+
+  // Primitive indices whose rays may reach pixels [x0, x1) × [y0, y1).
+  std::vector<int> candidates(int x0, int y0, int x1, int y1) const {
+    std::vector<int> out;
+    for (int i = 0; i < static_cast<int>(bounds.size()); ++i) {
+      const Bounds& b = bounds[i];
+      if (b.always || (b.x1 >= x0 && b.x0 <= x1 && b.y1 >= y0 && b.y0 <= y1)) out.push_back(i);
+    }
+    return out;
+  }
+};
+
+Hit closest(const Scene& scene, const std::vector<int>& cand, Vec3 o, Vec3 d) {
+  Hit h;
+  for (int i : cand) {
+    const double t = intersect(scene.prims[i], o, d);
+    if (t < h.z) {
+      h.z = t;
+      h.prim = i;
+    }
+  }
+  return h;
+}
+
+Rgb radiance(const Scene& scene, const Hit& h, Vec3 o, Vec3 d) {
+  if (h.prim < 0) return shade_background(scene.background, d);
+  return shade_at(scene.prims[h.prim], o + d * h.z);
+}
+
+template <class Body>
+void for_each_tile(const LensCamera& cam, const Progress& progress, Body body) {
+  const int tx = (cam.width + kTile - 1) / kTile, ty = (cam.height + kTile - 1) / kTile;
+  const int n = tx * ty;
+  std::atomic<int> done{0};
+  core::parallel_for(n, [&](int b, int e) {
+    for (int t = b; t < e; ++t) {
+      const int x0 = (t % tx) * kTile, y0 = (t / tx) * kTile;
+      body(x0, y0, std::min(x0 + kTile, cam.width), std::min(y0 + kTile, cam.height));
+      const int k = ++done;
+      if (progress) progress(static_cast<double>(k) / n);
+    }
+  });
+}
+
+void check_camera(const LensCamera& cam) {
+  if (cam.width <= 0 || cam.height <= 0) throw_usage("--size: width and height must be > 0");
+  if (!(cam.hfov_deg > 0 && cam.hfov_deg < 180)) throw_usage("field of view must be in (0, 180) degrees");
+  if (!(cam.focus_m > 0) || !std::isfinite(cam.focus_m)) throw_usage("--focus: must be > 0 metres");
+  if (!(cam.k_px >= 0) || !std::isfinite(cam.k_px)) throw_usage("--blur-at-infinity: must be >= 0 px");
+  if (cam.blades != 0 && (cam.blades < 3 || cam.blades > 64))
+    throw_usage("--blades: must be 0 (circle) or 3..64");
+}
+
+}  // namespace
+
+Frame render_pinhole(const Scene& scene, const LensCamera& cam, int layers) {
+  check_camera(cam);
+  if (layers < 0 || layers > 64) throw_usage("--layers: must be 0..64");
+  const int w = cam.width, h = cam.height;
+  const double f = cam.f_px();
+  Frame fr;
+  fr.color = Image(w, h, 4);
+  fr.depth = Image(w, h, 1);
+  for (int l = 0; l < layers; ++l) {
+    fr.layer_color.emplace_back(w, h, 4, 0.0f);
+    fr.layer_depth.emplace_back(w, h, 1, std::numeric_limits<float>::infinity());
+  }
+  const Culler culler(scene, cam, false);
+  for_each_tile(cam, {}, [&](int x0, int y0, int x1, int y1) {
+    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
+    std::vector<std::pair<double, int>> hits;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        const Vec3 o{0, 0, 0};
+        const Vec3 d{(x + 0.5 - 0.5 * w) / f, (y + 0.5 - 0.5 * h) / f, 1.0};
+        const Hit hit = closest(scene, cand, o, d);
+        const Rgb c = radiance(scene, hit, o, d);
+        fr.color.at(x, y, 0) = c.r;
+        fr.color.at(x, y, 1) = c.g;
+        fr.color.at(x, y, 2) = c.b;
+        fr.color.at(x, y, 3) = 1.0f;
+        fr.depth.at(x, y) = static_cast<float>(hit.z);
+        if (layers == 0) continue;
+        // Every primitive the ray enters, sorted front to back (ties by index), then the
+        // background. Layer 0 is the closest, i.e. exactly the visible surface above.
+        hits.clear();
+        for (int i : cand) {
+          const double t = intersect(scene.prims[i], o, d);
+          if (t < kInf) hits.emplace_back(t, i);
+        }
+        std::sort(hits.begin(), hits.end());
+        hits.emplace_back(kInf, -1);
+        const int n = std::min<int>(layers, static_cast<int>(hits.size()));
+        for (int l = 0; l < n; ++l) {
+          const Hit lh{hits[l].first, hits[l].second};
+          const Rgb lc = radiance(scene, lh, o, d);
+          Image& col = fr.layer_color[l];
+          col.at(x, y, 0) = lc.r;
+          col.at(x, y, 1) = lc.g;
+          col.at(x, y, 2) = lc.b;
+          col.at(x, y, 3) = 1.0f;
+          fr.layer_depth[l].at(x, y) = static_cast<float>(lh.z);
+        }
+      }
+  });
+  return fr;
+}
+
+Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, std::uint64_t seed,
+                       const Progress& progress) {
+  check_camera(cam);
+  if (samples < 1 || samples > (1 << 20)) throw_usage("--samples: must be 1..1048576");
+  const int w = cam.width, h = cam.height;
+  const double f = cam.f_px(), zf = cam.focus_m, a = cam.lens_radius_m();
+  const double rot = cam.rotation_deg * std::numbers::pi / 180.0;
+  // Lens sample positions are per pixel (scrambled per pixel), so precompute nothing shared.
+  const std::uint32_t seed32 =
+      detail::hash_combine(detail::hash32(static_cast<std::uint32_t>(seed)), static_cast<std::uint32_t>(seed >> 32));
+  Image out(w, h, 4);
+  const Culler culler(scene, cam, true);
+  for_each_tile(cam, progress, [&](int x0, int y0, int x1, int y1) {
+    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        // Focus-plane point of the pixel centre; every lens ray of this pixel passes through it.
+        const Vec3 p{(x + 0.5 - 0.5 * w) / f * zf, (y + 0.5 - 0.5 * h) / f * zf, zf};
+        const std::uint32_t ps = detail::hash_combine(detail::hash_combine(seed32, x), y);
+        double sr = 0, sg = 0, sb = 0;
+        for (int i = 0; i < samples; ++i) {
+          double u, v, lx, ly;
+          detail::sobol2d(static_cast<std::uint32_t>(i), ps, u, v);
+          if (cam.blades >= 3)
+            detail::polygon_sample(u, v, cam.blades, rot, lx, ly);
+          else
+            detail::concentric_disc(u, v, lx, ly);
+          const Vec3 o{a * lx, a * ly, 0};
+          const Vec3 d = (p - o) * (1.0 / zf);  // d.z = 1: t is planar depth
+          const Rgb c = radiance(scene, closest(scene, cand, o, d), o, d);
+          sr += c.r;
+          sg += c.g;
+          sb += c.b;
+        }
+        out.at(x, y, 0) = static_cast<float>(sr / samples);
+        out.at(x, y, 1) = static_cast<float>(sg / samples);
+        out.at(x, y, 2) = static_cast<float>(sb / samples);
+        out.at(x, y, 3) = 1.0f;
+      }
+  });
+  return out;
+}
+
+}  // namespace dofkit::scene

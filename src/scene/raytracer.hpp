@@ -1,0 +1,173 @@
+// A small ray tracer for the built-in scenes: analytic primitives with emissive (unlit)
+// procedural textures, a pinhole pass (the RGB-D input a technique gets, plus hidden layers)
+// and a thin-lens pass (the ground truth) with the camera model that `dofkit render` uses.
+//
+// Coordinates: camera at the origin, x right, y DOWN, z forward (the image convention lifted
+// to 3-D, so no axis flips anywhere). Distances in metres. Every ray is written
+// o + t·d with d.z = 1, so the ray parameter t of a hit IS its planar depth z.
+//
+// Camera geometry (derivation). Pinhole focal length in pixels F = (W/2) / tan(hfov/2); pixel
+// (px, py) looks along d = ((px − W/2)/F, (py − H/2)/F, 1). The thin lens of radius a (metres)
+// sits in the plane z = 0 and is focused on the plane z = z_F: every ray through pixel p passes
+// through the focus-plane point P = z_F·d(p). A scene point Q at depth z seen through lens
+// point L lands where the line L→Q crosses the focus plane, X = Q·z_F/z + L·(1 − z_F/z), i.e.
+// at pixel p = (F/z_F)·X = F·Q/z + F·L·(1/z_F − 1/z) (lateral components). As L sweeps the lens,
+// Q images to the aperture shape scaled by F·a·|1/z_F − 1/z| = (F a / z_F)·|1 − z_F/z| pixels.
+// Matching r(z) = K·(z_F/z − 1) (coc.hpp; K = blur radius at infinity) gives
+//     a = K · z_F / F        (metres),
+// so r(∞) = −K exactly. Because F ∝ W and K is given at the rendered width, a is independent
+// of the resolution: the same camera renders the same picture at any size.
+// The far-field (z > z_F) image of a point is the aperture itself (L·(1 − z_F/z) has the sign
+// of L); the near-field image is the aperture point-reflected (rotated by 180°).
+#pragma once
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "dofkit/frame.hpp"
+#include "dofkit/image.hpp"
+#include "scene/scene.hpp"
+
+namespace dofkit::scene {
+
+struct Vec3 {
+  double x = 0, y = 0, z = 0;
+};
+inline Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline Vec3 operator*(Vec3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+inline double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+/// Linear-light RGB radiance (emissive, so the value is what the camera records).
+struct Rgb {
+  float r = 0, g = 0, b = 0;
+};
+
+/// Procedural emissive texture on a surface's (u, v) coordinates (metres along the surface).
+/// radiance = emission · lerp(a, b, fbm) · checker · lines, where
+///  * fbm: value noise, `octaves` octaves from period `noise_scale_m` down by halves, each
+///    octave's amplitude `gain` times the previous one (gain near 0.7 keeps fine octaves
+///    visible: detail at every scale, down to the finest octave);
+///  * checker: squares of side `checker_m` alternate brightness 1 ± checker_contrast;
+///  * lines: a grid of lines every `line_spacing_m`, `line_width_m` wide, whose radiance is
+///    multiplied by (1 − line_darkness).
+struct Texture {
+  Rgb a{0.5f, 0.5f, 0.5f};         ///< colour at noise 0
+  Rgb b{0.2f, 0.2f, 0.2f};         ///< colour at noise 1
+  double noise_scale_m = 0.5;      ///< period of the coarsest noise octave, metres
+  int octaves = 7;                 ///< noise octaves (0 = flat colour a)
+  double gain = 0.7;               ///< amplitude ratio between successive octaves
+  double checker_m = 0;            ///< checker square side, metres (0 = none)
+  double checker_contrast = 0.2;   ///< relative brightness swing of the checker
+  double line_spacing_m = 0;       ///< line grid spacing, metres (0 = none)
+  double line_width_m = 0.01;      ///< line width, metres
+  double line_darkness = 0.6;      ///< 0 = invisible lines, 1 = black lines
+  double emission = 1;             ///< radiance multiplier (> 1 for HDR emitters)
+  std::uint32_t seed = 1;          ///< noise seed (part of the scene, not of the render)
+};
+
+/// Evaluates a texture at surface coordinates (metres).
+Rgb shade(const Texture& tex, double u, double v);
+
+/// An opaque analytic primitive. Closed solids (box, sphere, cylinder) are hit at their
+/// entry point only; planes are two-sided and infinite.
+struct Primitive {
+  enum class Kind { plane, box, sphere, cylinder };
+  Kind kind = Kind::sphere;
+  /// plane: a point on it; box: min corner; sphere: centre; cylinder: one end of the axis.
+  Vec3 p0;
+  /// plane: unit normal; box: max corner; cylinder: the other end of the axis.
+  Vec3 p1;
+  /// plane: unit u axis of the texture coordinates (v = normal × u).
+  Vec3 axis_u;
+  double radius = 0;  ///< sphere / cylinder radius, metres
+  Texture tex;
+  std::string name;   ///< for debugging and tests
+
+  static Primitive plane(Vec3 point, Vec3 normal, Vec3 u_axis, Texture t, std::string name = "plane");
+  static Primitive box(Vec3 lo, Vec3 hi, Texture t, std::string name = "box");
+  static Primitive sphere(Vec3 centre, double r, Texture t, std::string name = "sphere");
+  /// Closed cylinder (with end caps) around the segment a → b.
+  static Primitive cylinder(Vec3 a, Vec3 b, double r, Texture t, std::string name = "cylinder");
+};
+
+/// The background at infinite distance (depth +inf): a vertical gradient plus a texture laid
+/// on the direction's tangent coordinates (d.x/d.z, d.y/d.z) (radians near the axis), so it
+/// depends on the ray direction only, like a real sky.
+struct Background {
+  Rgb top{0.25f, 0.45f, 0.85f};      ///< colour at tan(elevation) = +0.4 (up)
+  Rgb horizon{0.75f, 0.8f, 0.85f};   ///< colour at tan(elevation) = 0 and below
+  Texture clouds;                    ///< multiplies the gradient; its u, v are tangent coords
+};
+
+/// A scene: primitives, background and the camera defaults the scene was composed for.
+struct Scene {
+  std::string name;
+  std::string description;
+  std::vector<Primitive> prims;
+  Background background;
+  double hfov_deg = 60;           ///< horizontal field of view, degrees
+  double focus_m = 5;             ///< default focus distance, metres
+  double k_px_at_640 = 12;        ///< default blur radius at infinity, px at width 640
+  int samples = 512;              ///< default lens samples per pixel (ground truth)
+};
+
+/// The thin-lens camera: resolution, field of view, focus, blur at infinity, aperture shape.
+struct LensCamera {
+  int width = 640, height = 360;
+  double hfov_deg = 60;      ///< horizontal field of view, degrees
+  double focus_m = 5;        ///< z_F, metres
+  double k_px = 12;          ///< K, blur radius of a point at infinity, px at `width`
+  int blades = 0;            ///< 0 = circular aperture, >= 3 = regular polygon
+  double rotation_deg = 0;   ///< polygon rotation, degrees (image axes: x right, y down)
+
+  /// Pinhole focal length in pixels, F = (W/2)/tan(hfov/2).
+  double f_px() const;
+  /// Lens radius in metres, a = K·z_F/F (see the derivation at the top of this file).
+  double lens_radius_m() const;
+  /// Signed CoC radius (px) of depth z: K·(z_F/z − 1).
+  double coc_px(double z) const;
+};
+
+/// A ray hit: planar depth z (= ray parameter), primitive index (−1 = background).
+struct Hit {
+  double z = std::numeric_limits<double>::infinity();
+  int prim = -1;
+};
+
+/// Entry distance of a ray (o, d with d.z = 1) into one primitive, +inf if missed.
+double intersect(const Primitive& p, Vec3 o, Vec3 d);
+/// Radiance of primitive `p` at the surface point `x`.
+Rgb shade_at(const Primitive& p, Vec3 x);
+/// Radiance of the background in direction d.
+Rgb shade_background(const Background& bg, Vec3 d);
+
+/// Progress callback: fraction of the work done in [0, 1]; may be called from any thread.
+using Progress = std::function<void(double)>;
+
+/// Pinhole render: point-samples every pixel centre. colour RGBA (alpha 1), depth z (+inf for
+/// the background); with layers > 0 also the first `layers` surfaces along each pixel ray,
+/// front to back (each primitive once, at its entry point; the background is the last surface
+/// of every ray, at z = +inf; missing layers have alpha 0 and z = +inf).
+Frame render_pinhole(const Scene& scene, const LensCamera& cam, int layers = 0);
+
+/// Thin-lens render: for every pixel centre, `samples` lens points (Owen-scrambled Sobol mapped
+/// to the disc or polygon aperture), each traced through the pixel's focus-plane point; the
+/// first hit's radiance is averaged. RGBA, alpha 1. Deterministic for (seed, samples), any
+/// thread count.
+Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, std::uint64_t seed,
+                       const Progress& progress = {});
+
+/// Builds a built-in scene by name (throws Error(usage) for an unknown name).
+Scene build_scene(const std::string& name);
+
+/// The camera a scene render uses for `opt` (defaults filled in, options validated).
+LensCamera camera_for(const Scene& scene, const SceneOptions& opt);
+
+/// render_scene / render_pinhole for any Scene (tests build their own).
+SceneRender render_custom(const Scene& scene, const SceneOptions& opt, bool ground_truth);
+
+}  // namespace dofkit::scene

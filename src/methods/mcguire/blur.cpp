@@ -1,0 +1,111 @@
+// P2/P3 of the McGuire method (algorithms.md §2.4, §2.6, §2.7): the dual separable blur.
+//
+// Each 1-D pass reads taps B = A + δ·e, δ ∈ [−R_max, R_max] (full-resolution spacing, clamped
+// to the buffer), around a point-decimated centre A, and accumulates two results at once:
+//
+// 1. The far/focus "blurry" image. Tap B is a gather that imitates a scatter: it counts only
+//    if B's own disc reaches A (the kernel is stretched to B's radius, so a sharp tap reaches
+//    only δ = 0), only if B is not in the near field, and — with the far occlusion test — only
+//    if B is not meaningfully farther than A (|r_A| − |r_B| + 1.5 > 0, soft). When A itself is
+//    in the near field every tap gets weight 1 instead: a plain box of everything around A,
+//    which "inpaints" the background hidden behind the blurry near object.
+// 2. The near field, premultiplied by a coverage α: in the horizontal pass each near tap gets
+//    α_B from a curve of r_B / R_near (a near tap only "reaches" A if |δ| <= r_B), and the
+//    premultiplied (α_B·colour, α_B) is box-averaged over |δ| < R_near; the vertical pass box-
+//    averages those premultiplied values again. Dividing by the full box count (not by Σα)
+//    is what makes the near field's silhouette soft: coverage fades over R_near.
+//
+// Colour is RGBA premultiplied; alpha is blurred like a colour channel.
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "core/parallel.hpp"
+#include "methods/mcguire/blur_weights.hpp"
+#include "methods/mcguire/mcguire.hpp"
+
+namespace dofkit::detail::mcguire {
+
+void blur_horizontal_plain(const Image& packed, const Constants& k, int ox, int wo, Image& t_blur, Image& t_near) {
+  const int W = packed.width(), H = packed.height(), R = k.r_max;
+  const float rmax = static_cast<float>(R);
+  t_blur.resize(wo, H, 5);
+  t_near.resize(wo, H, 5);
+  core::parallel_for(H, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* col[4] = {packed.row(0, y), packed.row(1, y), packed.row(2, y), packed.row(3, y)};
+      const float* s = packed.row(4, y);
+      for (int i = 0; i < wo; ++i) {
+        const int a = ox + k.f * i;
+        const float r_a = s[a] * rmax;
+        const float nearness = saturate(4.0f * r_a);
+        float blur[4] = {0, 0, 0, 0}, blur_w = 0;
+        float near[5] = {0, 0, 0, 0, 0}, near_w = 0;
+        for (int d = -R; d <= R; ++d) {
+          const int b = std::clamp(a + d, 0, W - 1);
+          const float r_b = s[b] * rmax;
+          const float wn = far_weight(k, static_cast<float>(d), r_a, r_b);
+          const float w = wn + (1.0f - wn) * nearness;  // lerp(wn, 1, nearness_A)
+          for (int c = 0; c < 4; ++c) blur[c] += w * col[c][b];
+          blur_w += w;
+          const float alpha = near_alpha_horizontal(k, static_cast<float>(d), r_b);
+          const float v = near_box(k, static_cast<float>(d));
+          for (int c = 0; c < 4; ++c) near[c] += v * alpha * col[c][b];
+          near[4] += v * alpha;
+          near_w += v;
+        }
+        for (int c = 0; c < 4; ++c) t_blur.row(c, y)[i] = blur[c] / blur_w;
+        t_blur.row(4, y)[i] = s[a];
+        const float inv = 1.0f / std::max(near_w, 1e-5f);
+        for (int c = 0; c < 5; ++c) t_near.row(c, y)[i] = near[c] * inv;
+      }
+    }
+  }, 4);
+}
+
+void blur_vertical_plain(const Image& t_blur, const Image& t_near, const Constants& k, int oy, int ho, Image& blur,
+                         Image& near) {
+  const int W = t_blur.width(), H = t_blur.height(), R = k.r_max;
+  const float rmax = static_cast<float>(R);
+  blur.resize(W, ho, 4);
+  near.resize(W, ho, 5);
+  core::parallel_for(ho, [&](int j0, int j1) {
+    for (int j = j0; j < j1; ++j) {
+      const int a = oy + k.f * j;
+      for (int i = 0; i < W; ++i) {
+        const float r_a = t_blur.at(i, a, 4) * rmax;
+        const float nearness = saturate(4.0f * r_a);
+        float acc[4] = {0, 0, 0, 0}, acc_w = 0;
+        float nacc[5] = {0, 0, 0, 0, 0}, nacc_w = 0;
+        for (int d = -R; d <= R; ++d) {
+          const int b = std::clamp(a + d, 0, H - 1);
+          const float r_b = t_blur.at(i, b, 4) * rmax;
+          const float wn = far_weight(k, static_cast<float>(d), r_a, r_b);
+          const float w = wn + (1.0f - wn) * nearness;
+          for (int c = 0; c < 4; ++c) acc[c] += w * t_blur.at(i, b, c);
+          acc_w += w;
+          const float v = near_box(k, static_cast<float>(d));
+          for (int c = 0; c < 5; ++c) nacc[c] += v * t_near.at(i, b, c);
+          nacc_w += v;
+        }
+        for (int c = 0; c < 4; ++c) blur.at(i, j, c) = acc[c] / acc_w;
+        const float inv = 1.0f / std::max(nacc_w, 1e-5f);
+        float n[5];
+        for (int c = 0; c < 5; ++c) n[c] = nacc[c] * inv;
+        if (k.variant == Variant::g3d) g3d_coverage_curve(k, n);
+        for (int c = 0; c < 5; ++c) near.at(i, j, c) = n[c];
+      }
+    }
+  }, 2);
+}
+
+void blur_horizontal(const Image& packed, const Constants& k, int ox, int wo, Image& t_blur, Image& t_near) {
+  blur_horizontal_plain(packed, k, ox, wo, t_blur, t_near);
+}
+
+void blur_vertical(const Image& t_blur, const Image& t_near, const Constants& k, int oy, int ho, Image& blur,
+                   Image& near) {
+  blur_vertical_plain(t_blur, t_near, k, oy, ho, blur, near);
+}
+
+}  // namespace dofkit::detail::mcguire

@@ -1,0 +1,197 @@
+// `mcguire`: Bukowski, Hennessy, Osman & McGuire, "The Skylanders SWAP Force Depth-of-Field
+// Shader" (GPU Pro 4), its 2013 web demo (VVDoF) and the G3D 10 version — algorithms.md §2.
+//
+// Three full-screen passes, two at reduced resolution: P1 packs colour and normalised
+// signed CoC (coc_pack.cpp); P2/P3 blur horizontally then vertically, each producing a
+// depth-ordered far/focus blur and a premultiplied near-field layer (blur.cpp); P4 lerps
+// sharp ↔ blurry by |CoC| and lays the near field over it (composite.cpp).
+//
+// Deviations from the GPU sources (all documented in docs/methods/mcguire.md):
+// * float buffers (no 8-bit CoC quantisation); colour is RGBA premultiplied, alpha is
+//   blurred like a colour channel;
+// * R_near / R_far come from the frame's CoC map (the largest near / far radius present)
+//   unless near_radius_px is given, so any CoC model drives it;
+// * |r| <= focus_px packs as exactly sharp (focus-field identity);
+// * low-res buffers are sampled where their point-decimated texels really are;
+// * guard band: taps may read into it; its output pixels are transparent black.
+#include <algorithm>
+#include <cmath>
+
+#include "core/parallel.hpp"
+#include "methods/mcguire/mcguire.hpp"
+#include "methods/method.hpp"
+
+namespace dofkit::detail {
+
+namespace {
+
+using mcguire::Constants;
+using mcguire::Rect;
+using mcguire::Variant;
+
+struct Setup {
+  Constants k;
+  int guard = 0;
+  bool guard_taps = true;
+};
+
+Setup read_setup(const MethodContext& ctx, float max_near, float max_far) {
+  const Params& p = ctx.params;
+  Setup st;
+  Constants& k = st.k;
+  const std::string v = p.get_choice("variant", "demo", {"book", "demo", "g3d"});
+  k.variant = v == "book" ? Variant::book : v == "demo" ? Variant::demo : Variant::g3d;
+  const bool book = k.variant == Variant::book, demo = k.variant == Variant::demo;
+  k.f = p.get_int("reduction", demo ? 4 : 2, 1, 4);
+  k.coverage_boost = static_cast<float>(p.get_double("coverage_boost", 1.5, 1.0, 100.0));
+  k.far_occlusion = p.get_bool("far_occlusion_test", !demo);
+  k.double_coc = p.get_bool("double_coc", false);
+  k.near_alpha_code = p.get_choice("near_alpha", "code", {"code", "book"}) == "code";
+  k.lowres_offset_fix = p.get_bool("lowres_offset_fix", true);
+  k.focus_px = static_cast<float>(p.get_double("focus_px", 0.5, 0.0, 1e6));
+  k.g3d_fov_rad = static_cast<float>(p.get_double("g3d_fov_deg", 40.0, 1.0, 179.0) * M_PI / 180.0);
+  const bool far_rescale = p.get_bool("far_rescale", !book);
+  st.guard = p.get_int("guard_band_px", 0, 0, 1 << 20);
+  st.guard_taps = p.get_bool("guard_band_taps", true);
+  const double near_param = p.get_double("near_radius_px", 0.0, 0.0, 1e5);
+
+  // Radii (image px). R_n: the near blur radius — given, or the largest near radius in the
+  // frame. R_f: the largest far radius in the frame. R_max bounds every tap loop and
+  // normalises s, so it must cover the whole CoC map as well as R_n.
+  const float r_n = near_param > 0 ? static_cast<float>(near_param) : max_near;
+  const float r_f = max_far;
+  k.r_max = static_cast<int>(std::ceil(std::max({r_n, max_near, max_far})));
+  // Which pixels count as blurred at all: with focus_px the packed |s| is 0 below it.
+  if (std::max(max_near, max_far) <= k.focus_px) k.r_max = 0;
+  k.r_near = std::ceil(r_n);
+  // A near radius too small to blur would show the decimated buffer unblurred: drop it
+  // (demo: < 2 px; g3d: < f − 1 px).
+  if (demo && k.r_near < 2) k.r_near = 0;
+  if (k.variant == Variant::g3d && k.r_near < k.f - 1) k.r_near = 0;
+  k.inv_near = 1.0f / std::max(k.r_near, 1e-4f);
+  // farRescale: far |s| = |r| / R_max would reach only R_f / R_max at the largest far
+  // radius; rescaling makes the farthest blur use the blurry buffer fully.
+  k.far_rescale = far_rescale && r_f > 0 ? static_cast<float>(k.r_max) / std::max(r_f, 1e-4f) : 1.0f;
+  return st;
+}
+
+void render_mcguire(const MethodContext& ctx, Image& out) {
+  const Image& colour = ctx.frame.color;
+  const int W = colour.width(), H = colour.height();
+  const int g_req = ctx.params.get_int("guard_band_px", 0, 0, 1 << 20);
+  if (2 * g_req >= std::min(W, H))
+    throw_usage("--set guard_band_px=" + std::to_string(g_req) + ": leaves no inner image in a " +
+                std::to_string(W) + "x" + std::to_string(H) + " frame (method mcguire)");
+  const bool taps_req = ctx.params.get_bool("guard_band_taps", true);
+  // Region whose pixels the passes read: whole image, or the inner rect if the guard band
+  // must not be read at all.
+  const Rect src = taps_req ? Rect{0, 0, W, H} : Rect{g_req, g_req, W - 2 * g_req, H - 2 * g_req};
+
+  float max_near = 0, max_far = 0;
+  for (int y = src.y; y < src.y + src.h; ++y) {
+    const float* r = ctx.coc.row(0, y) + src.x;
+    for (int x = 0; x < src.w; ++x) {
+      max_near = std::max(max_near, r[x]);
+      max_far = std::max(max_far, -r[x]);
+    }
+  }
+  const Setup st = read_setup(ctx, max_near, max_far);
+  const Constants& k = st.k;
+  const int g = st.guard;
+  const Rect inner{g, g, W - 2 * g, H - 2 * g};
+  const int ox = inner.x - src.x, oy = inner.y - src.y;  // inner origin inside the packed buffer
+
+  Workspace& ws = ctx.workspace;
+  Image& packed = ws.image("mcguire.packed", src.w, src.h, mcguire::kPacked);
+  mcguire::pack_coc(colour, ctx.coc, src, k, packed);
+  ctx.debug.offer("coc", [&] {
+    Image v(packed.width(), packed.height(), 1);
+    for (std::size_t i = 0; i < v.plane_size(); ++i) v.plane(0)[i] = packed.plane(4)[i] * 0.5f + 0.5f;
+    return v;
+  });
+
+  // Guard band pixels are context, not picture: transparent black in the output.
+  if (g > 0) std::fill(out.data().begin(), out.data().end(), 0.0f);
+
+  const int wo = std::max(1, inner.w / k.f), ho = std::max(1, inner.h / k.f);
+  Image& t_blur = ws.image("mcguire.t_blur", wo, src.h, 5);
+  Image& t_near = ws.image("mcguire.t_near", wo, src.h, 5);
+  Image& blur = ws.image("mcguire.blur", wo, ho, 4);
+  Image& near = ws.image("mcguire.near", wo, ho, 5);
+  if (k.r_max == 0) {
+    // Everything is in the focus field: the composite would return the sharp input exactly.
+    for (int c = 0; c < 4; ++c)
+      for (int y = 0; y < inner.h; ++y)
+        std::copy_n(packed.row(c, oy + y) + ox, inner.w, out.row(c, inner.y + y) + inner.x);
+    ctx.debug.offer("near", [&] { return Image(wo, ho, 4, 0.0f); });
+    ctx.debug.offer("far", [&] {
+      Image v(inner.w, inner.h, 4);
+      for (int c = 0; c < 4; ++c)
+        for (int y = 0; y < inner.h; ++y) std::copy_n(packed.row(c, oy + y) + ox, inner.w, v.row(c, y));
+      return v;
+    });
+    ctx.debug.offer("weights", [&] {
+      Image v(inner.w, inner.h, 4, 0.0f);
+      std::fill_n(v.plane(2), v.plane_size(), 1.0f);
+      std::fill_n(v.plane(3), v.plane_size(), 1.0f);
+      return v;
+    });
+    return;
+  }
+  mcguire::blur_horizontal(packed, k, ox, wo, t_blur, t_near);
+  mcguire::blur_vertical(t_blur, t_near, k, oy, ho, blur, near);
+  ctx.debug.offer("far", blur);
+  ctx.debug.offer("near", [&] {
+    // RGBA premultiplied by the near coverage; alpha = coverage.
+    Image v(near.width(), near.height(), 4);
+    for (int c = 0; c < 3; ++c) std::copy_n(near.plane(c), near.plane_size(), v.plane(c));
+    std::copy_n(near.plane(4), near.plane_size(), v.plane(3));
+    return v;
+  });
+  Image weights;
+  mcguire::composite(packed, ox, oy, blur, near, k, inner, out, ctx.debug.wants("weights") ? &weights : nullptr);
+  ctx.debug.offer("weights", weights);
+}
+
+}  // namespace
+
+const MethodDef& mcguire_method() {
+  static const MethodDef def{
+      "mcguire",
+      "McGuire et al. (Skylanders / VVDoF / G3D): dual separable near/far blur at reduced resolution, "
+      "near-field inpainting, coverage-boosted composite",
+      {
+          {"variant", "demo",
+           "book (GPU Pro 4: 2x, Gaussian far kernel, far occlusion test) | demo (2013 web demo: 4x, disc-like "
+           "far kernel, no far test, far-radius rescale) | g3d (G3D 10 rules, algorithms.md 2.7)"},
+          {"reduction", "4 (demo), 2 (book, g3d)", "reduced-resolution factor per axis of the blur buffers (1-4)"},
+          {"coverage_boost", "1.5", "near-field alpha gain, dimensionless (>= 1; book/demo only)"},
+          {"near_radius_px", "0",
+           "fixed near-field blur radius in image px; 0 = the largest near CoC radius in the frame"},
+          {"far_occlusion_test", "on (book, g3d), off (demo)",
+           "far taps count only if not meaningfully farther than the centre (on/off)"},
+          {"far_rescale", "on (demo, g3d), off (book)",
+           "Sept-2013 fix: far |s| reaches 1 at the largest far radius instead of at R_max (on/off)"},
+          {"double_coc", "off", "composite doubles s, clamp(2s, -1, 1), as some 2013 ports do (on/off; book/demo)"},
+          {"near_alpha", "code", "near coverage curve: code = saturate(4 r/R_near)^4, book = min(1, r/R_near)^4"},
+          {"focus_px", "0.5", "pixels with |CoC| <= this many px are exactly sharp (>= 0)"},
+          {"lowres_offset_fix", "on",
+           "sample the point-decimated buffers where their texels came from (off = centred lookup, "
+           "shifts by (f-1)/2 px)"},
+          {"g3d_fov_deg", "40", "g3d near coverage curve: field of view in degrees (1-179)"},
+          {"guard_band_px", "0",
+           "border in px on every side that is read as context but not rendered: output there is "
+           "transparent black"},
+          {"guard_band_taps", "on", "blur taps may read into the guard band (off = it is never read)"},
+      },
+      {
+          {"coc", "packed signed CoC s*0.5+0.5 (0.5 = in focus, > 0.5 near), 1 plane, full size"},
+          {"near", "near-field buffer, RGB premultiplied by its coverage, alpha = coverage (reduced size)"},
+          {"far", "blurry far/focus buffer, RGBA (reduced size)"},
+          {"weights", "composite weights: R = near coverage, G = blurry weight, B = sharp weight (full size)"},
+      },
+      render_mcguire};
+  return def;
+}
+
+}  // namespace dofkit::detail

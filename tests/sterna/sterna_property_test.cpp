@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <cstdio>
 #include <set>
 
 #include "dofkit/error.hpp"
@@ -98,7 +99,9 @@ TEST(SternaKernel, PolygonOffsetsLieInsideTheNGonAndTouchEveryEdge) {
       std::set<int> edges;
       int on_boundary = 0;
       for (std::size_t k = 1; k < off.size(); ++k) {
-        const double phi = std::atan2(off[k].y, off[k].x);
+        // The taps are the aperture reflected through the centre (the bokeh of a gather is
+        // the reflected tap set): test the reflected point against the aperture n-gon.
+        const double phi = std::atan2(-off[k].y, -off[k].x);
         const double bound = 6.0 * st::polygon_radius(n, phi - r);  // n-gon of circumradius 6
         const double rho = std::hypot(off[k].x, off[k].y);
         EXPECT_LE(rho, bound + 1e-4) << "n=" << n << " tap " << k;
@@ -232,5 +235,113 @@ TEST(Sterna, BadParametersNameTheKey) {
     } catch (const Error& e) {
       EXPECT_NE(std::string(e.what()).find(k), std::string::npos) << e.what();
     }
+  }
+}
+
+namespace {
+
+// Boundary radius ρ(θ), 1° steps, of the bright blob around the intensity centroid: the
+// farthest point along each ray whose (bilinear) luma exceeds a quarter of the maximum.
+std::vector<double> blob_radius(const Image& img, double& cx, double& cy) {
+  const int w = img.width(), h = img.height();
+  auto lum = [&](int x, int y) { return img.at(x, y, 0) + img.at(x, y, 1) + img.at(x, y, 2); };
+  float mx = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) mx = std::max(mx, lum(x, y));
+  const float thr = 0.25f * mx;
+  double sw = 0, sx = 0, sy = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (lum(x, y) > thr) {
+        sw += 1;
+        sx += x + 0.5;
+        sy += y + 0.5;
+      }
+  cx = sx / sw;
+  cy = sy / sw;
+  std::vector<double> rho(360);
+  for (int a = 0; a < 360; ++a) {
+    const double t = a * std::numbers::pi / 180.0;
+    double last = 0;
+    for (double r = 0; r < 0.5 * std::min(w, h) - 1; r += 0.1) {
+      const int x = static_cast<int>(std::floor(cx + r * std::cos(t)));
+      const int y = static_cast<int>(std::floor(cy + r * std::sin(t)));
+      if (lum(x, y) > thr) last = r;
+    }
+    rho[a] = last;
+  }
+  return rho;
+}
+
+// Best least-squares fit ρ ≈ A + B·P_n(θ − rot) over n = 5..9 and rot on a 0.5° grid (B > 0).
+void fit_polygon(const std::vector<double>& rho, int& best_n, double& best_rot_deg) {
+  double best = std::numeric_limits<double>::infinity();
+  for (int n = 5; n <= 9; ++n)
+    for (double rot = 0; rot < 360.0 / n; rot += 0.5) {
+      // Bokeh of the ground-truth convention: vertices at (2k+1)π/n + rot.
+      std::vector<double> p(360);
+      double mp = 0, mr = 0;
+      for (int a = 0; a < 360; ++a) {
+        p[a] = st::polygon_radius(n, (a - rot) * std::numbers::pi / 180.0);
+        mp += p[a] / 360;
+        mr += rho[a] / 360;
+      }
+      double spp = 0, spr = 0;
+      for (int a = 0; a < 360; ++a) {
+        spp += (p[a] - mp) * (p[a] - mp);
+        spr += (p[a] - mp) * (rho[a] - mr);
+      }
+      const double b = spr / spp;
+      if (b <= 0) continue;
+      double err = 0;
+      for (int a = 0; a < 360; ++a) {
+        const double e = rho[a] - mr - b * (p[a] - mp);
+        err += e * e;
+      }
+      if (err < best) {
+        best = err;
+        best_n = n;
+        best_rot_deg = rot;
+      }
+    }
+}
+
+// Number of circular local maxima of ρ that are the largest value within ±window degrees
+// (plateaus count once).
+int count_corners(const std::vector<double>& rho, int window) {
+  int count = 0;
+  for (int a = 0; a < 360; ++a) {
+    bool is_max = true;
+    for (int d = -window; d <= window && is_max; ++d) {
+      const double v = rho[(a + d + 360) % 360];
+      if (v > rho[a] || (v == rho[a] && d < 0)) is_max = false;
+    }
+    count += is_max;
+  }
+  return count;
+}
+
+}  // namespace
+
+TEST(Sterna, PolygonalHighlightHasTheRightCornersAtTheRightRotation) {
+  // One bright pixel infinitely far behind the focus plane on black: its far-field bokeh.
+  for (const auto& [n, rot] : std::vector<std::pair<int, double>>{{5, 0.0}, {6, 20.0}, {7, -10.0}, {9, 5.0}}) {
+    Frame f = make_frame(160, 160, 0.0f, 0.0f, 0.0f, kInf);
+    for (int c = 0; c < 3; ++c) f.color.at(80, 80, c) = 50.0f;
+    const RenderResult r = render(f, settings(2.0, 28.0,
+                                              {{"bokeh", "polygon"}, {"blades", std::to_string(n)},
+                                               {"rotation_deg", std::to_string(rot)}}));
+    double cx, cy;
+    const std::vector<double> rho = blob_radius(r.image, cx, cy);
+    EXPECT_NEAR(cx, 80.5, 1.0);
+    EXPECT_NEAR(cy, 80.5, 1.0);
+    int fit_n = 0;
+    double fit_rot = 0;
+    fit_polygon(rho, fit_n, fit_rot);
+    EXPECT_EQ(fit_n, n);
+    const double period = 360.0 / n;
+    const double drot = std::remainder(fit_rot - rot, period);
+    EXPECT_LT(std::abs(drot), 4.0) << "n=" << n << " fitted rotation " << fit_rot << " want " << rot;
+    EXPECT_EQ(count_corners(rho, static_cast<int>(period / 2) - 2), n) << "n=" << n;
   }
 }

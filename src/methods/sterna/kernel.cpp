@@ -11,6 +11,15 @@
 // (circumradius 1), so the boundary lies at cos(π/n)/cos(φ − θ_m). The sector index m is
 // the nearest edge midpoint, floor((nφ + π)/(2π)). The outer ring therefore lies exactly on
 // the polygon's edges and every inner tap strictly inside.
+//
+// Orientation. A gather that reads source s = p + o into output p spreads each source over
+// p = s − o: the bokeh is the tap set reflected through the centre. Behind the focus plane a
+// thin lens images a point as the aperture itself (not reflected; in front of focus it is
+// reflected). So the taps are placed on the aperture polygon rotated by a further π; the far
+// field's bokeh then has the aperture's orientation: vertices at (2k+1)π/n + rotation, the
+// convention of the ground-truth renderer. (Rings and even n are symmetric, so this only
+// matters for 5, 7 and 9 blades; the near field shows the far orientation too, where a real
+// lens would show it upside down.)
 #include "methods/sterna/kernel.hpp"
 
 #include <cmath>
@@ -37,7 +46,7 @@ std::vector<Offset> make_offsets(const BokehShape& shape) {
     for (int j = 0; j < n; ++j) {
       const double phi = 2.0 * std::numbers::pi * j / n;
       double r = rho;
-      if (shape.polygon) r *= polygon_radius(shape.blades, phi - rot);
+      if (shape.polygon) r *= polygon_radius(shape.blades, phi - rot - std::numbers::pi);
       out.push_back({static_cast<float>(r * std::cos(phi) * sx), static_cast<float>(r * std::sin(phi) * sy)});
     }
   }

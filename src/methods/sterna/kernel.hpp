@@ -29,8 +29,9 @@ inline constexpr int kTaps = 1 + 8 + 16 + 24;                 // 49
 double polygon_radius(int blades, double phi);
 
 /// The 49 offsets: the centre first, then ring i = 1..3 with 8i taps at radius 2i and angles
-/// 2πj/(8i). A polygon scales each tap's radius by P_n(φ − rotation); anamorphic then
-/// stretches x by sqrt(a) and y by 1/sqrt(a).
+/// 2πj/(8i). A polygon scales each tap's radius by P_n(φ − rotation − π) — the aperture
+/// reflected through the centre, so that the *bokeh* (the reflected tap set) has vertices at
+/// (2k+1)π/n + rotation; anamorphic then stretches x by sqrt(a) and y by 1/sqrt(a).
 std::vector<Offset> make_offsets(const BokehShape& shape);
 
 }  // namespace dofkit::detail::sterna

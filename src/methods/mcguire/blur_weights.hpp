@@ -71,7 +71,7 @@ inline void g3d_coverage_curve(const Constants& k, float* n) {
   const float fa = k.g3d_fov_rad * a;
   const float t = fa > 0 ? saturate(1.0f - 0.025f / fa) : 0.0f;
   const float a2 = std::min(t * t * (3.0f - 2.0f * t), 1.0f);
-  const float g = a2 / std::max(a, 1e-6f);
+  const float g = a > 0 ? a2 / a : 0.0f;
   for (int c = 0; c < 4; ++c) n[c] *= g;
   n[4] = a2;
 }

@@ -66,8 +66,10 @@ void composite(const Image& packed, int ox, int oy, const Image& blur, const Ima
         } else {
           if (k.double_coc) s = std::clamp(2.0f * s, -1.0f, 1.0f);
           if (k.coverage_boost != 1.0f) {
+            // a'/α with α > 0 is min(boost, 1/α); the shader's max(α, 0.001) guard against a
+            // division by zero would break the colour/alpha ratio for α < 0.001.
             const float a = saturate(k.coverage_boost * n[4]);
-            const float g = a / std::max(n[4], 0.001f);
+            const float g = n[4] > 0 ? a / n[4] : 0.0f;
             for (int c = 0; c < 4; ++c) n[c] *= g;
             n[4] = a;
           }

@@ -1,0 +1,269 @@
+// Properties of the McGuire method (algorithms.md §2, design.md "Testing").
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "dofkit/render.hpp"
+#include "methods/mcguire/blur_weights.hpp"
+#include "methods/mcguire/mcguire.hpp"
+
+using namespace dofkit;
+namespace mg = dofkit::detail::mcguire;
+
+namespace {
+
+const char* kVariants[] = {"book", "demo", "g3d"};
+
+// Deterministic texture in [0.05, 0.95], alpha 1.
+Frame textured_frame(int w, int h, float z) {
+  Frame f;
+  f.color = Image(w, h, 4, 1.0f);
+  f.depth = Image(w, h, 1, z);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) {
+        std::uint32_t v = static_cast<std::uint32_t>(x * 73856093u ^ y * 19349663u ^ (c + 1) * 83492791u);
+        v ^= v >> 13;
+        v *= 0x5bd1e995u;
+        v ^= v >> 15;
+        f.color.at(x, y, c) = 0.05f + 0.9f * static_cast<float>(v % 1000u) / 999.0f;
+      }
+  return f;
+}
+
+RenderSettings settings(const std::string& variant, double focus_m = 4.0, double k_px = 10.0) {
+  RenderSettings s;
+  s.method = "mcguire";
+  s.camera.model = BlurAtInfinity{focus_m, k_px};
+  s.params["variant"] = variant;
+  s.threads = 2;
+  return s;
+}
+
+// Depth whose CoC is r for BlurAtInfinity{focus, k}: z = F K / (K + r).
+float depth_for(double focus, double k, double r) { return static_cast<float>(focus * k / (k + r)); }
+
+// A frame mixing every field: far wall, in-focus band, near blobs.
+Frame mixed_frame(int w, int h) {
+  Frame f = textured_frame(w, h, 12.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (x > w / 3 && x < 2 * w / 3) f.depth.at(x, y) = 4.0f;
+      if ((x / 17 + y / 13) % 5 == 0) f.depth.at(x, y) = 1.5f;
+      if (y > h - 10) f.depth.at(x, y) = 2.5f + 0.02f * x;
+    }
+  return f;
+}
+
+}  // namespace
+
+TEST(Mcguire, InFocusIsIdentity) {
+  Frame f = textured_frame(96, 64, 4.0f);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 96; ++x) f.depth.at(x, y) = depth_for(4.0, 10.0, 0.45 * std::sin(0.3 * x + 0.7 * y));
+  for (const char* v : kVariants) {
+    const RenderResult r = render(f, settings(v));
+    ASSERT_EQ(r.image.data(), f.color.data()) << v;
+  }
+}
+
+TEST(Mcguire, ConstantImageStaysConstant) {
+  Frame f = mixed_frame(120, 80);
+  const float want[4] = {0.3f, 0.6f, 0.9f, 1.0f};
+  for (int c = 0; c < 4; ++c) std::fill_n(f.color.plane(c), f.color.plane_size(), want[c]);
+  for (const char* v : kVariants) {
+    const RenderResult r = render(f, settings(v));
+    for (int c = 0; c < 4; ++c)
+      for (std::size_t i = 0; i < f.color.plane_size(); ++i)
+        ASSERT_NEAR(r.image.plane(c)[i], want[c], 2e-6f) << v << " plane " << c << " pixel " << i;
+  }
+}
+
+// A sharp (in-focus) foreground pixel next to a very blurry background keeps its colour:
+// far taps never spread over a pixel in front of them in the composite.
+TEST(Mcguire, NoBackgroundBleedOverSharpForeground) {
+  const int w = 128, h = 64;
+  Frame f = textured_frame(w, h, 30.0f);  // far: r ≈ −8.7 px
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w / 2; ++x) f.depth.at(x, y) = 4.0f;  // in focus
+  for (const char* v : kVariants) {
+    const RenderResult r = render(f, settings(v));
+    for (int c = 0; c < 4; ++c)
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w / 2; ++x) ASSERT_EQ(r.image.at(x, y, c), f.color.at(x, y, c)) << v << " " << x << "," << y;
+    // …and the background really is blurred.
+    double diff = 0;
+    for (int y = 0; y < h; ++y)
+      for (int x = w / 2 + 12; x < w; ++x) diff += std::fabs(r.image.at(x, y, 0) - f.color.at(x, y, 0));
+    EXPECT_GT(diff / (h * (w / 2 - 12)), 0.05) << v;
+  }
+}
+
+TEST(Mcguire, SameOutputForAnyThreadCount) {
+  const Frame f = mixed_frame(150, 90);
+  for (const char* v : kVariants) {
+    RenderSettings s = settings(v);
+    s.threads = 1;
+    const RenderResult a = render(f, s);
+    s.threads = 2;
+    const RenderResult b = render(f, s);
+    s.threads = 3;
+    const RenderResult c = render(f, s);
+    ASSERT_EQ(a.image.data(), b.image.data()) << v;
+    ASSERT_EQ(a.image.data(), c.image.data()) << v;
+  }
+}
+
+// The fast blur passes evaluate the same sums as the plain oracle.
+TEST(Mcguire, FastPassesMatchPlainOracle) {
+  const Frame f = mixed_frame(97, 61);
+  const Image coc = compute_coc(f.depth, CameraModel{BlurAtInfinity{4.0, 10.0}});
+  for (int vi = 0; vi < 3; ++vi) {
+    mg::Constants k;
+    k.variant = static_cast<mg::Variant>(vi);
+    k.f = vi == 1 ? 4 : 2;
+    k.r_max = 16;
+    k.r_near = 12;
+    k.inv_near = 1.0f / 12;
+    k.far_occlusion = vi != 1;
+    Image packed, tb1, tn1, tb2, tn2, b1, n1, b2, n2;
+    mg::pack_coc(f.color, coc, {0, 0, 97, 61}, k, packed);
+    const int wo = 97 / k.f, ho = 61 / k.f;
+    mg::blur_horizontal_plain(packed, k, 0, wo, tb1, tn1);
+    mg::blur_horizontal(packed, k, 0, wo, tb2, tn2);
+    mg::blur_vertical_plain(tb1, tn1, k, 0, ho, b1, n1);
+    mg::blur_vertical(tb1, tn1, k, 0, ho, b2, n2);
+    for (std::size_t i = 0; i < tb1.data().size(); ++i) ASSERT_NEAR(tb1.data()[i], tb2.data()[i], 2e-6f) << vi;
+    for (std::size_t i = 0; i < tn1.data().size(); ++i) ASSERT_NEAR(tn1.data()[i], tn2.data()[i], 2e-6f) << vi;
+    for (std::size_t i = 0; i < b1.data().size(); ++i) ASSERT_NEAR(b1.data()[i], b2.data()[i], 2e-6f) << vi;
+    for (std::size_t i = 0; i < n1.data().size(); ++i) ASSERT_NEAR(n1.data()[i], n2.data()[i], 2e-6f) << vi;
+  }
+}
+
+// Inside a uniform near field of radius r the near buffer's coverage is the coverage curve
+// times the fraction of the near box that r's disc reaches (the horizontal pass counts tap
+// B only if |δ| <= r_B, then divides by the box size 2·R_near − 1; the vertical pass and the
+// bilinear lookup leave a uniform value unchanged).
+TEST(Mcguire, NearBufferAlphaFollowsCoverageCurve) {
+  const double focus = 4.0, k = 10.0;
+  const int r_near = 16;
+  for (const char* curve : {"code", "book"})
+    for (double r : {1.5, 2.5, 3.5, 6.5, 12.5}) {
+      Frame f = textured_frame(96, 96, depth_for(focus, k, r));
+      RenderSettings s = settings("book", focus, k);
+      s.params["near_radius_px"] = std::to_string(r_near);
+      s.params["near_alpha"] = curve;
+      s.debug_view = "near";
+      const RenderResult res = render(f, s);
+      const double a = std::string(curve) == "code" ? std::min(1.0, 4.0 * r / r_near) : r / r_near;
+      const double expect = std::pow(a, 4) * (2 * std::floor(r) + 1) / (2 * r_near - 1);
+      const Image& nb = res.debug;
+      ASSERT_EQ(nb.channels(), 4);
+      const float got = nb.at(nb.width() / 2, nb.height() / 2, 3);
+      EXPECT_NEAR(got, expect, 1e-5 + 1e-4 * expect) << curve << " r=" << r;
+    }
+  // g3d: α = saturate(r / R_near)², no reach test, then the coverage curve of §2.7.
+  Frame f = textured_frame(96, 96, depth_for(focus, k, 6.0));
+  RenderSettings s = settings("g3d", focus, k);
+  s.params["near_radius_px"] = std::to_string(r_near);
+  s.debug_view = "near";
+  const RenderResult res = render(f, s);
+  const double a = std::pow(6.0 / r_near, 2);
+  const double t = std::clamp(1.0 - 0.025 / (40.0 * M_PI / 180.0 * a), 0.0, 1.0);
+  EXPECT_NEAR(res.debug.at(res.debug.width() / 2, res.debug.height() / 2, 3), t * t * (3 - 2 * t), 1e-5);
+}
+
+// Guard band: its output pixels are transparent black; with guard_band_taps=off the result
+// inside equals a render of the cropped inner image (whatever the guard band holds); with
+// taps on, in-focus guard content (a value found nowhere else) never reaches the output of a
+// far/focus frame. (With taps on, guard pixels do feed the inpainting box behind near
+// objects at the border — that is the purpose of reading them.)
+TEST(Mcguire, GuardBandPixelsNeverReachTheOutput) {
+  const int w = 120, h = 80, g = 9;
+  for (bool with_near : {false, true}) {
+  Frame f = mixed_frame(w, h);
+  if (!with_near)
+    for (float& z : f.depth.data()) z = std::max(z, 4.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (x < g || y < g || x >= w - g || y >= h - g) {
+        f.color.at(x, y, 0) = 50.0f;  // a value far outside the inner image's range
+        f.depth.at(x, y) = 4.0f;     // in focus
+      }
+  Frame inner;
+  inner.color = Image(w - 2 * g, h - 2 * g, 4);
+  inner.depth = Image(w - 2 * g, h - 2 * g, 1);
+  for (int y = 0; y < h - 2 * g; ++y)
+    for (int x = 0; x < w - 2 * g; ++x) {
+      for (int c = 0; c < 4; ++c) inner.color.at(x, y, c) = f.color.at(x + g, y + g, c);
+      inner.depth.at(x, y) = f.depth.at(x + g, y + g);
+    }
+  for (const char* v : kVariants) {
+    RenderSettings s = settings(v);
+    s.params["guard_band_px"] = std::to_string(g);
+    for (const char* taps : {"on", "off"}) {
+      if (with_near && std::string(taps) == "on") continue;
+      s.params["guard_band_taps"] = taps;
+      const RenderResult r = render(f, s);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          const bool ring = x < g || y < g || x >= w - g || y >= h - g;
+          for (int c = 0; c < 4; ++c) {
+            if (ring) ASSERT_EQ(r.image.at(x, y, c), 0.0f) << v << taps;
+            else ASSERT_LT(r.image.at(x, y, c), 1.001f) << v << " taps " << taps << " at " << x << "," << y;
+          }
+        }
+      if (std::string(taps) == "off") {
+        RenderSettings s0 = settings(v);
+        const RenderResult r0 = render(inner, s0);
+        for (int y = 0; y < h - 2 * g; ++y)
+          for (int x = 0; x < w - 2 * g; ++x)
+            for (int c = 0; c < 4; ++c) ASSERT_EQ(r.image.at(x + g, y + g, c), r0.image.at(x, y, c)) << v;
+      }
+    }
+  }
+  }
+}
+
+TEST(Mcguire, BadParametersNameTheKey) {
+  const Frame f = mixed_frame(40, 30);
+  RenderSettings s = settings("demo");
+  s.params["variant"] = "fast";
+  try {
+    render(f, s);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("variant"), std::string::npos);
+  }
+  s = settings("demo");
+  s.params["guard_band_px"] = "15";
+  try {
+    render(f, s);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::usage);
+    EXPECT_NE(std::string(e.what()).find("guard_band_px"), std::string::npos);
+  }
+  s = settings("demo");
+  s.params["coverage_boost"] = "0.5";
+  EXPECT_THROW(render(f, s), Error);
+}
+
+TEST(Mcguire, DebugViewsHaveTheirShapes) {
+  const Frame f = mixed_frame(100, 60);
+  for (const char* view : {"coc", "near", "far", "weights"}) {
+    RenderSettings s = settings("demo");
+    s.debug_view = view;
+    const RenderResult r = render(f, s);
+    const std::string v = view;
+    if (v == "coc") EXPECT_EQ(r.debug.channels(), 1);
+    if (v == "coc" || v == "weights") EXPECT_TRUE(r.debug.same_size(f.color)) << v;
+    if (v == "near" || v == "far") {
+      EXPECT_EQ(r.debug.width(), 25);
+      EXPECT_EQ(r.debug.height(), 15);
+    }
+    EXPECT_FALSE(r.debug.empty()) << v;
+  }
+}

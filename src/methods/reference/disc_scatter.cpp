@@ -135,8 +135,11 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
   out.resize(w, h, 4);
   core::parallel_for(bands, [&](int b0, int b1) {
     // Accumulators: 4 colour channels + weight, for the front (F) and back (B) sums.
-    std::vector<float> acc(static_cast<std::size_t>(kBand) * w * 10);
-    auto acc_row = [&](int k, int row) { return acc.data() + (static_cast<std::size_t>(k) * kBand + row) * w; };
+    // Rows are padded so the ten accumulator streams do not sit a multiple of 4 KiB apart
+    // (which made them collide in the same L1 sets and run 4x slower).
+    const std::size_t stride = (static_cast<std::size_t>(w) + 15) / 16 * 16 + 16;
+    std::vector<float> acc(static_cast<std::size_t>(kBand) * stride * 10);
+    auto acc_row = [&](int k, int row) { return acc.data() + (static_cast<std::size_t>(k) * kBand + row) * stride; };
     for (int b = b0; b < b1; ++b) {
       const int y0 = b * kBand, y1 = std::min(h, y0 + kBand);
       std::fill(acc.begin(), acc.end(), 0.0f);

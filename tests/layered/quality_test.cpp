@@ -38,6 +38,7 @@ Measured measure(const std::string& name) {
   opt.width = 320;
   opt.height = 180;
   opt.layers = 4;
+  opt.samples = 128;  // ground-truth noise floor well above the scores measured here
   const scene::SceneRender s = scene::render_scene(name, opt);
   Frame single = s.pinhole;
   single.layer_color.clear();
@@ -52,13 +53,26 @@ Measured measure(const std::string& name) {
   return m;
 }
 
+// Measured (320x180, 128 ground-truth samples): occluder — single 34.69 dB (edge 32.74),
+// multi 35.02 dB (edge 33.51), reference 34.63 dB (edge 32.42).
 TEST(LayeredQuality, Occluder) {
   const Measured m = measure("occluder");
+  EXPECT_GT(m.single.psnr, 34.4);
+  EXPECT_GT(m.single.edge, 32.4);
+  EXPECT_GT(m.multi.psnr, 34.7);
+  EXPECT_GT(m.multi.edge, 33.2);
+  // The point of multi-layer input: it beats the best single-layer technique at the edges.
   EXPECT_GT(m.multi.edge, m.reference.edge);
 }
 
+// Measured: fence — single 29.74 dB (edge 29.74), multi 31.33 dB (edge 31.33), reference
+// 25.24 dB (edge 25.24; the fence's edge band covers the whole frame).
 TEST(LayeredQuality, Fence) {
   const Measured m = measure("fence");
+  EXPECT_GT(m.single.psnr, 29.4);
+  EXPECT_GT(m.single.edge, 29.4);
+  EXPECT_GT(m.multi.psnr, 31.0);
+  EXPECT_GT(m.multi.edge, 31.0);
   EXPECT_GT(m.multi.edge, m.reference.edge);
 }
 

@@ -12,16 +12,16 @@ double stacked_sigma(int n) {
 
 namespace {
 // Fewest steps n >= 1 whose unit-scale anchor σ̂_n / c reaches `extreme_px`; 0 in focus.
-int steps_needed(double extreme_px, double c) {
+int steps_needed(double extreme_px, double c, double unit) {
   if (!(extreme_px > 0.5)) return 0;
   int n = 1;
-  while (stacked_sigma(n) / c < extreme_px && n < 64) ++n;
+  while (unit * stacked_sigma(n) / c < extreme_px && n < 64) ++n;
   return n;
 }
 }  // namespace
 
-LayerPlan plan_layers(double near_px, double far_px, int max_layers, double c) {
-  int nf = steps_needed(near_px, c), nb = steps_needed(far_px, c);
+LayerPlan plan_layers(double near_px, double far_px, int max_layers, double c, double unit) {
+  int nf = steps_needed(near_px, c, unit), nb = steps_needed(far_px, c, unit);
   if (max_layers < 3) max_layers = 3;
   auto scale_if = [&](double extreme, int n) {
     return n > 0 ? extreme * c / stacked_sigma(n) : std::numeric_limits<double>::infinity();

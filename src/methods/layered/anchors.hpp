@@ -42,6 +42,8 @@ struct LayerPlan {
 /// whose unit-step anchors reach its extreme; if that exceeds `max_layers` (>= 3), layers are
 /// taken away one at a time from the side whose steps would grow least. A side whose extreme
 /// is within the focus field (|r| <= 0.5) gets no layer; an all-in-focus scene gives K = 1.
-LayerPlan plan_layers(double near_px, double far_px, int max_layers, double sigma_per_radius = 0.5);
+/// `unit_sigma_px` is the step unit before scaling (S4: 1 px); smaller gives more, finer layers.
+LayerPlan plan_layers(double near_px, double far_px, int max_layers, double sigma_per_radius = 0.5,
+                      double unit_sigma_px = 1.0);
 
 }  // namespace dofkit::detail::layered

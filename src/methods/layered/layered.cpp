@@ -49,7 +49,8 @@ std::vector<DebugViewInfo> debug_views() {
 void render_layered(const MethodContext& ctx, Image& out) {
   using namespace layered;
   const int cap = ctx.params.get_int("layers", 9, 3, kMaxLayers);
-  const double c = ctx.params.get_double("sigma_per_radius", 0.5, 0.1, 2.0);
+  const double c = ctx.params.get_double("sigma_per_radius", 0.6, 0.1, 2.0);
+  const double unit = ctx.params.get_double("step_px", 1.0, 0.1, 8.0);
   const std::string fill = ctx.params.get_choice("fill", "auto", {"auto", "on", "off"});
   const Frame& frame = ctx.frame;
   const bool multi = frame.has_layers();
@@ -79,7 +80,7 @@ void render_layered(const MethodContext& ctx, Image& out) {
 
   double near_px, far_px;
   coc_extremes(frags, near_px, far_px);
-  const LayerPlan plan = plan_layers(near_px, far_px, cap, c);
+  const LayerPlan plan = plan_layers(near_px, far_px, cap, c, unit);
 
   Image layer, focus_layer;
   std::vector<std::uint8_t> hole;
@@ -116,8 +117,17 @@ void render_layered(const MethodContext& ctx, Image& out) {
     front.blur(plan.step_sigma[k]);
   }
 
-  // I = F over L_focus over B (S4 Eq. 2.7).
+  // Views of layers the plan does not use (k >= K) and of empty accumulators are transparent.
   const int w = frame.width(), h = frame.height();
+  const std::function<Image()> transparent = [&] { return Image(w, h, 4, 0.0f); };
+  for (int k = plan.count; k < kMaxLayers; ++k) {
+    ctx.debug.offer(("layer_" + std::to_string(k) + "_matted").c_str(), transparent);
+    ctx.debug.offer(("layer_" + std::to_string(k) + "_blurred").c_str(), transparent);
+  }
+  if (!back.has_content()) ctx.debug.offer("back", transparent);
+  if (!front.has_content()) ctx.debug.offer("front", transparent);
+
+  // I = F over L_focus over B (S4 Eq. 2.7).
   if (focus_full) out = focus_layer; else out = Image(w, h, 4, 0.0f);
   if (back.has_content()) {
     const Image& b = back.resolved();
@@ -138,7 +148,8 @@ const MethodDef& layered_method() {
       "layered",
       "Schedl & Wimmer layered DoF: depth layers blurred recursively and composited; partial occlusion from deep/multi-layer input",
       {{"layers", "9", "maximum number of depth layers K (3-16); fewer are used when the CoC range needs fewer"},
-       {"sigma_per_radius", "0.5", "Gaussian sigma per px of CoC radius (0.1-2); 0.5 = S4's d_pix = 4 sigma"},
+       {"sigma_per_radius", "0.6", "Gaussian sigma per px of CoC radius (0.1-2); S4 d_pix = 4 sigma gives 0.5, 0.6 measured best against the ground truth"},
+       {"step_px", "1", "unit of the per-step sigma sigma_k = unit * |k - k_focus| before fitting the scene's CoC range, px (0.1-8); smaller = more, finer layers"},
        {"fill", "auto", "inpaint disoccluded layer pixels by push-pull: auto (single-layer input only), on, off"}},
       debug_views(),
       render_layered};

@@ -1,0 +1,29 @@
+# Extra test wiring, included by the top CMakeLists.txt after the per-folder GoogleTest
+# executables are defined.
+
+# test_cli runs `dofkit render` in-process (OpenImageIO start-up makes one process per case
+# slow): it compiles the command's sources itself rather than spawning the binary, except for
+# a few end-to-end cases that run the built `dofkit` (DOFKIT_BINARY_DIR/dofkit).
+if(TARGET test_cli)
+  target_sources(test_cli PRIVATE
+    ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cmd_render.cpp
+    ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cli_common.cpp)
+  target_include_directories(test_cli PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit)
+  if(TARGET dofkit_cli)
+    add_dependencies(test_cli dofkit_cli)
+  endif()
+endif()
+
+# Library users (issue 2 item 8): install this build into a scratch prefix, then configure,
+# build and run a tiny project that does find_package(dofkit) and links dofkit::dofkit.
+# It needs the whole build (the install rules cover the CLI too), so it runs from CTest after
+# a full build, never as part of a partial one.
+add_test(NAME install_consumer
+  COMMAND ${CMAKE_COMMAND}
+    -DDOFKIT_BUILD_DIR=${CMAKE_CURRENT_BINARY_DIR}
+    -DCONSUMER_SOURCE_DIR=${CMAKE_CURRENT_SOURCE_DIR}/tests/consumer
+    -DWORK_DIR=${CMAKE_CURRENT_BINARY_DIR}/consumer-test
+    -DCMAKE_GENERATOR=${CMAKE_GENERATOR}
+    -DCMAKE_BUILD_TYPE=${CMAKE_BUILD_TYPE}
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/tests/consumer/run_consumer_test.cmake)
+set_tests_properties(install_consumer PROPERTIES TIMEOUT 600 LABELS "install")

@@ -1,0 +1,489 @@
+// `dofkit render`, run in-process through the same CLI11 command the binary registers (the
+// binary itself is spawned only by the few end-to-end cases at the bottom).
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <sstream>
+
+#include "commands.hpp"
+#include "dofkit/coc.hpp"
+#include "dofkit/error.hpp"
+#include "dofkit/render.hpp"
+#include "io/image_io.hpp"
+#include "io/io_test_util.hpp"
+
+using namespace dofkit;
+using namespace dofkit::test;
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+struct CliResult {
+  int code = -1;
+  std::string message;  // the one-line error (what main prints after "dofkit: error: ")
+  std::string out;      // stdout
+};
+
+// Parses and runs `dofkit render ARGS` like main.cpp does, mapping errors to exit codes.
+CliResult run_render(std::vector<std::string> args) {
+  CLI::App app{"dofkit"};
+  app.require_subcommand(1);
+  cli::add_render_command(app);
+  args.insert(args.begin(), "render");
+  std::vector<std::string> rev(args.rbegin(), args.rend());  // CLI11 consumes a reversed vector
+  CliResult r;
+  ::testing::internal::CaptureStdout();
+  try {
+    app.parse(rev);
+    r.code = 0;
+  } catch (const CLI::ParseError& e) {
+    r.code = e.get_exit_code() == 0 ? 0 : 2;
+    r.message = e.what();
+  } catch (const Error& e) {
+    r.code = e.exit_code();
+    r.message = e.what();
+  } catch (const std::exception& e) {
+    r.code = 1;
+    r.message = e.what();
+  }
+  r.out = ::testing::internal::GetCapturedStdout();
+  return r;
+}
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+// A 160×90 test frame: colour with detail; depth = 10 m background, a 2 m box, an infinitely
+// far strip on the left and a 0.5 m corner (beyond the ±40 px clamp of the exact call).
+// (160 px wide so the library's absolute cap of a quarter of the width is not below 40 px.)
+constexpr int W = 160, H = 90;
+constexpr int kBox = 45 * W + 80, kBackground = 10 * W + 130, kInfinite = 10 * W + 2, kCorner = 89 * W + 159;
+class RenderCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    color_ = test_rgba(W, H, true, true);
+    depth_ = Image(W, H, 1, 10.0f);
+    for (int y = 25; y < 65; ++y)
+      for (int x = 50; x < 110; ++x) depth_.at(x, y) = 2.0f;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < 6; ++x) depth_.at(x, y) = kInf;
+    depth_.at(W - 1, H - 1) = 0.5f;
+    io::write_image(dir_ / "c.exr", color_);
+    io::WriteOptions z;
+    z.channel_name = "Z";
+    io::write_image(dir_ / "z.exr", depth_, z);
+  }
+
+  std::vector<std::string> exact_call(const std::string& out = "out.exr") const {
+    return {"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus",  "4",  "--blur-at-infinity",
+            "24",      "--max-coc",    "40",      "--method", "reference", "--output", dir_ / out};
+  }
+
+  // Expects a failure with `code` whose message contains every part, and that no file but
+  // the inputs (and `keep`) is in the folder afterwards.
+  void expect_failure(const std::vector<std::string>& args, int code, std::initializer_list<const char*> parts,
+                      std::vector<std::string> keep = {}) {
+    const CliResult r = run_render(args);
+    EXPECT_EQ(r.code, code) << r.message;
+    for (const char* p : parts) EXPECT_TRUE(contains(r.message, p)) << "missing '" << p << "' in: " << r.message;
+    EXPECT_FALSE(contains(r.message, "\n")) << r.message;
+    keep.insert(keep.end(), {"c.exr", "z.exr"});
+    std::sort(keep.begin(), keep.end());
+    keep.erase(std::unique(keep.begin(), keep.end()), keep.end());
+    EXPECT_EQ(dir_.entries(), keep) << "an output or temporary file was left behind";
+  }
+
+  ScratchDir dir_;
+  Image color_, depth_;
+};
+
+}  // namespace
+
+TEST_F(RenderCli, ExactCallMatchesLibraryRender) {
+  const CliResult r = run_render(exact_call());
+  ASSERT_EQ(r.code, 0) << r.message;
+  const Image out = io::read_color(dir_ / "out.exr");
+  Frame f{color_, depth_, {}, {}};
+  RenderSettings s;
+  s.camera.model = BlurAtInfinity{4.0, 24.0};
+  s.camera.max_coc_px = 40;
+  const RenderResult want = render(f, s);
+  ASSERT_TRUE(out.same_size(want.image));
+  EXPECT_EQ(out.data(), want.image.data());  // float EXR: bit-exact
+  EXPECT_EQ(dir_.entries(), (std::vector<std::string>{"c.exr", "out.exr", "z.exr"}));
+}
+
+TEST_F(RenderCli, OutputCocIsSignedFloatPixels) {
+  auto args = exact_call();
+  args.insert(args.end(), {"--output-coc", dir_ / "coc.exr", "--threads", "2"});
+  ASSERT_EQ(run_render(args).code, 0);
+  auto in = OIIO::ImageInput::open(dir_ / "coc.exr");
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().nchannels, 1);
+  EXPECT_EQ(in->spec().format, OIIO::TypeDesc::FLOAT);
+  // r(z) = 24 (4/z − 1), clamped to ±40: z = 2 → +24; z = 10 → −14.4; z = ∞ → −24.
+  std::vector<float> raw(W * H);
+  ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, raw.data()));
+  EXPECT_NEAR(raw[kBox], 24.0f, 1e-4);
+  EXPECT_NEAR(raw[kBackground], -14.4f, 1e-4);
+  EXPECT_NEAR(raw[kInfinite], -24.0f, 1e-4);
+  EXPECT_NEAR(raw[kCorner], 40.0f, 1e-4);  // 0.5 m: 168 px clamped to 40
+}
+
+TEST_F(RenderCli, ColourExrWithOwnZChannel) {
+  std::vector<float> px;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      px.insert(px.end(), {color_.at(x, y, 0), color_.at(x, y, 1), color_.at(x, y, 2), 1.0f, depth_.at(x, y)});
+  raw_write(dir_ / "cz.exr", W, H, {"R", "G", "B", "A", "Z"}, px);
+  ASSERT_EQ(run_render({"--color", dir_ / "cz.exr", "--focus", "4", "--blur-at-infinity", "24", "--output",
+                        dir_ / "a.exr"})
+                .code,
+            0);
+  ASSERT_EQ(run_render({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus", "4", "--blur-at-infinity",
+                        "24", "--output", dir_ / "b.exr"})
+                .code,
+            0);
+  EXPECT_EQ(io::read_color(dir_ / "a.exr").data(), io::read_color(dir_ / "b.exr").data());
+}
+
+TEST_F(RenderCli, EveryCocModelMatchesTheLibraryModel) {
+  struct Case {
+    std::vector<std::string> flags;
+    CameraModel camera;
+  };
+  CameraModel thin{ThinLens{35, 2.0, 3.0, 24}};
+  CameraModel planes{FourPlane{1.0, 2.0, 4.0, 20.0, 12.0, 6.0, true}};
+  CameraModel sc{StarCraft{4.0, 1.0, 6.0, 1.0, 9.0}};
+  CameraModel nf{NearFarBlend{1.0, 3.0, 5.0, 12.0, 7.0}};
+  CameraModel k{BlurAtInfinity{4.0, 24.0}};
+  k.reference_width_px = 320;  // radii given at 320 px → halved on this 160 px image
+  const std::vector<Case> cases = {
+      {{"--f-number", "2", "--focus", "3", "--focal-length", "35", "--sensor-width", "24"}, thin},
+      {{"--planes", "1,2,4,20", "--near-radius", "12", "--far-radius", "6", "--planes-ramp", "inverse-z"}, planes},
+      {{"--starcraft", "4,1,6,1", "--max-radius", "9"}, sc},
+      {{"--near-far", "1,3,5,12", "--max-radius", "7"}, nf},
+      {{"--blur-at-infinity", "24", "--focus", "4", "--reference-width", "320"}, k},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> args = {"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--output",
+                                     dir_ / "o.exr", "--output-coc", dir_ / "coc.exr"};
+    args.insert(args.end(), c.flags.begin(), c.flags.end());
+    const CliResult r = run_render(args);
+    ASSERT_EQ(r.code, 0) << c.flags[0] << ": " << r.message;
+    auto in = OIIO::ImageInput::open(dir_ / "coc.exr");
+    std::vector<float> raw(W * H);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, raw.data()));
+    const CocFunction f(c.camera, W);
+    for (int i : {0, kBox, kBackground, kInfinite, kCorner})
+      EXPECT_FLOAT_EQ(raw[i], f(depth_.plane(0)[i])) << c.flags[0] << " pixel " << i;
+  }
+}
+
+TEST_F(RenderCli, FocusAtUsesTheDepthUnderThePixel) {
+  auto args = std::vector<std::string>{"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--blur-at-infinity",
+                                       "24", "--focus-at", "80,45", "--output", dir_ / "o.exr", "--output-coc",
+                                       dir_ / "coc.exr"};
+  ASSERT_EQ(run_render(args).code, 0);
+  auto in = OIIO::ImageInput::open(dir_ / "coc.exr");
+  std::vector<float> raw(W * H);
+  ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, raw.data()));
+  EXPECT_NEAR(raw[kBox], 0.0f, 1e-5);  // the 2 m box is in focus
+  EXPECT_NEAR(raw[kBackground], 24 * (2.0 / 10 - 1), 1e-4);  // background: r = K (2/10 − 1)
+}
+
+TEST_F(RenderCli, InvalidDepthFarAccepted) {
+  Image z = depth_;
+  z.at(3, 1) = std::numeric_limits<float>::quiet_NaN();
+  z.at(7, 2) = -1.0f;
+  io::write_image(dir_ / "z.exr", z);
+  auto args = exact_call();
+  args.insert(args.end(), {"--invalid-depth", "far"});
+  const CliResult r = run_render(args);
+  EXPECT_EQ(r.code, 0) << r.message;
+}
+
+TEST_F(RenderCli, DebugViewListPrintsTheMethodsViews) {
+  const CliResult r = run_render({"--method", "reference", "--debug-view", "list"});
+  EXPECT_EQ(r.code, 0) << r.message;
+  for (const auto& m : methods())
+    if (m.name == "reference") {
+      if (m.debug_views.empty()) EXPECT_TRUE(contains(r.out, "no debug views")) << r.out;
+      for (const auto& v : m.debug_views) EXPECT_TRUE(contains(r.out, v.name)) << r.out;
+    }
+}
+
+TEST_F(RenderCli, DebugViewWritten) {
+  // Any method of this build that offers a view (reference has none).
+  std::string method, view;
+  for (const auto& m : methods())
+    if (view.empty() && !m.debug_views.empty()) method = m.name, view = m.debug_views[0].name;
+  if (view.empty()) GTEST_SKIP() << "no method in this build has debug views";
+  auto a = exact_call();
+  a[11] = method;
+  a.insert(a.end(), {"--debug-view", view, "--debug-output", dir_ / "dbg.exr"});
+  const CliResult r = run_render(a);
+  ASSERT_EQ(r.code, 0) << r.message;
+  auto in = OIIO::ImageInput::open(dir_ / "dbg.exr");
+  ASSERT_TRUE(in) << method << "/" << view;
+  EXPECT_GT(in->spec().width, 0);
+}
+
+// ---- error paths: message names the flag/file, exit code, and no output file ----
+
+TEST_F(RenderCli, MissingColourFile) {
+  auto a = exact_call();
+  a[1] = dir_ / "nope.exr";
+  expect_failure(a, 3, {"nope.exr", "does not exist"});
+}
+
+TEST_F(RenderCli, MissingDepthFile) {
+  auto a = exact_call();
+  a[3] = dir_ / "nodepth.exr";
+  expect_failure(a, 3, {"nodepth.exr", "does not exist"});
+}
+
+TEST_F(RenderCli, CorruptColourFile) {
+  write_bytes(dir_ / "bad.exr", std::string(500, 'x'));
+  auto a = exact_call();
+  a[1] = dir_ / "bad.exr";
+  expect_failure(a, 3, {"bad.exr"}, {"bad.exr"});
+}
+
+TEST_F(RenderCli, TruncatedDepthFile) {
+  const std::string bytes = read_bytes(dir_ / "z.exr");
+  write_bytes(dir_ / "cut.exr", bytes.substr(0, bytes.size() * 2 / 3));
+  auto a = exact_call();
+  a[3] = dir_ / "cut.exr";
+  expect_failure(a, 3, {"cut.exr"}, {"cut.exr"});
+}
+
+TEST_F(RenderCli, SizeMismatch) {
+  io::write_image(dir_ / "small.exr", Image(80, 90, 1, 3.0f));
+  auto a = exact_call();
+  a[3] = dir_ / "small.exr";
+  expect_failure(a, 3, {"small.exr", "80x90", "160x90"}, {"small.exr"});
+}
+
+TEST_F(RenderCli, NanAndNegativeDepthReportCountAndFirstPixel) {
+  Image z = depth_;
+  z.at(7, 2) = -1.0f;
+  z.at(3, 1) = std::numeric_limits<float>::quiet_NaN();
+  z.at(9, 9) = 0.0f;
+  io::write_image(dir_ / "z.exr", z);
+  expect_failure(exact_call(), 3, {"z.exr", "3 invalid", "first at pixel (3, 1)", "--invalid-depth far"});
+}
+
+TEST_F(RenderCli, FNumberNotPositive) {
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus", "4", "--f-number", "0", "--output",
+                  dir_ / "o.exr"},
+                 2, {"--f-number", "> 0"});
+}
+
+TEST_F(RenderCli, FocusNotBeyondFocalLength) {
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus", "0.04", "--f-number", "2.8",
+                  "--output", dir_ / "o.exr"},
+                 2, {"--focus", "focal length"});
+}
+
+TEST_F(RenderCli, PlanesOutOfOrder) {
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--planes", "2,1,4,20", "--near-radius", "8",
+                  "--far-radius", "8", "--output", dir_ / "o.exr"},
+                 2, {"--planes", "NB < NS"});
+}
+
+TEST_F(RenderCli, PlanesMalformed) {
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--planes", "1,2,x", "--near-radius", "8",
+                  "--far-radius", "8", "--output", dir_ / "o.exr"},
+                 2, {"--planes", "NB,NS,FS,FB", "1,2,x"});
+}
+
+TEST_F(RenderCli, UnknownMethod) {
+  auto a = exact_call();
+  a[11] = "nosuchmethod";
+  expect_failure(a, 2, {"--method nosuchmethod", "unknown method", "reference"});
+}
+
+TEST_F(RenderCli, OutputEqualToInput) {
+  const std::string before = read_bytes(dir_ / "z.exr");
+  auto a = exact_call();
+  a.back() = dir_ / "z.exr";
+  expect_failure(a, 2, {"--output", "--depth", "same file"});
+  // A different spelling of the same path is caught too (canonical comparison).
+  a.back() = (dir_.path() / "." / "sub" / ".." / "c.exr").string();
+  std::filesystem::create_directory(dir_.path() / "sub");
+  expect_failure(a, 2, {"--output", "--color"}, {"sub"});
+  EXPECT_EQ(read_bytes(dir_ / "z.exr"), before);
+}
+
+TEST_F(RenderCli, OutputCocEqualToOutput) {
+  auto a = exact_call();
+  a.insert(a.end(), {"--output-coc", dir_ / "out.exr"});
+  expect_failure(a, 2, {"--output-coc", "same file"});
+}
+
+TEST_F(RenderCli, ExistingOutputUntouchedOnError) {
+  write_bytes(dir_ / "out.exr", "previous result");
+  Image z = depth_;
+  z.at(0, 0) = -5.0f;
+  io::write_image(dir_ / "z.exr", z);
+  expect_failure(exact_call(), 3, {"z.exr", "invalid"}, {"out.exr"});
+  EXPECT_EQ(read_bytes(dir_ / "out.exr"), "previous result");
+}
+
+TEST_F(RenderCli, NoModelOrTwoModels) {
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus", "4", "--output", dir_ / "o.exr"}, 2,
+                 {"no CoC model"});
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus", "4", "--blur-at-infinity", "3",
+                  "--f-number", "2", "--output", dir_ / "o.exr"},
+                 2, {"--f-number", "--blur-at-infinity", "exactly one"});
+}
+
+TEST_F(RenderCli, ConflictingFocusFlags) {
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--blur-at-infinity", "3", "--output",
+                  dir_ / "o.exr"},
+                 2, {"--focus"});
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus", "4", "--focus-at", "3,3",
+                  "--blur-at-infinity", "3", "--output", dir_ / "o.exr"},
+                 2, {"--focus-at"});
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus", "4", "--planes", "1,2,4,20",
+                  "--near-radius", "8", "--far-radius", "8", "--output", dir_ / "o.exr"},
+                 2, {"--focus", "--planes"});
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus", "4", "--blur-at-infinity", "3",
+                  "--near-radius", "8", "--output", dir_ / "o.exr"},
+                 2, {"--near-radius", "--planes"});
+}
+
+TEST_F(RenderCli, BadSetParameters) {
+  auto a = exact_call();
+  a.insert(a.end(), {"--set", "nonsense"});
+  expect_failure(a, 2, {"--set nonsense", "KEY=VALUE"});
+  a.back() = "no_such_key=1";
+  expect_failure(a, 2, {"--set no_such_key=1", "unknown parameter"});
+}
+
+TEST_F(RenderCli, DepthKindFlags) {
+  auto a = exact_call();
+  a.insert(a.end(), {"--depth-kind", "distance"});
+  expect_failure(a, 2, {"--fov-deg"});
+  a = exact_call();
+  a.insert(a.end(), {"--clip", "0.1,100"});
+  expect_failure(a, 2, {"--clip", "ndc"});
+}
+
+TEST_F(RenderCli, UnsupportedOutputFormatAndMissingFolder) {
+  expect_failure(exact_call("out.bmp"), 2, {"--output", "out.bmp", "unsupported"});
+  expect_failure(exact_call("nodir/out.exr"), 3, {"--output", "nodir", "does not exist"});
+  auto a = exact_call();
+  a.insert(a.end(), {"--output-coc", dir_ / "coc.png"});
+  expect_failure(a, 2, {"--output-coc", ".exr"});
+}
+
+TEST_F(RenderCli, UnknownDebugView) {
+  auto a = exact_call();
+  a.insert(a.end(), {"--debug-view", "nosuchview", "--debug-output", dir_ / "d.exr"});
+  expect_failure(a, 2, {"--debug-view nosuchview"});
+}
+
+TEST_F(RenderCli, NegativeThreads) {
+  auto a = exact_call();
+  a.insert(a.end(), {"--threads", "-1"});
+  expect_failure(a, 2, {"--threads"});
+}
+
+TEST_F(RenderCli, MaskNeedsMaskDepth) {
+  io::write_image(dir_ / "m.exr", Image(W, H, 1, 0.5f));
+  auto a = exact_call();
+  a.insert(a.end(), {"--mask", dir_ / "m.exr"});
+  expect_failure(a, 2, {"--mask-depth"}, {"m.exr"});
+}
+
+TEST_F(RenderCli, MaskedRender) {
+  Image m(W, H, 1, 0.0f);
+  for (int y = 0; y < H; ++y)
+    for (int x = 100; x < W; ++x) m.at(x, y) = 1.0f;
+  io::write_image(dir_ / "m.exr", m);
+  io::WriteOptions zo;
+  zo.channel_name = "Z";
+  io::write_image(dir_ / "mz.exr", Image(W, H, 1, 4.0f), zo);
+  auto a = exact_call();
+  a.insert(a.end(), {"--mask", dir_ / "m.exr", "--mask-depth", dir_ / "mz.exr"});
+  const CliResult r = run_render(a);
+  ASSERT_EQ(r.code, 0) << r.message;
+  // The command passes the mask and its depth through to the library unchanged.
+  Frame f{color_, depth_, {}, {}};
+  RenderSettings st;
+  st.camera.model = BlurAtInfinity{4.0, 24.0};
+  st.camera.max_coc_px = 40;
+  const RenderResult want = render_masked(f, m, Image(W, H, 1, 4.0f), st);
+  EXPECT_EQ(io::read_color(dir_ / "out.exr").data(), want.image.data());
+  // … and the masked region really changed the picture (it is at the focus distance there).
+  const RenderResult plain = render(f, st);
+  EXPECT_NE(plain.image.data(), want.image.data());
+}
+
+// ---- end to end: the built binary ----
+
+namespace {
+struct ProcResult {
+  int code;
+  std::string err;
+};
+ProcResult spawn(const std::string& args, const ScratchDir& dir) {
+  const std::string err_file = dir / "stderr.txt";
+  const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit " + args + " 2>" + err_file + " >/dev/null";
+  const int status = std::system(cmd.c_str());
+  ProcResult r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_bytes(err_file)};
+  std::filesystem::remove(err_file);
+  return r;
+}
+std::string q(const std::string& s) { return "'" + s + "'"; }
+}  // namespace
+
+TEST_F(RenderCli, EndToEndExactCall) {
+  const ProcResult r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") +
+                                 " --focus 4 --blur-at-infinity 24 --max-coc 40 --method reference --output " +
+                                 q(dir_ / "out.exr"),
+                             dir_);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Image out = io::read_color(dir_ / "out.exr");
+  EXPECT_EQ(out.width(), W);
+  EXPECT_EQ(out.height(), H);
+  EXPECT_EQ(dir_.entries(), (std::vector<std::string>{"c.exr", "out.exr", "z.exr"}));
+}
+
+TEST_F(RenderCli, EndToEndErrorsAreOneLineWithExitCodes) {
+  ProcResult r = spawn("render --color " + q(dir_ / "missing.exr") + " --depth " + q(dir_ / "z.exr") +
+                           " --focus 4 --blur-at-infinity 24 --output " + q(dir_ / "out.exr"),
+                       dir_);
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_EQ(r.err.rfind("dofkit: error: ", 0), 0u) << r.err;
+  EXPECT_TRUE(contains(r.err, "missing.exr")) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") +
+                " --focus 4 --f-number -2 --output " + q(dir_ / "out.exr"),
+            dir_);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_TRUE(contains(r.err, "--f-number")) << r.err;
+  r = spawn("render --bogus-flag", dir_);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_EQ(dir_.entries(), (std::vector<std::string>{"c.exr", "z.exr"}));
+}
+
+TEST_F(RenderCli, EndToEndHelpDocumentsEveryFlag) {
+  const std::string out_file = dir_ / "help.txt";
+  const int status = std::system((std::string(DOFKIT_BINARY_DIR) + "/dofkit render --help >" + out_file).c_str());
+  ASSERT_EQ(WEXITSTATUS(status), 0);
+  const std::string help = read_bytes(out_file);
+  for (const char* flag :
+       {"--color", "--depth", "--output", "--method", "--focus", "--f-number", "--focal-length", "--sensor-width",
+        "--blur-at-infinity", "--planes", "--near-radius", "--far-radius", "--starcraft", "--max-radius", "--near-far",
+        "--max-coc", "--focus-at", "--depth-kind", "--fov-deg", "--disparity-scale", "--clip", "--invalid-depth",
+        "--output-coc", "--threads", "--set", "--debug-view", "--debug-output", "--layers", "--mask", "--mask-depth",
+        "Examples:", "Exit codes"})
+    EXPECT_TRUE(contains(help, flag)) << flag;
+}

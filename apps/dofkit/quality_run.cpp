@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <mutex>
 #include <sstream>
 
 #include <fmt/core.h>
@@ -45,7 +46,32 @@ class Progress {
  public:
   Progress() : tty_(isatty(fileno(stderr)) != 0), t0_(std::chrono::steady_clock::now()) {}
   ~Progress() { finish(); }
+  bool animated() const { return tty_; }
+  /// Fraction of the current step done (thread-safe; redraws only on a terminal, at most
+  /// once per percent).
+  void partial(double fraction) {
+    if (!tty_) return;
+    std::lock_guard<std::mutex> lock(mutex_);
+    const int pct = static_cast<int>(fraction * 100);
+    if (pct == last_pct_) return;
+    last_pct_ = pct;
+    step_locked(done_, total_, what_ + " " + std::to_string(pct) + " %");
+  }
   void step(int done, int total, const std::string& what) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    done_ = done;
+    total_ = total;
+    what_ = what;
+    last_pct_ = -1;
+    step_locked(done, total, what);
+  }
+  void finish() {
+    if (open_) std::fprintf(stderr, "\r\033[K");
+    open_ = false;
+  }
+
+ private:
+  void step_locked(int done, int total, const std::string& what) {
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
     const int width = 24, filled = total > 0 ? width * done / total : 0;
     if (tty_) {
@@ -57,13 +83,11 @@ class Progress {
     }
     std::fflush(stderr);
   }
-  void finish() {
-    if (open_) std::fprintf(stderr, "\r\033[K");
-    open_ = false;
-  }
 
- private:
   bool tty_;
+  std::mutex mutex_;
+  int done_ = 0, total_ = 0, last_pct_ = -1;
+  std::string what_;
   bool open_ = false;
   std::chrono::steady_clock::time_point t0_;
 };
@@ -90,7 +114,7 @@ void write_text(const std::string& path, const std::string& text) {
 }
 
 // Error heat map scale: display-value difference (mean over R, G, B) drawn white.
-constexpr float kHeatMax = 0.1f;
+constexpr float kHeatMax = 0.2f;
 
 }  // namespace
 
@@ -203,6 +227,8 @@ QualityResult run_quality(const QualityOptions& opt) {
     so.width = opt.width;
     so.height = opt.height;
     so.samples = opt.samples;
+    so.threads = opt.threads;
+    so.progress = [&progress](double f) { progress.partial(f); };
     scene::SceneRender sr;
     core::with_threads(opt.threads, [&] { sr = scene::render_scene(name, so); });
     ++done;
@@ -249,7 +275,7 @@ QualityResult run_quality(const QualityOptions& opt) {
       ++done;
     }
     const std::string heading = fmt::format(
-        "{} {}x{} - top: image, bottom: error vs ground truth (black 0, white >= {:.1f})", name,
+        "{} {}x{} - top: image; bottom: |error| vs ground truth, mean over RGB of sRGB values: black 0, red, yellow, white >= {:.1f}", name,
         opt.width, opt.height, kHeatMax);
     const int columns = std::min<int>(cells.size(), tile_w <= 400 ? 5 : 4);
     const Image sheet = metrics::contact_sheet(heading, cells, columns, font);

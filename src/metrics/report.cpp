@@ -214,9 +214,39 @@ Image downsample(const Image& img, int factor) {
   return out;
 }
 
+std::vector<std::string> wrap_text(const std::string& text, int max_width, int scale) {
+  // Greedy word wrap; a word longer than a line is cut.
+  const int max_chars = std::max(1, (max_width + scale) / (6 * scale));
+  std::vector<std::string> lines;
+  std::string line, word;
+  auto flush_word = [&] {
+    while (!word.empty()) {
+      const std::string sep = line.empty() ? "" : " ";
+      if (static_cast<int>(line.size() + sep.size() + word.size()) <= max_chars) {
+        line += sep + word;
+        word.clear();
+      } else if (line.empty()) {
+        lines.push_back(word.substr(0, max_chars));
+        word.erase(0, max_chars);
+      } else {
+        lines.push_back(line);
+        line.clear();
+      }
+    }
+  };
+  for (char ch : text) {
+    if (ch == ' ') flush_word();
+    else word += ch;
+  }
+  flush_word();
+  if (!line.empty() || lines.empty()) lines.push_back(line);
+  return lines;
+}
+
 Image contact_sheet(const std::string& heading, const std::vector<SheetCell>& cells, int columns,
                     int font_scale) {
   if (cells.empty()) throw_usage("contact_sheet: no cells");
+  font_scale = std::max(1, font_scale);
   columns = std::clamp(columns, 1, static_cast<int>(cells.size()));
   int tw = 0, th_top = 0, th_bottom = 0;
   for (const SheetCell& c : cells) {
@@ -224,26 +254,40 @@ Image contact_sheet(const std::string& heading, const std::vector<SheetCell>& ce
     th_top = std::max(th_top, c.top.height());
     th_bottom = std::max(th_bottom, c.bottom.height());
   }
-  const int pad = 4 * font_scale, line = text_height(font_scale) + 2 * font_scale;
+  // Labels wrap to the tile width; every cell reserves as many lines as the longest one.
+  std::size_t title_lines = 1, caption_lines = 1;
+  for (const SheetCell& c : cells) {
+    title_lines = std::max(title_lines, wrap_text(c.title, tw, font_scale).size());
+    caption_lines = std::max(caption_lines, wrap_text(c.caption, tw, font_scale).size());
+  }
+  const int pad = 4 * font_scale, line = text_height(font_scale) + 3 * font_scale;
   const int cell_w = tw + pad;
-  const int cell_h = line + th_top + (th_bottom > 0 ? line + th_bottom : 0) + pad;
+  const int cell_h = static_cast<int>(title_lines) * line + th_top +
+                     (th_bottom > 0 ? static_cast<int>(caption_lines) * line + th_bottom : 0) + pad;
   const int rows = (static_cast<int>(cells.size()) + columns - 1) / columns;
-  const int head_h = line + pad;
-  Image sheet(pad + columns * cell_w, head_h + rows * cell_h + pad, 4, 1.0f);
-  const Rgb bg{0.012f, 0.012f, 0.015f}, white{1, 1, 1}, grey{0.45f, 0.45f, 0.45f};
+  const int sheet_w = pad + columns * cell_w;
+  const std::vector<std::string> head = wrap_text(heading, sheet_w - 2 * pad, font_scale);
+  const int head_h = static_cast<int>(head.size()) * line + pad;
+  Image sheet(sheet_w, head_h + rows * cell_h + pad, 4, 1.0f);
+  const Rgb bg{0.012f, 0.012f, 0.015f}, white{1, 1, 1}, grey{0.5f, 0.5f, 0.5f};
   fill(sheet, 0, 0, sheet.width(), sheet.height(), bg);
-  draw_text(sheet, pad, pad, heading, font_scale, white);
+  for (std::size_t i = 0; i < head.size(); ++i)
+    draw_text(sheet, pad, pad + static_cast<int>(i) * line, head[i], font_scale, white);
   for (std::size_t i = 0; i < cells.size(); ++i) {
     const SheetCell& c = cells[i];
     const int x0 = pad + static_cast<int>(i % columns) * cell_w;
     int y = head_h + static_cast<int>(i / columns) * cell_h;
-    draw_text(sheet, x0, y + font_scale, c.title, font_scale, white);
-    y += line;
+    const auto title = wrap_text(c.title, tw, font_scale);
+    for (std::size_t k = 0; k < title.size(); ++k)
+      draw_text(sheet, x0, y + font_scale + static_cast<int>(k) * line, title[k], font_scale, white);
+    y += static_cast<int>(title_lines) * line;
     blit(sheet, c.top, x0, y);
     y += th_top;
     if (th_bottom > 0) {
-      draw_text(sheet, x0, y + font_scale, c.caption, font_scale, grey);
-      y += line;
+      const auto caption = wrap_text(c.caption, tw, font_scale);
+      for (std::size_t k = 0; k < caption.size(); ++k)
+        draw_text(sheet, x0, y + font_scale + static_cast<int>(k) * line, caption[k], font_scale, grey);
+      y += static_cast<int>(caption_lines) * line;
       blit(sheet, c.bottom, x0, y);
     }
   }

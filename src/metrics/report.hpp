@@ -48,8 +48,12 @@ struct SheetCell {
   Image bottom;
 };
 
+/// Splits `text` at spaces into lines at most `max_width` px wide at `scale` (a longer word
+/// is cut); always at least one line.
+std::vector<std::string> wrap_text(const std::string& text, int max_width, int scale);
+
 /// Lays the cells out in a grid of `columns` columns on a dark background with
-/// `font_scale`-sized labels and a heading line. Every cell is sized to the largest images.
+/// `font_scale`-sized labels (wrapped to the tile width) and a heading. Every cell is sized to the largest images.
 /// Returns RGBA linear (alpha 1).
 Image contact_sheet(const std::string& heading, const std::vector<SheetCell>& cells, int columns,
                     int font_scale);

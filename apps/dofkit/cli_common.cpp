@@ -113,7 +113,8 @@ void CameraFlags::add(CLI::App* cmd, const std::string& group) {
                                 "--starcraft / --near-far: radius of full blur, pixels (>= 0; default 16 for "
                                 "--starcraft, 12 for --near-far)")
                     ->group(group);
-  max_coc_ = cmd->add_option("--max-coc", max_coc_px_, "clamp every CoC radius to this many pixels (> 0; default: none)")
+  max_coc_ = cmd->add_option("--max-coc", max_coc_px_, "clamp every CoC radius to this many pixels (> 0; default: none). Radii are also capped at a "
+                               "quarter of the image width (at least 8 px)")
                  ->group(group);
   reference_width_ = cmd->add_option("--reference-width", reference_width_px_,
                                      "image width, pixels, at which pixel radii are given (default: the input's width); "

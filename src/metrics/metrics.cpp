@@ -97,6 +97,8 @@ double ssim_plane(const float* a, const float* b, int w, int h) {
     // side, borders reflected): ux, uy, uxx, uyy, uxy.
     std::vector<double> hbuf;
     std::vector<double> tmp(5 * static_cast<std::size_t>(w));
+    std::vector<double> pad[5];
+    for (auto& v : pad) v.resize(w + 2 * kRadius);
     for (int s = s0; s < s1; ++s) {
       const int y0 = s * kStripRows, y1 = std::min(h, y0 + kStripRows);
       const int nrows = y1 - y0 + 2 * kRadius;
@@ -105,24 +107,25 @@ double ssim_plane(const float* a, const float* b, int w, int h) {
         const int sy = reflect_index(y0 - kRadius + r, h);
         const float* ra = a + static_cast<std::size_t>(sy) * w;
         const float* rb = b + static_cast<std::size_t>(sy) * w;
-        double* m[5];
-        for (int q = 0; q < 5; ++q) m[q] = hbuf.data() + (static_cast<std::size_t>(q) * nrows + r) * w;
-        for (int x = 0; x < w; ++x) {
-          double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
-          for (int k = -kRadius; k <= kRadius; ++k) {
-            const int sx = (x + k >= 0 && x + k < w) ? x + k : reflect_index(x + k, w);
-            const double va = ra[sx], vb = rb[sx], wk = g[k + kRadius];
-            sa += wk * va;
-            sb += wk * vb;
-            saa += wk * va * va;
-            sbb += wk * vb * vb;
-            sab += wk * va * vb;
+        // The row and its products with kRadius reflected samples each side, so the
+        // filter below is a plain loop over x for each tap.
+        for (int i = 0; i < w + 2 * kRadius; ++i) {
+          const int sx = reflect_index(i - kRadius, w);
+          const double va = ra[sx], vb = rb[sx];
+          pad[0][i] = va;
+          pad[1][i] = vb;
+          pad[2][i] = va * va;
+          pad[3][i] = vb * vb;
+          pad[4][i] = va * vb;
+        }
+        for (int q = 0; q < 5; ++q) {
+          double* m = hbuf.data() + (static_cast<std::size_t>(q) * nrows + r) * w;
+          const double* p = pad[q].data();
+          std::fill(m, m + w, 0.0);
+          for (int k = 0; k < kTaps; ++k) {
+            const double wk = g[k];
+            for (int x = 0; x < w; ++x) m[x] += wk * p[x + k];
           }
-          m[0][x] = sa;
-          m[1][x] = sb;
-          m[2][x] = saa;
-          m[3][x] = sbb;
-          m[4][x] = sab;
         }
       }
       for (int y = y0; y < y1; ++y) {
@@ -155,32 +158,44 @@ double ssim_plane(const float* a, const float* b, int w, int h) {
   return ordered_sum(row_sums) / count;
 }
 
-/// Sum over masked pixels (mask null = all) of squared display differences over R, G, B.
-void masked_sse(const Image& ref, const Image& test, const Image* mask, double& sse, double& count) {
-  const int w = ref.width(), h = ref.height();
+/// Sum over masked pixels (mask null = all) of squared differences of display planes
+/// (3 planes of W × H each) over R, G, B; `count` = number of pixels summed.
+void masked_sse(const std::vector<float>& da, const std::vector<float>& db, int w, int h,
+                const Image* mask, double& sse, double& count) {
+  const std::size_t n = static_cast<std::size_t>(w) * h;
   std::vector<double> row_sse(h, 0.0), row_n(h, 0.0);
   core::parallel_for(
       h,
       [&](int y0, int y1) {
         for (int y = y0; y < y1; ++y) {
           const float* m = mask ? mask->row(0, y) : nullptr;
-          double s = 0, n = 0;
+          const std::size_t o = static_cast<std::size_t>(y) * w;
+          double s = 0, cnt = 0;
           for (int x = 0; x < w; ++x) {
             if (m && !(m[x] > 0.5f)) continue;
             for (int c = 0; c < 3; ++c) {
-              const double d = static_cast<double>(display_value(ref.row(c, y)[x])) -
-                               display_value(test.row(c, y)[x]);
+              const double d = static_cast<double>(da[c * n + o + x]) - db[c * n + o + x];
               s += d * d;
             }
-            n += 1;
+            cnt += 1;
           }
           row_sse[y] = s;
-          row_n[y] = n;
+          row_n[y] = cnt;
         }
       },
       8);
   sse = ordered_sum(row_sse);
   count = ordered_sum(row_n);
+}
+
+double ssim_display(const std::vector<float>& da, const std::vector<float>& db, int w, int h) {
+  if (w < kTaps || h < kTaps)
+    throw_bad_input("ssim: images are " + std::to_string(w) + "x" + std::to_string(h) +
+                    ", the 11x11 SSIM window needs at least 11x11 pixels");
+  const std::size_t n = static_cast<std::size_t>(w) * h;
+  double total = 0;
+  for (int c = 0; c < 3; ++c) total += ssim_plane(da.data() + c * n, db.data() + c * n, w, h);
+  return total / 3.0;
 }
 
 double psnr_from(double sse, double pixels) {
@@ -212,7 +227,7 @@ float display_value(float v) {
 double psnr(const Image& ref, const Image& test) {
   check_pair(ref, test, "psnr");
   double sse = 0, n = 0;
-  masked_sse(ref, test, nullptr, sse, n);
+  masked_sse(display_planes(ref), display_planes(test), ref.width(), ref.height(), nullptr, sse, n);
   return psnr_from(sse, n);
 }
 
@@ -220,21 +235,13 @@ double psnr_masked(const Image& ref, const Image& test, const Image& mask) {
   check_pair(ref, test, "psnr_masked");
   check_mask(ref, mask, "psnr_masked");
   double sse = 0, n = 0;
-  masked_sse(ref, test, &mask, sse, n);
+  masked_sse(display_planes(ref), display_planes(test), ref.width(), ref.height(), &mask, sse, n);
   return psnr_from(sse, n);
 }
 
 double ssim(const Image& ref, const Image& test) {
   check_pair(ref, test, "ssim");
-  const int w = ref.width(), h = ref.height();
-  if (w < kTaps || h < kTaps)
-    throw_bad_input("ssim: images are " + std::to_string(w) + "x" + std::to_string(h) +
-                    ", the 11x11 SSIM window needs at least 11x11 pixels");
-  const std::vector<float> a = display_planes(ref), b = display_planes(test);
-  const std::size_t n = ref.plane_size();
-  double total = 0;
-  for (int c = 0; c < 3; ++c) total += ssim_plane(a.data() + c * n, b.data() + c * n, w, h);
-  return total / 3.0;
+  return ssim_display(display_planes(ref), display_planes(test), ref.width(), ref.height());
 }
 
 double rmse_linear(const Image& ref, const Image& test) {
@@ -331,14 +338,19 @@ Image edge_band(const Image& depth, int band_px, double jump) {
 }
 
 Scores compare_with_mask(const Image& ref, const Image& test, const Image* band_mask) {
+  check_pair(ref, test, "compare");
+  if (band_mask) check_mask(ref, *band_mask, "edge PSNR");
+  const int w = ref.width(), h = ref.height();
+  // Display values once for all scores.
+  const std::vector<float> da = display_planes(ref), db = display_planes(test);
   Scores s;
-  s.psnr_db = psnr(ref, test);
-  s.ssim = ssim(ref, test);
+  double sse = 0, n = 0;
+  masked_sse(da, db, w, h, nullptr, sse, n);
+  s.psnr_db = psnr_from(sse, n);
+  s.ssim = ssim_display(da, db, w, h);
   s.rmse_linear = rmse_linear(ref, test);
   if (band_mask) {
-    check_mask(ref, *band_mask, "edge PSNR");
-    double sse = 0, n = 0;
-    masked_sse(ref, test, band_mask, sse, n);
+    masked_sse(da, db, w, h, band_mask, sse, n);
     s.edge_psnr_db = psnr_from(sse, n);
     s.edge_fraction = n / static_cast<double>(ref.plane_size());
   }

@@ -15,6 +15,7 @@
 #include "dofkit/render.hpp"
 #include "io/image_io.hpp"
 #include "io/io_test_util.hpp"
+#include "io/layers_io.hpp"
 
 using namespace dofkit;
 using namespace dofkit::test;
@@ -486,4 +487,29 @@ TEST_F(RenderCli, EndToEndHelpDocumentsEveryFlag) {
         "--output-coc", "--threads", "--set", "--debug-view", "--debug-output", "--layers", "--mask", "--mask-depth",
         "Examples:", "Exit codes"})
     EXPECT_TRUE(contains(help, flag)) << flag;
+}
+
+TEST_F(RenderCli, LayersFileAloneIsAFrame) {
+  // Two fragments per pixel: the visible surface and a hidden one behind it.
+  Frame f{color_, depth_, {}, {}};
+  f.layer_color = {color_, Image(W, H, 4, 0.25f)};
+  Image behind(W, H, 1, 20.0f);
+  f.layer_depth = {depth_, behind};
+  io::write_layers_exr(dir_ / "layers.exr", f);
+  const CliResult r = run_render({"--layers", dir_ / "layers.exr", "--focus", "4", "--blur-at-infinity", "24",
+                                  "--max-coc", "40", "--output", dir_ / "out.exr", "--output-coc", dir_ / "coc.exr"});
+  ASSERT_EQ(r.code, 0) << r.message;
+  // Depth comes from the nearest fragment: the CoC map equals the one of the visible depth.
+  std::vector<float> raw(W * H);
+  auto in = OIIO::ImageInput::open(dir_ / "coc.exr");
+  ASSERT_TRUE(in && in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, raw.data()));
+  EXPECT_NEAR(raw[kBox], 24.0f, 1e-4);
+  EXPECT_NEAR(raw[kBackground], -14.4f, 1e-4);
+  EXPECT_EQ(io::read_color(dir_ / "out.exr").width(), W);
+}
+
+TEST_F(RenderCli, MissingLayersFile) {
+  expect_failure({"--layers", dir_ / "nolayers.exr", "--focus", "4", "--blur-at-infinity", "24", "--output",
+                  dir_ / "out.exr"},
+                 3, {"nolayers.exr"});
 }

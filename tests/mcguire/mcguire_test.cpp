@@ -135,10 +135,10 @@ TEST(Mcguire, FastPassesMatchPlainOracle) {
     mg::blur_horizontal(packed, k, 0, wo, tb2, tn2);
     mg::blur_vertical_plain(tb1, tn1, k, 0, ho, b1, n1);
     mg::blur_vertical(tb1, tn1, k, 0, ho, b2, n2);
-    for (std::size_t i = 0; i < tb1.data().size(); ++i) ASSERT_NEAR(tb1.data()[i], tb2.data()[i], 2e-6f) << vi;
-    for (std::size_t i = 0; i < tn1.data().size(); ++i) ASSERT_NEAR(tn1.data()[i], tn2.data()[i], 2e-6f) << vi;
-    for (std::size_t i = 0; i < b1.data().size(); ++i) ASSERT_NEAR(b1.data()[i], b2.data()[i], 2e-6f) << vi;
-    for (std::size_t i = 0; i < n1.data().size(); ++i) ASSERT_NEAR(n1.data()[i], n2.data()[i], 2e-6f) << vi;
+    for (std::size_t i = 0; i < tb1.data().size(); ++i) ASSERT_EQ(tb1.data()[i], tb2.data()[i]) << vi;
+    for (std::size_t i = 0; i < tn1.data().size(); ++i) ASSERT_EQ(tn1.data()[i], tn2.data()[i]) << vi;
+    for (std::size_t i = 0; i < b1.data().size(); ++i) ASSERT_EQ(b1.data()[i], b2.data()[i]) << vi;
+    for (std::size_t i = 0; i < n1.data().size(); ++i) ASSERT_EQ(n1.data()[i], n2.data()[i]) << vi;
   }
 }
 

@@ -99,13 +99,127 @@ void blur_vertical_plain(const Image& t_blur, const Image& t_near, const Constan
   }, 2);
 }
 
+// Fast P2: the same sums as blur_horizontal_plain, in the same order, but each output pixel
+// only visits the taps that can contribute. For book/demo the far weight is exactly 0 once
+// 5|δ| / (0.001 + c|r_B|) >= 6, i.e. |δ| >= 1.2 (0.001 + c|r_B|), and a near tap only
+// contributes for |δ| <= r_B; so unless the centre itself is near-field (then every tap has
+// weight 1), the loop can stop at the largest such reach over a tile's tap window. Skipped
+// terms are exact zeros, so the result is bit-identical to the plain pass. The near
+// normaliser (the box count) does not depend on the data and is computed once. Rows are
+// padded with R_max replicated edge pixels so clamped taps need no clamp in the loop.
 void blur_horizontal(const Image& packed, const Constants& k, int ox, int wo, Image& t_blur, Image& t_near) {
-  blur_horizontal_plain(packed, k, ox, wo, t_blur, t_near);
+  const bool bounded = k.variant != Variant::g3d;  // g3d's Gaussians never reach exactly 0
+  const int W = packed.width(), H = packed.height(), R = k.r_max, f = k.f;
+  const float rmax = static_cast<float>(R);
+  const float reach_c = k.variant == Variant::book ? 0.5f : 0.8f;
+  t_blur.resize(wo, H, 5);
+  t_near.resize(wo, H, 5);
+  float near_norm = 0;
+  for (int d = -R; d <= R; ++d) near_norm += near_box(k, static_cast<float>(d));
+  const float near_inv = 1.0f / std::max(near_norm, 1e-5f);
+  constexpr int kTile = 8;
+  core::parallel_for(H, [&](int y0, int y1) {
+    const int P = W + 2 * R;
+    std::vector<float> col[4], rb(P);
+    for (auto& c : col) c.resize(P);
+    for (int y = y0; y < y1; ++y) {
+      for (int x = 0; x < P; ++x) {
+        const int src = std::clamp(x - R, 0, W - 1);
+        for (int c = 0; c < 4; ++c) col[c][x] = packed.row(c, y)[src];
+        rb[x] = packed.row(4, y)[src] * rmax;
+      }
+      for (int i0 = 0; i0 < wo; i0 += kTile) {
+        const int i1 = std::min(wo, i0 + kTile);
+        // Tap window of the tile in padded coordinates: [ox + f·i0, ox + f·(i1−1) + 2R].
+        float far_max = 0, near_max = 0;
+        for (int x = ox + f * i0; x <= ox + f * (i1 - 1) + 2 * R; ++x) {
+          if (in_near(rb[x])) near_max = std::max(near_max, rb[x]);
+          else far_max = std::max(far_max, std::fabs(rb[x]));
+        }
+        const int far_reach = static_cast<int>(1.2f * (0.001f + reach_c * far_max)) + 1;
+        const int near_reach = std::min(static_cast<int>(near_max), static_cast<int>(std::ceil(k.r_near)));
+        const int tile_bound = bounded ? std::min(R, std::max(far_reach, near_reach)) : R;
+        for (int i = i0; i < i1; ++i) {
+          const int a = ox + f * i + R;
+          const float r_a = rb[a];
+          const float nearness = saturate(4.0f * r_a);
+          const int L = nearness > 0 ? R : tile_bound;
+          float blur[4] = {0, 0, 0, 0}, blur_w = 0;
+          float near[5] = {0, 0, 0, 0, 0};
+          for (int d = -L; d <= L; ++d) {
+            const int b = a + d;
+            const float r_b = rb[b];
+            const float wn = far_weight(k, static_cast<float>(d), r_a, r_b);
+            const float w = wn + (1.0f - wn) * nearness;
+            for (int c = 0; c < 4; ++c) blur[c] += w * col[c][b];
+            blur_w += w;
+            const float v = near_box(k, static_cast<float>(d));
+            if (v != 0.0f) {
+              const float va = v * near_alpha_horizontal(k, static_cast<float>(d), r_b);
+              for (int c = 0; c < 4; ++c) near[c] += va * col[c][b];
+              near[4] += va;
+            }
+          }
+          for (int c = 0; c < 4; ++c) t_blur.row(c, y)[i] = blur[c] / blur_w;
+          t_blur.row(4, y)[i] = packed.row(4, y)[a - R];
+          for (int c = 0; c < 5; ++c) t_near.row(c, y)[i] = near[c] * near_inv;
+        }
+      }
+    }
+  }, 4);
 }
 
+// Fast P3: the same per-pixel sums in the same δ order as blur_vertical_plain, but with the
+// tap loop outside the loop over a row of outputs, so every tap reads one contiguous row
+// (the plain version walks down columns), and with rows of zero near-box weight skipped.
 void blur_vertical(const Image& t_blur, const Image& t_near, const Constants& k, int oy, int ho, Image& blur,
                    Image& near) {
-  blur_vertical_plain(t_blur, t_near, k, oy, ho, blur, near);
+  const int W = t_blur.width(), H = t_blur.height(), R = k.r_max;
+  const float rmax = static_cast<float>(R);
+  blur.resize(W, ho, 4);
+  near.resize(W, ho, 5);
+  float near_norm = 0;
+  for (int d = -R; d <= R; ++d) near_norm += near_box(k, static_cast<float>(d));
+  const float near_inv = 1.0f / std::max(near_norm, 1e-5f);
+  core::parallel_for(ho, [&](int j0, int j1) {
+    std::vector<float> r_a(W), nearness(W), acc(5 * W), nacc(5 * W);
+    for (int j = j0; j < j1; ++j) {
+      const int a = oy + k.f * j;
+      const float* sa = t_blur.row(4, a);
+      for (int i = 0; i < W; ++i) {
+        r_a[i] = sa[i] * rmax;
+        nearness[i] = saturate(4.0f * r_a[i]);
+      }
+      std::fill(acc.begin(), acc.end(), 0.0f);
+      std::fill(nacc.begin(), nacc.end(), 0.0f);
+      for (int d = -R; d <= R; ++d) {
+        const int b = std::clamp(a + d, 0, H - 1);
+        const float* sb = t_blur.row(4, b);
+        const float* cb[4] = {t_blur.row(0, b), t_blur.row(1, b), t_blur.row(2, b), t_blur.row(3, b)};
+        const float fd = static_cast<float>(d);
+        for (int i = 0; i < W; ++i) {
+          const float wn = far_weight(k, fd, r_a[i], sb[i] * rmax);
+          const float w = wn + (1.0f - wn) * nearness[i];
+          for (int c = 0; c < 4; ++c) acc[c * W + i] += w * cb[c][i];
+          acc[4 * W + i] += w;
+        }
+        const float v = near_box(k, fd);
+        if (v != 0.0f)
+          for (int c = 0; c < 5; ++c) {
+            const float* nb = t_near.row(c, b);
+            float* na = nacc.data() + c * W;
+            for (int i = 0; i < W; ++i) na[i] += v * nb[i];
+          }
+      }
+      for (int i = 0; i < W; ++i) {
+        for (int c = 0; c < 4; ++c) blur.at(i, j, c) = acc[c * W + i] / acc[4 * W + i];
+        float n[5];
+        for (int c = 0; c < 5; ++c) n[c] = nacc[c * W + i] * near_inv;
+        if (k.variant == Variant::g3d) g3d_coverage_curve(k, n);
+        for (int c = 0; c < 5; ++c) near.at(i, j, c) = n[c];
+      }
+    }
+  }, 2);
 }
 
 }  // namespace dofkit::detail::mcguire

@@ -49,6 +49,7 @@ void add_quality_command(CLI::App& app) {
     q.command_line += " --size " + opts->size;
     if (opts->samples) q.command_line += " --samples " + std::to_string(opts->samples);
     for (const auto& s : opts->set) q.command_line += " --set " + s;
+    if (opts->threads) q.command_line += " --threads " + std::to_string(opts->threads);
     const QualityResult r = run_quality(q);
     std::cout << metrics::markdown_table(r.rows);
     std::cerr << "wrote:";

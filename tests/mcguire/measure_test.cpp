@@ -61,11 +61,23 @@ TEST(McguireMeasure, DISABLED_Measure) {
     opt.height = h;
     scene::SceneRender s = scene::render_pinhole(name, opt);
     const std::string gt_path = cache + "/" + name + "_" + std::to_string(w) + "x" + std::to_string(h) + ".bin";
+    // The pinhole frame is cached with the ground truth so the two always come from the same
+    // build of the scenes.
     Image gt;
-    if (!load(gt_path, gt, w, h, 4)) {
+    if (!load(gt_path, gt, w, h, 4) || !load(gt_path + ".rgba", s.pinhole.color, w, h, 4) ||
+        !load(gt_path + ".z", s.pinhole.depth, w, h, 1)) {
       s = scene::render_scene(name, opt);
       gt = s.ground_truth;
       save(gt_path, gt);
+      save(gt_path + ".rgba", s.pinhole.color);
+      save(gt_path + ".z", s.pinhole.depth);
+    }
+    if (env("MCGUIRE_CHECK", "")[0]) {  // cached ground truth against a fresh low-sample one
+      scene::SceneOptions o2 = opt;
+      o2.samples = 32;
+      const scene::SceneRender f = scene::render_scene(name, o2);
+      std::printf("check %s: gt psnr %.2f, pinhole psnr %.2f\n", name.c_str(), metrics::psnr(gt, f.ground_truth),
+                  metrics::psnr(s.pinhole.color, f.pinhole.color));
     }
     const metrics::Scores in = metrics::compare(gt, s.pinhole.color, &s.pinhole.depth);
     std::printf("%-10s %-40s %6.2f %6.4f %6.2f\n", name.c_str(), "input", in.psnr_db, in.ssim, in.edge_psnr_db);

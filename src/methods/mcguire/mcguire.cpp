@@ -63,7 +63,7 @@ Setup read_setup(const MethodContext& ctx, float max_near, float max_far) {
   k.r_max = static_cast<int>(std::ceil(std::max({r_n, max_near, max_far})));
   // Which pixels count as blurred at all: with focus_px the packed |s| is 0 below it.
   if (std::max(max_near, max_far) <= k.focus_px) k.r_max = 0;
-  k.r_near = std::ceil(r_n);
+  k.r_near = p.get_bool("near_field", true) ? std::ceil(r_n) : 0.0f;
   // A near radius too small to blur would show the decimated buffer unblurred: drop it
   // (demo: < 2 px; g3d: < f − 1 px).
   if (demo && k.r_near < 2) k.r_near = 0;
@@ -168,6 +168,9 @@ const MethodDef& mcguire_method() {
           {"coverage_boost", "1.5", "near-field alpha gain, dimensionless (>= 1; book/demo only)"},
           {"near_radius_px", "0",
            "fixed near-field blur radius in image px; 0 = the largest near CoC radius in the frame"},
+          {"near_field", "on",
+           "off = no separate near-field layer (Gillham-style: blurry near objects keep hard silhouettes); "
+           "a baseline that shows what the near field buys"},
           {"far_occlusion_test", "on (book, g3d), off (demo)",
            "far taps count only if not meaningfully farther than the centre (on/off)"},
           {"far_rescale", "on (demo, g3d), off (book)",

@@ -12,6 +12,7 @@
 //     level and the small blur's missing centre tap (1/17 of y').
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "core/parallel.hpp"
 #include "methods/starcraft/starcraft.hpp"
@@ -45,9 +46,9 @@ constexpr int kTapBlock[4][2] = {{0, -2}, {-2, -1}, {-1, 1}, {1, 0}};
 
 }  // namespace
 
-void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium,
-                const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
-                const FinalDebug& dbg) {
+void final_pass_plain(const Image& color, const Image& depth, const Image& level, const Image& medium,
+                      const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
+                      const FinalDebug& dbg) {
   const int w = color.width(), h = color.height();
   const int lw = large.width(), lh = large.height();
   out.resize(w, h, 4);
@@ -99,6 +100,114 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
           const float mixed = lwt.small * small + lwt.medium * med + lwt.large * lg;
           out.row(ch, y)[x] = alpha == 0.0f ? src : mixed + (1.0f - alpha) * src;
           if (dbg.small) dbg.small->row(ch, y)[x] = small + src / 17.0f;
+        }
+      }
+    }
+  }, 8);
+}
+
+// The same pass organised by rows for speed (the plain version above is its test oracle):
+// the quarter-res planes are interpolated vertically once per row, the per-pixel level
+// decision is made once for all channels, and the small blur reads five clamp-padded source
+// rows so the inner loops have no branches and vectorise.
+void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium,
+                const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
+                const FinalDebug& dbg) {
+  if (dbg.used_level || dbg.small || dbg.weights) {
+    final_pass_plain(color, depth, level, medium, large, inv_depth, keep_own_blur, out, dbg);
+    return;
+  }
+  const int w = color.width(), h = color.height();
+  const int lw = large.width(), lh = large.height();
+  out.resize(w, h, 4);
+  constexpr float kTiny = 1e-6f;
+  constexpr float kTieTolerance = 1e-5f;
+  // Horizontal bilinear footprint of each full-res column on the quarter-res grid.
+  std::vector<int> xa(w), xb(w);
+  std::vector<float> tx(w);
+  for (int x = 0; x < w; ++x) {
+    const float fx = (x + 0.5f) / kDown - 0.5f;
+    const float x0f = std::floor(fx);
+    tx[x] = fx - x0f;
+    xa[x] = clampi(static_cast<int>(x0f), 0, lw - 1);
+    xb[x] = clampi(static_cast<int>(x0f) + 1, 0, lw - 1);
+  }
+  constexpr int kPad = 2;
+  core::parallel_for(h, [&](int y0, int y1) {
+    std::vector<float> vrow(static_cast<std::size_t>(lw) * 6);  // 6 quarter-res planes, row-lerped
+    std::vector<float> ws(w), wm(w), wl(w), wsrc(w), cb(w);
+    std::vector<float> pad(static_cast<std::size_t>(w + 2 * kPad) * 5);
+    for (int y = y0; y < y1; ++y) {
+      // Vertical lerp of the quarter-res rows around this row.
+      const float fy = (y + 0.5f) / kDown - 0.5f;
+      const float y0f = std::floor(fy);
+      const float ty = fy - y0f;
+      const int ya = clampi(static_cast<int>(y0f), 0, lh - 1), yb = clampi(static_cast<int>(y0f) + 1, 0, lh - 1);
+      for (int p = 0; p < 6; ++p) {
+        const Image& img = p < 5 ? large : inv_depth;
+        const int pl = p < 5 ? p : 0;
+        const float* ra = img.row(pl, ya);
+        const float* rb = img.row(pl, yb);
+        float* v = vrow.data() + static_cast<std::size_t>(p) * lw;
+        for (int i = 0; i < lw; ++i) v[i] = ra[i] + (rb[i] - ra[i]) * ty;
+      }
+      auto hsample = [&](int p, int x) {
+        const float* v = vrow.data() + static_cast<std::size_t>(p) * lw;
+        return v[xa[x]] + (v[xb[x]] - v[xa[x]]) * tx[x];
+      };
+      // Level decision and weights, once per pixel.
+      const float* cown = level.row(0, y);
+      const float* z = depth.row(0, y);
+      bool any = false;
+      for (int x = 0; x < w; ++x) {
+        const float inv_blur = hsample(5, x);
+        const float c_blur = hsample(4, x);
+        float c = inv_blur <= (1.0f / z[x]) * (1.0f + kTieTolerance) ? cown[x] : c_blur;
+        if (keep_own_blur) c = std::max(c, cown[x]);
+        const LevelWeights lwt = level_weights(c);
+        ws[x] = lwt.small;
+        wm[x] = lwt.medium;
+        wl[x] = lwt.large;
+        const float alpha = (16.0f / 17.0f) * lwt.small + lwt.medium + lwt.large;
+        wsrc[x] = 1.0f - alpha;
+        cb[x] = c_blur;
+        any = any || alpha != 0.0f;
+      }
+      for (int ch = 0; ch < 4; ++ch) {
+        const float* src = color.row(ch, y);
+        float* o = out.row(ch, y);
+        if (!any) {  // whole row in focus: the source, bit for bit
+          std::copy(src, src + w, o);
+          continue;
+        }
+        // Rows y−2 … y+2, clamp-padded by 2 px on each side.
+        for (int k = 0; k < 5; ++k) {
+          const float* r = color.row(ch, clampi(y + k - 2, 0, h - 1));
+          float* d = pad.data() + static_cast<std::size_t>(k) * (w + 2 * kPad);
+          std::copy(r, r + w, d + kPad);
+          for (int i = 0; i < kPad; ++i) {
+            d[i] = r[0];
+            d[w + kPad + i] = r[w - 1];
+          }
+        }
+        const std::size_t stride = w + 2 * kPad;
+        const float* m2 = pad.data() + kPad;  // row y−2 at column 0
+        const float* m1 = m2 + stride;
+        const float* r0 = m1 + stride;
+        const float* p1 = r0 + stride;
+        const float* p2 = p1 + stride;
+        const float* med = medium.row(ch, y);
+        for (int x = 0; x < w; ++x) {
+          // The pinwheel of final_pass_plain: blocks at (0,−2), (−2,−1), (−1,1), (1,0).
+          const float small = ((m2[x] + m2[x + 1] + m1[x] + m1[x + 1]) + (m1[x - 2] + m1[x - 1] + r0[x - 2] + r0[x - 1]) +
+                               (p1[x - 1] + p1[x] + p2[x - 1] + p2[x]) + (r0[x + 1] + r0[x + 2] + p1[x + 1] + p1[x + 2])) *
+                              (1.0f / 17.0f);
+          if (wsrc[x] == 1.0f) {
+            o[x] = src[x];
+            continue;
+          }
+          const float lg = cb[x] > kTiny ? hsample(ch, x) / cb[x] : med[x];
+          o[x] = ws[x] * small + wm[x] * med[x] + wl[x] * lg + wsrc[x] * src[x];
         }
       }
     }

@@ -99,6 +99,12 @@ struct FinalDebug {
 };
 
 /// C5: per full-res pixel — depth test, level weights, mix, blend over the source.
+/// final_pass_plain is the straightforward per-pixel form (the oracle of the tests);
+/// final_pass gives the same result organised by rows (it uses the plain form when a debug
+/// output is wanted).
+void final_pass_plain(const Image& color, const Image& depth, const Image& level, const Image& medium,
+                      const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
+                      const FinalDebug& dbg = {});
 void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium,
                 const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
                 const FinalDebug& dbg = {});

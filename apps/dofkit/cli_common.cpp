@@ -177,16 +177,17 @@ void CameraFlags::check() const {
   if (given(max_coc_) && !(max_coc_px_ > 0)) throw_usage("--max-coc: must be > 0 pixels");
   if (given(reference_width_) && !(reference_width_px_ > 0 && std::isfinite(reference_width_px_)))
     throw_usage("--reference-width: must be > 0 pixels");
+  validate(assemble());
 }
 
-CameraModel CameraFlags::build(const Image* depth) const {
-  check();
+CameraModel CameraFlags::assemble() const {
   CameraModel cam;
   const double kInf = std::numeric_limits<double>::infinity();
   cam.max_coc_px = given(max_coc_) ? max_coc_px_ : kInf;
   cam.reference_width_px = given(reference_width_) ? reference_width_px_ : 0.0;
-  // The thin-lens focus must satisfy its own checks; --focus-at fills it in below.
-  const double focus = given(focus_) ? focus_m_ : 0.0;
+  // With --focus-at the focus is only known once the depth is read; until then a stand-in
+  // far beyond the focal length lets every other value be validated.
+  const double focus = given(focus_) ? focus_m_ : std::max(1000.0, focal_length_mm_ * 0.01);
   if (given(f_number_)) {
     ThinLens t;
     t.f_number = f_number_v_;
@@ -226,6 +227,12 @@ CameraModel CameraFlags::build(const Image* depth) const {
     if (given(max_radius_)) b.max_radius_px = max_radius_px_;
     cam.model = b;
   }
+  return cam;
+}
+
+CameraModel CameraFlags::build(const Image* depth) const {
+  check();
+  CameraModel cam = assemble();
   if (const auto at = focus_at()) {
     if (!depth) throw_usage("--focus-at: needs a depth map");
     const double z = focus_from_depth(*depth, at->first, at->second);

@@ -47,8 +47,8 @@ class CameraFlags {
   void add(CLI::App* cmd, const std::string& group = "Camera (choose exactly one CoC model)");
   /// True if any model flag was given (lets a command supply a default camera instead).
   bool model_given() const;
-  /// Checks the flag combination without needing the depth map (so a command can fail
-  /// before reading inputs). Throws Error(usage).
+  /// Checks the flag combination and every model value without needing the depth map (so a
+  /// command can fail before reading inputs). Throws Error(usage).
   void check() const;
   /// Builds the camera. `depth` (planar z) is needed only for --focus-at; pass nullptr if
   /// there is none (then --focus-at is a usage error). Validates the model (dofkit::validate).
@@ -57,6 +57,7 @@ class CameraFlags {
   std::optional<std::pair<int, int>> focus_at() const;
 
  private:
+  CameraModel assemble() const;  // the model from the flags, before --focus-at
   CLI::Option *focus_ = nullptr, *f_number_ = nullptr, *focal_length_ = nullptr, *sensor_width_ = nullptr,
               *blur_inf_ = nullptr, *planes_ = nullptr, *planes_ramp_ = nullptr, *near_radius_ = nullptr,
               *far_radius_ = nullptr, *starcraft_ = nullptr, *near_far_ = nullptr, *max_radius_ = nullptr,

@@ -6,6 +6,7 @@
 //   3. render completely in memory;
 //   4. encode every output into a temporary file beside its target, then rename them all.
 // An error at any step leaves every output path as it was.
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <iostream>
@@ -69,9 +70,30 @@ void list_debug_views(const std::string& method) {
   throw_usage("--method " + method + ": unknown method (known: " + known + ")");
 }
 
-void check_method(const std::string& method) {
-  for (const auto& m : methods())
-    if (m.name == method) return;
+// Checks the method name, its --set keys and the debug view before any file is read (the
+// library checks them again, with the same messages, when it renders).
+void check_method(const std::string& method, const std::map<std::string, std::string>& params,
+                  const std::string& debug_view) {
+  for (const auto& m : methods()) {
+    if (m.name != method) continue;
+    std::string keys, views;
+    for (const auto& p : m.params) keys += (keys.empty() ? "" : ", ") + p.name;
+    for (const auto& v : m.debug_views) views += (views.empty() ? "" : ", ") + v.name;
+    for (const auto& [key, value] : params) {
+      const bool known = std::any_of(m.params.begin(), m.params.end(), [&](const ParamInfo& p) { return p.name == key; });
+      if (!known)
+        throw_usage("--set " + key + "=" + value + ": unknown parameter for method " + method +
+                    (keys.empty() ? std::string(" (it has none)") : " (known: " + keys + ")"));
+    }
+    if (!debug_view.empty()) {
+      const bool known = std::any_of(m.debug_views.begin(), m.debug_views.end(),
+                                     [&](const DebugViewInfo& v) { return v.name == debug_view; });
+      if (!known)
+        throw_usage("--debug-view " + debug_view + ": method " + method + " has no such view (" +
+                    (views.empty() ? std::string("it has none") : "known: " + views) + ")");
+    }
+    return;
+  }
   list_debug_views(method);  // throws the "unknown method" usage error
 }
 
@@ -81,7 +103,8 @@ void run_render(RenderArgs& a) {
     list_debug_views(a.method);
     return;
   }
-  check_method(a.method);
+  const std::map<std::string, std::string> params = parse_sets(a.sets);
+  check_method(a.method, params, a.debug_view);
   if (a.color.empty() && a.layers.empty()) throw_usage("--color: required (or --layers)");
   if (a.output.empty()) throw_usage("--output: required");
   if (!a.debug_view.empty() && a.debug_output.empty()) throw_usage("--debug-view: needs --debug-output FILE");
@@ -94,7 +117,7 @@ void run_render(RenderArgs& a) {
   const io::DepthOptions depth_opt = a.depth_flags.build();
   RenderSettings settings;
   settings.method = a.method;
-  settings.params = parse_sets(a.sets);
+  settings.params = params;
   settings.threads = a.threads;
   settings.debug_view = a.debug_view;
 

@@ -513,3 +513,26 @@ TEST_F(RenderCli, MissingLayersFile) {
                   dir_ / "out.exr"},
                  3, {"nolayers.exr"});
 }
+
+TEST_F(RenderCli, FlagErrorsAreFoundBeforeReadingInputs) {
+  // The colour file does not exist, but each flag mistake is reported first (exit 2), so a
+  // wrong command line fails fast, before any large file is read.
+  const std::string missing = dir_ / "missing.exr";
+  auto base = [&] {
+    return std::vector<std::string>{"--color", missing, "--depth", dir_ / "z.exr", "--output", dir_ / "o.exr"};
+  };
+  auto a = base();
+  a.insert(a.end(), {"--focus", "4", "--f-number", "0"});
+  expect_failure(a, 2, {"--f-number"});
+  a = base();
+  a.insert(a.end(), {"--focus", "4", "--blur-at-infinity", "8", "--debug-view", "nosuchview", "--debug-output",
+                     dir_ / "d.exr"});
+  expect_failure(a, 2, {"--debug-view nosuchview"});
+  a = base();
+  a.insert(a.end(), {"--focus", "4", "--blur-at-infinity", "8", "--set", "bogus=1"});
+  expect_failure(a, 2, {"--set bogus=1"});
+  a = base();
+  a.insert(a.end(), {"--focus", "4", "--blur-at-infinity", "8"});
+  a[5] = dir_ / "o.gif";
+  expect_failure(a, 2, {"o.gif"});
+}

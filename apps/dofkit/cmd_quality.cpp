@@ -13,7 +13,7 @@ void add_quality_command(CLI::App& app) {
   struct Opts {
     std::string scenes, methods, size = "320x180", out = "dofkit-quality";
     std::vector<std::string> set;
-    int samples = 0, threads = 0;
+    int samples = 0, threads = 0, layers = 0;
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -24,9 +24,13 @@ void add_quality_command(CLI::App& app) {
   cmd->add_option("--scenes", opts->scenes, "comma-separated scenes (default: all; see dofkit scene --help)");
   cmd->add_option("--methods", opts->methods,
                   "comma-separated rows: input (the unblurred pinhole image) or a method, optionally "
-                  "with parameters name:key=value,key=value (default: input and every method)");
+                  "with parameters name:key=value,key=value; input_layers=N sets that row's input layers "
+                  "(default: input and every method)");
   cmd->add_option("--size", opts->size, "scene size WxH in pixels (default 320x180)");
   cmd->add_option("--samples", opts->samples, "ground-truth lens samples per pixel (default: the scene's own, >= 45 dB noise floor)");
+  cmd->add_option("--layers", opts->layers,
+                  "fragments per pixel in the input frames (front to back; 0 = plain RGB-D, the default); "
+                  "a row may override it: layered:input_layers=4");
   cmd->add_option("--out", opts->out, "output folder (default ./dofkit-quality)");
   cmd->add_option("--threads", opts->threads, "worker threads (default: all hardware threads)");
   cmd->add_option("--set", opts->set, "method.key=value for every row of that method (repeatable)");
@@ -41,6 +45,7 @@ void add_quality_command(CLI::App& app) {
     parse_size(opts->size, "--size", q.width, q.height);
     for (const auto& s : opts->set) parse_set(s, q.set);
     q.samples = opts->samples;
+    q.layers = opts->layers;
     q.threads = opts->threads;
     q.out_dir = opts->out;
     q.command_line = "dofkit quality";
@@ -48,6 +53,7 @@ void add_quality_command(CLI::App& app) {
     if (!opts->methods.empty()) q.command_line += " --methods " + opts->methods;
     q.command_line += " --size " + opts->size;
     if (opts->samples) q.command_line += " --samples " + std::to_string(opts->samples);
+    if (opts->layers) q.command_line += " --layers " + std::to_string(opts->layers);
     for (const auto& s : opts->set) q.command_line += " --set " + s;
     if (opts->threads) q.command_line += " --threads " + std::to_string(opts->threads);
     const QualityResult r = run_quality(q);

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -113,6 +114,20 @@ void write_text(const std::string& path, const std::string& text) {
   });
 }
 
+/// Adds key=value to a spec; `input_layers` is the quality run's own key (the input frame's
+/// hidden fragments), everything else goes to the method.
+void add_param(MethodSpec& m, const std::string& key, const std::string& value, const std::string& list) {
+  if (key == "input_layers") {
+    char* end = nullptr;
+    const long n = std::strtol(value.c_str(), &end, 10);
+    if (value.empty() || *end != '\0' || n < 0 || n > 16)
+      throw_usage("--methods " + list + ": input_layers=" + value + ": expected 0..16");
+    m.input_layers = static_cast<int>(n);
+  } else {
+    m.params[key] = value;
+  }
+}
+
 // Error heat map scale: display-value difference (mean over R, G, B) drawn white.
 constexpr float kHeatMax = 0.2f;
 
@@ -127,10 +142,10 @@ std::vector<MethodSpec> parse_method_list(const std::string& list) {
     const bool is_param = piece.find('=') != std::string::npos && piece.find(':') == std::string::npos;
     if (is_param) {
       // "key=value" continuing the previous "name:key=value".
-      if (out.empty() || out.back().params.empty())
+      if (out.empty() || (out.back().params.empty() && out.back().input_layers < 0))
         throw_usage("--methods " + list + ": " + piece + " is not a method (write name:key=value,key=value)");
       const auto eq = piece.find('=');
-      out.back().params[piece.substr(0, eq)] = piece.substr(eq + 1);
+      add_param(out.back(), piece.substr(0, eq), piece.substr(eq + 1), list);
       out.back().label += "," + piece;
       continue;
     }
@@ -143,11 +158,12 @@ std::vector<MethodSpec> parse_method_list(const std::string& list) {
       const auto eq = kv.find('=');
       if (eq == std::string::npos || eq == 0)
         throw_usage("--methods " + list + ": " + piece + ": expected name:key=value");
-      m.params[kv.substr(0, eq)] = kv.substr(eq + 1);
+      add_param(m, kv.substr(0, eq), kv.substr(eq + 1), list);
     }
     if (!known_method(m.name))
       throw_usage("--methods: unknown method " + m.name + " (available: " + available_methods() + ")");
-    if (m.name == "input" && !m.params.empty()) throw_usage("--methods: input takes no parameters");
+    if (m.name == "input" && (!m.params.empty() || m.input_layers >= 0))
+      throw_usage("--methods: input takes no parameters");
     out.push_back(std::move(m));
   }
   if (out.empty()) throw_usage("--methods: empty list");
@@ -217,6 +233,10 @@ QualityResult run_quality(const QualityOptions& opt) {
   if (ec || !fs::is_directory(opt.out_dir))
     throw_bad_input("--out " + opt.out_dir + ": cannot create the folder (" + ec.message() + ")");
 
+  if (opt.layers < 0 || opt.layers > 16) throw_usage("--layers: expected 0..16");
+  int max_layers = opt.layers;
+  for (const auto& m : specs) max_layers = std::max(max_layers, m.input_layers);
+
   QualityResult result;
   Progress progress;
   const int total = static_cast<int>(scenes.size() * (specs.size() + 1));
@@ -228,6 +248,7 @@ QualityResult run_quality(const QualityOptions& opt) {
     so.height = opt.height;
     so.samples = opt.samples;
     so.threads = opt.threads;
+    so.layers = max_layers;
     so.progress = [&progress](double f) { progress.partial(f); };
     scene::SceneRender sr;
     core::with_threads(opt.threads, [&] { sr = scene::render_scene(name, so); });
@@ -253,8 +274,21 @@ QualityResult run_quality(const QualityOptions& opt) {
       } else {
         RenderSettings s = settings[i];
         s.camera = sr.camera;
+        // This row's input: the pinhole frame with at most `want` hidden fragments.
+        const int want = spec.input_layers >= 0 ? spec.input_layers : opt.layers;
+        Frame trimmed;
+        const Frame* input = &sr.pinhole;
+        if (static_cast<int>(sr.pinhole.layer_color.size()) > want) {
+          trimmed.color = sr.pinhole.color;
+          trimmed.depth = sr.pinhole.depth;
+          if (want > 0) {
+            trimmed.layer_color.assign(sr.pinhole.layer_color.begin(), sr.pinhole.layer_color.begin() + want);
+            trimmed.layer_depth.assign(sr.pinhole.layer_depth.begin(), sr.pinhole.layer_depth.begin() + want);
+          }
+          input = &trimmed;
+        }
         const auto t0 = std::chrono::steady_clock::now();
-        RenderResult r = render(sr.pinhole, s);
+        RenderResult r = render(*input, s);
         const auto t1 = std::chrono::steady_clock::now();
         ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
         out = std::move(r.image);
@@ -291,9 +325,10 @@ QualityResult run_quality(const QualityOptions& opt) {
   md += fmt::format(
       "Scenes rendered at {}x{}, ground truth with {} lens samples per pixel; scores against the "
       "thin-lens ground truth (PSNR and SSIM of clipped sRGB; edge PSNR within {} px of a depth "
-      "edge; see docs/quality.md). Time = one render() call, {} threads.\n\n",
+      "edge; see docs/quality.md). Input frames carry {} depth layers (0 = plain RGB-D) unless a "
+      "row says input_layers=N. Time = one render() call, {} threads.\n\n",
       opt.width, opt.height, opt.samples > 0 ? std::to_string(opt.samples) : std::string("the scene's default"),
-      metrics::kEdgeBandPx, opt.threads > 0 ? std::to_string(opt.threads) : std::string("all"));
+      metrics::kEdgeBandPx, opt.layers, opt.threads > 0 ? std::to_string(opt.threads) : std::string("all"));
   if (!opt.command_line.empty()) md += "Regenerate: `" + opt.command_line + "`\n\n";
   md += metrics::markdown_table(result.rows);
   const std::string md_path = (fs::path(opt.out_dir) / "quality.md").string();
@@ -304,6 +339,7 @@ QualityResult run_quality(const QualityOptions& opt) {
   j["width"] = opt.width;
   j["height"] = opt.height;
   j["samples"] = opt.samples;
+  j["layers"] = opt.layers;
   j["threads"] = opt.threads;
   j["command"] = opt.command_line;
   j["rows"] = nlohmann::json::array();

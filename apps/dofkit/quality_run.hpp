@@ -17,6 +17,10 @@ struct MethodSpec {
   std::string label;                          ///< as the user wrote it (row name)
   std::string name;                           ///< method name, or "input"
   std::map<std::string, std::string> params;  ///< from the spec (override --set)
+  /// Fragments per pixel (front to back, the first is the visible surface) this row's input
+  /// frame carries: the spec key `input_layers=N`, taken out of `params`;
+  /// -1 = QualityOptions::layers; 0 = plain single-layer RGB-D.
+  int input_layers = -1;
 };
 
 /// Splits a --methods list on commas, keeping "key=value" pieces with the method before
@@ -32,6 +36,9 @@ struct QualityOptions {
   int width = 320;                  ///< scene size, pixels
   int height = 180;
   int samples = 0;                  ///< ground-truth lens samples per pixel (0 = scene default)
+  /// Fragments per pixel (front to back) in the input frames' layer_* (0 = single-layer
+  /// RGB-D). Methods that do not use layers ignore them; the layered method uses them.
+  int layers = 0;
   std::string out_dir;              ///< where sheets and tables go (created if missing)
   int threads = 0;                  ///< worker threads (0 = all)
   /// --set method.key=value: parameters for every row of that method.

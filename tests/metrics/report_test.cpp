@@ -151,3 +151,39 @@ TEST(CompareCommand, JsonOutput) {
   EXPECT_NE(msg.str().find("small.exr"), std::string::npos) << msg.str();
   EXPECT_NE(msg.str().find("a.exr"), std::string::npos) << msg.str();
 }
+
+// `dofkit quality` end to end on one tiny scene (few lens samples: this checks the plumbing,
+// not the scores): tables and sheet written, rows for every spec incl. a variant, means.
+TEST(QualityCommand, WritesTablesAndSheet) {
+  const fs::path exe = fs::path(DOFKIT_BINARY_DIR) / "dofkit";
+  if (!fs::exists(exe)) GTEST_SKIP() << exe << " not built (DOFKIT_BUILD_CLI=OFF?)";
+  const fs::path dir = fs::path(DOFKIT_BINARY_DIR) / "test_quality_cli";
+  fs::remove_all(dir);
+  const std::string cmd = exe.string() +
+                          " quality --scenes occluder --size 64x36 --samples 4 --threads 2"
+                          " --methods input,reference,reference:depth_softness=0.1 --out " +
+                          dir.string() + " > " + (fs::path(DOFKIT_BINARY_DIR) / "test_quality_cli.md").string() +
+                          " 2>/dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  EXPECT_TRUE(fs::exists(dir / "occluder.png"));
+  EXPECT_TRUE(fs::exists(dir / "quality.md"));
+  std::ifstream in(dir / "quality.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["rows"].size(), 6u);  // 3 rows + 3 means
+  EXPECT_EQ(j["rows"][0]["method"], "input");
+  EXPECT_TRUE(j["rows"][0]["time_ms"].is_null());
+  EXPECT_EQ(j["rows"][2]["method"], "reference:depth_softness=0.1");
+  EXPECT_GT(j["rows"][1]["time_ms"].get<double>(), 0.0);
+  EXPECT_EQ(j["rows"][3]["scene"], "mean");
+  // The blurred result is closer to the ground truth than the sharp input.
+  EXPECT_GT(j["rows"][1]["psnr_db"].get<double>(), j["rows"][0]["psnr_db"].get<double>());
+  const Image sheet = io::read_color((dir / "occluder.png").string());
+  EXPECT_GT(sheet.width(), 3 * 64);
+
+  // A bad method name is a usage error (exit 2) and writes nothing.
+  const fs::path bad = fs::path(DOFKIT_BINARY_DIR) / "test_quality_cli_bad";
+  fs::remove_all(bad);
+  const int rc = std::system((exe.string() + " quality --methods nosuch --out " + bad.string() + " 2>/dev/null").c_str());
+  EXPECT_EQ(WEXITSTATUS(rc), 2);
+  EXPECT_FALSE(fs::exists(bad));
+}

@@ -45,7 +45,7 @@ Setup read_setup(const MethodContext& ctx, float max_near, float max_far) {
   k.f = p.get_int("reduction", demo ? 4 : 2, 1, 4);
   k.coverage_boost = static_cast<float>(p.get_double("coverage_boost", 1.5, 1.0, 100.0));
   k.far_occlusion = p.get_bool("far_occlusion_test", !demo);
-  k.double_coc = p.get_bool("double_coc", false);
+  k.double_coc = p.get_bool("double_coc", demo);  // measured: +0.8 dB mean on the six scenes (docs)
   k.near_alpha_code = p.get_choice("near_alpha", "code", {"code", "book"}) == "code";
   k.lowres_offset_fix = p.get_bool("lowres_offset_fix", true);
   k.focus_px = static_cast<float>(p.get_double("focus_px", 0.5, 0.0, 1e6));
@@ -175,7 +175,7 @@ const MethodDef& mcguire_method() {
            "far taps count only if not meaningfully farther than the centre (on/off)"},
           {"far_rescale", "on (demo, g3d), off (book)",
            "Sept-2013 fix: far |s| reaches 1 at the largest far radius instead of at R_max (on/off)"},
-          {"double_coc", "off", "composite doubles s, clamp(2s, -1, 1), as some 2013 ports do (on/off; book/demo)"},
+          {"double_coc", "on (demo), off (book)", "composite doubles s, clamp(2s, -1, 1), as some 2013 ports do (on/off; book/demo)"},
           {"near_alpha", "code", "near coverage curve: code = saturate(4 r/R_near)^4, book = min(1, r/R_near)^4"},
           {"focus_px", "0.5", "pixels with |CoC| <= this many px are exactly sharp (>= 0)"},
           {"lowres_offset_fix", "on",

@@ -20,6 +20,7 @@
 // ringing on HDR highlights) and the field is blended by compositeBlend · nearBlur(q).
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "core/parallel.hpp"
 #include "methods/sterna/passes.hpp"
@@ -61,19 +62,24 @@ void composite(const Image& color, const FullCoc& full, const Settings& s, const
   const float radius_per_far = 2.0f * kOuterRadius * s.kernel_scale;  // full-res px at far = 1
 
   core::parallel_for(H, [&](int y0, int y1) {
+    std::vector<std::uint8_t> near_tiles(h.tiles_x);
     for (int y = y0; y < y1; ++y) {
       for (int c = 0; c < 4; ++c) std::copy(color.row(c, y), color.row(c, y) + W, out.row(c, y));
       if (blend <= 0.0f) continue;
       const Axis& Y = ay[y];
       const float* ffull = full.coc.row(1, y);
+      // Near can reach a pixel only from its own tile or a neighbour (filter reach <= 2
+      // texels), so tiles with no near texel around them skip the near upsample entirely.
       const int ty = std::min(y / 2, h.h - 1) / kTile;
-      for (int x = 0; x < W; ++x) {
-        const int tx = std::min(x / 2, h.w - 1) / kTile;
-        // Near can reach this pixel only from this tile or a neighbour (filter reach <= 2 texels).
-        bool near_possible = false;
+      for (int tx = 0; tx < h.tiles_x; ++tx) {
+        bool any = false;
         for (int j = std::max(ty - 1, 0); j <= std::min(ty + 1, h.tiles_y - 1); ++j)
           for (int i = std::max(tx - 1, 0); i <= std::min(tx + 1, h.tiles_x - 1); ++i)
-            near_possible |= (h.tile_active[static_cast<std::size_t>(j) * h.tiles_x + i] & 1) != 0;
+            any |= (h.tile_active[static_cast<std::size_t>(j) * h.tiles_x + i] & 1) != 0;
+        near_tiles[tx] = any;
+      }
+      for (int x = 0; x < W; ++x) {
+        const bool near_possible = near_tiles[std::min(x / 2, h.w - 1) / kTile] != 0;
         const float fq = ffull[x];
         if (fq <= 0.0f && !near_possible) continue;  // a copy
         const Axis& X = ax[x];

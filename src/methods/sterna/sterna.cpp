@@ -14,8 +14,9 @@
 // times kernelScale; the CoC only decides how much of the blurred field is blended in. dofkit
 // radii are given at the camera's reference width and scale with the rendered width, so a
 // numeric kernel_scale means "ring radius 12·kernel_scale px at the reference width". The
-// default kernel_scale=auto sizes the kernel to the camera instead: R = the largest |CoC| in
-// the frame (NearFarBlend: its max_radius_px at this width), kernelScale = R/12, and the
+// default kernel_scale=auto sizes the kernel to the camera instead: R = the largest far-field
+// radius in the frame, or the largest near radius if nothing is behind focus (NearFarBlend:
+// its max_radius_px at this width), kernelScale = R/12, and the
 // blend factors become |r|/R (coc.cpp) — a pixel with the largest blur gets the full kernel,
 // smaller blurs get a cross-fade (the technique's accepted artifact, §3.7).
 //
@@ -55,10 +56,16 @@ void choose_kernel(const MethodContext& ctx, Settings& s) {
     radius_px = nfb->max_radius_px * ctx.coc_of.scale();
     radius_px = std::min(radius_px, ctx.coc_of.max_coc_px());
   } else {
-    float m = 0.0f;
+    // The far field usually covers most of the frame and is where the bokeh shows, so the
+    // kernel takes the largest far radius; nearer pixels with larger radii saturate (near = 1)
+    // and get this kernel too. Only a frame without far field sizes it by its near field.
+    float far_max = 0.0f, near_max = 0.0f;
     const float* r = ctx.coc.plane(0);
-    for (std::size_t i = 0; i < ctx.coc.plane_size(); ++i) m = std::max(m, std::abs(r[i]));
-    radius_px = m;
+    for (std::size_t i = 0; i < ctx.coc.plane_size(); ++i) {
+      far_max = std::max(far_max, -r[i]);
+      near_max = std::max(near_max, r[i]);
+    }
+    radius_px = far_max > 0.5f ? far_max : near_max;
   }
   // A kernel below one full-res px would only resample; keep the ramp well defined.
   radius_px = std::max(radius_px, 1.0);
@@ -130,7 +137,7 @@ const MethodDef& sterna_method() {
       {
           {"strength", "1", "effect strength 0-1: >= 0.25 scales the kernel, below fades the blend out (0 = input)"},
           {"kernel_scale", "auto",
-           "auto (kernel radius = largest |CoC| of the frame) or a number 0.01-50: ring radius 12 px x this at the "
+           "auto (kernel radius = largest far CoC of the frame, else largest near CoC) or a number 0.01-50: ring radius 12 px x this at the "
            "camera's reference width"},
           {"near_upsample", "bilinear", "near-field upsampling: bilinear or bicubic (cubic B-spline)"},
           {"per_pixel_scale", "off", "on/off: scale the far kernel by each pixel's far CoC (S2 §3.5)"},

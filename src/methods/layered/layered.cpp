@@ -51,6 +51,7 @@ void render_layered(const MethodContext& ctx, Image& out) {
   const int cap = ctx.params.get_int("layers", 9, 3, kMaxLayers);
   const double c = ctx.params.get_double("sigma_per_radius", 0.6, 0.1, 2.0);
   const double unit = ctx.params.get_double("step_px", 1.0, 0.1, 8.0);
+  const bool half_res = ctx.params.get_bool("half_res", true);
   const std::string fill = ctx.params.get_choice("fill", "auto", {"auto", "on", "off"});
   const Frame& frame = ctx.frame;
   const bool multi = frame.has_layers();
@@ -103,7 +104,7 @@ void render_layered(const MethodContext& ctx, Image& out) {
   };
 
   // Back: B = H(σ_{K−1}) L_{K−1}; B = H(σ_k)(L_k over B) for k = K−2 … k_focus+1.
-  Accumulator back;
+  Accumulator back(half_res);
   for (int k = plan.count - 1; k > plan.focus; --k) {
     if (make_layer(k, layer, !back.has_content())) back.composite_front(layer);
     back.blur(plan.step_sigma[k]);
@@ -111,7 +112,7 @@ void render_layered(const MethodContext& ctx, Image& out) {
   // Focus layer, unblurred; the opaque backstop if nothing lies behind it.
   const bool focus_full = make_layer(plan.focus, focus_layer, !back.has_content());
   // Front: F = H(σ_0) L_0; F = H(σ_k)(F over L_k) for k = 1 … k_focus−1.
-  Accumulator front;
+  Accumulator front(half_res);
   for (int k = 0; k < plan.focus; ++k) {
     if (make_layer(k, layer, false)) front.composite_back(layer);
     front.blur(plan.step_sigma[k]);
@@ -150,6 +151,7 @@ const MethodDef& layered_method() {
       {{"layers", "9", "maximum number of depth layers K (3-16); fewer are used when the CoC range needs fewer"},
        {"sigma_per_radius", "0.6", "Gaussian sigma per px of CoC radius (0.1-2); S4 d_pix = 4 sigma gives 0.5, 0.6 measured best against the ground truth"},
        {"step_px", "1", "unit of the per-step sigma sigma_k = unit * |k - k_focus| before fitting the scene's CoC range, px (0.1-8); smaller = more, finer layers"},
+       {"half_res", "on", "blur steps of sigma >= 4 px at half resolution (same variance, about 4x less blur work): on/off"},
        {"fill", "auto", "inpaint disoccluded layer pixels by push-pull: auto (single-layer input only), on, off"}},
       debug_views(),
       render_layered};

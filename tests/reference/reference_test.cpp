@@ -142,3 +142,21 @@ TEST(Scatter, IgnoresDepthOrder) {
   const RenderResult r = render(f, settings(2.0, 12.0, "scatter"));
   EXPECT_GT(r.image.at(46, 16, 0), 0.5f);
 }
+
+TEST(Reference, ThinBlurredBarIsSeeThrough) {
+  // A 2 px bright bar 1 m away (r = 4·(4/1 − 1) = 12 px) over a sharp grey wall at 4 m.
+  // A real lens sees the wall past the bar: about 2·24/(π·12²) ≈ 11 % of the aperture is
+  // blocked, so the bar's pixels must show mostly wall, not the bar at full strength.
+  Frame f = make_frame(96, 32, 4.0f, 0.2f, 0.2f, 0.2f);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 47; x < 49; ++x) {
+      f.depth.at(x, y) = 1.0f;
+      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 1.0f;
+    }
+  const RenderResult r = render(f, settings(4.0, 4.0));
+  const float v = r.image.at(47, 16, 0);
+  EXPECT_GT(v, 0.22f);
+  EXPECT_LT(v, 0.4f);
+  // Energy of the bar spreads ±12 px: 10 px away the wall is still brightened.
+  EXPECT_GT(r.image.at(37, 16, 0), 0.21f);
+}

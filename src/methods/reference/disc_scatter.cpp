@@ -132,6 +132,49 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
   // source that can reach it, in a fixed order, so the result is the same for any thread count.
   constexpr int kBand = 8;
   const int bands = (h + kBand - 1) / kBand;
+  // Hidden background. A blurred receiver is partly transparent: a real lens sees past it to
+  // whatever lies behind, which one RGB-D layer does not hold. Where the discs that reach a
+  // receiver cover less than all of it (a thin blurred bar over a sharp wall), the rest is
+  // filled with an estimate of that hidden surface: the mean colour of the pixels within the
+  // receiver's own radius that lie clearly behind it (a fixed 64-point concentric pattern).
+  std::vector<float> hidden;  // 4 channels per pixel; alpha < 0 marks "no estimate"
+  if (opt.depth_order) {
+    hidden.assign(n * 4, 0.0f);
+    constexpr int kGrid = 8;
+    std::vector<float> ox, oy;  // unit-disc offsets (Shirley–Chiu concentric map of an 8×8 grid)
+    for (int j = 0; j < kGrid; ++j)
+      for (int i = 0; i < kGrid; ++i) {
+        const float a = 2.0f * (i + 0.5f) / kGrid - 1.0f, b = 2.0f * (j + 0.5f) / kGrid - 1.0f;
+        float rr, phi;
+        if (std::fabs(a) > std::fabs(b)) { rr = a; phi = 0.785398163f * (b / a); }
+        else { rr = b; phi = 1.570796327f - 0.785398163f * (a / b); }
+        ox.push_back(rr * std::cos(phi));
+        oy.push_back(rr * std::sin(phi));
+      }
+    core::parallel_for(h, [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y)
+        for (int x = 0; x < w; ++x) {
+          const std::size_t p = static_cast<std::size_t>(y) * w + x;
+          float* hp = &hidden[p * 4];
+          hp[3] = -1.0f;
+          if (sharpness[p] <= 0.0f) continue;  // sharp receivers are opaque
+          const float limit = inv_z[p] * (1.0f - soft);  // "clearly behind": inverse depth below this
+          float sum[4] = {0, 0, 0, 0};
+          int count = 0;
+          for (std::size_t k = 0; k < ox.size(); ++k) {
+            const int qx = std::clamp(static_cast<int>(std::lround(x + ox[k] * rho[p])), 0, w - 1);
+            const int qy = std::clamp(static_cast<int>(std::lround(y + oy[k] * rho[p])), 0, h - 1);
+            const std::size_t q = static_cast<std::size_t>(qy) * w + qx;
+            if (!(inv_z[q] < limit)) continue;
+            for (int c = 0; c < 4; ++c) sum[c] += colour.plane(c)[q];
+            ++count;
+          }
+          if (count == 0) continue;
+          for (int c = 0; c < 4; ++c) hp[c] = sum[c] / count;
+        }
+    });
+  }
+
   out.resize(w, h, 4);
   core::parallel_for(bands, [&](int b0, int b1) {
     // Accumulators: 4 colour channels + weight, for the front (F) and back (B) sums.
@@ -177,11 +220,15 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
           const float* bc = acc_row(5 + ch, py - y0);
           const float* src = colour.row(ch, py);
           float* dst = out.row(ch, py);
+          const float* hid = hidden.empty() ? nullptr : &hidden[static_cast<std::size_t>(py) * w * 4];
           for (int px = 0; px < w; ++px) {
             float v;
-            if (bw[px] > 0) {
+            // What the discs leave uncovered, the hidden-background estimate fills.
+            const float missing = (hid && hid[px * 4 + 3] >= 0.0f) ? std::max(0.0f, 1.0f - fw[px] - bw[px]) : 0.0f;
+            if (bw[px] + missing > 0) {
               const float fs = fw[px] > 1.0f ? 1.0f / fw[px] : 1.0f;
-              v = fc[px] * fs + (1.0f - std::min(fw[px], 1.0f)) * (bc[px] / bw[px]);
+              const float back = missing > 0 ? (bc[px] + missing * hid[px * 4 + ch]) / (bw[px] + missing) : bc[px] / bw[px];
+              v = fc[px] * fs + (1.0f - std::min(fw[px], 1.0f)) * back;
             } else if (fw[px] > 0) {
               v = fc[px] / fw[px];
             } else {

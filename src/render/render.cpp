@@ -7,6 +7,7 @@
 
 #include "core/parallel.hpp"
 #include "methods/method.hpp"
+#include "render/sanitize.hpp"
 
 namespace dofkit {
 
@@ -102,6 +103,18 @@ void validate_frame(const Frame& frame, const char* what) {
     if (frame.layer_color[l].channels() != 4 || !frame.layer_color[l].same_size(frame.color) ||
         frame.layer_depth[l].channels() != 1 || !frame.layer_depth[l].same_size(frame.color))
       throw_bad_input(src + ": layer " + std::to_string(l) + " does not match the colour image size");
+    // Same rule as the visible depth: a missing fragment is z = +inf, never NaN or <= 0.
+    const float* lz = frame.layer_depth[l].plane(0);
+    std::size_t lbad = 0, lfirst = 0;
+    for (std::size_t i = 0; i < frame.layer_depth[l].plane_size(); ++i)
+      if (!(lz[i] > 0)) {
+        if (lbad++ == 0) lfirst = i;
+      }
+    if (lbad)
+      throw_bad_input(src + ": layer " + std::to_string(l) + " depth has " + std::to_string(lbad) +
+                      " NaN, zero or negative value(s), first at pixel (" +
+                      std::to_string(lfirst % frame.color.width()) + ", " +
+                      std::to_string(lfirst / frame.color.width()) + ") = " + std::to_string(lz[lfirst]));
   }
 }
 
@@ -174,6 +187,7 @@ struct Renderer::Impl {
   const detail::MethodDef* method = nullptr;
   detail::Workspace workspace;
   RenderResult result;
+  Frame sanitized;  // colour-sanitised copy of the input, used only when the input needs it
 };
 
 Renderer::Renderer(RenderSettings settings) : impl_(std::make_unique<Impl>()) {
@@ -185,15 +199,17 @@ Renderer::Renderer(Renderer&&) noexcept = default;
 Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 const RenderSettings& Renderer::settings() const { return impl_->settings; }
 
-const RenderResult& Renderer::render(const Frame& frame) {
+const RenderResult& Renderer::render(const Frame& frame_in) {
   const RenderSettings& settings = impl_->settings;
   const detail::MethodDef& method = *impl_->method;
-  validate_frame(frame);
+  validate_frame(frame_in);
   RenderResult& result = impl_->result;
   const detail::Params params(method.name, settings.params);
   detail::DebugSink sink(settings.debug_view);
   const int threads = settings.threads > 0 ? settings.threads : core::hardware_threads();
   core::with_threads(settings.threads, [&] {
+    // Non-finite / out-of-range colour never reaches a method (rules in render/sanitize.hpp).
+    const Frame& frame = detail::sanitized_frame(frame_in, impl_->sanitized);
     const CocFunction coc_of(settings.camera, frame.width());
     fill_coc(frame.depth, coc_of, result.coc);
     const detail::MethodContext ctx{frame, result.coc, settings.camera, coc_of, params, sink, threads,

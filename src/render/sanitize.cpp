@@ -1,0 +1,91 @@
+// Colour sanitation before rendering (rules in sanitize.hpp).
+#include "render/sanitize.hpp"
+
+#include <atomic>
+#include <cmath>
+#include <limits>
+
+#include "core/parallel.hpp"
+
+namespace dofkit::detail {
+
+namespace {
+
+constexpr float kMinNormal = std::numeric_limits<float>::min();
+
+// One colour sample → its sanitary value. Written as comparisons only (no fpclassify) so the
+// clean-check loop below vectorises; NaN fails every comparison and lands on 0.
+inline float clean_rgb(float v) {
+  if (v > kMaxColorValue) return kMaxColorValue;    // also +inf
+  if (v < -kMaxColorValue) return -kMaxColorValue;  // also −inf
+  if (v >= kMinNormal || v <= -kMinNormal) return v;
+  return 0.0f;  // NaN, ±0, subnormal
+}
+
+inline float clean_alpha(float a) {
+  if (a >= 1.0f) return 1.0f;  // also +inf
+  if (a >= kMinNormal) return a;
+  return 0.0f;  // NaN, negative, zero, subnormal
+}
+
+inline bool same_bits(float a, float b) { return a == b && std::signbit(a) == std::signbit(b); }
+
+// Rows are checked/copied in parallel; each chunk writes only its own rows and the change
+// count is an integer sum, so the result does not depend on the partition.
+constexpr int kGrainRows = 32;
+
+}  // namespace
+
+bool color_is_sanitary(const Image& rgba) {
+  if (rgba.channels() != 4) return true;  // validate_frame reports the shape error
+  std::atomic<bool> dirty{false};
+  const int w = rgba.width();
+  core::parallel_for(rgba.height(), [&](int y0, int y1) {
+    for (int y = y0; y < y1 && !dirty.load(std::memory_order_relaxed); ++y) {
+      bool bad = false;
+      for (int c = 0; c < 3; ++c) {
+        const float* row = rgba.row(c, y);
+        for (int x = 0; x < w; ++x) bad |= !(row[x] == 0.0f || (std::fabs(row[x]) >= kMinNormal && std::fabs(row[x]) <= kMaxColorValue));
+      }
+      const float* a = rgba.row(3, y);
+      for (int x = 0; x < w; ++x) bad |= !(a[x] == 0.0f || (a[x] >= kMinNormal && a[x] <= 1.0f));
+      if (bad) dirty.store(true, std::memory_order_relaxed);
+    }
+  }, kGrainRows);
+  return !dirty.load();
+}
+
+std::size_t sanitize_color(const Image& rgba, Image& out) {
+  out.resize(rgba.width(), rgba.height(), rgba.channels());
+  std::atomic<std::size_t> changed{0};
+  const int w = rgba.width();
+  core::parallel_for(rgba.height(), [&](int y0, int y1) {
+    std::size_t n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int c = 0; c < rgba.channels(); ++c) {
+        const float* in = rgba.row(c, y);
+        float* o = out.row(c, y);
+        for (int x = 0; x < w; ++x) {
+          const float v = c == 3 ? clean_alpha(in[x]) : clean_rgb(in[x]);
+          n += !same_bits(v, in[x]);
+          o[x] = v;
+        }
+      }
+    changed.fetch_add(n, std::memory_order_relaxed);
+  }, kGrainRows);
+  return changed.load();
+}
+
+const Frame& sanitized_frame(const Frame& frame, Frame& scratch) {
+  bool clean = color_is_sanitary(frame.color);
+  for (const Image& l : frame.layer_color) clean = clean && color_is_sanitary(l);
+  if (clean) return frame;
+  sanitize_color(frame.color, scratch.color);
+  scratch.depth = frame.depth;  // copy-assign reuses scratch's allocation when it fits
+  scratch.layer_color.resize(frame.layer_color.size());
+  for (std::size_t l = 0; l < frame.layer_color.size(); ++l) sanitize_color(frame.layer_color[l], scratch.layer_color[l]);
+  scratch.layer_depth = frame.layer_depth;
+  return scratch;
+}
+
+}  // namespace dofkit::detail

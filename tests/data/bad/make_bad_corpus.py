@@ -1,0 +1,189 @@
+#!/usr/bin/env python3
+"""Writes the hand-made bad-input corpus of tests/data/bad/ (issue 9).
+
+Every file is assembled byte by byte here (no imaging library), so each defect is exactly
+the one named: a file is a valid minimal EXR / PNG / TIFF / JPEG with one thing broken.
+The expected outcome of each file (error kind + message substring) is in manifest.tsv,
+checked by tests/robustness/bad_corpus_test.cpp. Re-run after editing:
+    python3 tests/data/bad/make_bad_corpus.py
+"""
+import math
+import os
+import struct
+import zlib
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+# --- OpenEXR (scanline, uncompressed) ------------------------------------------------------
+# Layout: magic 76 2f 31 01, version 2, header attributes (name\0 type\0 int32 size, value),
+# a terminating \0, one uint64 offset per scanline, then chunks (int32 y, int32 size, the
+# channels in alphabetical order, each `width` samples).
+HALF, FLOAT = 1, 2
+
+
+def attr(name, typ, payload):
+    return name.encode() + b"\0" + typ.encode() + b"\0" + struct.pack("<i", len(payload)) + payload
+
+
+def exr(width, height, channels, pixel, ptype=FLOAT, data_window=None, chlist_override=None):
+    """channels: names; pixel(name, x, y) -> float."""
+    names = sorted(channels)
+    if chlist_override is not None:
+        chl = chlist_override
+    else:
+        chl = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", ptype, 0, 1, 1) for n in names) + b"\0"
+    dw = data_window or (0, 0, width - 1, height - 1)
+    hdr = b"".join([
+        attr("channels", "chlist", chl),
+        attr("compression", "compression", b"\0"),
+        attr("dataWindow", "box2i", struct.pack("<4i", *dw)),
+        attr("displayWindow", "box2i", struct.pack("<4i", *dw)),
+        attr("lineOrder", "lineOrder", b"\0"),
+        attr("pixelAspectRatio", "float", struct.pack("<f", 1.0)),
+        attr("screenWindowCenter", "v2f", struct.pack("<2f", 0, 0)),
+        attr("screenWindowWidth", "float", struct.pack("<f", 1.0)),
+    ]) + b"\0"
+    head = b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + hdr
+    fmt = "<e" if ptype == HALF else "<f"
+    chunks = []
+    for y in range(height):
+        body = b"".join(struct.pack(fmt, pixel(n, x, y)) for n in names for x in range(width))
+        chunks.append(struct.pack("<ii", y, len(body)) + body)
+    table_size = 8 * height
+    offsets, pos = [], len(head) + table_size
+    for c in chunks:
+        offsets.append(pos)
+        pos += len(c)
+    return head + b"".join(struct.pack("<Q", o) for o in offsets) + b"".join(chunks)
+
+
+def huge_exr(width, height):
+    """Header + offset table only, PIZ compression (32 scanlines per chunk)."""
+    chl = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", HALF, 0, 1, 1) for n in "BGR") + b"\0"
+    dw = (0, 0, width - 1, height - 1)
+    hdr = b"".join([
+        attr("channels", "chlist", chl),
+        attr("compression", "compression", b"\4"),
+        attr("dataWindow", "box2i", struct.pack("<4i", *dw)),
+        attr("displayWindow", "box2i", struct.pack("<4i", *dw)),
+        attr("lineOrder", "lineOrder", b"\0"),
+        attr("pixelAspectRatio", "float", struct.pack("<f", 1.0)),
+        attr("screenWindowCenter", "v2f", struct.pack("<2f", 0, 0)),
+        attr("screenWindowWidth", "float", struct.pack("<f", 1.0)),
+    ]) + b"\0"
+    head = b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + hdr
+    n = (height + 31) // 32
+    end = len(head) + 8 * n
+    return head + b"".join(struct.pack("<Q", end) for _ in range(n))
+
+
+def rgba_pixel(n, x, y):
+    return {"R": 0.1 * x, "G": 0.1 * y, "B": 0.5, "A": 1.0}[n]
+
+
+# --- PNG ---------------------------------------------------------------------------------
+def chunk(typ, data):
+    return struct.pack(">I", len(data)) + typ + data + struct.pack(">I", zlib.crc32(typ + data) & 0xFFFFFFFF)
+
+
+def png(width, height, colour_type=2, rows=None, ihdr_size=None, bad_crc=False):
+    """8-bit PNG; colour_type 0 grey, 2 RGB, 6 RGBA."""
+    spp = {0: 1, 2: 3, 6: 4}[colour_type]
+    iw, ih = ihdr_size or (width, height)
+    ihdr = struct.pack(">IIBBBBB", iw, ih, 8, colour_type, 0, 0, 0)
+    raw = b"".join(b"\0" + bytes(((x * 37 + y * 11 + c * 70) & 0xFF) for x in range(width) for c in range(spp))
+                   for y in range(height)) if rows is None else rows
+    ih_chunk = chunk(b"IHDR", ihdr)
+    if bad_crc:
+        ih_chunk = ih_chunk[:-4] + bytes(b ^ 0xFF for b in ih_chunk[-4:])
+    return b"\x89PNG\r\n\x1a\n" + ih_chunk + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+
+
+# --- TIFF (little-endian, one strip, uncompressed) ----------------------------------------
+SHORT, LONG = 3, 4
+
+
+def tiff(width, height, spp=3, bits=8, declared=None, strip_offset=None, strip_bytes=None, pixels=None):
+    dw, dh = declared or (width, height)
+    data = pixels if pixels is not None else bytes((i * 13) & 0xFF for i in range(width * height * spp * bits // 8))
+    entries_n = 10
+    ifd_off = 8
+    ifd_size = 2 + 12 * entries_n + 4
+    bps_off = ifd_off + ifd_size
+    extra = struct.pack("<" + "H" * spp, *([bits] * spp)) if spp > 2 else b""
+    data_off = bps_off + len(extra)
+    so = data_off if strip_offset is None else strip_offset
+    sb = len(data) if strip_bytes is None else strip_bytes
+
+    def e(tag, typ, count, value):
+        if typ == SHORT and count == 1:
+            return struct.pack("<HHIHH", tag, typ, count, value, 0)
+        return struct.pack("<HHII", tag, typ, count, value)
+
+    bps = e(258, SHORT, spp, bps_off) if spp > 2 else (
+        struct.pack("<HHIHH", 258, SHORT, spp, bits, bits if spp == 2 else 0))
+    ents = [
+        e(256, LONG, 1, dw), e(257, LONG, 1, dh), bps, e(259, SHORT, 1, 1),
+        e(262, SHORT, 1, 2 if spp >= 3 else 1), e(273, LONG, 1, so), e(277, SHORT, 1, spp),
+        e(278, LONG, 1, dh), e(279, LONG, 1, sb), e(284, SHORT, 1, 1),
+    ]
+    assert len(ents) == entries_n
+    ifd = struct.pack("<H", entries_n) + b"".join(ents) + struct.pack("<I", 0)
+    return b"II*\0" + struct.pack("<I", ifd_off) + ifd + extra + data
+
+
+# --- the corpus ----------------------------------------------------------------------------
+def main():
+    files = {}
+    good_exr = exr(16, 16, ["R", "G", "B", "A"], rgba_pixel)
+    good_png = png(16, 16, 6)
+    files["truncated.exr"] = good_exr[: len(good_exr) // 2]
+    files["truncated_header.exr"] = good_exr[:40]
+    files["truncated.png"] = good_png[: len(good_png) // 2]
+    files["truncated_idat.png"] = good_png[: 8 + 25 + 20]
+    files["wrong_magic.exr"] = b"\x76\x2f\x31\x02" + good_exr[4:]
+    files["wrong_magic.png"] = b"\x89PNx\r\n\x1a\n" + good_png[8:]
+    files["empty.exr"] = b""
+    files["text.png"] = b"this is a text file, not an image\n" * 4
+    files["png_bad_ihdr_crc.png"] = png(4, 4, 2, bad_crc=True)
+    files["png_zero_width.png"] = png(4, 4, 2, ihdr_size=(0, 4))
+    # Huge declared sizes in tiny files: must be refused from the header, before allocation.
+    files["huge.png"] = png(4, 4, 2, ihdr_size=(40000, 40000))
+    files["huge.exr"] = exr(2, 2, ["R", "G", "B"], rgba_pixel)
+    files["huge.exr"] = files["huge.exr"].replace(struct.pack("<4i", 0, 0, 1, 1), struct.pack("<4i", 0, 0, 99999, 99999))
+    # A 20000 x 20000 PIZ-compressed EXR header (4e8 > 2^28 pixels) with a valid offset table and
+    # no pixel data: OpenEXR opens it, so only dofkit's pixel budget stands between a 5 KB file
+    # and a 6.4 GB float buffer.
+    files["huge_declared.exr"] = huge_exr(20000, 20000)
+    files["huge.tif"] = tiff(2, 2, declared=(1000000, 1000000))
+    files["huge_wide.tif"] = tiff(2, 2, declared=(300000000, 1))
+    files["overflow_window.exr"] = exr(2, 2, ["R", "G", "B"], rgba_pixel).replace(
+        struct.pack("<4i", 0, 0, 1, 1), struct.pack("<4i", -2147483647, -2147483647, 2147483646, 2147483646))
+    # Channel counts: no channel at all, and more than the limit (64).
+    files["zero_channels.exr"] = exr(2, 2, [], rgba_pixel, chlist_override=b"\0")
+    files["zero_channels.tif"] = tiff(2, 2, spp=1).replace(struct.pack("<HHIHH", 277, SHORT, 1, 1, 0),
+                                                          struct.pack("<HHIHH", 277, SHORT, 1, 0, 0))
+    many = [f"c{i:02d}" for i in range(65)]
+    files["65_channels.exr"] = exr(1, 1, many, lambda n, x, y: 1.0)
+    # TIFF whose strip lies beyond the end of the file.
+    files["strip_past_eof.tif"] = tiff(4, 4, strip_offset=100000)
+    files["truncated_strip.tif"] = tiff(4, 4)[:-28]
+    # JPEG that stops right after its start-of-image and a partial APP0 segment.
+    files["jpeg_soi_only.jpg"] = b"\xff\xd8\xff\xe0\x00\x10JFIF\x00"
+    # Frame-level defects: colour and depth of different sizes, invalid depth values.
+    files["color_8x6.exr"] = exr(8, 6, ["R", "G", "B", "A"], rgba_pixel)
+    files["depth_8x5.exr"] = exr(8, 5, ["Z"], lambda n, x, y: 2.0)
+    files["depth_nan.exr"] = exr(8, 6, ["Z"], lambda n, x, y: math.nan if (x, y) == (2, 1) else 2.0)
+    files["depth_negative.exr"] = exr(8, 6, ["Z"], lambda n, x, y: -1.0 if (x, y) == (5, 4) else 2.0)
+    files["depth_zero_half.exr"] = exr(8, 6, ["Z"], lambda n, x, y: 0.0 if x == 0 else 2.0, ptype=HALF)
+    files["depth_rgb_not_grey.png"] = png(8, 6, 2)
+    # A PNG misnamed .exr is still read (OIIO goes by content): not an error.
+    files["png_named.exr"] = png(8, 6, 2)
+    for name, data in sorted(files.items()):
+        with open(os.path.join(HERE, name), "wb") as f:
+            f.write(data)
+    print(f"wrote {len(files)} files, {sum(len(d) for d in files.values())} bytes")
+
+
+if __name__ == "__main__":
+    main()

@@ -24,22 +24,20 @@ Vec3 normalize(Vec3 a) { return a * (1.0 / std::sqrt(dot(a, a))); }
 double smooth5(double t) { return t * t * t * (t * (t * 6 - 15) + 10); }  // C2 fade
 double clamp01(double t) { return t < 0 ? 0 : (t > 1 ? 1 : t); }
 
-// Lattice value in [0, 1) at integer point (ix, iy) of the noise with seed `seed`.
-double lattice(std::int64_t ix, std::int64_t iy, std::uint32_t seed) {
-  std::uint32_t h = detail::hash_combine(seed, static_cast<std::uint32_t>(ix));
-  h = detail::hash_combine(h, static_cast<std::uint32_t>(ix >> 32));
-  h = detail::hash_combine(h, static_cast<std::uint32_t>(iy));
-  h = detail::hash_combine(h, static_cast<std::uint32_t>(iy >> 32));
-  return h * (1.0 / 4294967296.0);
-}
-
-// Value noise: lattice values blended with a C2 fade; values in [0, 1], period-free.
+// Value noise: lattice values in [0, 1) at integer points (integer hashes of the point's
+// coordinates, wrapped to 32 bits, and the seed), blended with a C2 fade; values in [0, 1].
 double value_noise(double x, double y, std::uint32_t seed) {
   const double fx = std::floor(x), fy = std::floor(y);
-  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy);
+  const auto ix = static_cast<std::uint32_t>(static_cast<std::int64_t>(fx));
+  const auto iy = static_cast<std::uint32_t>(static_cast<std::int64_t>(fy));
   const double tx = smooth5(x - fx), ty = smooth5(y - fy);
-  const double v00 = lattice(ix, iy, seed), v10 = lattice(ix + 1, iy, seed);
-  const double v01 = lattice(ix, iy + 1, seed), v11 = lattice(ix + 1, iy + 1, seed);
+  // Nested hashing h(ix + h(iy, seed)): each row's hash is shared by its two corners.
+  const std::uint32_t hy0 = detail::hash32((iy * 0x85ebca77U) ^ seed);
+  const std::uint32_t hy1 = detail::hash32(((iy + 1) * 0x85ebca77U) ^ seed);
+  const std::uint32_t kx0 = ix * 0x9e3779b1U, kx1 = kx0 + 0x9e3779b1U;
+  constexpr double k = 1.0 / 4294967296.0;
+  const double v00 = detail::hash32(kx0 + hy0) * k, v10 = detail::hash32(kx1 + hy0) * k;
+  const double v01 = detail::hash32(kx0 + hy1) * k, v11 = detail::hash32(kx1 + hy1) * k;
   const double a = v00 + (v10 - v00) * tx, b = v01 + (v11 - v01) * tx;
   return a + (b - a) * ty;
 }
@@ -451,6 +449,80 @@ Frame render_pinhole(const Scene& scene, const LensCamera& cam, int layers) {
   return fr;
 }
 
+namespace {
+
+// Lens-plane region (a disc) from which the line through the focus-plane point P can reach an
+// emitter sphere. Lines through P that touch the sphere form a cone with apex P, axis towards
+// the centre C and half-angle asin(ρ/|C − P|); it meets the lens plane z = 0 in an ellipse.
+// We bound the ellipse by a disc around the projection of C, from 16 directions on the cone
+// boundary with a 10 % margin. The bound only has to be reasonable, not exact: it defines a
+// partition of the lens (see render_thin_lens), and any partition gives an unbiased estimate.
+struct EmitterRegion {
+  double cx, cy, r;
+};
+
+bool emitter_region(const Primitive& e, Vec3 p, double lens_r, EmitterRegion& out) {
+  const Vec3 v = e.p0 - p;
+  const double dist = std::sqrt(dot(v, v));
+  if (dist < 1.5 * e.radius) return false;  // P (nearly) inside: the pixel is in focus on it
+  const Vec3 w = v * (1 / dist);
+  const double sin_a = e.radius / dist, cos_a = std::sqrt(1 - sin_a * sin_a);
+  // A line through P in direction u meets z = 0 at P − u·(P.z / u.z); the whole cone must
+  // cross the lens plane at a finite distance (u.z bounded away from 0).
+  const Vec3 e1 = perpendicular(w), e2 = cross(w, e1);
+  auto project = [&](Vec3 u, double& x, double& y) {
+    if (std::abs(u.z) < 1e-3) return false;
+    x = p.x - u.x * (p.z / u.z);
+    y = p.y - u.y * (p.z / u.z);
+    return true;
+  };
+  double cx, cy;
+  if (!project(w, cx, cy)) return false;
+  double r = 0;
+  for (int k = 0; k < 16; ++k) {
+    const double th = 2 * std::numbers::pi * k / 16;
+    const Vec3 u = w * cos_a + (e1 * std::cos(th) + e2 * std::sin(th)) * sin_a;
+    double x, y;
+    if (u.z * w.z <= 0 || !project(u, x, y)) return false;  // cone grazes the lens plane
+    r = std::max(r, std::hypot(x - cx, y - cy));
+  }
+  r *= 1.1;
+  if (r > 0.5 * lens_r) return false;                   // large: plain lens samples do well
+  if (std::hypot(cx, cy) > lens_r + r) return false;    // cannot be seen through the lens
+  out = {cx, cy, r};
+  return true;
+}
+
+// Is lens-plane point (x, y) (metres) inside the aperture of radius a (circle or n-gon with
+// vertices at (2k+1)π/n + rot)?
+bool in_aperture(double x, double y, double a, int blades, double rot) {
+  const double rr = std::hypot(x, y);
+  if (rr > a) return false;
+  if (blades < 3) return true;
+  // Angle from the nearest edge midpoint (at 2kπ/n + rot); the boundary is at apothem / cos.
+  const double sector = 2 * std::numbers::pi / blades;
+  double phi = std::fmod(std::atan2(y, x) - rot, sector);
+  if (phi < 0) phi += sector;
+  const double from_mid = std::min(phi, sector - phi);
+  return rr * std::cos(from_mid) <= a * std::cos(std::numbers::pi / blades);
+}
+
+// Radiance emission threshold above which a sphere is treated as an HDR emitter.
+constexpr double kEmitterRadiance = 2.0;
+// Lens samples per emitter region and pixel, at least (else the same as the main samples).
+constexpr int kMinEmitterSamples = 64;
+
+}  // namespace
+
+// Variance reduction for small HDR emitters. A tiny, very bright emitter is seen from a small
+// part of the lens; plain lens samples hit it a handful of times per pixel, so its bokeh disc
+// would be very noisy. We partition the lens into the emitter regions D_1 … D_m (discs, see
+// emitter_region; D_j minus the earlier ones) and the rest, and estimate each part separately:
+//   ∫_lens f = ∫ f·[l ∉ ∪D] (N uniform lens samples, weight A_lens/N)
+//            + Σ_j ∫_{D_j} f·[l ∈ lens]·[l ∉ D_1..D_{j−1}] (M uniform samples in D_j, weight A_Dj/M).
+// Every lens point belongs to exactly one part, so the sum is unbiased whatever the regions are;
+// the regions only decide where the samples go. Each sample is traced normally (occlusion by
+// nearer objects, or missing the emitter, is handled by the trace).
 Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, std::uint64_t seed,
                        const Progress& progress) {
   check_camera(cam);
@@ -458,36 +530,80 @@ Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, s
   const int w = cam.width, h = cam.height;
   const double f = cam.f_px(), zf = cam.focus_m, a = cam.lens_radius_m();
   const double rot = cam.rotation_deg * std::numbers::pi / 180.0;
-  // Lens sample positions are per pixel (scrambled per pixel), so precompute nothing shared.
+  const int blades = cam.blades >= 3 ? cam.blades : 0;
+  // Lens area in the same normalisation as the samples (metres²).
+  // (K = 0 is a pinhole: every sample is the same ray; use a unit "area" so weights stay finite.)
+  const double lens_area = a <= 0   ? 1.0
+                           : blades ? 0.5 * blades * a * a * std::sin(2 * std::numbers::pi / blades)
+                                    : std::numbers::pi * a * a;
   const std::uint32_t seed32 =
       detail::hash_combine(detail::hash32(static_cast<std::uint32_t>(seed)), static_cast<std::uint32_t>(seed >> 32));
   Image out(w, h, 4);
   const Culler culler(scene, cam, true);
   for_each_tile(cam, progress, [&](int x0, int y0, int x1, int y1) {
     const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
+    std::vector<int> emitters;
+    for (int i : cand)
+      if (scene.prims[i].kind == Primitive::Kind::sphere && scene.prims[i].tex.emission > kEmitterRadiance)
+        emitters.push_back(i);
+    std::vector<EmitterRegion> regions;
     for (int y = y0; y < y1; ++y)
       for (int x = x0; x < x1; ++x) {
         // Focus-plane point of the pixel centre; every lens ray of this pixel passes through it.
         const Vec3 p{(x + 0.5 - 0.5 * w) / f * zf, (y + 0.5 - 0.5 * h) / f * zf, zf};
-        const std::uint32_t ps = detail::hash_combine(detail::hash_combine(seed32, x), y);
+        const std::uint32_t pixel_seed = detail::hash_combine(detail::hash_combine(seed32, x), y);
+        regions.clear();
+        if (a > 0)
+          for (int e : emitters) {
+            EmitterRegion r;
+            if (emitter_region(scene.prims[e], p, a, r)) regions.push_back(r);
+          }
+        auto in_region = [&](double lx, double ly, std::size_t upto) {
+          for (std::size_t j = 0; j < upto; ++j)
+            if ((lx - regions[j].cx) * (lx - regions[j].cx) + (ly - regions[j].cy) * (ly - regions[j].cy) <=
+                regions[j].r * regions[j].r)
+              return true;
+          return false;
+        };
         double sr = 0, sg = 0, sb = 0;
-        for (int i = 0; i < samples; ++i) {
-          double u, v, lx, ly;
-          detail::sobol2d(static_cast<std::uint32_t>(i), ps, u, v);
-          if (cam.blades >= 3)
-            detail::polygon_sample(u, v, cam.blades, rot, lx, ly);
-          else
-            detail::concentric_disc(u, v, lx, ly);
-          const Vec3 o{a * lx, a * ly, 0};
+        auto trace = [&](double lx, double ly, double weight) {
+          const Vec3 o{lx, ly, 0};
           const Vec3 d = (p - o) * (1.0 / zf);  // d.z = 1: t is planar depth
           const Rgb c = radiance(scene, closest(scene, cand, o, d), o, d);
-          sr += c.r;
-          sg += c.g;
-          sb += c.b;
+          sr += weight * c.r;
+          sg += weight * c.g;
+          sb += weight * c.b;
+        };
+        const detail::SobolSet lens_set(pixel_seed);
+        const double w_main = lens_area / samples;
+        for (int i = 0; i < samples; ++i) {
+          double u, v, lx, ly;
+          lens_set.sample(static_cast<std::uint32_t>(i), u, v);
+          if (blades)
+            detail::polygon_sample(u, v, blades, rot, lx, ly);
+          else
+            detail::concentric_disc(u, v, lx, ly);
+          lx *= a;
+          ly *= a;
+          if (!in_region(lx, ly, regions.size())) trace(lx, ly, w_main);
         }
-        out.at(x, y, 0) = static_cast<float>(sr / samples);
-        out.at(x, y, 1) = static_cast<float>(sg / samples);
-        out.at(x, y, 2) = static_cast<float>(sb / samples);
+        const int m_region = std::max(kMinEmitterSamples, samples);
+        for (std::size_t j = 0; j < regions.size(); ++j) {
+          const detail::SobolSet set(detail::hash_combine(pixel_seed, 0x51ed27u + static_cast<std::uint32_t>(j)));
+          const EmitterRegion& r = regions[j];
+          const double w_region = std::numbers::pi * r.r * r.r / m_region;
+          for (int i = 0; i < m_region; ++i) {
+            double u, v, lx, ly;
+            set.sample(static_cast<std::uint32_t>(i), u, v);
+            detail::concentric_disc(u, v, lx, ly);
+            lx = r.cx + r.r * lx;
+            ly = r.cy + r.r * ly;
+            if (in_aperture(lx, ly, a, blades, rot) && !in_region(lx, ly, j)) trace(lx, ly, w_region);
+          }
+        }
+        out.at(x, y, 0) = static_cast<float>(sr / lens_area);
+        out.at(x, y, 1) = static_cast<float>(sg / lens_area);
+        out.at(x, y, 2) = static_cast<float>(sb / lens_area);
         out.at(x, y, 3) = 1.0f;
       }
   });

@@ -112,7 +112,7 @@ struct Scene {
   double hfov_deg = 60;           ///< horizontal field of view, degrees
   double focus_m = 5;             ///< default focus distance, metres
   double k_px_at_640 = 12;        ///< default blur radius at infinity, px at width 640
-  int samples = 512;              ///< default lens samples per pixel (ground truth)
+  int samples = 128;              ///< default lens samples per pixel (ground truth)
 };
 
 /// The thin-lens camera: resolution, field of view, focus, blur at infinity, aperture shape.

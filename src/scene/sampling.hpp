@@ -64,15 +64,22 @@ inline std::uint32_t owen_scramble(std::uint32_t x, std::uint32_t seed) {
   return reverse_bits(x);
 }
 
-/// Sample `i` of a scrambled, shuffled 2-D Sobol set for the pixel seed `seed`, in [0,1)².
-inline void sobol2d(std::uint32_t i, std::uint32_t seed, double& u, double& v) {
-  const std::uint32_t idx = owen_scramble(i, hash_combine(seed, 0xa511e9b3U));
-  const std::uint32_t a = owen_scramble(sobol_dim0(idx), hash_combine(seed, 1));
-  const std::uint32_t b = owen_scramble(sobol_dim1(idx), hash_combine(seed, 2));
-  constexpr double k = 1.0 / 4294967296.0;
-  u = (a + 0.5) * k;
-  v = (b + 0.5) * k;
-}
+/// A scrambled, shuffled 2-D Sobol point set for one pixel (seed = the pixel's hash): the index
+/// is Owen-scrambled too, so any prefix of the set is a random, still well-stratified subset.
+struct SobolSet {
+  std::uint32_t index_seed, x_seed, y_seed;
+  explicit SobolSet(std::uint32_t seed)
+      : index_seed(hash_combine(seed, 0xa511e9b3U)), x_seed(hash_combine(seed, 1)), y_seed(hash_combine(seed, 2)) {}
+  /// Sample i in [0,1)².
+  void sample(std::uint32_t i, double& u, double& v) const {
+    const std::uint32_t idx = owen_scramble(i, index_seed);
+    const std::uint32_t a = owen_scramble(sobol_dim0(idx), x_seed);
+    const std::uint32_t b = owen_scramble(sobol_dim1(idx), y_seed);
+    constexpr double k = 1.0 / 4294967296.0;
+    u = (a + 0.5) * k;
+    v = (b + 0.5) * k;
+  }
+};
 
 /// Shirley–Chiu concentric map [0,1)² → unit disc (area preserving, keeps strata compact).
 inline void concentric_disc(double u, double v, double& x, double& y) {

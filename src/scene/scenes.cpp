@@ -74,7 +74,7 @@ Scene occluder() {
   s.hfov_deg = 60;
   s.focus_m = 3.0;
   s.k_px_at_640 = 12;
-  s.samples = 512;
+  s.samples = 128;
   s.background = dim_background();
   // Far wall at 8 m (r = −7.5 px): bricks (checker + mortar lines) over noise.
   s.prims.push_back(Primitive::plane(
@@ -107,12 +107,12 @@ Scene fence() {
   Scene s;
   s.name = "fence";
   s.description =
-      "thin fence bars 1.6 m from the camera (r = +25 px, wider than the bars) over an in-focus "
-      "poster wall and a far building";
+      "dark fence bars 2 m from the camera (r = +18 px, wider than the 11 px bars) over an "
+      "in-focus poster wall, a far building and sky";
   s.hfov_deg = 60;
   s.focus_m = 5.0;
   s.k_px_at_640 = 12;
-  s.samples = 512;
+  s.samples = 128;
   s.background = sky_background();
   s.prims.push_back(Primitive::plane(
       {0, 1.4, 0}, {0, -1, 0}, {1, 0, 0},
@@ -129,12 +129,13 @@ Scene fence() {
       with_lines(with_checker(tex({0.5f, 0.55f, 0.65f}, {0.15f, 0.15f, 0.2f}, 2.0, 9, 24), 1.0, 0.3), 0.5,
                  0.04, 0.7),
       "building"));
-  // Bars: radius 12 mm (8 px wide) every 16 cm (55 px), blurred to r ≈ 25 px, so each bar is a
-  // translucent veil: the background must show through (McGuire's hardest case).
-  const Texture bar = tex({0.15f, 0.12f, 0.1f}, {0.6f, 0.45f, 0.3f}, 0.1, 6, 25);
-  for (int i = -8; i <= 8; ++i)
-    s.prims.push_back(Primitive::cylinder({0.16 * i + 0.05, -2.0, 1.6}, {0.16 * i + 0.05, 2.0, 1.6}, 0.012, bar, "bar"));
-  s.prims.push_back(Primitive::cylinder({-3, 0.28, 1.62}, {3, 0.28, 1.62}, 0.015, bar, "rail"));
+  // Bars: radius 2 cm (11 px wide) every 22 cm (61 px) at 2 m, blurred to r = +18 px, so each
+  // bar is a translucent dark veil through which the background must show (McGuire's hardest
+  // case: the CoC is larger than the bar).
+  const Texture bar = tex({0.04f, 0.035f, 0.03f}, {0.3f, 0.22f, 0.12f}, 0.1, 6, 25);
+  for (int i = -6; i <= 6; ++i)
+    s.prims.push_back(Primitive::cylinder({0.22 * i + 0.07, -2.0, 2.0}, {0.22 * i + 0.07, 2.0, 2.0}, 0.02, bar, "bar"));
+  s.prims.push_back(Primitive::cylinder({-3, 0.35, 2.03}, {3, 0.35, 2.03}, 0.02, bar, "rail"));
   return s;
 }
 
@@ -147,7 +148,7 @@ Scene ground() {
   s.hfov_deg = 60;
   s.focus_m = 6.0;
   s.k_px_at_640 = 12;
-  s.samples = 512;
+  s.samples = 128;
   s.background = sky_background();
   // Camera 1 m above the ground: the bottom row sees it at 3.1 m (r = +11.4 px).
   s.prims.push_back(Primitive::plane(
@@ -179,7 +180,7 @@ Scene highlights() {
   s.hfov_deg = 60;
   s.focus_m = 4.0;
   s.k_px_at_640 = 10;
-  s.samples = 1024;
+  s.samples = 256;
   s.background = dim_background();
   s.prims.push_back(Primitive::plane(
       {0, 0, 18}, {0, 0, -1}, {1, 0, 0},
@@ -233,7 +234,7 @@ Scene portrait() {
   s.hfov_deg = 40;
   s.focus_m = 1.5;
   s.k_px_at_640 = 16;
-  s.samples = 512;
+  s.samples = 128;
   s.background = dim_background();
   // Background: a bright, busy wall at 4.5 m and two columns at 2.4 m.
   s.prims.push_back(Primitive::plane(
@@ -271,7 +272,7 @@ Scene sky() {
   s.hfov_deg = 60;
   s.focus_m = 10.0;
   s.k_px_at_640 = 12;
-  s.samples = 512;
+  s.samples = 128;
   s.background = sky_background();
   s.prims.push_back(Primitive::plane(
       {0, 2.0, 0}, {0, -1, 0}, {1, 0, 0},

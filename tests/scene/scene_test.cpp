@@ -26,16 +26,24 @@ Texture flat(Rgb c, double emission = 1) {
 }
 
 // A black scene with one tiny emissive sphere on the optical axis at depth z whose pinhole
-// image has radius s_px at width w (hfov 60°).
-Scene point_scene(double z, double s_px, int w) {
+// image has radius s_px at width w (hfov 60°). With radiance above 2 the sphere is an HDR
+// emitter and the ground truth samples its lens region separately (raytracer.cpp).
+Scene point_scene(double z, double s_px, int w, double radiance = 100) {
   Scene s;
   s.name = "point";
   s.hfov_deg = 60;
   s.background.top = s.background.horizon = {0, 0, 0};
   s.background.clouds = flat({1, 1, 1});
   const double f = 0.5 * w / std::tan(kPi / 6);
-  s.prims.push_back(Primitive::sphere({0, 0, z}, s_px * z / f, flat({1, 1, 1}, 100), "point"));
+  s.prims.push_back(Primitive::sphere({0, 0, z}, s_px * z / f, flat({1, 1, 1}, radiance), "point"));
   return s;
+}
+
+double energy(const Image& img) {
+  double e = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) e += img.at(x, y, 0);
+  return e;
 }
 
 SceneOptions small(int w, int h, double focus, double k, int samples) {
@@ -125,15 +133,22 @@ TEST(Camera, LensRadiusGivesBlurAtInfinity) {
 }
 
 // A point at depth z images to a disc of radius K·|1 − z_F/z| (±0.5 px).
+// Both estimators (plain lens samples; emitter regions for HDR spheres) are checked, and they
+// must carry the same energy (the emitter partition is unbiased).
 TEST(ThinLens, PointImagesToDiscOfTheCocRadius) {
   const int w = 48, h = 48;
   const double focus = 4, k = 10, s_px = 1.0;
   for (double z : {1.9, 2.6, 3.2, 6.0, 12.0, 40.0}) {
     const double r = k * std::abs(1 - focus / z);
-    const SceneRender sr = render_custom(point_scene(z, s_px, w), small(w, h, focus, k, 512), true);
-    const double got = measured_disc_radius(sr.ground_truth, s_px);
-    std::printf("z = %5.2f m: expected r = %6.3f px, measured %6.3f px\n", z, r, got);
-    EXPECT_NEAR(got, r, 0.5) << "z = " << z;
+    const Image plain = render_custom(point_scene(z, s_px, w, 1.5), small(w, h, focus, k, 2048), true).ground_truth;
+    const Image hdr = render_custom(point_scene(z, s_px, w, 100), small(w, h, focus, k, 512), true).ground_truth;
+    const double got_plain = measured_disc_radius(plain, s_px), got_hdr = measured_disc_radius(hdr, s_px);
+    const double ratio = energy(hdr) / 100 / (energy(plain) / 1.5);
+    std::printf("z = %5.2f m: expected r = %6.3f px, measured %6.3f (plain) %6.3f (emitter regions) px, "
+                "energy ratio %.4f\n", z, r, got_plain, got_hdr, ratio);
+    EXPECT_NEAR(got_plain, r, 0.5) << "z = " << z;
+    EXPECT_NEAR(got_hdr, r, 0.5) << "z = " << z;
+    EXPECT_NEAR(ratio, 1.0, 0.01) << "z = " << z;  // measured within 0.42 %
   }
 }
 
@@ -188,7 +203,7 @@ TEST(ThinLens, PolygonApertureGivesPolygonWithNCorners) {
       worst = std::max(worst, std::abs(rad[i] - expect));
     }
     std::printf("%d blades, z = %.1f m: worst boundary deviation from the polygon %.3f px\n", c.blades, c.z, worst);
-    // Measured 0.60 (5 blades far), 0.44, 0.44, 0.38 px. Allowed: the sphere's own 1.2 px image
+    // Measured 0.50 (5 blades far), 0.38, 0.40, 0.31 px. Allowed: the sphere's own 1.2 px image
     // rounds each corner by up to s·(1/sin(θ/2) − 1) ≈ 0.3 px, plus sampling noise.
     EXPECT_LT(worst, 0.75) << c.blades << " blades, z = " << c.z;
     // Count corners: circular local maxima of the smoothed boundary radius.
@@ -435,17 +450,23 @@ TEST(Scenes, BadNamesAndOptionsAreUsageErrors) {
 
 // Two seeds are two independent unbiased estimates; their difference is the noise floor of
 // the ground truth. At a reduced size (160x90) with the scenes' default sample counts.
+// Measured: occluder 46.86 dB, fence 48.17 dB, highlights 54.49 dB (at 640x360 the figures are
+// in docs/scenes.md). Floors are 0.3 dB below the measurement and never below 45 dB.
 TEST(Scenes, TwoSeedsAgree) {
-  for (const std::string& name : {"occluder", "fence", "highlights"}) {
+  struct Case {
+    const char* name;
+    double floor_db;
+  };
+  for (const Case c : {Case{"occluder", 46.5}, Case{"fence", 47.8}, Case{"highlights", 54.1}}) {
     SceneOptions o;
     o.width = 160;
     o.height = 90;
     o.seed = 1;
-    const Image a = render_scene(name, o).ground_truth;
+    const Image a = render_scene(c.name, o).ground_truth;
     o.seed = 2;
-    const Image b = render_scene(name, o).ground_truth;
+    const Image b = render_scene(c.name, o).ground_truth;
     const double p = metrics::psnr(a, b);
-    std::printf("%s: two seeds at 160x90: %.2f dB\n", name, p);
-    EXPECT_GE(p, 45.0) << name;
+    std::printf("%s: two seeds at 160x90: %.2f dB\n", c.name, p);
+    EXPECT_GE(p, std::max(45.0, c.floor_db)) << c.name;
   }
 }

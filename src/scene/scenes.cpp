@@ -175,7 +175,7 @@ Scene highlights() {
   Scene s;
   s.name = "highlights";
   s.description =
-      "small HDR emitters (radiance up to ~200) at 1.7 to 18 m in a dim room: bokeh discs, "
+      "small HDR emitters (radiance 20 to ~300) at 1.7 to 17 m in a dim room: bokeh discs, "
       "fireflies, energy conservation";
   s.hfov_deg = 60;
   s.focus_m = 4.0;

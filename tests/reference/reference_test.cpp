@@ -160,3 +160,23 @@ TEST(Reference, ThinBlurredBarIsSeeThrough) {
   // Energy of the bar spreads ±12 px: 10 px away the wall is still brightened.
   EXPECT_GT(r.image.at(37, 16, 0), 0.21f);
 }
+
+TEST(Reference, SimdLoopMatchesPlainLoop) {
+  Frame f = make_frame(150, 90, 1.0f);
+  texture(f);
+  for (int y = 0; y < 90; ++y)
+    for (int x = 0; x < 150; ++x)
+      f.depth.at(x, y) = (x > 20 && x < 30) ? 0.7f : (y < 40 ? 30.0f : 1.0f + 0.04f * y) + ((x * 7 + y) % 5 == 0);
+  f.depth.at(75, 10) = std::numeric_limits<float>::infinity();
+  const Image coc = compute_coc(f.depth, CameraModel{BlurAtInfinity{2.5, 7.0}});
+  for (bool depth_order : {true, false}) {
+    detail::DiscScatterOptions a, b;
+    a.depth_order = b.depth_order = depth_order;
+    a.simd = true;
+    b.simd = false;
+    Image oa, ob;
+    detail::disc_scatter(f.color, f.depth, coc, a, oa);
+    detail::disc_scatter(f.color, f.depth, coc, b, ob);
+    for (std::size_t i = 0; i < oa.data().size(); ++i) ASSERT_NEAR(oa.data()[i], ob.data()[i], 1e-4) << i;
+  }
+}

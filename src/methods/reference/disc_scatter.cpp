@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "core/parallel.hpp"
+#include "methods/reference/scatter_band.hpp"
 
 namespace dofkit::detail {
 
@@ -62,57 +63,13 @@ class AreaTable {
 
 }  // namespace
 
-namespace {
-
-// Per-receiver-row data the inner loop reads, and the ten accumulator rows it writes
-// (structure of arrays so the span loop vectorises).
-struct SpanArgs {
-  const float* isu;    // receiver 1 / (softness · inverse depth); huge where the receiver is at infinity
-  const float* inv_z;  // receiver inverse depth
-  const float* sharp;  // receiver max(|r| − 0.5, 0)
-  float* acc[10];      // F rgba, F weight, B rgba, B weight
-};
-
-// Adds one source's contribution to the receivers px0..px1 of one row. Branch-free so the
-// compiler vectorises it; compiled for several instruction sets and picked at run time.
-template <bool kDepthOrder>
-__attribute__((target_clones("avx512f", "avx2", "default"))) void add_span(
-    const SpanArgs& a, int px0, int px1, int qx, float dy2, float rq, float ws, float uq, float inv_sq,
-    const float* c) {
-  float* __restrict f0 = a.acc[0]; float* __restrict f1 = a.acc[1];
-  float* __restrict f2 = a.acc[2]; float* __restrict f3 = a.acc[3];
-  float* __restrict fw = a.acc[4];
-  float* __restrict b0 = a.acc[5]; float* __restrict b1 = a.acc[6];
-  float* __restrict b2 = a.acc[7]; float* __restrict b3 = a.acc[8];
-  float* __restrict bw = a.acc[9];
-  const float c0 = c[0], c1 = c[1], c2 = c[2], c3 = c[3];
-  for (int px = px0; px <= px1; ++px) {
-    const float dx = static_cast<float>(px - qx);
-    const float cov = std::min(std::max(rq - std::sqrt(dx * dx + dy2) + 0.5f, 0.0f), 1.0f);
-    float wt = cov * ws;
-    float front = 0.0f;
-    if constexpr (kDepthOrder) {
-      // Soft "q is in front of p" (rel > 0) / "q is behind p" (rel < 0) in inverse depth.
-      const float rel = (uq - a.inv_z[px]) * a.isu[px];
-      front = std::min(std::max(rel, 0.0f), 1.0f);
-      const float behind = std::min(std::max(-rel, 0.0f), 1.0f);
-      const float pass = std::min(a.sharp[px] * inv_sq, 1.0f);
-      wt *= 1.0f - behind * (1.0f - pass);
-    }
-    const float wf = wt * front, wb = wt - wf;
-    f0[px] += wf * c0; f1[px] += wf * c1; f2[px] += wf * c2; f3[px] += wf * c3; fw[px] += wf;
-    b0[px] += wb * c0; b1[px] += wb * c1; b2[px] += wb * c2; b3[px] += wb * c3; bw[px] += wb;
-  }
-}
-
-}  // namespace
-
 void disc_scatter(const Image& colour, const Image& depth, const Image& coc, const DiscScatterOptions& opt,
                   Image& out) {
   const int w = colour.width(), h = colour.height();
   const std::size_t n = colour.plane_size();
   // Per-pixel precomputation: disc radius, sharpness, inverse depth, weight per unit coverage.
-  std::vector<float> rho(n), sharpness(n), inv_z(n), isu(n), wscale(n);
+  // (+16 floats of padding: the SIMD loop may read a vector past the last pixel.)
+  std::vector<float> rho(n + 16), sharpness(n + 16, 0.0f), inv_z(n + 16, 0.0f), isu(n + 16, 0.0f), wscale(n + 16);
   float rmax = 0.5f;
   const float soft = opt.depth_softness;
   for (std::size_t i = 0; i < n; ++i) {
@@ -186,32 +143,16 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
     for (int b = b0; b < b1; ++b) {
       const int y0 = b * kBand, y1 = std::min(h, y0 + kBand);
       std::fill(acc.begin(), acc.end(), 0.0f);
-      const int sy0 = std::max(0, y0 - reach), sy1 = std::min(h, y1 + reach);
-      for (int qy = sy0; qy < sy1; ++qy) {
-        for (int qx = 0; qx < w; ++qx) {
-          const std::size_t q = static_cast<std::size_t>(qy) * w + qx;
-          const float rq = rho[q];
-          const int ext = static_cast<int>(std::ceil(rq + 0.5f)) - 1;  // farthest integer offset with cov > 0
-          const int py0 = std::max(y0, qy - ext), py1 = std::min(y1 - 1, qy + ext);
-          if (py0 > py1) continue;
-          const float c[4] = {colour.plane(0)[q], colour.plane(1)[q], colour.plane(2)[q], colour.plane(3)[q]};
-          const float sq = sharpness[q];
-          const float inv_sq = sq > 0 ? 1.0f / sq : 1e30f;
-          const float lim = rq + 0.5f;
-          for (int py = py0; py <= py1; ++py) {
-            const float dy = static_cast<float>(py - qy);
-            const int hw = static_cast<int>(std::sqrt(std::max(0.0f, lim * lim - dy * dy)));
-            const int px0 = std::max(0, qx - hw), px1 = std::min(w - 1, qx + hw);
-            const std::size_t prow = static_cast<std::size_t>(py) * w;
-            SpanArgs a{isu.data() + prow, inv_z.data() + prow, sharpness.data() + prow, {}};
-            for (int k = 0; k < 10; ++k) a.acc[k] = acc_row(k, py - y0);
-            if (opt.depth_order)
-              add_span<true>(a, px0, px1, qx, dy * dy, rq, wscale[q], inv_z[q], inv_sq, c);
-            else
-              add_span<false>(a, px0, px1, qx, dy * dy, rq, wscale[q], inv_z[q], inv_sq, c);
-          }
-        }
-      }
+      BandJob job;
+      job.w = w; job.h = h; job.y0 = y0; job.y1 = y1; job.reach = reach; job.depth_order = opt.depth_order;
+      job.rho = rho.data(); job.sharp = sharpness.data(); job.inv_z = inv_z.data(); job.isu = isu.data();
+      job.wscale = wscale.data();
+      for (int c = 0; c < 4; ++c) job.colour[c] = colour.plane(c);
+      job.acc = acc.data(); job.band = kBand; job.stride = stride;
+      if (opt.simd)
+        scatter_band_simd(job);
+      else
+        scatter_band_plain(job);
       for (int py = y0; py < y1; ++py) {
         const float* fw = acc_row(4, py - y0);
         const float* bw = acc_row(9, py - y0);

@@ -13,6 +13,8 @@ struct DiscScatterOptions {
   /// Relative inverse-depth difference over which a source goes from "same surface" to
   /// "in front of the receiver" (soft, so a continuous surface shows no seams).
   float depth_softness = 0.05f;
+  /// SIMD hot loop (default) or the plain scalar one (the test oracle).
+  bool simd = true;
 };
 
 /// colour: RGBA premultiplied; depth: z; coc: signed px. Writes RGBA into `out`.

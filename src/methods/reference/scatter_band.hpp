@@ -1,0 +1,33 @@
+// The hot loop of the disc scatter: every source that reaches a band of receiver rows adds
+// its disc to the band's accumulators. Two implementations with the same arithmetic per
+// receiver: a plain scalar loop (the test oracle) and a SIMD one (Highway, run-time dispatch).
+#pragma once
+#include <cstddef>
+
+namespace dofkit::detail {
+
+struct BandJob {
+  int w = 0, h = 0;      // image size
+  int y0 = 0, y1 = 0;    // receiver rows [y0, y1)
+  int reach = 0;         // largest disc extent (px)
+  bool depth_order = true;
+  // Per pixel (row-major, padded by at least 16 floats at the end so vector loads may run past
+  // the last pixel): disc radius, sharpness max(|r|−0.5,0), inverse depth, 1/(softness·inv_z),
+  // weight per unit coverage, colour planes.
+  const float* rho = nullptr;
+  const float* sharp = nullptr;
+  const float* inv_z = nullptr;
+  const float* isu = nullptr;
+  const float* wscale = nullptr;
+  const float* colour[4] = {};
+  // Accumulators: row r of stream k (F rgba, F w, B rgba, B w) at acc + (k·band + r)·stride;
+  // stride >= w + 16 so vector stores may run past the last receiver.
+  float* acc = nullptr;
+  int band = 0;
+  std::size_t stride = 0;
+};
+
+void scatter_band_plain(const BandJob& job);
+void scatter_band_simd(const BandJob& job);
+
+}  // namespace dofkit::detail

@@ -5,6 +5,13 @@
 
 namespace dofkit::core {
 
+// The functions below are the fast forms: clamp-free interiors (borders replicated into a
+// padded strip buffer), float running sums re-synchronised every kResync outputs, several
+// columns (vertical) or several transposed rows (horizontal) per SIMD lane group, all passes
+// of one axis run while the strip is in cache. They match the `*_plain` oracles (double
+// running sums, clamped taps, one pass per sweep) within ~1e-6 of the local signal magnitude
+// (tests/core). Output is independent of the thread count (fixed strips, same code per lane).
+
 /// Box mean of (2·rx+1) × (2·ry+1) taps on one plane (src and dst may alias).
 void box_blur_plane(const float* src, float* dst, int w, int h, int rx, int ry);
 
@@ -26,5 +33,16 @@ void extended_box_params(float sigma, int passes, int& r, float& alpha);
 /// Bilinear sample of one plane at continuous position (x, y) in pixel units, where pixel
 /// (i, j) has its centre at (i + 0.5, j + 0.5); clamp-to-edge.
 float sample_bilinear(const float* plane, int w, int h, float x, float y);
+
+/// Several passes of the same extended box along one axis, in place (fast form).
+void extended_box_passes_x(float* data, int w, int h, int r, float alpha, int passes);
+void extended_box_passes_y(float* data, int w, int h, int r, float alpha, int passes);
+
+/// Plain forms: the original straightforward implementations, kept as test oracles.
+void extended_box_x_plain(float* data, int w, int h, int r, float alpha);
+void extended_box_y_plain(float* data, int w, int h, int r, float alpha);
+void gaussian_blur_plane_plain(float* data, int w, int h, float sigma_x, float sigma_y, int passes = 3);
+void gaussian_blur_plain(Image& img, float sigma, int passes = 3);
+void box_blur_plane_plain(const float* src, float* dst, int w, int h, int rx, int ry);
 
 }  // namespace dofkit::core

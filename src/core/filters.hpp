@@ -34,6 +34,21 @@ void extended_box_params(float sigma, int passes, int& r, float& alpha);
 /// (i, j) has its centre at (i + 0.5, j + 0.5); clamp-to-edge.
 float sample_bilinear(const float* plane, int w, int h, float x, float y);
 
+/// The footprint sample_bilinear uses along one axis of n samples for position x:
+/// the clamped neighbours i0, i1 and the weight t of i1.
+inline void bilinear_footprint(float x, int n, int& i0, int& i1, float& t) {
+  const float f = x - 0.5f;
+  const float f0 = __builtin_floorf(f);
+  t = f - f0;
+  const int k = static_cast<int>(f0);
+  i0 = k < 0 ? 0 : (k > n - 1 ? n - 1 : k);
+  i1 = k + 1 < 0 ? 0 : (k + 1 > n - 1 ? n - 1 : k + 1);
+}
+/// One output row of bilinear samples between source rows ra (weight 1 − ty) and rb (ty),
+/// with per-column footprints (xa, xb, tx): bit-identical to sample_bilinear per pixel.
+void bilinear_row(const float* ra, const float* rb, float ty, const int* xa, const int* xb, const float* tx,
+                  int n, float* dst);
+
 /// Several passes of the same extended box along one axis, in place (fast form).
 void extended_box_passes_x(float* data, int w, int h, int r, float alpha, int passes);
 void extended_box_passes_y(float* data, int w, int h, int r, float alpha, int passes);

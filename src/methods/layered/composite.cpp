@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
@@ -53,13 +54,20 @@ void blur_half_res(Image& img, double sigma) {
   }, 4);
   const double var = (sigma * sigma - 0.25 - 2.0 / 3.0) / 4.0;
   if (var > 0) core::gaussian_blur(half, static_cast<float>(std::sqrt(var)));
+  // Full-res pixel centre (x + 0.5) sits at (x + 0.5) / 2 in half-res pixel units. The
+  // bilinear footprint (core::sample_bilinear, same arithmetic) is computed once per column.
+  std::vector<int> xa(w), xb(w);
+  std::vector<float> tx(w);
+  for (int x = 0; x < w; ++x) core::bilinear_footprint((x + 0.5f) * 0.5f, hw, xa[x], xb[x], tx[x]);
   core::parallel_for(h, [&](int y0, int y1) {
     for (int c = 0; c < img.channels(); ++c) {
       const float* p = half.plane(c);
       for (int y = y0; y < y1; ++y) {
-        float* d = img.row(c, y);
-        // Full-res pixel centre (x + 0.5) sits at (x + 0.5) / 2 in half-res pixel units.
-        for (int x = 0; x < w; ++x) d[x] = core::sample_bilinear(p, hw, hh, (x + 0.5f) * 0.5f, (y + 0.5f) * 0.5f);
+        int ya, yb;
+        float ty;
+        core::bilinear_footprint((y + 0.5f) * 0.5f, hh, ya, yb, ty);
+        core::bilinear_row(p + static_cast<std::size_t>(ya) * hw, p + static_cast<std::size_t>(yb) * hw, ty,
+                           xa.data(), xb.data(), tx.data(), w, img.row(c, y));
       }
     }
   }, 4);

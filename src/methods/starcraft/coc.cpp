@@ -88,16 +88,5 @@ void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& lev
   }, 16);
 }
 
-LevelWeights level_weights(float c) {
-  constexpr float d0 = 0.5f, d1 = 0.25f, d2 = 0.25f;
-  auto sat = [](float v) { return std::clamp(v, 0.0f, 1.0f); };
-  const float x = sat(1.0f - c / d0);
-  const float y = sat((1.0f - d2) / d1 - c / d1);
-  const float z = sat(1.0f / d2 - c / d2);
-  const float w = sat((d2 - 1.0f) / d2 + c / d2);
-  const float ys = std::min(y, 1.0f - x);
-  const float zs = std::min(z, 1.0f - y);
-  return {1.0f - (ys + zs + w), ys, zs, w};
-}
 
 }  // namespace dofkit::detail::starcraft

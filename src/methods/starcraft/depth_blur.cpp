@@ -13,7 +13,7 @@
 
 namespace dofkit::detail::starcraft {
 
-void depth_blur(const Image& depth, float sigma_total, Image& inv_depth) {
+void depth_blur(const Image& depth, float sigma_total, Image& inv_depth, bool plain) {
   const int w = depth.width(), h = depth.height();
   const int lw = down_size(w), lh = down_size(h);
   inv_depth.resize(lw, lh, 1);
@@ -32,7 +32,7 @@ void depth_blur(const Image& depth, float sigma_total, Image& inv_depth) {
     }
   }, 4);
   const float s = quarter_res_sigma(sigma_total);
-  core::gaussian_blur_plane(inv_depth.plane(0), lw, lh, s, s);
+  (plain ? core::gaussian_blur_plane_plain : core::gaussian_blur_plane)(inv_depth.plane(0), lw, lh, s, s, 3);
 }
 
 float quarter_res_sigma(float sigma_total) {

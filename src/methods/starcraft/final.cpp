@@ -107,9 +107,118 @@ void final_pass_plain(const Image& color, const Image& depth, const Image& level
 }
 
 // The same pass organised by rows for speed (the plain version above is its test oracle):
-// the quarter-res planes are interpolated vertically once per row, the per-pixel level
-// decision is made once for all channels, and the small blur reads five clamp-padded source
-// rows so the inner loops have no branches and vectorise.
+// the quarter-res planes are interpolated vertically once per row and horizontally into
+// full-width rows, the per-pixel level decision is made once for all channels, and the small
+// blur reads five clamp-padded source rows, so every inner loop is branch-free and vectorises
+// (compiled for AVX-512, AVX2 and baseline x86-64, chosen at run time).
+namespace {
+
+struct RowScratch {
+  std::vector<float> vrow, hrow, ws, wm, wl, wsrc, pad;
+};
+
+struct FinalGeometry {
+  int w, h, lw, lh;
+  const int* xa;
+  const int* xb;
+  const float* tx;
+};
+
+constexpr int kPad = 2;
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void final_row(const Image& color, const Image& depth, const Image& level, const Image& medium,
+               const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
+               const FinalGeometry& g, RowScratch& sc, int y) {
+  constexpr float kTiny = 1e-6f;
+  constexpr float kTieTolerance = 1e-5f;
+  const int w = g.w, h = g.h, lw = g.lw, lh = g.lh;
+  // Vertical lerp of the quarter-res rows around this row, then horizontal lerp to full res:
+  // planes 0-3 numerators, 4 the blurred level (normaliser), 5 the blurred inverse depth.
+  const float fy = (y + 0.5f) / kDown - 0.5f;
+  const float y0f = std::floor(fy);
+  const float ty = fy - y0f;
+  const int ya = clampi(static_cast<int>(y0f), 0, lh - 1), yb = clampi(static_cast<int>(y0f) + 1, 0, lh - 1);
+  for (int p = 0; p < 6; ++p) {
+    const Image& img = p < 5 ? large : inv_depth;
+    const int pl = p < 5 ? p : 0;
+    const float* ra = img.row(pl, ya);
+    const float* rb = img.row(pl, yb);
+    float* v = sc.vrow.data() + static_cast<std::size_t>(p) * lw;
+    for (int i = 0; i < lw; ++i) v[i] = ra[i] + (rb[i] - ra[i]) * ty;
+    float* hr = sc.hrow.data() + static_cast<std::size_t>(p) * w;
+    for (int x = 0; x < w; ++x) hr[x] = v[g.xa[x]] + (v[g.xb[x]] - v[g.xa[x]]) * g.tx[x];
+  }
+  const float* cb = sc.hrow.data() + static_cast<std::size_t>(4) * w;
+  const float* inv_blur = sc.hrow.data() + static_cast<std::size_t>(5) * w;
+  // Level decision and weights, once per pixel.
+  const float* cown = level.row(0, y);
+  const float* z = depth.row(0, y);
+  float* ws = sc.ws.data();
+  float* wm = sc.wm.data();
+  float* wl = sc.wl.data();
+  float* wsrc = sc.wsrc.data();
+  int any = 0;
+  for (int x = 0; x < w; ++x) {
+    float c = inv_blur[x] <= (1.0f / z[x]) * (1.0f + kTieTolerance) ? cown[x] : cb[x];
+    if (keep_own_blur) c = std::max(c, cown[x]);
+    const LevelWeights lwt = level_weights(c);
+    ws[x] = lwt.small;
+    wm[x] = lwt.medium;
+    wl[x] = lwt.large;
+    const float alpha = (16.0f / 17.0f) * lwt.small + lwt.medium + lwt.large;
+    wsrc[x] = 1.0f - alpha;
+    any |= alpha != 0.0f;
+  }
+  for (int ch = 0; ch < 4; ++ch) {
+    const float* src = color.row(ch, y);
+    float* o = out.row(ch, y);
+    if (!any) {  // whole row in focus: the source, bit for bit
+      std::copy(src, src + w, o);
+      continue;
+    }
+    // Rows y−2 … y+2, clamp-padded by 2 px on each side.
+    const std::size_t stride = w + 2 * kPad;
+    for (int k = 0; k < 5; ++k) {
+      const float* r = color.row(ch, clampi(y + k - 2, 0, h - 1));
+      float* d = sc.pad.data() + static_cast<std::size_t>(k) * stride;
+      std::copy(r, r + w, d + kPad);
+      for (int i = 0; i < kPad; ++i) {
+        d[i] = r[0];
+        d[w + kPad + i] = r[w - 1];
+      }
+    }
+    const float* __restrict m2 = sc.pad.data() + kPad;  // row y−2 at column 0
+    const float* __restrict m1 = m2 + stride;
+    const float* __restrict r0 = m1 + stride;
+    const float* __restrict p1 = r0 + stride;
+    const float* __restrict p2 = p1 + stride;
+    const float* __restrict med = medium.row(ch, y);
+    const float* __restrict num = sc.hrow.data() + static_cast<std::size_t>(ch) * w;
+    const float* __restrict s = src;
+    const float* __restrict cbr = cb;
+    const float* __restrict wsr = ws;
+    const float* __restrict wmr = wm;
+    const float* __restrict wlr = wl;
+    const float* __restrict wsrcr = wsrc;
+    float* __restrict od = o;
+    // Same arithmetic as the plain pass; the division's denominator is made safe before the
+    // select so the loop has no branch (and no trapping lane).
+    for (int x = 0; x < w; ++x) {
+      const float small = ((m2[x] + m2[x + 1] + m1[x] + m1[x + 1]) + (m1[x - 2] + m1[x - 1] + r0[x - 2] + r0[x - 1]) +
+                           (p1[x - 1] + p1[x] + p2[x - 1] + p2[x]) + (r0[x + 1] + r0[x + 2] + p1[x + 1] + p1[x + 2])) *
+                          (1.0f / 17.0f);
+      const bool has_large = cbr[x] > kTiny;
+      const float q = num[x] / (has_large ? cbr[x] : 1.0f);
+      const float lg = has_large ? q : med[x];
+      const float mixed = wsr[x] * small + wmr[x] * med[x] + wlr[x] * lg + wsrcr[x] * s[x];
+      od[x] = wsrcr[x] == 1.0f ? s[x] : mixed;
+    }
+  }
+}
+
+}  // namespace
+
 void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium,
                 const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
                 const FinalDebug& dbg) {
@@ -120,11 +229,12 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
   const int w = color.width(), h = color.height();
   const int lw = large.width(), lh = large.height();
   out.resize(w, h, 4);
-  constexpr float kTiny = 1e-6f;
-  constexpr float kTieTolerance = 1e-5f;
   // Horizontal bilinear footprint of each full-res column on the quarter-res grid.
-  std::vector<int> xa(w), xb(w);
-  std::vector<float> tx(w);
+  thread_local std::vector<int> xa, xb;
+  thread_local std::vector<float> tx;
+  xa.resize(w);
+  xb.resize(w);
+  tx.resize(w);
   for (int x = 0; x < w; ++x) {
     const float fx = (x + 0.5f) / kDown - 0.5f;
     const float x0f = std::floor(fx);
@@ -132,85 +242,15 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
     xa[x] = clampi(static_cast<int>(x0f), 0, lw - 1);
     xb[x] = clampi(static_cast<int>(x0f) + 1, 0, lw - 1);
   }
-  constexpr int kPad = 2;
+  const FinalGeometry g{w, h, lw, lh, xa.data(), xb.data(), tx.data()};
   core::parallel_for(h, [&](int y0, int y1) {
-    std::vector<float> vrow(static_cast<std::size_t>(lw) * 6);  // 6 quarter-res planes, row-lerped
-    std::vector<float> ws(w), wm(w), wl(w), wsrc(w), cb(w);
-    std::vector<float> pad(static_cast<std::size_t>(w + 2 * kPad) * 5);
-    for (int y = y0; y < y1; ++y) {
-      // Vertical lerp of the quarter-res rows around this row.
-      const float fy = (y + 0.5f) / kDown - 0.5f;
-      const float y0f = std::floor(fy);
-      const float ty = fy - y0f;
-      const int ya = clampi(static_cast<int>(y0f), 0, lh - 1), yb = clampi(static_cast<int>(y0f) + 1, 0, lh - 1);
-      for (int p = 0; p < 6; ++p) {
-        const Image& img = p < 5 ? large : inv_depth;
-        const int pl = p < 5 ? p : 0;
-        const float* ra = img.row(pl, ya);
-        const float* rb = img.row(pl, yb);
-        float* v = vrow.data() + static_cast<std::size_t>(p) * lw;
-        for (int i = 0; i < lw; ++i) v[i] = ra[i] + (rb[i] - ra[i]) * ty;
-      }
-      auto hsample = [&](int p, int x) {
-        const float* v = vrow.data() + static_cast<std::size_t>(p) * lw;
-        return v[xa[x]] + (v[xb[x]] - v[xa[x]]) * tx[x];
-      };
-      // Level decision and weights, once per pixel.
-      const float* cown = level.row(0, y);
-      const float* z = depth.row(0, y);
-      bool any = false;
-      for (int x = 0; x < w; ++x) {
-        const float inv_blur = hsample(5, x);
-        const float c_blur = hsample(4, x);
-        float c = inv_blur <= (1.0f / z[x]) * (1.0f + kTieTolerance) ? cown[x] : c_blur;
-        if (keep_own_blur) c = std::max(c, cown[x]);
-        const LevelWeights lwt = level_weights(c);
-        ws[x] = lwt.small;
-        wm[x] = lwt.medium;
-        wl[x] = lwt.large;
-        const float alpha = (16.0f / 17.0f) * lwt.small + lwt.medium + lwt.large;
-        wsrc[x] = 1.0f - alpha;
-        cb[x] = c_blur;
-        any = any || alpha != 0.0f;
-      }
-      for (int ch = 0; ch < 4; ++ch) {
-        const float* src = color.row(ch, y);
-        float* o = out.row(ch, y);
-        if (!any) {  // whole row in focus: the source, bit for bit
-          std::copy(src, src + w, o);
-          continue;
-        }
-        // Rows y−2 … y+2, clamp-padded by 2 px on each side.
-        for (int k = 0; k < 5; ++k) {
-          const float* r = color.row(ch, clampi(y + k - 2, 0, h - 1));
-          float* d = pad.data() + static_cast<std::size_t>(k) * (w + 2 * kPad);
-          std::copy(r, r + w, d + kPad);
-          for (int i = 0; i < kPad; ++i) {
-            d[i] = r[0];
-            d[w + kPad + i] = r[w - 1];
-          }
-        }
-        const std::size_t stride = w + 2 * kPad;
-        const float* m2 = pad.data() + kPad;  // row y−2 at column 0
-        const float* m1 = m2 + stride;
-        const float* r0 = m1 + stride;
-        const float* p1 = r0 + stride;
-        const float* p2 = p1 + stride;
-        const float* med = medium.row(ch, y);
-        for (int x = 0; x < w; ++x) {
-          // The pinwheel of final_pass_plain: blocks at (0,−2), (−2,−1), (−1,1), (1,0).
-          const float small = ((m2[x] + m2[x + 1] + m1[x] + m1[x + 1]) + (m1[x - 2] + m1[x - 1] + r0[x - 2] + r0[x - 1]) +
-                               (p1[x - 1] + p1[x] + p2[x - 1] + p2[x]) + (r0[x + 1] + r0[x + 2] + p1[x + 1] + p1[x + 2])) *
-                              (1.0f / 17.0f);
-          if (wsrc[x] == 1.0f) {
-            o[x] = src[x];
-            continue;
-          }
-          const float lg = cb[x] > kTiny ? hsample(ch, x) / cb[x] : med[x];
-          o[x] = ws[x] * small + wm[x] * med[x] + wl[x] * lg + wsrc[x] * src[x];
-        }
-      }
-    }
+    thread_local RowScratch sc;  // per worker, kept between frames
+    sc.vrow.resize(static_cast<std::size_t>(lw) * 6);
+    sc.hrow.resize(static_cast<std::size_t>(w) * 6);
+    for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
+    sc.pad.resize(static_cast<std::size_t>(w + 2 * kPad) * 5);
+    for (int y = y0; y < y1; ++y)
+      final_row(color, depth, level, medium, large, inv_depth, keep_own_blur, out, g, sc, y);
   }, 8);
 }
 

@@ -17,7 +17,8 @@
 
 namespace dofkit::detail::starcraft {
 
-void large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large) {
+void large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large,
+                bool plain) {
   const int w = color.width(), h = color.height();
   const int lw = down_size(w), lh = down_size(h);
   large.resize(lw, lh, 5);
@@ -50,7 +51,7 @@ void large_blur(const Image& color, const Image& level, float sigma_total, bool 
     }
   }, 4);
   const float s = quarter_res_sigma(sigma_total);
-  for (int ch = 0; ch < 5; ++ch) core::gaussian_blur_plane(large.plane(ch), lw, lh, s, s);
+  for (int ch = 0; ch < 5; ++ch) (plain ? core::gaussian_blur_plane_plain : core::gaussian_blur_plane)(large.plane(ch), lw, lh, s, s, 3);
 }
 
 }  // namespace dofkit::detail::starcraft

@@ -11,7 +11,8 @@
 
 namespace dofkit::detail::starcraft {
 
-void medium_blur(const Image& color, const Image& level, float sigma, Image& medium, Image& weight) {
+void medium_blur(const Image& color, const Image& level, float sigma, Image& medium, Image& weight,
+                 bool plain) {
   const int w = color.width(), h = color.height();
   medium.resize(w, h, 4);
   weight.resize(w, h, 1);
@@ -26,8 +27,8 @@ void medium_blur(const Image& color, const Image& level, float sigma, Image& med
       }
     }
   }, 16);
-  for (int ch = 0; ch < 4; ++ch) core::gaussian_blur_plane(medium.plane(ch), w, h, sigma, sigma);
-  core::gaussian_blur_plane(weight.plane(0), w, h, sigma, sigma);
+  for (int ch = 0; ch < 4; ++ch) (plain ? core::gaussian_blur_plane_plain : core::gaussian_blur_plane)(medium.plane(ch), w, h, sigma, sigma, 3);
+  (plain ? core::gaussian_blur_plane_plain : core::gaussian_blur_plane)(weight.plane(0), w, h, sigma, sigma, 3);
   // Where the weight vanishes no tap was blurry: the level is unused there (its weight in
   // the final mix is 0 unless the pixel's own c > 0.5, and then its own tap counts), so any
   // finite value will do; the source keeps the result free of 0/0.

@@ -28,6 +28,7 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   s.depth_blur = ctx.params.get_double("depth_blur", s.depth_blur, 0.1, 4.0);
   s.keep_own_blur = ctx.params.get_bool("keep_own_blur", s.keep_own_blur);
   s.coc_reduce_max = ctx.params.get_choice("coc_reduce", "mean", {"mean", "max"}) == "max";
+  s.plain = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
 
   const LevelGeometry g = make_geometry(ctx, s);
   const Image& color = ctx.frame.color;
@@ -41,11 +42,11 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
 
   Image& medium = ctx.workspace.image("starcraft.medium", w, h, 4);
   Image& medium_weight = ctx.workspace.image("starcraft.medium_weight", w, h, 1);
-  medium_blur(color, level, g.sigma_medium, medium, medium_weight);
+  medium_blur(color, level, g.sigma_medium, medium, medium_weight, s.plain);
   ctx.debug.offer("medium", medium);
 
   Image& large = ctx.workspace.image("starcraft.large", lw, lh, 5);
-  large_blur(color, level, g.sigma_large, s.coc_reduce_max, large);
+  large_blur(color, level, g.sigma_large, s.coc_reduce_max, large, s.plain);
   ctx.debug.offer("blurred_coc", [&] { return quarter_plane(large, 4); });
   ctx.debug.offer("large", [&] {
     Image img(large.width(), large.height(), 4);
@@ -57,7 +58,7 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   });
 
   Image& inv_depth = ctx.workspace.image("starcraft.inv_depth", lw, lh, 1);
-  depth_blur(ctx.frame.depth, g.sigma_depth, inv_depth);
+  depth_blur(ctx.frame.depth, g.sigma_depth, inv_depth, s.plain);
   ctx.debug.offer("blurred_depth", [&] {
     Image img(inv_depth.width(), inv_depth.height(), 1);
     for (std::size_t i = 0; i < img.plane_size(); ++i) {
@@ -72,7 +73,10 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   if (ctx.debug.wants("used_coc")) dbg.used_level = &used;
   if (ctx.debug.wants("small")) dbg.small = &small;
   if (ctx.debug.wants("weights")) dbg.weights = &weights;
-  final_pass(color, ctx.frame.depth, level, medium, large, inv_depth, s.keep_own_blur, out, dbg);
+  if (s.plain)
+    final_pass_plain(color, ctx.frame.depth, level, medium, large, inv_depth, s.keep_own_blur, out, dbg);
+  else
+    final_pass(color, ctx.frame.depth, level, medium, large, inv_depth, s.keep_own_blur, out, dbg);
   if (dbg.used_level) ctx.debug.offer("used_coc", used);
   if (dbg.small) ctx.debug.offer("small", small);
   if (dbg.weights) ctx.debug.offer("weights", weights);
@@ -100,6 +104,9 @@ const MethodDef& starcraft_method() {
            "on: a pixel is never sharper than its own CoC (max of own and blurred level); off: the chapter's "
            "rule (blurred level when the neighbourhood is in front)"},
           {"coc_reduce", "mean", "how a 4x4 block's CoC is reduced to the quarter-res map: mean or max"},
+          {"impl", "fast",
+           "fast: SIMD/cache-blocked passes; plain: the straightforward passes (double-sum Gaussians, per-pixel "
+           "final pass), kept as the test oracle of the fast form (equal within 1e-4)"},
       },
       {
           {"coc", "blur level c in [0,1] per pixel (full resolution)"},

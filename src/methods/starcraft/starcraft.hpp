@@ -65,6 +65,7 @@ struct Settings {
   double depth_blur = 1.0;       ///< σ of the depth blur relative to the CoC blur
   bool keep_own_blur = false;    ///< c = max(c_used, c_own): a pixel never gets sharper
   bool coc_reduce_max = false;   ///< quarter-res level = block max (else block mean)
+  bool plain = false;            ///< impl=plain: the straightforward passes (test oracle)
 };
 
 LevelGeometry make_geometry(const MethodContext& ctx, const Settings& s);
@@ -77,15 +78,17 @@ void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& lev
 
 /// C2: medium level, full resolution, RGBA: CoC-weighted Gaussian of σ = sigma_medium,
 /// normalised; where no tap carries weight the source colour is kept. `weight` is scratch.
-void medium_blur(const Image& color, const Image& level, float sigma, Image& medium, Image& weight);
+void medium_blur(const Image& color, const Image& level, float sigma, Image& medium, Image& weight,
+                 bool plain = false);
 
 /// C3: large level at W/4 × H/4. `large` gets 5 planes: blur(c·rgba) (4 planes, not yet
 /// divided) and blur(c) — the blurred CoC, which is also the normaliser. `reduce_max`: the
 /// quarter-res level of a block is its max instead of its mean (colour stays c-weighted).
-void large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large);
+void large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large,
+                bool plain = false);
 
 /// C4: inverse depth 1/z reduced to W/4 × H/4 (block mean) and blurred (1 plane).
-void depth_blur(const Image& depth, float sigma_total, Image& inv_depth);
+void depth_blur(const Image& depth, float sigma_total, Image& inv_depth, bool plain = false);
 
 /// Converts a total (full-res px) Gaussian σ into the σ to apply on the quarter-res grid,
 /// removing the variance the 4×4 box reduction and the bilinear up-sampling add.
@@ -116,6 +119,16 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
 struct LevelWeights {
   float source, small, medium, large;
 };
-LevelWeights level_weights(float c);
+inline LevelWeights level_weights(float c) {
+  constexpr float d0 = 0.5f, d1 = 0.25f, d2 = 0.25f;
+  auto sat = [](float v) { return v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v); };
+  const float x = sat(1.0f - c / d0);
+  const float y = sat((1.0f - d2) / d1 - c / d1);
+  const float z = sat(1.0f / d2 - c / d2);
+  const float w = sat((d2 - 1.0f) / d2 + c / d2);
+  const float ys = y < 1.0f - x ? y : 1.0f - x;
+  const float zs = z < 1.0f - y ? z : 1.0f - y;
+  return {1.0f - (ys + zs + w), ys, zs, w};
+}
 
 }  // namespace dofkit::detail::starcraft

@@ -18,6 +18,7 @@
 #include <cmath>
 
 #include "core/parallel.hpp"
+#include "methods/mcguire/fast.hpp"
 #include "methods/mcguire/mcguire.hpp"
 #include "methods/method.hpp"
 
@@ -138,8 +139,19 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     });
     return;
   }
-  mcguire::blur_horizontal(packed, k, ox, wo, t_blur, t_near);
-  mcguire::blur_vertical(t_blur, t_near, k, oy, ho, blur, near);
+  // impl=plain runs the obviously-correct passes (the test oracle); fast runs the SIMD /
+  // box-sum passes for book/demo and the tap-bounded passes of blur.cpp for g3d.
+  const bool plain = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
+  if (plain) {
+    mcguire::blur_horizontal_plain(packed, k, ox, wo, t_blur, t_near);
+    mcguire::blur_vertical_plain(t_blur, t_near, k, oy, ho, blur, near);
+  } else if (mcguire::fast_supported(k)) {
+    mcguire::blur_horizontal_fast(packed, k, ox, wo, t_blur, t_near, ws);
+    mcguire::blur_vertical_fast(t_blur, t_near, k, oy, ho, blur, near, ws);
+  } else {
+    mcguire::blur_horizontal(packed, k, ox, wo, t_blur, t_near);
+    mcguire::blur_vertical(t_blur, t_near, k, oy, ho, blur, near);
+  }
   ctx.debug.offer("far", blur);
   ctx.debug.offer("near", [&] {
     // RGBA premultiplied by the near coverage; alpha = coverage.
@@ -149,7 +161,10 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     return v;
   });
   Image weights;
-  mcguire::composite(packed, ox, oy, blur, near, k, inner, out, ctx.debug.wants("weights") ? &weights : nullptr);
+  if (plain || ctx.debug.wants("weights"))
+    mcguire::composite(packed, ox, oy, blur, near, k, inner, out, ctx.debug.wants("weights") ? &weights : nullptr);
+  else
+    mcguire::composite_fast(packed, ox, oy, blur, near, k, inner, out, ws);
   ctx.debug.offer("weights", weights);
 }
 
@@ -186,6 +201,9 @@ const MethodDef& mcguire_method() {
            "border in px on every side that is read as context but not rendered: output there is "
            "transparent black"},
           {"guard_band_taps", "on", "blur taps may read into the guard band (off = it is never read)"},
+          {"impl", "fast",
+           "fast = SIMD / box-sum passes (book, demo; g3d: tap-bounded passes), plain = the unoptimised "
+           "passes kept as the test oracle; both agree within float rounding"},
       },
       {
           {"coc", "packed signed CoC s*0.5+0.5 (0.5 = in focus, > 0.5 near), 1 plane, full size"},

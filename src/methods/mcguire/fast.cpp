@@ -1,0 +1,370 @@
+// Fast P2/P3/P4 of the McGuire method for book/demo (impl=fast). Same sums as the plain
+// passes in blur.cpp / composite.cpp, organised so that no output visits a tap that cannot
+// contribute and no tap weight costs more than a division and a table lookup:
+//
+// * Far/focus blur, far centre (nearness 0): w = table[⌊5|δ| / den_B⌋] is exactly 0 once
+//   |δ| >= 1.2·den_B, so the taps stop at the largest such reach over the outputs' window
+//   (per block of outputs); the remaining taps run in SIMD across adjacent outputs
+//   (far_gather_simd). Horizontal: the padded row is split into f phases, so the taps of f-
+//   strided outputs are contiguous. Vertical: taps are rows, outputs are contiguous columns.
+// * Far/focus blur, near centre (nearness 1): every tap has w = wn + (1 − wn) = 1, so the
+//   result is the mean of the 2R+1 taps: a box, read from double prefix sums (horizontal) or
+//   double sliding row sums (vertical) in O(1) per output.
+// * Fractional nearness (only when focus_px < 0.25): the generic weight over all 2R+1 taps.
+// * Near field, horizontal: tap B adds α_B·(colour, 1) to every output within
+//   min(⌊r_B⌋, ⌈R_near⌉ − 1) px (the |δ| <= r_B test times the box |δ| < R_near) — a box
+//   scatter, done as a difference array over the output index + prefix sum (double).
+//   Vertical: the box |δ| < R_near of the premultiplied rows, as a double sliding row sum.
+//
+// Box sums are exact in double up to the final rounding, so they differ from the plain
+// float running sums by that rounding only (< 1e-6 relative); the SIMD gather differs by FMA
+// rounding. Work is split into a fixed number of chunks (independent of the thread count),
+// and each chunk's arithmetic does not depend on the others, so output is identical for any
+// number of threads.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "core/parallel.hpp"
+#include "methods/mcguire/blur_weights.hpp"
+#include "methods/mcguire/fast.hpp"
+#include "methods/mcguire/gather.hpp"
+
+namespace dofkit::detail::mcguire {
+
+namespace {
+
+/// Fixed chunking: chunk c of n covers [N·c/n, N·(c+1)/n).
+inline int chunk_begin(int N, int n, int c) { return static_cast<int>(static_cast<long long>(N) * c / n); }
+
+void load_table(const Constants& k, float* table16) {
+  std::fill_n(table16, 16, 0.0f);
+  std::copy_n(k.variant == Variant::book ? kGaussianTable : kDiscTable, 7, table16);
+}
+
+/// den = 0.001 + c·|r| exactly as far_weight() computes it (scalar code: no FMA contraction).
+inline float den_of(const Constants& k, float r) {
+  return 0.001f + (k.variant == Variant::book ? 0.5f : 0.8f) * std::fabs(r);
+}
+/// Largest |δ| + 1 at which a far tap of this radius can still have weight: 5|δ|/den < 6.
+inline int reach_of(float den) { return static_cast<int>(1.2f * den) + 1; }
+
+constexpr int kBlock = 32;  // outputs per tap-bound block
+
+}  // namespace
+
+bool fast_supported(const Constants& k) { return k.variant != Variant::g3d; }
+
+void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int wo, Image& t_blur, Image& t_near,
+                          Workspace& ws) {
+  const int W = packed.width(), H = packed.height(), R = k.r_max, f = k.f;
+  const float rmax = static_cast<float>(R);
+  t_blur.resize(wo, H, 5);
+  t_near.resize(wo, H, 5);
+  float near_norm = 0;
+  for (int d = -R; d <= R; ++d) near_norm += near_box(k, static_cast<float>(d));
+  const float near_inv = 1.0f / std::max(near_norm, 1e-5f);
+  // Near box: |δ| < R_near ⟺ |δ| <= ⌈R_near⌉ − 1, and taps only span [−R, R].
+  const int hbox = k.r_near > 0 ? std::min(R, static_cast<int>(std::ceil(k.r_near)) - 1) : -1;
+  float table[16];
+  load_table(k, table);
+
+  const int P = W + 2 * R;             // padded row: x = source + R, clamped at the edges
+  const int M = (P + f - 1) / f + 64;  // phase array length (+ slack for vector over-reads)
+  // Scratch per chunk (floats): 7 phase planes (f·M each), r_a/nearness/reach (wo, wo, P),
+  // then doubles: prefix 4·(P+1), near bins 5·(wo+2).
+  const std::size_t n_float = 7 * static_cast<std::size_t>(f) * M + 2 * (wo + 64) + P;
+  const std::size_t n_double = 4 * static_cast<std::size_t>(P + 1) + 5 * static_cast<std::size_t>(wo + 2);
+  const std::size_t per_chunk = n_float + 2 * n_double + 8;
+  const int nchunk = std::min(H, 64);
+  Image& scratch = ws.image("mcguire.fast.h_scratch", static_cast<int>(per_chunk), nchunk, 1);
+
+  core::parallel_for(nchunk, [&](int c0, int c1) {
+    std::vector<GatherTap> taps(2 * R + 1);
+    for (int chunk = c0; chunk < c1; ++chunk) {
+      float* base = scratch.row(0, chunk);
+      float* ph = base;  // phase planes: q·(f·M) + p·M + m
+      const std::size_t plane = static_cast<std::size_t>(f) * M;
+      float* r_a = ph + 7 * plane;
+      float* nearness = r_a + wo + 32;
+      float* reach = nearness + wo + 32;
+      double* dbl = reinterpret_cast<double*>(reinterpret_cast<std::uintptr_t>(reach + P + 2) & ~std::uintptr_t(7));
+      double* prefix = dbl;                             // 4 × (P+1)
+      double* bins = prefix + 4 * static_cast<std::size_t>(P + 1);  // 5 × (wo+2)
+      for (int y = chunk_begin(H, nchunk, chunk); y < chunk_begin(H, nchunk, chunk + 1); ++y) {
+        const float* col[4] = {packed.row(0, y), packed.row(1, y), packed.row(2, y), packed.row(3, y)};
+        const float* s = packed.row(4, y);
+        // Phase-split padded row.
+        bool any_near_src = false;
+        for (int x = 0; x < P; ++x) {
+          const int src = std::clamp(x - R, 0, W - 1);
+          const std::size_t at = static_cast<std::size_t>(x % f) * M + x / f;
+          const float r_b = s[src] * rmax;
+          for (int c = 0; c < 4; ++c) ph[c * plane + at] = col[c][src];
+          const float den = den_of(k, r_b);
+          ph[4 * plane + at] = den;
+          const bool nb = in_near(r_b);
+          ph[5 * plane + at] = nb ? 0.0f : 1.0f;
+          ph[6 * plane + at] = std::fabs(r_b);
+          reach[x] = nb ? 0.0f : static_cast<float>(reach_of(den));
+          any_near_src |= r_b > 0;
+        }
+        bool any_box = false;
+        for (int i = 0; i < wo; ++i) {
+          r_a[i] = s[ox + f * i] * rmax;
+          nearness[i] = saturate(4.0f * r_a[i]);
+          any_box |= nearness[i] == 1.0f;
+        }
+        // Near-centre box: prefix sums of the padded row.
+        if (any_box) {
+          for (int c = 0; c < 4; ++c) {
+            double* S = prefix + c * static_cast<std::size_t>(P + 1);
+            S[0] = 0;
+            for (int x = 0; x < P; ++x) S[x + 1] = S[x] + col[c][std::clamp(x - R, 0, W - 1)];
+          }
+        }
+        const float box_w = static_cast<float>(2 * R + 1);  // the plain pass's Σw (every w = 1)
+        for (int i0 = 0; i0 < wo; i0 += kBlock) {
+          const int i1 = std::min(wo, i0 + kBlock);
+          bool gather = false, frac = false;
+          for (int i = i0; i < i1; ++i) {
+            gather |= nearness[i] < 1.0f;
+            frac |= nearness[i] > 0.0f && nearness[i] < 1.0f;
+          }
+          if (gather) {
+            int L = R;
+            if (!frac) {
+              float m = 0;
+              for (int x = ox + f * i0; x <= ox + f * (i1 - 1) + 2 * R; ++x) m = std::max(m, reach[x]);
+              L = std::min(R, static_cast<int>(m));
+            }
+            int nt = 0;
+            for (int d = -L; d <= L; ++d) {
+              const int q = ox + R + d;  // padded x of output i0's tap, minus f·i0
+              const std::size_t at = static_cast<std::size_t>(q % f) * M + q / f + i0;
+              GatherTap& t = taps[nt++];
+              for (int c = 0; c < 4; ++c) t.col[c] = ph + c * plane + at;
+              t.den = ph + 4 * plane + at;
+              t.flag = ph + 5 * plane + at;
+              t.absb = ph + 6 * plane + at;
+              t.d5 = 5.0f * static_cast<float>(std::abs(d));
+            }
+            GatherJob job;
+            job.n = i1 - i0;
+            job.ntaps = nt;
+            job.taps = taps.data();
+            job.r_a = r_a + i0;
+            job.nearness = nearness + i0;
+            job.table = table;
+            job.occlusion = k.far_occlusion;
+            for (int c = 0; c < 4; ++c) job.out[c] = t_blur.row(c, y) + i0;
+            far_gather_simd(job);
+          }
+          for (int i = i0; i < i1; ++i) {
+            if (nearness[i] != 1.0f) continue;
+            const int a = ox + f * i + R;  // padded centre; taps a−R .. a+R
+            for (int c = 0; c < 4; ++c) {
+              const double* S = prefix + c * static_cast<std::size_t>(P + 1);
+              t_blur.row(c, y)[i] = static_cast<float>(S[a + R + 1] - S[a - R]) / box_w;
+            }
+          }
+        }
+        for (int i = 0; i < wo; ++i) t_blur.row(4, y)[i] = s[ox + f * i];
+
+        // Near field: box scatter via a difference array over the output index.
+        if (hbox < 0 || !any_near_src) {
+          for (int c = 0; c < 5; ++c) std::fill_n(t_near.row(c, y), wo, 0.0f);
+          continue;
+        }
+        std::fill_n(bins, 5 * static_cast<std::size_t>(wo + 2), 0.0);
+        const int base_x = ox + R;  // padded centre of output 0
+        for (int x = 0; x < P; ++x) {
+          const int src = std::clamp(x - R, 0, W - 1);
+          const float r_b = s[src] * rmax;
+          if (!(r_b >= 0.0f)) continue;
+          const float alpha = near_alpha_horizontal(k, 0.0f, r_b);
+          if (alpha == 0.0f) continue;
+          const int h = std::min(static_cast<int>(std::floor(r_b)), hbox);
+          // Outputs i with |base_x + f·i − x| <= h.
+          const int lo_num = x - h - base_x, hi_num = x + h - base_x;
+          int ilo = lo_num <= 0 ? -((-lo_num) / f) : (lo_num + f - 1) / f;
+          int ihi = hi_num >= 0 ? hi_num / f : -((-hi_num + f - 1) / f);
+          ilo = std::max(ilo, 0);
+          ihi = std::min(ihi, wo - 1);
+          if (ilo > ihi) continue;
+          for (int c = 0; c < 4; ++c) {
+            const double v = static_cast<double>(alpha * col[c][src]);
+            bins[c * (wo + 2) + ilo] += v;
+            bins[c * (wo + 2) + ihi + 1] -= v;
+          }
+          bins[4 * (wo + 2) + ilo] += alpha;
+          bins[4 * (wo + 2) + ihi + 1] -= alpha;
+        }
+        for (int c = 0; c < 5; ++c) {
+          double acc = 0;
+          const double* b = bins + c * (wo + 2);
+          float* o = t_near.row(c, y);
+          for (int i = 0; i < wo; ++i) {
+            acc += b[i];
+            o[i] = static_cast<float>(acc) * near_inv;
+          }
+        }
+      }
+    }
+  });
+}
+
+void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constants& k, int oy, int ho, Image& blur,
+                        Image& near, Workspace& ws) {
+  const int W = t_blur.width(), H = t_blur.height(), R = k.r_max, f = k.f;
+  const float rmax = static_cast<float>(R);
+  blur.resize(W, ho, 4);
+  near.resize(W, ho, 5);
+  float near_norm = 0;
+  for (int d = -R; d <= R; ++d) near_norm += near_box(k, static_cast<float>(d));
+  const float near_inv = 1.0f / std::max(near_norm, 1e-5f);
+  const int hbox = k.r_near > 0 ? std::min(R, static_cast<int>(std::ceil(k.r_near)) - 1) : -1;
+  float table[16];
+  load_table(k, table);
+
+  // Per t_blur row: den, far flag, |r| (+ slack for vector over-reads) and the largest reach
+  // per column block.
+  const int nblk = (W + kBlock - 1) / kBlock;
+  Image& aux = ws.image("mcguire.fast.v_aux", W + 64, H, 3);
+  Image& reach = ws.image("mcguire.fast.v_reach", nblk, H, 1);
+  core::parallel_for(H, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* s = t_blur.row(4, y);
+      float* den = aux.row(0, y);
+      float* flag = aux.row(1, y);
+      float* absb = aux.row(2, y);
+      for (int i = 0; i < W; ++i) {
+        const float r_b = s[i] * rmax;
+        den[i] = den_of(k, r_b);
+        flag[i] = in_near(r_b) ? 0.0f : 1.0f;
+        absb[i] = std::fabs(r_b);
+      }
+      for (int b = 0; b < nblk; ++b) {
+        int m = 0;
+        for (int i = b * kBlock; i < std::min(W, (b + 1) * kBlock); ++i)
+          if (flag[i] != 0.0f) m = std::max(m, reach_of(den[i]));
+        reach.row(0, y)[b] = static_cast<float>(m);
+      }
+    }
+  }, 16);
+
+  // Output rows in fixed chunks; each chunk keeps double sliding row sums of t_blur (radius R,
+  // for near centres) and of t_near (radius hbox).
+  const int nchunk = std::min(ho, 32);
+  const std::size_t per_chunk = 2 * (9 * static_cast<std::size_t>(W) + 2 * (W + 64)) + 8;
+  Image& scratch = ws.image("mcguire.fast.v_scratch", static_cast<int>(per_chunk), nchunk, 1);
+  core::parallel_for(nchunk, [&](int c0, int c1) {
+    std::vector<GatherTap> taps(2 * R + 1);
+    for (int chunk = c0; chunk < c1; ++chunk) {
+      float* fbase = scratch.row(0, chunk);
+      float* r_a = fbase;
+      float* nearness = r_a + W + 64;
+      double* sum_b = reinterpret_cast<double*>(reinterpret_cast<std::uintptr_t>(nearness + W + 66) & ~std::uintptr_t(7));
+      double* sum_n = sum_b + 4 * static_cast<std::size_t>(W);
+      const int j0 = chunk_begin(ho, nchunk, chunk), j1 = chunk_begin(ho, nchunk, chunk + 1);
+      // Does any output row of the chunk have a near centre?
+      bool chunk_box = false;
+      for (int j = j0; j < j1 && !chunk_box; ++j) {
+        const float* sa = t_blur.row(4, oy + f * j);
+        for (int i = 0; i < W; ++i) chunk_box |= saturate(4.0f * (sa[i] * rmax)) == 1.0f;
+      }
+      auto add_rows = [&](double* sum, const Image& img, int nc, int from, int to, double sign) {
+        for (int b = from; b <= to; ++b) {
+          const int row = std::clamp(b, 0, H - 1);
+          for (int c = 0; c < nc; ++c) {
+            const float* src = img.row(c, row);
+            double* dst = sum + c * static_cast<std::size_t>(W);
+            for (int i = 0; i < W; ++i) dst[i] += sign * src[i];
+          }
+        }
+      };
+      const float box_w = static_cast<float>(2 * R + 1);
+      for (int j = j0; j < j1; ++j) {
+        const int a = oy + f * j;
+        if (j == j0) {
+          if (chunk_box) {
+            std::fill_n(sum_b, 4 * static_cast<std::size_t>(W), 0.0);
+            add_rows(sum_b, t_blur, 4, a - R, a + R, 1.0);
+          }
+          if (hbox >= 0) {
+            std::fill_n(sum_n, 5 * static_cast<std::size_t>(W), 0.0);
+            add_rows(sum_n, t_near, 5, a - hbox, a + hbox, 1.0);
+          }
+        } else {
+          const int prev = a - f;
+          if (chunk_box) {
+            add_rows(sum_b, t_blur, 4, prev + R + 1, a + R, 1.0);
+            add_rows(sum_b, t_blur, 4, prev - R, a - R - 1, -1.0);
+          }
+          if (hbox >= 0) {
+            add_rows(sum_n, t_near, 5, prev + hbox + 1, a + hbox, 1.0);
+            add_rows(sum_n, t_near, 5, prev - hbox, a - hbox - 1, -1.0);
+          }
+        }
+        const float* sa = t_blur.row(4, a);
+        for (int i = 0; i < W; ++i) {
+          r_a[i] = sa[i] * rmax;
+          nearness[i] = saturate(4.0f * r_a[i]);
+        }
+        for (int i0 = 0; i0 < W; i0 += kBlock) {
+          const int i1 = std::min(W, i0 + kBlock), blk = i0 / kBlock;
+          bool gather = false, frac = false;
+          for (int i = i0; i < i1; ++i) {
+            gather |= nearness[i] < 1.0f;
+            frac |= nearness[i] > 0.0f && nearness[i] < 1.0f;
+          }
+          if (gather) {
+            int L = R;
+            if (!frac) {
+              float m = 0;
+              for (int b = a - R; b <= a + R; ++b) m = std::max(m, reach.row(0, std::clamp(b, 0, H - 1))[blk]);
+              L = std::min(R, static_cast<int>(m));
+            }
+            int nt = 0;
+            for (int d = -L; d <= L; ++d) {
+              const int b = std::clamp(a + d, 0, H - 1);
+              GatherTap& t = taps[nt++];
+              for (int c = 0; c < 4; ++c) t.col[c] = t_blur.row(c, b) + i0;
+              t.den = aux.row(0, b) + i0;
+              t.flag = aux.row(1, b) + i0;
+              t.absb = aux.row(2, b) + i0;
+              t.d5 = 5.0f * static_cast<float>(std::abs(d));
+            }
+            GatherJob job;
+            job.n = i1 - i0;
+            job.ntaps = nt;
+            job.taps = taps.data();
+            job.r_a = r_a + i0;
+            job.nearness = nearness + i0;
+            job.table = table;
+            job.occlusion = k.far_occlusion;
+            for (int c = 0; c < 4; ++c) job.out[c] = blur.row(c, j) + i0;
+            far_gather_simd(job);
+          }
+          for (int i = i0; i < i1; ++i) {
+            if (nearness[i] != 1.0f) continue;
+            for (int c = 0; c < 4; ++c)
+              blur.row(c, j)[i] = static_cast<float>(sum_b[c * static_cast<std::size_t>(W) + i]) / box_w;
+          }
+        }
+        for (int c = 0; c < 5; ++c) {
+          float* o = near.row(c, j);
+          if (hbox < 0) {
+            std::fill_n(o, W, 0.0f);
+            continue;
+          }
+          const double* sn = sum_n + c * static_cast<std::size_t>(W);
+          for (int i = 0; i < W; ++i) o[i] = static_cast<float>(sn[i]) * near_inv;
+        }
+      }
+    }
+  });
+}
+
+}  // namespace dofkit::detail::mcguire

@@ -1,0 +1,35 @@
+// The SIMD far/focus gather of the McGuire dual blur (book/demo tap weights), shared by the
+// fast horizontal and vertical passes (fast.cpp). One call sums, for n adjacent outputs at
+// once, the taps listed in the job; every tap supplies contiguous per-output arrays, so the
+// caller decides the geometry (phase-split rows for the horizontal pass, rows for the
+// vertical pass).
+#pragma once
+
+namespace dofkit::detail::mcguire {
+
+/// Per tap: pointers to the first output's source values; output o reads element o.
+struct GatherTap {
+  const float* col[4];  ///< premultiplied RGBA of tap B
+  const float* den;     ///< 0.001 + c·|r_B| (c = 0.5 book, 0.8 demo), computed exactly as blur_weights.hpp
+  const float* flag;    ///< 1 if B is not near-field, 0 if it is (its far weight is 0)
+  const float* absb;    ///< |r_B| px (read only with the far occlusion test)
+  float d5;             ///< 5·|δ|
+};
+
+struct GatherJob {
+  int n = 0;                        ///< outputs (n >= 1)
+  int ntaps = 0;
+  const GatherTap* taps = nullptr;
+  const float* r_a = nullptr;       ///< centre radius px, n values
+  const float* nearness = nullptr;  ///< saturate(4 r_A), n values
+  const float* table = nullptr;     ///< 16 floats: the 7-entry weight table, then zeros
+  bool occlusion = false;           ///< book far occlusion test: w ·= saturate(|r_A| − |r_B| + 1.5)
+  float* out[4] = {};               ///< blur = Σ w·col / Σ w, n values per channel
+};
+
+/// out[c][o] = Σ_t w_t,o·col_t[c][o] / Σ_t w_t,o with w = wn + (1 − wn)·nearness_o and
+/// wn = table[min(6, ⌊5|δ| / den⌋)]·flag (× occlusion term): the formula of far_weight()
+/// for book/demo, evaluated with the same division so the table index is exact.
+void far_gather_simd(const GatherJob& job);
+
+}  // namespace dofkit::detail::mcguire

@@ -95,20 +95,22 @@ void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int w
       for (int y = chunk_begin(H, nchunk, chunk); y < chunk_begin(H, nchunk, chunk + 1); ++y) {
         const float* col[4] = {packed.row(0, y), packed.row(1, y), packed.row(2, y), packed.row(3, y)};
         const float* s = packed.row(4, y);
-        // Phase-split padded row.
+        // Phase-split padded row: padded x = f·m + p lives at phase p, index m.
         bool any_near_src = false;
-        for (int x = 0; x < P; ++x) {
-          const int src = std::clamp(x - R, 0, W - 1);
-          const std::size_t at = static_cast<std::size_t>(x % f) * M + x / f;
-          const float r_b = s[src] * rmax;
-          for (int c = 0; c < 4; ++c) ph[c * plane + at] = col[c][src];
-          const float den = den_of(k, r_b);
-          ph[4 * plane + at] = den;
-          const bool nb = in_near(r_b);
-          ph[5 * plane + at] = nb ? 0.0f : 1.0f;
-          ph[6 * plane + at] = std::fabs(r_b);
-          reach[x] = nb ? 0.0f : static_cast<float>(reach_of(den));
-          any_near_src |= r_b > 0;
+        for (int p = 0; p < f; ++p) {
+          const std::size_t at0 = static_cast<std::size_t>(p) * M;
+          for (int x = p, m = 0; x < P; x += f, ++m) {
+            const int src = std::clamp(x - R, 0, W - 1);
+            const float r_b = s[src] * rmax;
+            for (int c = 0; c < 4; ++c) ph[c * plane + at0 + m] = col[c][src];
+            const float den = den_of(k, r_b);
+            ph[4 * plane + at0 + m] = den;
+            const bool nb = in_near(r_b);
+            ph[5 * plane + at0 + m] = nb ? 0.0f : 1.0f;
+            ph[6 * plane + at0 + m] = std::fabs(r_b);
+            reach[x] = nb ? 0.0f : static_cast<float>(reach_of(den));
+            any_near_src |= r_b > 0;
+          }
         }
         bool any_box = false;
         for (int i = 0; i < wo; ++i) {
@@ -118,10 +120,19 @@ void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int w
         }
         // Near-centre box: prefix sums of the padded row.
         if (any_box) {
-          for (int c = 0; c < 4; ++c) {
-            double* S = prefix + c * static_cast<std::size_t>(P + 1);
-            S[0] = 0;
-            for (int x = 0; x < P; ++x) S[x + 1] = S[x] + col[c][std::clamp(x - R, 0, W - 1)];
+          // Four independent running sums in one loop (the adds of one channel form a chain).
+          double* S0 = prefix;
+          double* S1 = S0 + (P + 1);
+          double* S2 = S1 + (P + 1);
+          double* S3 = S2 + (P + 1);
+          double q0 = 0, q1 = 0, q2 = 0, q3 = 0;
+          S0[0] = S1[0] = S2[0] = S3[0] = 0;
+          for (int x = 0; x < P; ++x) {
+            const int src = std::clamp(x - R, 0, W - 1);
+            S0[x + 1] = q0 += col[0][src];
+            S1[x + 1] = q1 += col[1][src];
+            S2[x + 1] = q2 += col[2][src];
+            S3[x + 1] = q3 += col[3][src];
           }
         }
         const float box_w = static_cast<float>(2 * R + 1);  // the plain pass's Σw (every w = 1)
@@ -201,14 +212,17 @@ void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int w
           bins[4 * (wo + 2) + ilo] += alpha;
           bins[4 * (wo + 2) + ihi + 1] -= alpha;
         }
-        for (int c = 0; c < 5; ++c) {
-          double acc = 0;
-          const double* b = bins + c * (wo + 2);
-          float* o = t_near.row(c, y);
-          for (int i = 0; i < wo; ++i) {
-            acc += b[i];
-            o[i] = static_cast<float>(acc) * near_inv;
-          }
+        {
+          // Five independent running sums in one loop.
+          const std::size_t st = wo + 2;
+          float* o[5];
+          for (int c = 0; c < 5; ++c) o[c] = t_near.row(c, y);
+          double q[5] = {0, 0, 0, 0, 0};
+          for (int i = 0; i < wo; ++i)
+            for (int c = 0; c < 5; ++c) {
+              q[c] += bins[c * st + i];
+              o[c][i] = static_cast<float>(q[c]) * near_inv;
+            }
         }
       }
     }

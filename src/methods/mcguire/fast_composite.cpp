@@ -3,14 +3,15 @@
 // top/bot the horizontal lerps of two low-res rows; every output row between two low-res
 // rows reuses the same two horizontally interpolated rows, so each chunk of output rows
 // keeps them (9 channels: near 5 + blurry 4) and only redoes one when the low-res row
-// changes. The per-pixel composite then runs over contiguous arrays with no branches that
-// the compiler cannot turn into selects, so it vectorises.
+// changes. The per-pixel composite then runs in SIMD over contiguous arrays
+// (composite_row_simd, selects instead of branches).
 #include <algorithm>
 #include <cmath>
 
 #include "core/parallel.hpp"
 #include "methods/mcguire/blur_weights.hpp"
 #include "methods/mcguire/fast.hpp"
+#include "methods/mcguire/gather.hpp"
 
 namespace dofkit::detail::mcguire {
 
@@ -35,62 +36,6 @@ void h_interp(const Image& blur, const Image& near, int row, int w, const int* i
     const float* a = c < 5 ? near.row(c, row) : blur.row(c - 5, row);
     float* o = dst + static_cast<std::size_t>(c) * w;
     for (int x = 0; x < w; ++x) o[x] = a[i0[x]] + (a[i1[x]] - a[i0[x]]) * w1[x];
-  }
-}
-
-template <bool G3D>
-void composite_row(const float* __restrict top, const float* __restrict bot, float wy, int w, const float* col[4],
-                   const float* __restrict sp, const Constants& k, float* out[4]) {
-  const float far_rescale = k.far_rescale, boost = k.coverage_boost;
-  const bool dbl = k.double_coc, do_boost = boost != 1.0f;
-  const float* __restrict c0 = col[0];
-  const float* __restrict c1 = col[1];
-  const float* __restrict c2 = col[2];
-  const float* __restrict c3 = col[3];
-  float* __restrict o0 = out[0];
-  float* __restrict o1 = out[1];
-  float* __restrict o2 = out[2];
-  float* __restrict o3 = out[3];
-  auto L = [&](int c, int x) {
-    const float t = top[static_cast<std::size_t>(c) * w + x];
-    return t + (bot[static_cast<std::size_t>(c) * w + x] - t) * wy;
-  };
-  for (int x = 0; x < w; ++x) {
-    float n0 = L(0, x), n1 = L(1, x), n2 = L(2, x), n3 = L(3, x), n4 = L(4, x);
-    float s = sp[x];
-    s = s < 0 ? std::max(s * far_rescale, -1.0f) : s;
-    float ba;
-    if constexpr (G3D) {
-      ba = saturate(-12.0f * s);
-    } else {
-      if (dbl) s = std::clamp(2.0f * s, -1.0f, 1.0f);
-      if (do_boost) {
-        const float a = saturate(boost * n4);
-        const float g = n4 > 0 ? a / n4 : 0.0f;
-        n0 *= g;
-        n1 *= g;
-        n2 *= g;
-        n3 *= g;
-        n4 = a;
-      }
-      s = s > 0.1f ? std::min(1.5f * s, 1.0f) : s;
-      ba = std::fabs(s);
-    }
-    const float keep = 1.0f - n4;
-    float v0 = c0[x] + (L(5, x) - c0[x]) * ba;
-    float v1 = c1[x] + (L(6, x) - c1[x]) * ba;
-    float v2 = c2[x] + (L(7, x) - c2[x]) * ba;
-    float v3 = c3[x] + (L(8, x) - c3[x]) * ba;
-    if constexpr (G3D) {
-      v0 = std::max(v0, 0.0f);
-      v1 = std::max(v1, 0.0f);
-      v2 = std::max(v2, 0.0f);
-      v3 = std::max(v3, 0.0f);
-    }
-    o0[x] = v0 * keep + n0;
-    o1[x] = v1 * keep + n1;
-    o2[x] = v2 * keep + n2;
-    o3[x] = v3 * keep + n3;
   }
 }
 
@@ -136,17 +81,21 @@ void composite_fast(const Image& packed, int ox, int oy, const Image& blur, cons
           }
           have_b = r1;
         }
-        const float* col[4];
-        float* o[4];
+        CompositeRowJob job;
+        job.top = row_a;
+        job.bot = row_b;
+        job.wy = wyv[y];
+        job.w = w;
         for (int c = 0; c < 4; ++c) {
-          col[c] = packed.row(c, oy + y) + ox;
-          o[c] = out.row(c, inner.y + y) + inner.x;
+          job.col[c] = packed.row(c, oy + y) + ox;
+          job.out[c] = out.row(c, inner.y + y) + inner.x;
         }
-        const float* sp = packed.row(4, oy + y) + ox;
-        if (k.variant == Variant::g3d)
-          composite_row<true>(row_a, row_b, wyv[y], w, col, sp, k, o);
-        else
-          composite_row<false>(row_a, row_b, wyv[y], w, col, sp, k, o);
+        job.s = packed.row(4, oy + y) + ox;
+        job.far_rescale = k.far_rescale;
+        job.coverage_boost = k.coverage_boost;
+        job.g3d = k.variant == Variant::g3d;
+        job.double_coc = k.double_coc;
+        composite_row_simd(job);
       }
     }
   });

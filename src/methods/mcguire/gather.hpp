@@ -32,4 +32,19 @@ struct GatherJob {
 /// for book/demo, evaluated with the same division so the table index is exact.
 void far_gather_simd(const GatherJob& job);
 
+/// One output row of the composite (composite.cpp's arithmetic): top/bot are two low-res
+/// rows already interpolated horizontally (9 planes of w: near α·RGBA, α, blurry RGBA).
+struct CompositeRowJob {
+  const float* top = nullptr;
+  const float* bot = nullptr;
+  float wy = 0;                ///< vertical bilinear weight of bot
+  int w = 0;
+  const float* col[4] = {};    ///< sharp premultiplied RGBA
+  const float* s = nullptr;    ///< packed s
+  float far_rescale = 1, coverage_boost = 1;
+  bool g3d = false, double_coc = false;
+  float* out[4] = {};
+};
+void composite_row_simd(const CompositeRowJob& job);
+
 }  // namespace dofkit::detail::mcguire

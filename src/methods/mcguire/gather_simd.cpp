@@ -7,6 +7,9 @@
 // which rounds differently from the plain pass's separate multiply and add (≈ 1 ulp per tap).
 #include "methods/mcguire/gather.hpp"
 
+#include <algorithm>
+#include <cstddef>
+
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "methods/mcguire/gather_simd.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -77,6 +80,78 @@ void FarGather(const GatherJob& job) {
   }
 }
 
+void CompositeRow(const CompositeRowJob& job) {
+  const hn::ScalableTag<float> df;
+  const int lanes = static_cast<int>(hn::Lanes(df));
+  const int w = job.w;
+  const auto zero = hn::Zero(df), one = hn::Set(df, 1.0f), m1 = hn::Set(df, -1.0f);
+  const auto wy = hn::Set(df, job.wy), rescale = hn::Set(df, job.far_rescale), boost = hn::Set(df, job.coverage_boost);
+  const auto two = hn::Set(df, 2.0f), c01 = hn::Set(df, 0.1f), c15 = hn::Set(df, 1.5f), m12 = hn::Set(df, -12.0f);
+  const bool do_boost = job.coverage_boost != 1.0f;
+  auto compute = [&](int x) {
+    auto L = [&](int c) {
+      const auto t = hn::LoadU(df, job.top + static_cast<std::size_t>(c) * w + x);
+      return hn::Add(t, hn::Mul(hn::Sub(hn::LoadU(df, job.bot + static_cast<std::size_t>(c) * w + x), t), wy));
+    };
+    auto n0 = L(0), n1 = L(1), n2 = L(2), n3 = L(3), n4 = L(4);
+    auto s = hn::LoadU(df, job.s + x);
+    s = hn::IfThenElse(hn::Lt(s, zero), hn::Max(hn::Mul(s, rescale), m1), s);
+    hn::Vec<decltype(df)> ba;
+    if (job.g3d) {
+      ba = hn::Min(hn::Max(hn::Mul(m12, s), zero), one);
+    } else {
+      if (job.double_coc) s = hn::Min(hn::Max(hn::Mul(two, s), m1), one);
+      if (do_boost) {
+        const auto a = hn::Min(hn::Max(hn::Mul(boost, n4), zero), one);
+        const auto g = hn::IfThenElseZero(hn::Gt(n4, zero), hn::Div(a, n4));
+        n0 = hn::Mul(n0, g);
+        n1 = hn::Mul(n1, g);
+        n2 = hn::Mul(n2, g);
+        n3 = hn::Mul(n3, g);
+        n4 = a;
+      }
+      s = hn::IfThenElse(hn::Gt(s, c01), hn::Min(hn::Mul(c15, s), one), s);
+      ba = hn::Abs(s);
+    }
+    const auto keep = hn::Sub(one, n4);
+    const hn::Vec<decltype(df)> nn[4] = {n0, n1, n2, n3};
+    for (int c = 0; c < 4; ++c) {
+      const auto sharp = hn::LoadU(df, job.col[c] + x);
+      auto v = hn::Add(sharp, hn::Mul(hn::Sub(L(5 + c), sharp), ba));
+      if (job.g3d) v = hn::Max(v, zero);
+      hn::StoreU(hn::Add(hn::Mul(v, keep), nn[c]), df, job.out[c] + x);
+    }
+  };
+  int x = 0;
+  for (; x + lanes <= w; x += lanes) compute(x);
+  if (x < w) {
+    if (w >= lanes) {
+      compute(w - lanes);
+    } else {
+      // Narrower than one vector: pad through a small stack copy.
+      // Pad to one vector through stack copies (lanes <= 16).
+      alignas(64) float top[9 * 64] = {}, bot[9 * 64] = {}, col[4][64] = {}, s[64] = {}, out[4][64] = {};
+      for (int c = 0; c < 9; ++c) {
+        std::copy_n(job.top + static_cast<std::size_t>(c) * w, w, top + c * lanes);
+        std::copy_n(job.bot + static_cast<std::size_t>(c) * w, w, bot + c * lanes);
+      }
+      for (int c = 0; c < 4; ++c) std::copy_n(job.col[c], w, col[c]);
+      std::copy_n(job.s, w, s);
+      CompositeRowJob p = job;
+      p.top = top;
+      p.bot = bot;
+      p.w = lanes;
+      for (int c = 0; c < 4; ++c) {
+        p.col[c] = col[c];
+        p.out[c] = out[c];
+      }
+      p.s = s;
+      CompositeRow(p);
+      for (int c = 0; c < 4; ++c) std::copy_n(out[c], w, job.out[c]);
+    }
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::mcguire
 HWY_AFTER_NAMESPACE();
@@ -85,5 +160,7 @@ HWY_AFTER_NAMESPACE();
 namespace dofkit::detail::mcguire {
 HWY_EXPORT(FarGather);
 void far_gather_simd(const GatherJob& job) { HWY_DYNAMIC_DISPATCH(FarGather)(job); }
+HWY_EXPORT(CompositeRow);
+void composite_row_simd(const CompositeRowJob& job) { HWY_DYNAMIC_DISPATCH(CompositeRow)(job); }
 }  // namespace dofkit::detail::mcguire
 #endif  // HWY_ONCE

@@ -27,6 +27,7 @@
 
 #include "dofkit/error.hpp"
 #include "methods/method.hpp"
+#include "methods/sterna/fast.hpp"
 #include "methods/sterna/passes.hpp"
 
 namespace dofkit::detail {
@@ -102,12 +103,19 @@ void render_sterna(const MethodContext& ctx, Image& out) {
   shape.rotation_deg = p.get_double("rotation_deg", 0.0, -360.0, 360.0);
   shape.anamorphic = p.get_double("anamorphic", 1.0, 0.5, 2.0);
   s.offsets = make_offsets(shape);
+  const bool fast = p.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
 
   const bool want_view = ctx.debug.wants("near_coc") || ctx.debug.wants("far_coc") ||
                          ctx.debug.wants("near_coc_dilated") || ctx.debug.wants("near") ||
                          ctx.debug.wants("far") || ctx.debug.wants("near_fill") || ctx.debug.wants("far_fill");
   if (s.composite_blend <= 0.0f && !want_view) {
     out = ctx.frame.color;  // strength 0: the input, exactly
+    return;
+  }
+  // impl=fast (default) runs the optimised passes of fast_*.cpp, which give the same output
+  // as the plain passes below (the oracle, impl=plain); settings they do not cover run plain.
+  if (fast && !s.per_pixel_scale && !s.bicubic_near && !want_view) {
+    sterna::fast::render(ctx, s, out);
     return;
   }
   FullCoc full;
@@ -146,6 +154,9 @@ const MethodDef& sterna_method() {
           {"rotation_deg", "0", "polygon rotation, degrees clockwise on screen (-360-360); 0 = edge midpoint at +x"},
           {"anamorphic", "1", "bokeh width/height ratio 0.5-2 (area preserving)"},
           {"firefly", "off", "HDR firefly suppression in the downsample: off or karis (weights 1/(1+luma))"},
+          {"impl", "fast",
+           "fast (optimised passes; per_pixel_scale=on, near_upsample=bicubic and debug views use plain) or plain "
+           "(the reference passes, the test oracle); same output"},
       },
       {
           {"near_coc", "full-res near blend factor 0-1 (1 plane)"},

@@ -1,0 +1,46 @@
+// The fast pipeline: buffers from the workspace, then the passes of fast_*.cpp.
+#include "methods/sterna/fast.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dofkit::detail::sterna::fast {
+
+void render(const MethodContext& ctx, const Settings& s, Image& out) {
+  Workspace& ws = ctx.workspace;
+  Buffers b;
+  b.W = ctx.frame.width();
+  b.H = ctx.frame.height();
+  b.w = (b.W + 1) / 2;
+  b.h = (b.H + 1) / 2;
+  // Border of the padded sources: the kernel reach (as gather.cpp) + 1 for the bilinear
+  // neighbour + 8 so the last, partial 8-texel chunk of a row can read whole vectors. Rounded
+  // up to a multiple of 8 so frames whose kernel differs slightly keep the same allocation.
+  float reach = 0.0f;
+  for (const Offset& o : s.offsets) reach = std::max(reach, std::max(std::abs(o.x), std::abs(o.y)) * s.kernel_scale);
+  b.pad = (static_cast<int>(std::ceil(reach)) + 10 + 7) / 8 * 8;
+  const int pw = b.w + 2 * b.pad, ph = b.h + 2 * b.pad;
+  b.near_src = &ws.image("sterna.near_src", pw, ph, 4);
+  b.far_src = &ws.image("sterna.far_src", pw, ph, 5);
+  b.near_h = &ws.image("sterna.near_h", b.w, b.h, 1);
+  b.tmp = &ws.image("sterna.dilate_tmp", b.w, b.h, 1);
+  b.near_blur = &ws.image("sterna.near_blur", b.w, b.h, 1);
+  b.dof_near = &ws.image("sterna.dof_near", b.w, b.h, 4);
+  b.dof_far = &ws.image("sterna.dof_far", b.w, b.h, 4);
+  b.near_fill = &ws.image("sterna.near_fill", b.w, b.h, 4);
+  b.far_fill = &ws.image("sterna.far_fill", b.w, b.h, 4);
+  // Tile bits: per rendering thread, grown once.
+  thread_local std::vector<std::uint8_t> tiles;
+  b.tiles = &tiles;
+
+  prepare(ctx, s, b);
+  dilate(s, b);
+  gather(s, b);
+  fill(b);
+  BlendRow blend;
+  blend.init(ctx, s);
+  out.resize(b.W, b.H, 4);
+  composite(ctx, s, blend, b, out);
+}
+
+}  // namespace dofkit::detail::sterna::fast

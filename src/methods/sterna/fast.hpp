@@ -1,0 +1,75 @@
+// The optimised form of the sterna passes (impl=fast, the default). The plain passes
+// (coc.cpp … composite.cpp) stay as the test oracle; every fast pass performs the same
+// floating-point operations in the same order per output value, so the two agree bit for bit
+// (tests/sterna/sterna_fast_test.cpp). What changes is only the organisation:
+//   * no full-resolution near/far planes: the blend factors are recomputed from the CoC (or z)
+//     row wherever they are needed (a few flops instead of 16 MB of traffic at 1080p);
+//   * the downsample writes straight into the edge-padded planes the gather reads;
+//   * the gather is register-blocked (8 texels × all channels accumulate over the 49 taps in
+//     registers), runs per 8×8 tile only for the field(s) that tile needs, and walks column
+//     strips top to bottom so the ±reach rows it reads stay in L2;
+//   * fill and composite are branch-free row loops (selects instead of per-pixel ifs);
+//   * buffers come from ctx.workspace (no allocation per frame in steady state);
+//   * hot row functions are compiled for AVX-512 / AVX2 / baseline with runtime dispatch
+//     (GCC target_clones). Floating-point contraction is disabled in them so an FMA never
+//     merges a multiply and an add that the plain code rounds separately.
+// Settings the fast path does not cover (per_pixel_scale=on, near_upsample=bicubic, debug
+// views) run the plain passes.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "dofkit/image.hpp"
+#include "methods/method.hpp"
+#include "methods/sterna/passes.hpp"
+
+#define STERNA_SIMD __attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
+
+namespace dofkit::detail::sterna::fast {
+
+/// Workspace-backed buffers of one frame (w × h = half-res size).
+struct Buffers {
+  int W = 0, H = 0;  ///< full-res size
+  int w = 0, h = 0;  ///< half-res size
+  int pad = 0;       ///< border of the padded source planes (texels)
+  Image* near_src = nullptr;  ///< colour_h, 4 planes, (w + 2·pad) × (h + 2·pad), edge replicated
+  Image* far_src = nullptr;   ///< colourFar_h ×4 then far_h, 5 planes, padded like near_src
+  Image* near_h = nullptr;    ///< near(TL), 1 plane w × h
+  Image* tmp = nullptr;       ///< scratch of the dilation, 1 plane w × h
+  Image* near_blur = nullptr; ///< dilated near CoC, 1 plane w × h
+  Image* dof_near = nullptr;  ///< gathered near field, 4 planes w × h
+  Image* dof_far = nullptr;   ///< gathered far field, 4 planes w × h
+  Image* near_fill = nullptr; ///< after the 3×3 max, 4 planes w × h
+  Image* far_fill = nullptr;  ///< after the 3×3 max, 4 planes w × h
+  int tiles_x = 0, tiles_y = 0;
+  std::vector<std::uint8_t>* tiles = nullptr;  ///< bit 1 near, bit 2 far (as gather.cpp)
+
+  const float* src_row(const Image& img, int c, int y) const {
+    return img.row(c, y + pad) + pad;
+  }
+  float* src_row(Image& img, int c, int y) const { return img.row(c, y + pad) + pad; }
+  /// far_h (unpadded coordinates) — plane 4 of far_src.
+  const float* far_h_row(int y) const { return src_row(*far_src, 4, y); }
+};
+
+/// Near/far blend factors of one full-res row, exactly as compute_full_coc (coc.cpp).
+struct BlendRow {
+  const MethodContext* ctx = nullptr;
+  bool nfb = false;
+  float nb = 0, ne = 0, fb = 0, fe = 0, ramp = 1;
+  void init(const MethodContext& c, const Settings& s);
+  /// Writes W values to near (may be null) and far.
+  void operator()(int y, float* near, float* far) const;
+};
+
+void prepare(const MethodContext& ctx, const Settings& s, Buffers& b);  // P1+P2, padding
+void dilate(const Settings& s, Buffers& b);                             // P3–P6
+void gather(const Settings& s, Buffers& b);                             // tiles + P7
+void fill(Buffers& b);                                                  // P8
+void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blend, const Buffers& b,
+               Image& out);                                             // P9
+
+/// The whole fast pipeline (buffers from ctx.workspace).
+void render(const MethodContext& ctx, const Settings& s, Image& out);
+
+}  // namespace dofkit::detail::sterna::fast

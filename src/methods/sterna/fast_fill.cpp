@@ -1,0 +1,59 @@
+// Fast P8: the 3×3 max fill as branch-free row loops (same maxima, same order as fill.cpp).
+//
+// fill.cpp visits active tiles and tests nearBlur_h > 0 / far_h > 0 per texel. An inactive
+// tile has both factors 0 at every texel (that is what inactive means), so the per-texel
+// select alone reproduces it: texel = (factor > 0) ? max of the 3×3 window : texel. The loop
+// body is then the same for every texel and vectorises; interior columns read x − 1 … x + 1
+// directly and only the two border columns clamp.
+#include <algorithm>
+
+#include "core/parallel.hpp"
+#include "methods/sterna/fast.hpp"
+
+namespace dofkit::detail::sterna::fast {
+
+namespace {
+
+struct Rows {
+  const float* r[3];  // rows y − 1, y, y + 1 (clamped)
+};
+
+__attribute__((always_inline)) inline float max9(const Rows& R, int xm, int x, int xp) {
+  float m = R.r[1][x];
+  for (int j = 0; j < 3; ++j) {
+    m = std::max(m, R.r[j][xm]);
+    m = std::max(m, R.r[j][x]);
+    m = std::max(m, R.r[j][xp]);
+  }
+  return m;
+}
+
+STERNA_SIMD void fill_row(const Rows& R, const float* __restrict factor, float* __restrict out, int w) {
+  auto one = [&](int xm, int x, int xp) { out[x] = factor[x] > 0.0f ? max9(R, xm, x, xp) : R.r[1][x]; };
+  if (w == 1) {
+    one(0, 0, 0);
+    return;
+  }
+  one(0, 0, 1);
+  for (int x = 1; x < w - 1; ++x) out[x] = factor[x] > 0.0f ? max9(R, x - 1, x, x + 1) : R.r[1][x];
+  one(w - 2, w - 1, w - 1);
+}
+
+}  // namespace
+
+void fill(Buffers& b) {
+  const int w = b.w, h = b.h;
+  core::parallel_for(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const int ys[3] = {std::max(y - 1, 0), y, std::min(y + 1, h - 1)};
+      for (int c = 0; c < 4; ++c) {
+        Rows rn{{b.dof_near->row(c, ys[0]), b.dof_near->row(c, ys[1]), b.dof_near->row(c, ys[2])}};
+        fill_row(rn, b.near_blur->row(0, y), b.near_fill->row(c, y), w);
+        Rows rf{{b.dof_far->row(c, ys[0]), b.dof_far->row(c, ys[1]), b.dof_far->row(c, ys[2])}};
+        fill_row(rf, b.far_h_row(y), b.far_fill->row(c, y), w);
+      }
+    }
+  }, 8);
+}
+
+}  // namespace dofkit::detail::sterna::fast

@@ -1,0 +1,277 @@
+// Fast P1 + P2 (+ padding) and P3–P6. Same arithmetic as coc.cpp, downsample.cpp and
+// near_coc_dilate.cpp; see fast.hpp for what is reorganised.
+//
+// P1 is never stored at full resolution: the downsample needs far at the four quad pixels
+// and near at the top-left one, the composite needs far per pixel, and both recompute them
+// from the CoC row (BlendRow) with the expression of coc.cpp.
+//
+// P2 writes colour_h, colourFar_h and far_h straight into planes padded by `pad` texels on
+// every side, then replicates the edges into the border: the gather's taps are then plain
+// unclamped loads (a clamp-to-edge bilinear lookup inside the image is the same lookup on the
+// padded plane).
+//
+// P3/P4 (separable max): rows use the van Herk / Gil–Werman line max of near_coc_dilate.cpp;
+// the column max runs the same block prefix/suffix recurrence along y with whole rows as
+// the vectors (contiguous loads instead of a stride-w walk). Max of non-negative finite
+// numbers is exact in any order, so the result equals the plain one.
+#include <algorithm>
+#include <cmath>
+#include <variant>
+
+#include "core/filters.hpp"
+#include "core/parallel.hpp"
+#include "methods/sterna/fast.hpp"
+
+namespace dofkit::detail::sterna::fast {
+
+namespace {
+
+inline float saturate(float v) { return v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v); }
+
+STERNA_SIMD void blend_from_coc(const float* __restrict r, float* __restrict near, float* __restrict far, int n,
+                                float ramp) {
+  if (near)
+    for (int x = 0; x < n; ++x) near[x] = saturate((r[x] - 0.5f) / ramp);
+  for (int x = 0; x < n; ++x) far[x] = saturate((-r[x] - 0.5f) / ramp);
+}
+
+STERNA_SIMD void blend_from_z(const float* __restrict z, float* __restrict near, float* __restrict far, int n, float nb,
+                              float ne, float fb, float fe) {
+  for (int x = 0; x < n; ++x) {
+    const float nv = saturate((z[x] - ne) / (nb - ne));
+    const float fv = saturate((z[x] - fb) / (fe - fb));
+    far[x] = (nv > 0.0f && fv > 0.0f) ? 0.0f : fv;  // overlapping planes: near wins
+    if (near) near[x] = nv;
+  }
+}
+
+struct QuadOut {
+  float* col[4];
+  float* colf[4];
+  float* farh;
+  float* nearh;
+};
+
+// One half-res texel from its quad (k = 0 TL, 1 TR, 2 BL, 3 BR): the expressions and the
+// order of downsample.cpp.
+template <bool kKaris>
+inline void quad(const float (&c)[4][4], const float (&far)[4], float near_tl, const QuadOut& o, int i) {
+  float wk[4];
+  for (int k = 0; k < 4; ++k)
+    wk[k] = kKaris ? 1.0f / (1.0f + std::max(0.0f, luma(c[k][0], c[k][1], c[k][2]))) : 1.0f;
+  float wsum = 0.0f, acc[4] = {0, 0, 0, 0};
+  for (int k = 0; k < 4; ++k) {
+    wsum += wk[k];
+    for (int ch = 0; ch < 4; ++ch) acc[ch] += wk[k] * c[k][ch];
+  }
+  for (int ch = 0; ch < 4; ++ch) o.col[ch][i] = acc[ch] / wsum;
+  float bsum = 0.0f, bacc[4] = {0, 0, 0, 0};
+  for (int k = 0; k < 4; ++k) {
+    const float wb = (k == 0 ? 1000.0f : 1.0f / (std::abs(far[k] - far[0]) + 0.001f)) * wk[k];
+    bsum += wb;
+    for (int ch = 0; ch < 4; ++ch) bacc[ch] += wb * c[k][ch];
+  }
+  for (int ch = 0; ch < 4; ++ch) o.colf[ch][i] = bacc[ch] / bsum * far[0];
+  o.farh[i] = far[0];
+  o.nearh[i] = near_tl;
+}
+
+template <bool kKaris>
+STERNA_SIMD void downsample_row(const float* const* r0, const float* const* r1, const float* __restrict f0,
+                                const float* __restrict f1, const float* __restrict n0, const QuadOut& o, int W,
+                                int w) {
+  const int full = W / 2;  // texels whose quad has two distinct columns
+  for (int i = 0; i < full; ++i) {
+    const int x0 = 2 * i, x1 = 2 * i + 1;
+    float c[4][4], far[4];
+    for (int ch = 0; ch < 4; ++ch) {
+      c[0][ch] = r0[ch][x0];
+      c[1][ch] = r0[ch][x1];
+      c[2][ch] = r1[ch][x0];
+      c[3][ch] = r1[ch][x1];
+    }
+    far[0] = f0[x0];
+    far[1] = f0[x1];
+    far[2] = f1[x0];
+    far[3] = f1[x1];
+    quad<kKaris>(c, far, n0[x0], o, i);
+  }
+  for (int i = full; i < w; ++i) {  // odd width: the last quad repeats the edge column
+    const int x0 = 2 * i, x1 = W - 1;
+    float c[4][4], far[4];
+    for (int ch = 0; ch < 4; ++ch) {
+      c[0][ch] = r0[ch][x0];
+      c[1][ch] = r0[ch][x1];
+      c[2][ch] = r1[ch][x0];
+      c[3][ch] = r1[ch][x1];
+    }
+    far[0] = f0[x0];
+    far[1] = f0[x1];
+    far[2] = f1[x0];
+    far[3] = f1[x1];
+    quad<kKaris>(c, far, n0[x0], o, i);
+  }
+}
+
+// Thread-local scratch rows (grown once, reused every frame).
+std::vector<float>& scratch(int slot, std::size_t n) {
+  thread_local std::vector<float> bufs[4];
+  if (bufs[slot].size() < n) bufs[slot].resize(n);
+  return bufs[slot];
+}
+
+// Van Herk block prefix (pre) and suffix (suf) maxima of one block of k rows along y.
+STERNA_SIMD void max_rows(float* __restrict dst, const float* __restrict a, const float* __restrict b, int n) {
+  for (int x = 0; x < n; ++x) dst[x] = std::max(a[x], b[x]);
+}
+
+// Plain row max of near_coc_dilate.cpp (stride 1).
+void max_line(const float* in, float* out, int n, int r, std::vector<float>& buf) {
+  const int k = 2 * r + 1;
+  const int len = n + 2 * r;
+  const int blocks = (len + k - 1) / k;
+  const int padded = blocks * k;
+  if (buf.size() < static_cast<std::size_t>(3) * padded) buf.resize(static_cast<std::size_t>(3) * padded);
+  float* a = buf.data();
+  float* pre = a + padded;
+  float* suf = pre + padded;
+  std::fill(a, a + r, 0.0f);
+  std::copy(in, in + n, a + r);
+  std::fill(a + r + n, a + padded, 0.0f);
+  for (int b = 0; b < padded; b += k) {
+    pre[b] = a[b];
+    for (int i = b + 1; i < b + k; ++i) pre[i] = std::max(pre[i - 1], a[i]);
+    suf[b + k - 1] = a[b + k - 1];
+    for (int i = b + k - 2; i >= b; --i) suf[i] = std::max(suf[i + 1], a[i]);
+  }
+  for (int x = 0; x < n; ++x) out[x] = std::max(suf[x], pre[x + 2 * r]);
+}
+
+}  // namespace
+
+void BlendRow::init(const MethodContext& c, const Settings& s) {
+  ctx = &c;
+  const NearFarBlend* m = std::get_if<NearFarBlend>(&c.camera.model);
+  nfb = m != nullptr;
+  nb = m ? static_cast<float>(m->near_begin_m) : 0.0f;
+  ne = m ? static_cast<float>(m->near_end_m) : 0.0f;
+  fb = m ? static_cast<float>(m->far_begin_m) : 0.0f;
+  fe = m ? static_cast<float>(m->far_end_m) : 0.0f;
+  ramp = std::max(s.blend_radius_px - 0.5f, 1e-3f);
+}
+
+void BlendRow::operator()(int y, float* near, float* far) const {
+  const int W = ctx->frame.width();
+  if (nfb)
+    blend_from_z(ctx->frame.depth.row(0, y), near, far, W, nb, ne, fb, fe);
+  else
+    blend_from_coc(ctx->coc.row(0, y), near, far, W, ramp);
+}
+
+void prepare(const MethodContext& ctx, const Settings& s, Buffers& b) {
+  const Image& color = ctx.frame.color;
+  const int W = b.W, H = b.H, w = b.w, h = b.h, pad = b.pad;
+  BlendRow blend;
+  blend.init(ctx, s);
+  core::parallel_for(h, [&](int j0, int j1) {
+    float* n0 = scratch(0, W).data();
+    float* f0 = scratch(1, W).data();
+    float* f1 = scratch(2, W).data();
+    for (int j = j0; j < j1; ++j) {
+      const int y0 = 2 * j, y1 = clampi(2 * j + 1, 0, H - 1);
+      blend(y0, n0, f0);
+      blend(y1, nullptr, f1);
+      const float* r0[4];
+      const float* r1[4];
+      QuadOut o;
+      for (int ch = 0; ch < 4; ++ch) {
+        r0[ch] = color.row(ch, y0);
+        r1[ch] = color.row(ch, y1);
+        o.col[ch] = b.src_row(*b.near_src, ch, j);
+        o.colf[ch] = b.src_row(*b.far_src, ch, j);
+      }
+      o.farh = b.src_row(*b.far_src, 4, j);
+      o.nearh = b.near_h->row(0, j);
+      if (s.karis)
+        downsample_row<true>(r0, r1, f0, f1, n0, o, W, w);
+      else
+        downsample_row<false>(r0, r1, f0, f1, n0, o, W, w);
+    }
+  }, 4);
+  // Edge replication into the border (rows first read their finished interior row).
+  const int pw = w + 2 * pad, ph = h + 2 * pad;
+  core::parallel_for(ph, [&](int p0, int p1) {
+    for (int py = p0; py < p1; ++py) {
+      const int y = clampi(py - pad, 0, h - 1);
+      for (Image* img : {b.near_src, b.far_src})
+        for (int c = 0; c < img->channels(); ++c) {
+          float* d = img->row(c, py);
+          const float* srow = img->row(c, y + pad);
+          if (py != y + pad) std::copy(srow + pad, srow + pad + w, d + pad);
+          std::fill(d, d + pad, srow[pad]);
+          std::fill(d + pad + w, d + pw, srow[pad + w - 1]);
+        }
+    }
+  }, 16);
+}
+
+void dilate(const Settings& s, Buffers& b) {
+  const int w = b.w, h = b.h, r = s.dilate_radius;
+  float* nb = b.near_blur->plane(0);
+  if (r <= 0) {
+    std::copy(b.near_h->plane(0), b.near_h->plane(0) + b.near_h->plane_size(), nb);
+    return;
+  }
+  // P3: max along x, per row.
+  core::parallel_for(h, [&](int y0, int y1) {
+    std::vector<float>& buf = scratch(3, 0);
+    for (int y = y0; y < y1; ++y) max_line(b.near_h->row(0, y), b.tmp->row(0, y), w, r, buf);
+  }, 8);
+  // P4: max along y. Padded row index p in [0, P) holds row p - r (zero outside the image);
+  // each block of k rows gets its prefix maxima (pre) and suffix maxima (suf), and row y is
+  // max(suf[y], pre[y + 2r]). The gather has not run yet, so the two field planes (4·h rows
+  // each) serve as pre and suf; a kernel too large for them (P > 4h) walks columns instead.
+  const int k = 2 * r + 1;
+  const int len = h + 2 * r;
+  const int blocks = (len + k - 1) / k;
+  const int P = blocks * k;
+  Image& pre = *b.dof_near;
+  Image& suf = *b.dof_far;
+  auto row_of = [&](Image& img, int p) { return img.plane(0) + static_cast<std::size_t>(p) * w; };
+  if (P <= 4 * h) {
+    std::vector<float>& zrow = scratch(3, static_cast<std::size_t>(w));
+    std::fill(zrow.begin(), zrow.begin() + w, 0.0f);
+    auto a_row = [&](int p) -> const float* {
+      const int y = p - r;
+      return (y >= 0 && y < h) ? b.tmp->row(0, y) : zrow.data();
+    };
+    core::parallel_for(blocks, [&](int b0, int b1) {
+      for (int bl = b0; bl < b1; ++bl) {
+        const int s0 = bl * k;
+        std::copy(a_row(s0), a_row(s0) + w, row_of(pre, s0));
+        for (int p = s0 + 1; p < s0 + k; ++p) max_rows(row_of(pre, p), row_of(pre, p - 1), a_row(p), w);
+        std::copy(a_row(s0 + k - 1), a_row(s0 + k - 1) + w, row_of(suf, s0 + k - 1));
+        for (int p = s0 + k - 2; p >= s0; --p) max_rows(row_of(suf, p), row_of(suf, p + 1), a_row(p), w);
+      }
+    });
+    core::parallel_for(h, [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y) max_rows(nb + static_cast<std::size_t>(y) * w, row_of(suf, y), row_of(pre, y + 2 * r), w);
+    }, 8);
+  } else {
+    core::parallel_for(w, [&](int x0, int x1) {
+      std::vector<float>& buf = scratch(3, 0);
+      std::vector<float>& col = scratch(2, 2 * static_cast<std::size_t>(h));
+      for (int x = x0; x < x1; ++x) {
+        for (int y = 0; y < h; ++y) col[y] = b.tmp->row(0, y)[x];
+        max_line(col.data(), col.data() + h, h, r, buf);
+        for (int y = 0; y < h; ++y) nb[static_cast<std::size_t>(y) * w + x] = col[h + y];
+      }
+    }, 16);
+  }
+  // P5/P6: box mean over the same window, then flush the running-sum residue (as plain).
+  core::box_blur_plane(nb, nb, w, h, r, r);
+  for (std::size_t i = 0; i < b.near_blur->plane_size(); ++i)
+    if (nb[i] < 1e-6f) nb[i] = 0.0f;
+}
+
+}  // namespace dofkit::detail::sterna::fast

@@ -14,11 +14,12 @@ void render(const MethodContext& ctx, const Settings& s, Image& out) {
   b.w = (b.W + 1) / 2;
   b.h = (b.H + 1) / 2;
   // Border of the padded sources: the kernel reach (as gather.cpp) + 1 for the bilinear
-  // neighbour + 8 so the last, partial 8-texel chunk of a row can read whole vectors. Rounded
+  // neighbour + 32 so the last, partial 32-texel segment of a row (fast_gather.cpp) can read
+  // whole vectors. Rounded
   // up to a multiple of 8 so frames whose kernel differs slightly keep the same allocation.
   float reach = 0.0f;
   for (const Offset& o : s.offsets) reach = std::max(reach, std::max(std::abs(o.x), std::abs(o.y)) * s.kernel_scale);
-  b.pad = (static_cast<int>(std::ceil(reach)) + 10 + 7) / 8 * 8;
+  b.pad = (static_cast<int>(std::ceil(reach)) + 34 + 7) / 8 * 8;
   const int pw = b.w + 2 * b.pad, ph = b.h + 2 * b.pad;
   b.near_src = &ws.image("sterna.near_src", pw, ph, 4);
   b.far_src = &ws.image("sterna.far_src", pw, ph, 5);

@@ -5,15 +5,16 @@
 //   ix1(x) = clamp(⌊(x − 1)/2⌋), ix2(x) = clamp(⌊(x + 1)/2⌋)
 // with x-weights (¼, ¾) for even x and (¾, ¼) for odd x (composite.cpp axis()). With the
 // "doubled" row E[k] = P[clamp(⌊k/2⌋)] these are E[x − 1] and E[x + 1]: after doubling the
-// two half-res rows of a full-res row (per plane, in chunks of kChunk pixels that stay in L1)
-// every tap is a contiguous load and the per-pixel loop has no index arithmetic, no branch
-// and vectorises. The ifs of composite.cpp become selects: a far tap with far_h = 0 gets
+// two half-res rows (per plane, in chunks of kChunk pixels that stay in L1) every tap is a
+// contiguous load and 8 pixels are composited at once with vector selects. Full-res rows
+// 2p − 1 and 2p read the same two half-res rows and share one doubling. The ifs of composite.cpp become selects: a far tap with far_h = 0 gets
 // weight 0 (adding 0·value leaves the sums unchanged — the values are finite), the far blend
 // applies where far(q) > 0 and the weight sum is > 0, the near blend where its t > 0. Pixels
 // composite.cpp skips as "no near texel nearby" have nearBlur = 0 at all four taps, so t = 0
 // and the select keeps them too; chunks with no far pixel and no near tile around are copied.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -25,7 +26,7 @@ namespace {
 
 constexpr int kChunk = 256;  // full-res pixels per chunk (even)
 constexpr int kPlanes = 10;  // far_fill ×4, far_h, near_fill ×4, near_blur
-constexpr int kEPitch = kChunk + 4;
+constexpr int kEPitch = kChunk + 16;  // ≥ chunk + 2 taps + a vector of slack
 
 // E[k − k0] = P[clamp(⌊k/2⌋, 0, w − 1)] for k in [k0, k0 + n).
 STERNA_SIMD void double_row(const float* __restrict P, int w, int k0, int n, float* __restrict E) {
@@ -44,55 +45,87 @@ STERNA_SIMD void double_row(const float* __restrict P, int w, int k0, int n, flo
   for (; k < k1; ++k) E[k - k0] = P[clampi(k >> 1, 0, w - 1)];
 }
 
+typedef float V8 __attribute__((vector_size(32)));
+typedef int I8 __attribute__((vector_size(32)));
+
+__attribute__((always_inline)) inline V8 load8(const float* p) {
+  V8 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+__attribute__((always_inline)) inline void store8(float* p, V8 v) { std::memcpy(p, &v, sizeof v); }
+__attribute__((always_inline)) inline V8 splat(float f) { return V8{f, f, f, f, f, f, f, f}; }
+__attribute__((always_inline)) inline I8 splat_i(int v) { return I8{v, v, v, v, v, v, v, v}; }
+// |v| by clearing the sign bit, exactly what std::abs does to a float.
+__attribute__((always_inline)) inline V8 vabs(V8 v) {
+  return reinterpret_cast<V8>(reinterpret_cast<I8>(v) & splat_i(0x7fffffff));
+}
+
 struct Row {
   // Doubled rows: [b][plane] for the two half-res rows j1 (b = 0) and j2 (b = 1); element
-  // e = x − xa + 1 holds E[x]; taps are e − 1 (a = 0) and e + 1 (a = 1).
+  // i of E holds E[xa − 1 + i], so pixel xa + i taps elements i (a = 0) and i + 2 (a = 1).
+  // Each holds kEPitch floats (whole vectors are readable past the chunk).
   const float* E[2][kPlanes];
   const float* col[4];
   float* out[4];
-  const float* fq;  // far(q), full-res row
+  const float* fq;  // far(q), full-res row from xa
   float by0, by1, blend;
 };
 
-STERNA_SIMD void composite_chunk(const Row& R, int xa, int n) {
-  const float by[2] = {R.by0, R.by1};
-  for (int i = 0; i < n; ++i) {
-    const int x = xa + i;
-    const int e = i + 1;
-    const float bx[2] = {(x & 1) ? 0.75f : 0.25f, (x & 1) ? 0.25f : 0.75f};
-    const float fq = R.fq[i];
-    float res[4];
-    for (int c = 0; c < 4; ++c) res[c] = R.col[c][i];
-    // Far: CoC-bilateral bilinear.
-    float wsum = 0.0f, acc[4] = {0, 0, 0, 0};
-    for (int b = 0; b < 2; ++b)
-      for (int a = 0; a < 2; ++a) {
-        const int k = e - 1 + 2 * a;
-        const float fk = R.E[b][4][k];
-        const float wraw = bx[a] * by[b] / (std::abs(fq - fk) + 0.001f);
-        const float wk = fk > 0.0f ? wraw : 0.0f;
-        wsum += wk;
-        for (int c = 0; c < 4; ++c) acc[c] += wk * R.E[b][c][k];
-      }
-    const float tf = R.blend * fq;
-    const bool far_on = fq > 0.0f && wsum > 0.0f;
-    for (int c = 0; c < 4; ++c) {
-      const float blended = res[c] + (acc[c] / wsum - res[c]) * tf;
-      res[c] = far_on ? blended : res[c];
+// 8 pixels from xa + i (xa + i even). Same operations and order as composite.cpp per pixel.
+__attribute__((always_inline)) inline void composite8(const Row& R, int i, const V8* col, V8 fq, V8* res) {
+  const V8 by[2] = {splat(R.by0), splat(R.by1)};
+  // x-weights (composite.cpp axis()): even x (¼, ¾), odd x (¾, ¼).
+  const V8 bx[2] = {V8{0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f},
+                    V8{0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f}};
+  const V8 zero = splat(0.0f);
+  for (int c = 0; c < 4; ++c) res[c] = col[c];
+  // Far: CoC-bilateral bilinear.
+  V8 wsum = zero, acc[4] = {zero, zero, zero, zero};
+  for (int b = 0; b < 2; ++b)
+    for (int a = 0; a < 2; ++a) {
+      const int k = i + 2 * a;
+      const V8 fk = load8(R.E[b][4] + k);
+      const V8 wraw = bx[a] * by[b] / (vabs(fq - fk) + splat(0.001f));
+      const V8 wk = fk > zero ? wraw : zero;
+      wsum += wk;
+      for (int c = 0; c < 4; ++c) acc[c] += wk * load8(R.E[b][c] + k);
     }
-    // Near: bilinear field and dilated CoC.
-    float nb = 0.0f, nf[4] = {0, 0, 0, 0};
-    for (int b = 0; b < 2; ++b)
-      for (int a = 0; a < 2; ++a) {
-        const int k = e - 1 + 2 * a;
-        const float wk = bx[a] * by[b];
-        nb += wk * R.E[b][9][k];
-        for (int c = 0; c < 4; ++c) nf[c] += wk * R.E[b][5 + c][k];
-      }
-    const float tn = R.blend * std::min(nb, 1.0f);
+  const V8 tf = splat(R.blend) * fq;
+  const I8 far_on = (fq > zero) & (wsum > zero);
+  for (int c = 0; c < 4; ++c) res[c] = far_on ? res[c] + (acc[c] / wsum - res[c]) * tf : res[c];
+  // Near: bilinear field and dilated CoC.
+  V8 nb = zero, nf[4] = {zero, zero, zero, zero};
+  for (int b = 0; b < 2; ++b)
+    for (int a = 0; a < 2; ++a) {
+      const int k = i + 2 * a;
+      const V8 wk = bx[a] * by[b];
+      nb += wk * load8(R.E[b][9] + k);
+      for (int c = 0; c < 4; ++c) nf[c] += wk * load8(R.E[b][5 + c] + k);
+    }
+  const V8 one = splat(1.0f);
+  const V8 tn = splat(R.blend) * (one < nb ? one : nb);  // std::min(nb, 1)
+  const I8 near_on = tn > zero;
+  for (int c = 0; c < 4; ++c) res[c] = near_on ? res[c] + (nf[c] - res[c]) * tn : res[c];
+}
+
+STERNA_SIMD void composite_chunk(const Row& R, int n) {
+  V8 col[4], res[4];
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    for (int c = 0; c < 4; ++c) col[c] = load8(R.col[c] + i);
+    composite8(R, i, col, load8(R.fq + i), res);
+    for (int c = 0; c < 4; ++c) store8(R.out[c] + i, res[c]);
+  }
+  if (i < n) {  // tail: through a zero-padded copy
+    float tmp[4][8] = {}, fqt[8] = {}, o[8];
+    for (int c = 0; c < 4; ++c) std::copy(R.col[c] + i, R.col[c] + n, tmp[c]);
+    std::copy(R.fq + i, R.fq + n, fqt);
+    for (int c = 0; c < 4; ++c) col[c] = load8(tmp[c]);
+    composite8(R, i, col, load8(fqt), res);
     for (int c = 0; c < 4; ++c) {
-      const float blended = res[c] + (nf[c] - res[c]) * tn;
-      R.out[c][i] = tn > 0.0f ? blended : res[c];
+      store8(o, res[c]);
+      std::copy(o, o + (n - i), R.out[c] + i);
     }
   }
 }
@@ -109,57 +142,68 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
   const Image& color = ctx.frame.color;
   const int W = b.W, H = b.H, w = b.w, h = b.h;
   const float cblend = s.composite_blend;
-  core::parallel_for(H, [&](int y0, int y1) {
-    float* fq = scratch(0, W).data();
+  // Full-res rows 2p − 1 and 2p both read half-res rows (p − 1, p) (composite.cpp axis():
+  // i0 = p − 1 for both), with y-weights (¾, ¼) and (¼, ¾): they are done together so each
+  // pair of half-res rows is doubled once.
+  const int pairs = H / 2 + 1;
+  core::parallel_for(pairs, [&](int p0, int p1) {
+    float* fqbuf = scratch(0, 2 * static_cast<std::size_t>(W)).data();
     float* ebuf = scratch(1, static_cast<std::size_t>(2) * kPlanes * kEPitch).data();
-    for (int y = y0; y < y1; ++y) {
-      // composite.cpp axis(): rows i[1], i[2] with weights (¼, ¾) / (¾, ¼).
-      const int i0 = (y % 2 == 0) ? y / 2 - 1 : y / 2;
-      const float t = (y % 2 == 0) ? 0.75f : 0.25f;
-      const int j[2] = {clampi(i0, 0, h - 1), clampi(i0 + 1, 0, h - 1)};
-      blend(y, nullptr, fq);
-      const int ty = std::min(y / 2, h - 1) / kTile;
-      Row R;
-      R.by0 = 1.0f - t;
-      R.by1 = t;
-      R.blend = cblend;
+    for (int p = p0; p < p1; ++p) {
+      const int j[2] = {clampi(p - 1, 0, h - 1), clampi(p, 0, h - 1)};
+      int ys[2], nrows = 0;
+      if (2 * p - 1 >= 0) ys[nrows++] = 2 * p - 1;
+      if (2 * p <= H - 1) ys[nrows++] = 2 * p;
+      for (int r = 0; r < nrows; ++r) blend(ys[r], nullptr, fqbuf + static_cast<std::size_t>(r) * W);
       for (int xa = 0; xa < W; xa += kChunk) {
         const int n = std::min(kChunk, W - xa);
-        // Early-out: no far pixel in the chunk and no near tile within one tile of it.
-        bool work = false;
-        for (int i = 0; i < n && !work; ++i) work = fq[xa + i] > 0.0f;
-        if (!work) {
+        // Per row: work unless no far pixel in the chunk and no near tile within one tile.
+        bool work[2] = {false, false};
+        for (int r = 0; r < nrows; ++r) {
+          const float* fq = fqbuf + static_cast<std::size_t>(r) * W + xa;
+          for (int i = 0; i < n && !work[r]; ++i) work[r] = fq[i] > 0.0f;
+          const int ty = std::min(ys[r] / 2, h - 1) / kTile;
           const int ta = std::max(0, std::min(xa / 2, w - 1) / kTile - 1);
           const int tb = std::min(b.tiles_x - 1, std::min((xa + n - 1) / 2, w - 1) / kTile + 1);
-          for (int tj = std::max(ty - 1, 0); tj <= std::min(ty + 1, b.tiles_y - 1) && !work; ++tj)
-            for (int ti = ta; ti <= tb && !work; ++ti)
-              work = ((*b.tiles)[static_cast<std::size_t>(tj) * b.tiles_x + ti] & 1) != 0;
+          for (int tj = std::max(ty - 1, 0); tj <= std::min(ty + 1, b.tiles_y - 1) && !work[r]; ++tj)
+            for (int ti = ta; ti <= tb && !work[r]; ++ti)
+              work[r] = ((*b.tiles)[static_cast<std::size_t>(tj) * b.tiles_x + ti] & 1) != 0;
+          work[r] = work[r] && cblend > 0.0f;
         }
-        if (!work || cblend <= 0.0f) {
-          for (int c = 0; c < 4; ++c) std::copy(color.row(c, y) + xa, color.row(c, y) + xa + n, out.row(c, y) + xa);
-          continue;
-        }
-        for (int bb = 0; bb < 2; ++bb) {
-          const float* planes[kPlanes] = {b.far_fill->row(0, j[bb]), b.far_fill->row(1, j[bb]),
-                                          b.far_fill->row(2, j[bb]), b.far_fill->row(3, j[bb]),
-                                          b.far_h_row(j[bb]),        b.near_fill->row(0, j[bb]),
-                                          b.near_fill->row(1, j[bb]), b.near_fill->row(2, j[bb]),
-                                          b.near_fill->row(3, j[bb]), b.near_blur->row(0, j[bb])};
-          for (int p = 0; p < kPlanes; ++p) {
-            float* E = ebuf + (static_cast<std::size_t>(bb) * kPlanes + p) * kEPitch;
-            double_row(planes[p], w, xa - 1, n + 2, E);
-            R.E[bb][p] = E;
+        Row R;
+        R.blend = cblend;
+        if (work[0] || work[1])
+          for (int bb = 0; bb < 2; ++bb) {
+            const float* planes[kPlanes] = {b.far_fill->row(0, j[bb]),  b.far_fill->row(1, j[bb]),
+                                            b.far_fill->row(2, j[bb]),  b.far_fill->row(3, j[bb]),
+                                            b.far_h_row(j[bb]),         b.near_fill->row(0, j[bb]),
+                                            b.near_fill->row(1, j[bb]), b.near_fill->row(2, j[bb]),
+                                            b.near_fill->row(3, j[bb]), b.near_blur->row(0, j[bb])};
+            for (int q = 0; q < kPlanes; ++q) {
+              float* E = ebuf + (static_cast<std::size_t>(bb) * kPlanes + q) * kEPitch;
+              double_row(planes[q], w, xa - 1, n + 2, E);
+              R.E[bb][q] = E;
+            }
           }
+        for (int r = 0; r < nrows; ++r) {
+          const int y = ys[r];
+          if (!work[r]) {
+            for (int c = 0; c < 4; ++c) std::copy(color.row(c, y) + xa, color.row(c, y) + xa + n, out.row(c, y) + xa);
+            continue;
+          }
+          const float t = (y % 2 == 0) ? 0.75f : 0.25f;  // composite.cpp axis()
+          R.by0 = 1.0f - t;
+          R.by1 = t;
+          for (int c = 0; c < 4; ++c) {
+            R.col[c] = color.row(c, y) + xa;
+            R.out[c] = out.row(c, y) + xa;
+          }
+          R.fq = fqbuf + static_cast<std::size_t>(r) * W + xa;
+          composite_chunk(R, n);
         }
-        for (int c = 0; c < 4; ++c) {
-          R.col[c] = color.row(c, y) + xa;
-          R.out[c] = out.row(c, y) + xa;
-        }
-        R.fq = fq + xa;
-        composite_chunk(R, xa, n);
       }
     }
-  }, 8);
+  }, 4);
 }
 
 }  // namespace dofkit::detail::sterna::fast

@@ -55,20 +55,21 @@ Tap split(float ox, float oy, int pitch) {
           fx * (1 - fy), (1 - fx) * fy, fx * fy};
 }
 
-// Σ_taps bilinear(src_c) for 8 texels starting at base[c] (kC channels), into acc.
-template <int kC>
-__attribute__((always_inline)) inline void gather8(const float* const* base, const Tap* taps, int ntaps,
-                                                   std::ptrdiff_t pitch, V8* acc) {
-  for (int c = 0; c < kC; ++c) acc[c] = splat(0.0f);
+constexpr int kSeg = kStripTiles * kTile;  // texels per segment = strip width (32)
+constexpr int kVecs = kSeg / 8;
+
+// Σ_taps bilinear(src) for the kSeg texels starting at `base` (one channel), into acc.
+__attribute__((always_inline)) inline void gather_seg(const float* base, const Tap* taps, int ntaps,
+                                                      std::ptrdiff_t pitch, V8* acc) {
+  for (int v = 0; v < kVecs; ++v) acc[v] = splat(0.0f);
   for (int t = 0; t < ntaps; ++t) {
     const V8 w00 = splat(taps[t].w00), w10 = splat(taps[t].w10), w01 = splat(taps[t].w01),
              w11 = splat(taps[t].w11);
-    const std::ptrdiff_t o = taps[t].off;
-    for (int c = 0; c < kC; ++c) {
-      const float* r0 = base[c] + o;
-      const float* r1 = r0 + pitch;
-      acc[c] += w00 * load8(r0) + w10 * load8(r0 + 1) + w01 * load8(r1) + w11 * load8(r1 + 1);
-    }
+    const float* r0 = base + taps[t].off;
+    const float* r1 = r0 + pitch;
+    for (int v = 0; v < kVecs; ++v)
+      acc[v] += w00 * load8(r0 + 8 * v) + w10 * load8(r0 + 8 * v + 1) + w01 * load8(r1 + 8 * v) +
+                w11 * load8(r1 + 8 * v + 1);
   }
 }
 
@@ -79,69 +80,84 @@ struct Job {
   float inv_taps;
 };
 
-// One strip of tiles [tx0, tx1) over all rows.
-STERNA_SIMD void gather_strip(const Job& job, int tx0, int tx1) {
+// Whether any tile of segment [tx0, tx1) in tile row ty has `bit`.
+inline bool seg_has(const Buffers& b, int ty, int tx0, int tx1, std::uint8_t bit) {
+  const std::uint8_t* tiles = b.tiles->data() + static_cast<std::size_t>(ty) * b.tiles_x;
+  for (int tx = tx0; tx < tx1; ++tx)
+    if (tiles[tx] & bit) return true;
+  return false;
+}
+
+// kSeg values of an unpadded row from x0 (n valid, the rest 0).
+inline void load_seg(const float* row, int x0, int n, V8* out) {
+  if (n == kSeg) {
+    for (int v = 0; v < kVecs; ++v) out[v] = load8(row + x0 + 8 * v);
+    return;
+  }
+  float tmp[kSeg] = {};
+  std::copy(row + x0, row + x0 + n, tmp);
+  for (int v = 0; v < kVecs; ++v) out[v] = load8(tmp + 8 * v);
+}
+
+inline void store_seg(float* row, int x0, int n, const V8* in) {
+  if (n == kSeg) {
+    for (int v = 0; v < kVecs; ++v) store8(row + x0 + 8 * v, in[v]);
+    return;
+  }
+  float tmp[kSeg];
+  for (int v = 0; v < kVecs; ++v) store8(tmp + 8 * v, in[v]);
+  std::copy(tmp, tmp + n, row + x0);
+}
+
+// One segment of kSeg texels (tiles [tx0, tx1)) over all rows: channel by channel, rows
+// inner, so the source rows one channel's taps read (≈ 2·reach + 2 rows × a few cache lines)
+// stay in L1 while the segment walks down.
+STERNA_SIMD void gather_strip(const Job& job, int tx0, int tx1, float* inv_den) {
   const Buffers& b = *job.b;
-  const int w = b.w, h = b.h;
+  const int h = b.h;
+  const int x0 = tx0 * kTile, n = std::min(kSeg, b.w - x0);
   const std::ptrdiff_t pitch = b.near_src->width();
   const V8 inv_taps = splat(job.inv_taps);
   const V8 zero = splat(0.0f);
-  for (int y = 0; y < h; ++y) {
-    const std::uint8_t* tiles = b.tiles->data() + static_cast<std::size_t>(y / kTile) * b.tiles_x;
-    const float* nbr = b.near_blur->row(0, y);
-    const float* frr = b.far_h_row(y);
-    for (int tx = tx0; tx < tx1; ++tx) {
-      const int x0 = tx * kTile, n = std::min(kTile, w - x0);
-      const std::uint8_t bits = tiles[tx];
-      float nbuf[4][kTile], fbuf[4][kTile];
-      // Near field.
-      {
-        V8 res[4];
-        if (bits & kNearBit) {
-          const float* base[4];
-          for (int c = 0; c < 4; ++c) base[c] = b.src_row(*b.near_src, c, y) + x0;
-          V8 acc[4];
-          gather8<4>(base, job.taps, job.ntaps, pitch, acc);
-          // near_blur is unpadded: the last tile of a row may be partial.
-          float nbv[kTile] = {0, 0, 0, 0, 0, 0, 0, 0};
-          std::copy(nbr + x0, nbr + x0 + n, nbv);
-          const I8 m = load8(nbv) > zero;
-          for (int c = 0; c < 4; ++c) res[c] = m ? acc[c] * inv_taps : load8(base[c]);
-        } else {
-          for (int c = 0; c < 4; ++c) res[c] = load8(b.src_row(*b.near_src, c, y) + x0);
+  V8 acc[kVecs], res[kVecs], m[kVecs];
+  // Near field: (1/49) Σ colour_h where nearBlur_h > 0, else colour_h.
+  for (int c = 0; c < 4; ++c)
+    for (int y = 0; y < h; ++y) {
+      const float* base = b.src_row(*b.near_src, c, y) + x0;
+      if (seg_has(b, y / kTile, tx0, tx1, kNearBit)) {
+        gather_seg(base, job.taps, job.ntaps, pitch, acc);
+        V8 nbv[kVecs];
+        load_seg(b.near_blur->row(0, y), x0, n, nbv);
+        for (int v = 0; v < kVecs; ++v) {
+          const I8 mask = nbv[v] > zero;
+          res[v] = mask ? acc[v] * inv_taps : load8(base + 8 * v);
         }
-        for (int c = 0; c < 4; ++c) {
-          if (n == kTile) store8(b.dof_near->row(c, y) + x0, res[c]);
-          else {
-            store8(nbuf[c], res[c]);
-            std::copy(nbuf[c], nbuf[c] + n, b.dof_near->row(c, y) + x0);
-          }
-        }
+      } else {
+        for (int v = 0; v < kVecs; ++v) res[v] = load8(base + 8 * v);
       }
-      // Far field.
-      {
-        V8 res[4];
-        if (bits & kFarBit) {
-          const float* base[5];
-          for (int c = 0; c < 5; ++c) base[c] = b.src_row(*b.far_src, c, y) + x0;
-          V8 acc[5];
-          gather8<5>(base, job.taps, job.ntaps, pitch, acc);
-          const V8 inv = 1.0f / acc[4];
-          const I8 m = load8(frr + x0) > zero;
-          for (int c = 0; c < 4; ++c) res[c] = m ? acc[c] * inv : zero;
-        } else {
-          for (int c = 0; c < 4; ++c) res[c] = zero;
-        }
-        for (int c = 0; c < 4; ++c) {
-          if (n == kTile) store8(b.dof_far->row(c, y) + x0, res[c]);
-          else {
-            store8(fbuf[c], res[c]);
-            std::copy(fbuf[c], fbuf[c] + n, b.dof_far->row(c, y) + x0);
-          }
-        }
-      }
+      store_seg(b.dof_near->row(c, y), x0, n, res);
     }
+  // Far field: the denominator Σ far_h first (kept as 1/den per texel), then the channels.
+  for (int y = 0; y < h; ++y) {
+    if (!seg_has(b, y / kTile, tx0, tx1, kFarBit)) continue;
+    gather_seg(b.src_row(*b.far_src, 4, y) + x0, job.taps, job.ntaps, pitch, acc);
+    for (int v = 0; v < kVecs; ++v) store8(inv_den + static_cast<std::size_t>(y) * kSeg + 8 * v, 1.0f / acc[v]);
   }
+  for (int c = 0; c < 4; ++c)
+    for (int y = 0; y < h; ++y) {
+      if (seg_has(b, y / kTile, tx0, tx1, kFarBit)) {
+        gather_seg(b.src_row(*b.far_src, c, y) + x0, job.taps, job.ntaps, pitch, acc);
+        const float* fr = b.far_h_row(y) + x0;  // padded plane: whole vectors are readable
+        for (int v = 0; v < kVecs; ++v) {
+          const I8 mask = load8(fr + 8 * v) > zero;
+          m[v] = load8(inv_den + static_cast<std::size_t>(y) * kSeg + 8 * v);
+          res[v] = mask ? acc[v] * m[v] : zero;
+        }
+      } else {
+        for (int v = 0; v < kVecs; ++v) res[v] = zero;
+      }
+      store_seg(b.dof_far->row(c, y), x0, n, res);
+    }
 }
 
 STERNA_SIMD void classify_row(const float* __restrict nb, const float* __restrict fr, std::uint8_t* tiles, int w) {
@@ -178,8 +194,10 @@ void gather(const Settings& s, Buffers& b) {
   const Job job{&b, taps, ntaps, 1.0f / static_cast<float>(s.offsets.size())};
   const int strips = (b.tiles_x + kStripTiles - 1) / kStripTiles;
   core::parallel_for(strips, [&](int s0, int s1) {
+    thread_local std::vector<float> inv_den;  // 1/Σ far_h of one strip, h × kSeg
+    if (inv_den.size() < static_cast<std::size_t>(h) * kSeg) inv_den.resize(static_cast<std::size_t>(h) * kSeg);
     for (int st = s0; st < s1; ++st)
-      gather_strip(job, st * kStripTiles, std::min(b.tiles_x, (st + 1) * kStripTiles));
+      gather_strip(job, st * kStripTiles, std::min(b.tiles_x, (st + 1) * kStripTiles), inv_den.data());
   });
 }
 

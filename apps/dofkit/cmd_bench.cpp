@@ -23,6 +23,8 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "core/parallel.hpp"
+#include "quality_run.hpp"
 #include "dofkit/render.hpp"
 
 extern char** environ;
@@ -73,18 +75,13 @@ Frame bench_frame(int w, int h) {
 }
 
 RenderSettings bench_settings(const std::string& method_spec, int w, int threads) {
+  // Same syntax as `dofkit quality --methods`: name or name:key=value,key=value.
+  const std::vector<MethodSpec> specs = parse_method_list(method_spec);
+  if (specs.size() != 1 || specs[0].name == "input")
+    throw_usage("--methods " + method_spec + ": expected one method");
   RenderSettings s;
-  const auto colon = method_spec.find(':');
-  s.method = method_spec.substr(0, colon);
-  if (colon != std::string::npos) {
-    std::istringstream in(method_spec.substr(colon + 1));
-    std::string kv;
-    while (std::getline(in, kv, ',')) {
-      const auto eq = kv.find('=');
-      if (eq == std::string::npos) throw_usage("--methods " + method_spec + ": expected name:key=value,...");
-      s.params[kv.substr(0, eq)] = kv.substr(eq + 1);
-    }
-  }
+  s.method = specs[0].name;
+  s.params = specs[0].params;
   s.camera.model = BlurAtInfinity{4.0, 0.015 * w};
   s.camera.max_coc_px = 0.03 * w;
   s.threads = threads;
@@ -186,7 +183,7 @@ void add_bench_command(CLI::App& app) {
                                  "example: dofkit bench --size 1920x1080 --methods mcguire,sterna --threads 2");
   cmd->add_option("--size", opts->sizes, "frame size WxH (repeatable; default 1920x1080 and 3840x2160)");
   cmd->add_option("--methods", opts->methods,
-                  "comma-separated methods, optionally with parameters as name:key=value (default: all)");
+                  "comma-separated methods, optionally with parameters as name:key=value,key=value (default: all)");
   cmd->add_option("--threads", opts->threads, "worker threads (default: all hardware threads)");
   cmd->add_option("--iterations", opts->iterations, "timed runs per method after one warm-up (default 7)")
       ->check(CLI::Range(1, 1000));
@@ -197,7 +194,7 @@ void add_bench_command(CLI::App& app) {
     for (const auto& s : opts->sizes) sizes.push_back(parse_size(s));
     if (sizes.empty()) sizes = {{1920, 1080}, {3840, 2160}};
     if (opts->threads < 0) throw_usage("--threads: must be >= 0");
-    const int threads = opts->threads;
+    const int threads = opts->threads > 0 ? opts->threads : core::hardware_threads();
     if (!opts->child.empty()) {
       run_child(opts->child, sizes.front(), threads, opts->iterations);
       return;
@@ -207,14 +204,9 @@ void add_bench_command(CLI::App& app) {
       for (const auto& m : methods())
         if (m.name != "scatter") names.push_back(m.name);
     } else {
-      std::istringstream in(opts->methods);
-      std::string m;
-      while (std::getline(in, m, ',')) {
-        const std::string base = m.substr(0, m.find(':'));
-        bool known = false;
-        for (const auto& info : methods()) known |= info.name == base;
-        if (!known) throw_usage("--methods: unknown method " + base + " (see dofkit methods)");
-        names.push_back(m);
+      for (const MethodSpec& spec : parse_method_list(opts->methods)) {
+        if (spec.name == "input") throw_usage("--methods: 'input' is not a method to time");
+        names.push_back(spec.label);
       }
     }
     nlohmann::json rows = nlohmann::json::array();

@@ -155,7 +155,10 @@ const detail::MethodDef& checked_method(const RenderSettings& settings) {
     for (const auto* m : detail::all_methods()) names.push_back(m->name);
     throw_usage("--method " + settings.method + ": unknown method (known: " + detail::known_names(names) + ")");
   }
-  for (const auto& [key, value] : settings.params) {
+  for (const auto& kv : settings.params) {
+    // Not a structured binding: clang 14 (the fuzz build) cannot capture those in a lambda.
+    const std::string& key = kv.first;
+    const std::string& value = kv.second;
     const bool known = std::any_of(method->params.begin(), method->params.end(),
                                    [&](const ParamInfo& p) { return p.name == key; });
     if (!known) {

@@ -18,17 +18,21 @@
 namespace dofkit::detail::sterna {
 
 namespace {
-inline float saturate(float v) { return v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v); }
+// NaN-safe: NaN → 0 (the comparisons are false).
+inline float saturate(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
+inline float saturate(double v) { return v > 0.0 ? static_cast<float>(v < 1.0 ? v : 1.0) : 0.0f; }
 }  // namespace
 
 void compute_full_coc(const MethodContext& ctx, const Settings& s, FullCoc& out) {
   const int w = ctx.frame.width(), h = ctx.frame.height();
   out.coc.resize(w, h, 2);
   const NearFarBlend* nfb = std::get_if<NearFarBlend>(&ctx.camera.model);
-  const float nb = nfb ? static_cast<float>(nfb->near_begin_m) : 0.0f;
-  const float ne = nfb ? static_cast<float>(nfb->near_end_m) : 0.0f;
-  const float fb = nfb ? static_cast<float>(nfb->far_begin_m) : 0.0f;
-  const float fe = nfb ? static_cast<float>(nfb->far_end_m) : 0.0f;
+  // The blend planes are used in double: two planes that differ only beyond float precision
+  // would otherwise give 0/0.
+  const double nb = nfb ? nfb->near_begin_m : 0.0;
+  const double ne = nfb ? nfb->near_end_m : 0.0;
+  const double fb = nfb ? nfb->far_begin_m : 0.0;
+  const double fe = nfb ? nfb->far_end_m : 0.0;
   const float ramp = std::max(s.blend_radius_px - 0.5f, 1e-3f);
   core::parallel_for(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
@@ -39,7 +43,7 @@ void compute_full_coc(const MethodContext& ctx, const Settings& s, FullCoc& out)
         for (int x = 0; x < w; ++x) {
           // z = +inf: the near ratio is −inf → 0 and the far ratio +inf → 1.
           n[x] = saturate((z[x] - ne) / (nb - ne));
-          f[x] = saturate((z[x] - fb) / (fe - fb));
+          f[x] = std::isinf(z[x]) ? 1.0f : saturate((z[x] - fb) / (fe - fb));
           if (n[x] > 0.0f && f[x] > 0.0f) f[x] = 0.0f;  // overlapping planes: near wins
         }
       } else {

@@ -1,21 +1,22 @@
 // Fast P7: the 49-tap gather, register-blocked. Same sums as gather.cpp, same order.
 //
 // gather.cpp accumulates tap by tap into row-length arrays: per tap and channel it loads
-// 4 source values, the accumulator, and stores the accumulator back. Here one 8-texel chunk
-// (exactly one 8×8 tile's row) keeps all of its channel accumulators in vector registers for
-// the 49 taps, so a tap costs its 4 loads per channel and nothing else; the per-tap bilinear
-// weights are broadcast once and shared by the channels. Each tap is one linear offset
-// dy·pitch + dx into the padded plane, so no index is clamped and no branch is taken.
+// 4 source values, the accumulator, and stores the accumulator back. Here a segment of 32
+// texels (4 vectors) of one channel keeps its accumulators in registers for the 49 taps, so a
+// tap costs its 4 loads per vector and nothing else; the per-tap bilinear weights are
+// broadcast once per tap. Each tap is one linear offset dy·pitch + dx into the padded plane,
+// so no index is clamped and no branch is taken.
 //
-// Work: tile (8×8 texels) bits from tile classification select the fields per tile — a tile
-// with no near texel does not run the near gather even if its neighbour does (gather.cpp
-// merges runs of active tiles and computes both fields over the run). Per texel the result is
-// selected as in gather.cpp: near where nearBlur_h > 0 else colour_h; far where far_h > 0
-// else 0.
+// Work: the 8×8 tile bits of tile classification select the fields per segment row — a
+// segment whose tiles have no near texel does not run the near gather (gather.cpp merges runs
+// of active tiles and computes both fields over the run). Per texel the result is selected as
+// in gather.cpp: near where nearBlur_h > 0 else colour_h; far where far_h > 0 else 0.
 //
-// Locality: tasks are column strips of kStripTiles tiles walked top to bottom. A row reads
-// source rows y − reach … y + reach + 1; walking down a strip re-reads all but one of them,
-// so they stay in L2 (at kernel reach 29 texels: 9 planes × 60 rows × 90 floats ≈ 190 kB).
+// Locality: a task is one column segment. It goes channel by channel and, inside, row by
+// row: the source rows one channel's taps read for row y (≈ 2·reach + 2 rows × a few cache
+// lines, ~10 kB at reach 15) are, all but one, those of row y − 1, so they stay in L1. The far
+// denominator Σ far_h runs first and is kept as 1/den per texel (gather.cpp computes the same
+// 1/den once per texel and multiplies each channel by it).
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -28,7 +29,7 @@ namespace dofkit::detail::sterna::fast {
 namespace {
 
 constexpr std::uint8_t kNearBit = 1, kFarBit = 2;
-constexpr int kStripTiles = 4;
+constexpr int kStripTiles = 4;  // tiles per column segment
 static_assert(kTile == 8, "one tile row is one 8-lane chunk");
 
 typedef float V8 __attribute__((vector_size(32)));

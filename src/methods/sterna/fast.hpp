@@ -23,7 +23,13 @@
 #include "methods/method.hpp"
 #include "methods/sterna/passes.hpp"
 
+#if defined(__clang__)
+// clang (used only by the fuzz build) has no optimize() attribute: there the hot functions are
+// compiled once, for the build's target, with clang's own contraction setting.
+#define STERNA_SIMD
+#else
 #define STERNA_SIMD __attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
+#endif
 
 namespace dofkit::detail::sterna::fast {
 
@@ -56,7 +62,8 @@ struct Buffers {
 struct BlendRow {
   const MethodContext* ctx = nullptr;
   bool nfb = false;
-  float nb = 0, ne = 0, fb = 0, fe = 0, ramp = 1;
+  double nb = 0, ne = 0, fb = 0, fe = 0;  // near/far blend planes, metres (double: see coc.cpp)
+  float ramp = 1;
   void init(const MethodContext& c, const Settings& s);
   /// Writes W values to near (may be null) and far.
   void operator()(int y, float* near, float* far) const;

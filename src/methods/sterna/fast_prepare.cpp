@@ -26,7 +26,9 @@ namespace dofkit::detail::sterna::fast {
 
 namespace {
 
-inline float saturate(float v) { return v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v); }
+// NaN-safe (NaN → 0), same as coc.cpp.
+inline float saturate(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
+inline float saturate(double v) { return v > 0.0 ? static_cast<float>(v < 1.0 ? v : 1.0) : 0.0f; }
 
 STERNA_SIMD void blend_from_coc(const float* __restrict r, float* __restrict near, float* __restrict far, int n,
                                 float ramp) {
@@ -35,11 +37,12 @@ STERNA_SIMD void blend_from_coc(const float* __restrict r, float* __restrict nea
   for (int x = 0; x < n; ++x) far[x] = saturate((-r[x] - 0.5f) / ramp);
 }
 
-STERNA_SIMD void blend_from_z(const float* __restrict z, float* __restrict near, float* __restrict far, int n, float nb,
-                              float ne, float fb, float fe) {
+// The planes in double, as in coc.cpp (planes equal in float would give 0/0).
+STERNA_SIMD void blend_from_z(const float* __restrict z, float* __restrict near, float* __restrict far, int n, double nb,
+                              double ne, double fb, double fe) {
   for (int x = 0; x < n; ++x) {
     const float nv = saturate((z[x] - ne) / (nb - ne));
-    const float fv = saturate((z[x] - fb) / (fe - fb));
+    const float fv = std::isinf(z[x]) ? 1.0f : saturate((z[x] - fb) / (fe - fb));
     far[x] = (nv > 0.0f && fv > 0.0f) ? 0.0f : fv;  // overlapping planes: near wins
     if (near) near[x] = nv;
   }
@@ -153,10 +156,10 @@ void BlendRow::init(const MethodContext& c, const Settings& s) {
   ctx = &c;
   const NearFarBlend* m = std::get_if<NearFarBlend>(&c.camera.model);
   nfb = m != nullptr;
-  nb = m ? static_cast<float>(m->near_begin_m) : 0.0f;
-  ne = m ? static_cast<float>(m->near_end_m) : 0.0f;
-  fb = m ? static_cast<float>(m->far_begin_m) : 0.0f;
-  fe = m ? static_cast<float>(m->far_end_m) : 0.0f;
+  nb = m ? m->near_begin_m : 0.0;
+  ne = m ? m->near_end_m : 0.0;
+  fb = m ? m->far_begin_m : 0.0;
+  fe = m ? m->far_end_m : 0.0;
   ramp = std::max(s.blend_radius_px - 0.5f, 1e-3f);
 }
 

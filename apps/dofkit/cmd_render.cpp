@@ -31,6 +31,7 @@ struct RenderArgs {
   std::vector<std::string> sets;
   int threads = 0;
   int max_layers = 8;
+  long long max_pixels = io::kMaxPixels;
   int bits = 0;
   CameraFlags camera;
   DepthFlags depth_flags;
@@ -112,6 +113,7 @@ void run_render(RenderArgs& a) {
   if (a.mask.empty() != a.mask_depth.empty()) throw_usage("--mask and --mask-depth: give both or neither");
   if (!a.mask.empty() && !a.layers.empty()) throw_usage("--mask and --layers: cannot be combined");
   if (a.max_layers < 1 || a.max_layers > 64) throw_usage("--max-layers: must be 1..64");
+  io::set_pixel_budget(a.max_pixels);
   check_threads(a.threads);
   a.camera.check();
   const io::DepthOptions depth_opt = a.depth_flags.build();
@@ -204,6 +206,9 @@ void add_render_command(CLI::App& app) {
                   "multi-fragment input for the layered method: deep EXR or the layered EXR of `dofkit scene --layers`; "
                   "without --color its front-to-back composite is the colour")
       ->group(in);
+  cmd->add_option("--max-pixels", args->max_pixels,
+                  "refuse input files whose header declares more than this many pixels (width x height), "
+                  "checked before any pixel memory is allocated (default 268435456 = 2^28)");
   cmd->add_option("--max-layers", args->max_layers, "--layers: keep at most this many fragments per pixel (default 8)")
       ->group(in);
   cmd->add_option("--mask", args->mask,

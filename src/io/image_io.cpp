@@ -8,6 +8,8 @@
 // and premultiply after decoding to linear light instead.
 #include "io/image_io.hpp"
 
+#include <atomic>
+
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -25,6 +27,19 @@
 namespace fs = std::filesystem;
 
 namespace dofkit::io {
+
+namespace {
+std::atomic<long long> g_pixel_budget{kMaxPixels};
+}  // namespace
+
+void set_pixel_budget(long long pixels) {
+  if (pixels < 1 || pixels > (1LL << 34))
+    throw_usage("--max-pixels " + std::to_string(pixels) + ": must be in [1, 2^34]");
+  g_pixel_budget.store(pixels);
+}
+
+long long pixel_budget() { return g_pixel_budget.load(); }
+
 
 namespace {
 
@@ -105,9 +120,10 @@ OpenedFile open_checked(const std::string& path, const char* role) {
   f.spec = f.in->spec();
   const long long w = f.spec.width, h = f.spec.height;
   if (w <= 0 || h <= 0) throw_bad_input(path + ": " + role + " image has an empty size");
-  if (w > kMaxPixels || h > kMaxPixels || w * h > kMaxPixels)
+  const long long budget = pixel_budget();
+  if (w > budget || h > budget || w * h > budget)
     throw_bad_input(path + ": " + role + " image declares " + std::to_string(w) + "x" + std::to_string(h) +
-                    " pixels, more than the limit of " + std::to_string(kMaxPixels));
+                    " pixels, more than the limit of " + std::to_string(budget) + " (--max-pixels)");
   if (f.spec.nchannels <= 0 || f.spec.nchannels > kMaxChannels)
     throw_bad_input(path + ": " + role + " image declares " + std::to_string(f.spec.nchannels) +
                     " channels (limit " + std::to_string(kMaxChannels) + ")");

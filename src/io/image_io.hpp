@@ -90,8 +90,12 @@ DepthKind parse_depth_kind(const std::string& name);
 const char* depth_kind_name(DepthKind kind);
 
 /// Limits checked from a file's header before any pixel memory is allocated.
-inline constexpr long long kMaxPixels = 1LL << 28;  ///< width × height
+inline constexpr long long kMaxPixels = 1LL << 28;  ///< default pixel budget, width × height
 inline constexpr int kMaxChannels = 64;
+/// The pixel budget in force for every read in this process (default kMaxPixels; the CLI's
+/// `--max-pixels`). Throws Error(usage) unless 1 <= pixels <= 2^34.
+void set_pixel_budget(long long pixels);
+long long pixel_budget();
 
 /// Loads a frame from colour + optional depth file (depth from the colour EXR's Z channel
 /// when depth_path is empty) and validates it (sizes, invalid depth per opt).

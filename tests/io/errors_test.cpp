@@ -139,3 +139,21 @@ TEST(ReadErrors, DeepFileIsPointedToLayers) {
   const std::string m = bad_input_message([&] { io::read_color(dir / "deep.exr"); });
   EXPECT_TRUE(contains(m, "--layers")) << m;
 }
+
+TEST(PixelBudget, IsConfigurableAndCheckedFromTheHeader) {
+  const std::string dir = ::testing::TempDir();
+  const std::string path = dir + "/budget_8x8.exr";
+  dofkit::io::write_image(path, dofkit::Image(8, 8, 4, 0.5f));
+  dofkit::io::set_pixel_budget(63);
+  try {
+    (void)dofkit::io::read_color(path);
+    ADD_FAILURE() << "an 8x8 image must exceed a budget of 63 pixels";
+  } catch (const dofkit::Error& e) {
+    EXPECT_EQ(e.kind(), dofkit::ErrorKind::bad_input);
+    EXPECT_NE(std::string(e.what()).find("--max-pixels"), std::string::npos) << e.what();
+  }
+  dofkit::io::set_pixel_budget(64);
+  EXPECT_EQ(dofkit::io::read_color(path).width(), 8);
+  EXPECT_THROW(dofkit::io::set_pixel_budget(0), dofkit::Error);
+  dofkit::io::set_pixel_budget(dofkit::io::kMaxPixels);
+}

@@ -18,36 +18,15 @@
 #include "dofkit/error.hpp"
 #include "io/atomic_write.hpp"
 #include "io/image_io.hpp"
+#include "io/io_test_util.hpp"
 
 using namespace dofkit;
 namespace fs = std::filesystem;
 
 namespace {
 
-class Dir {
- public:
-  Dir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() / ("dofkit-robust-" + std::to_string(::getpid()) + "-" + info->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~Dir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string operator/(const std::string& f) const { return (path_ / f).string(); }
-  const fs::path& path() const { return path_; }
-  std::vector<std::string> entries() const {
-    std::vector<std::string> v;
-    for (const auto& e : fs::directory_iterator(path_)) v.push_back(e.path().filename().string());
-    std::sort(v.begin(), v.end());
-    return v;
-  }
-
- private:
-  fs::path path_;
-};
+// Scratch folders: the IO tests' helper (removed with its contents at the end of a test).
+using Dir = dofkit::test::ScratchDir;
 
 void put(const std::string& path, const std::string& bytes) { std::ofstream(path, std::ios::binary) << bytes; }
 std::string get(const std::string& path) {

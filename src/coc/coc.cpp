@@ -160,6 +160,23 @@ float CocFunction::operator()(float zf) const noexcept {
   return static_cast<float>(r);
 }
 
+void CocFunction::evaluate(const float* z, float* r, int n) const noexcept {
+  if (!thin_) {
+    for (int i = 0; i < n; ++i) r[i] = (*this)(z[i]);
+    return;
+  }
+  // The thin-lens branch of operator(), without the per-pixel variant dispatch: the same
+  // double arithmetic in the same order, so the results are identical.
+  const double k = k_, focus = focus_, hi = max_coc_, lo = -max_coc_;
+  for (int i = 0; i < n; ++i) {
+    const double zd = z[i];
+    double v = zd > 0 ? k * (focus / zd - 1.0) : hi;
+    v = v > hi ? hi : v;
+    v = v < lo ? lo : v;
+    r[i] = static_cast<float>(v);
+  }
+}
+
 double focus_distance_m(const CocModelKind& model) {
   return std::visit(
       [](const auto& m) -> double {

@@ -123,11 +123,7 @@ namespace {
 void fill_coc(const Image& depth, const CocFunction& f, Image& coc) {
   coc.resize(depth.width(), depth.height(), 1);
   core::parallel_for(depth.height(), [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const float* z = depth.row(0, y);
-      float* r = coc.row(0, y);
-      for (int x = 0; x < depth.width(); ++x) r[x] = f(z[x]);
-    }
+    for (int y = y0; y < y1; ++y) f.evaluate(depth.row(0, y), coc.row(0, y), depth.width());
   }, 16);
 }
 }  // namespace

@@ -42,13 +42,17 @@ bool color_is_sanitary(const Image& rgba) {
   const int w = rgba.width();
   core::parallel_for(rgba.height(), [&](int y0, int y1) {
     for (int y = y0; y < y1 && !dirty.load(std::memory_order_relaxed); ++y) {
-      bool bad = false;
+      // Bitwise & and | (no short-circuit branches) so the loops vectorise.
+      int bad = 0;
       for (int c = 0; c < 3; ++c) {
         const float* row = rgba.row(c, y);
-        for (int x = 0; x < w; ++x) bad |= !(row[x] == 0.0f || (std::fabs(row[x]) >= kMinNormal && std::fabs(row[x]) <= kMaxColorValue));
+        for (int x = 0; x < w; ++x) {
+          const float m = std::fabs(row[x]);
+          bad |= !((row[x] == 0.0f) | ((m >= kMinNormal) & (m <= kMaxColorValue)));
+        }
       }
       const float* a = rgba.row(3, y);
-      for (int x = 0; x < w; ++x) bad |= !(a[x] == 0.0f || (a[x] >= kMinNormal && a[x] <= 1.0f));
+      for (int x = 0; x < w; ++x) bad |= !((a[x] == 0.0f) | ((a[x] >= kMinNormal) & (a[x] <= 1.0f)));
       if (bad) dirty.store(true, std::memory_order_relaxed);
     }
   }, kGrainRows);

@@ -1,7 +1,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <vector>
 
 #include "dofkit/coc.hpp"
 #include "dofkit/error.hpp"
@@ -79,5 +81,24 @@ TEST(Validate, RejectsBadLens) {
   } catch (const Error& e) {
     EXPECT_EQ(e.kind(), ErrorKind::usage);
     EXPECT_NE(std::string(e.what()).find("--f-number"), std::string::npos);
+  }
+}
+
+TEST(CocFunction, BatchEvaluationMatchesScalarBitForBit) {
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<float> z = {inf, -inf, 0.0f, -1.0f, std::numeric_limits<float>::quiet_NaN(), 1e-30f, 1e-3f, 0.05f};
+  for (int i = 0; i < 400; ++i) z.push_back(0.01f * std::pow(1.04f, static_cast<float>(i)));
+  std::vector<CameraModel> cams = {CameraModel{ThinLens{50, 2.8, 5.0, 36}}, CameraModel{BlurAtInfinity{4.0, 24.0}},
+                                   CameraModel{FourPlane{1, 2, 4, 8, 10, 6, false}},
+                                   CameraModel{StarCraft{10, 1, 5, 2, 12}}, CameraModel{NearFarBlend{}}};
+  cams[1].max_coc_px = 40;
+  for (const CameraModel& cam : cams) {
+    const CocFunction f(cam, 1920);
+    std::vector<float> r(z.size());
+    f.evaluate(z.data(), r.data(), static_cast<int>(z.size()));
+    for (std::size_t i = 0; i < z.size(); ++i) {
+      const float want = f(z[i]);
+      ASSERT_EQ(std::memcmp(&r[i], &want, sizeof want), 0) << describe(cam) << " z=" << z[i];
+    }
   }
 }

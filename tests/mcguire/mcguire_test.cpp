@@ -8,6 +8,7 @@
 #include <vector>
 #include <string>
 
+#include "common/test_frames.hpp"
 #include "dofkit/render.hpp"
 #include "methods/mcguire/blur_weights.hpp"
 #include "methods/mcguire/mcguire.hpp"
@@ -19,22 +20,8 @@ namespace {
 
 const char* kVariants[] = {"book", "demo", "g3d"};
 
-// Deterministic texture in [0.05, 0.95], alpha 1.
-Frame textured_frame(int w, int h, float z) {
-  Frame f;
-  f.color = Image(w, h, 4, 1.0f);
-  f.depth = Image(w, h, 1, z);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c) {
-        std::uint32_t v = static_cast<std::uint32_t>(x * 73856093u ^ y * 19349663u ^ (c + 1) * 83492791u);
-        v ^= v >> 13;
-        v *= 0x5bd1e995u;
-        v ^= v >> 15;
-        f.color.at(x, y, c) = 0.05f + 0.9f * static_cast<float>(v % 1000u) / 999.0f;
-      }
-  return f;
-}
+// Deterministic hash texture in [0.05, 0.95], alpha 1 (shared with the other method tests).
+inline Frame textured_frame(int w, int h, float z) { return test::hashed_texture_frame(w, h, z); }
 
 RenderSettings settings(const std::string& variant, double focus_m = 4.0, double k_px = 10.0) {
   RenderSettings s;

@@ -6,6 +6,7 @@
 #include <limits>
 #include <span>
 
+#include "common/test_frames.hpp"
 #include "dofkit/render.hpp"
 #include "methods/starcraft/starcraft.hpp"
 
@@ -14,22 +15,8 @@ namespace sc = dofkit::detail::starcraft;
 
 namespace {
 
-// Deterministic texture in [0.05, 0.95] (hash of the pixel), RGB distinct, alpha 1.
-Frame textured_frame(int w, int h, float z) {
-  Frame f;
-  f.color = Image(w, h, 4, 1.0f);
-  f.depth = Image(w, h, 1, z);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c) {
-        std::uint32_t v = static_cast<std::uint32_t>(x * 73856093u ^ y * 19349663u ^ (c + 1) * 83492791u);
-        v ^= v >> 13;
-        v *= 0x5bd1e995u;
-        v ^= v >> 15;
-        f.color.at(x, y, c) = 0.05f + 0.9f * static_cast<float>(v % 1000u) / 999.0f;
-      }
-  return f;
-}
+// Deterministic hash texture in [0.05, 0.95], alpha 1 (shared with the other method tests).
+inline Frame textured_frame(int w, int h, float z) { return test::hashed_texture_frame(w, h, z); }
 
 RenderSettings settings_for(double focus_m, double k_px) {
   RenderSettings s;

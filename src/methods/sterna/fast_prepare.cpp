@@ -83,24 +83,9 @@ template <bool kKaris>
 STERNA_SIMD void downsample_row(const float* const* r0, const float* const* r1, const float* __restrict f0,
                                 const float* __restrict f1, const float* __restrict n0, const QuadOut& o, int W,
                                 int w) {
-  const int full = W / 2;  // texels whose quad has two distinct columns
-  for (int i = 0; i < full; ++i) {
-    const int x0 = 2 * i, x1 = 2 * i + 1;
-    float c[4][4], far[4];
-    for (int ch = 0; ch < 4; ++ch) {
-      c[0][ch] = r0[ch][x0];
-      c[1][ch] = r0[ch][x1];
-      c[2][ch] = r1[ch][x0];
-      c[3][ch] = r1[ch][x1];
-    }
-    far[0] = f0[x0];
-    far[1] = f0[x1];
-    far[2] = f1[x0];
-    far[3] = f1[x1];
-    quad<kKaris>(c, far, n0[x0], o, i);
-  }
-  for (int i = full; i < w; ++i) {  // odd width: the last quad repeats the edge column
-    const int x0 = 2 * i, x1 = W - 1;
+  for (int i = 0; i < w; ++i) {
+    // With an odd width the last quad repeats the edge column.
+    const int x0 = 2 * i, x1 = std::min(2 * i + 1, W - 1);
     float c[4][4], far[4];
     for (int ch = 0; ch < 4; ++ch) {
       c[0][ch] = r0[ch][x0];

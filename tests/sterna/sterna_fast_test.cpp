@@ -14,6 +14,7 @@
 #include <map>
 #include <string>
 
+#include "scene/bench_frame.hpp"
 #include "dofkit/render.hpp"
 
 using namespace dofkit;
@@ -152,23 +153,7 @@ TEST(SternaFast, RepeatedFramesOfChangingSizeReuseTheWorkspaceCorrectly) {
 // --gtest_also_run_disabled_tests --gtest_filter=SternaFast.DISABLED_ProfileBenchFrame
 TEST(SternaFast, DISABLED_ProfileBenchFrame) {
   const int w = 1920, h = 1080;
-  Frame f;
-  f.color = Image(w, h, 4, 1.0f);
-  f.depth = Image(w, h, 1);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const float u = (x + 0.5f) / w, v = (y + 0.5f) / h;
-      float z;
-      if (u > 0.08f && u < 0.16f) z = 1.2f;
-      else if (std::hypot(u - 0.55f, v - 0.5f) < 0.18f) z = 4.0f;
-      else if (v > 0.65f) z = 1.5f / std::max(0.02f, (v - 0.6f) * 2.6f);
-      else z = v < 0.1f ? kInf : 8.0f + 60.0f * (0.65f - v);
-      f.depth.at(x, y) = z;
-      const float t = std::sin(0.11f * x) * std::sin(0.07f * y) + 0.3f * std::sin(1.7f * x + 0.9f * y);
-      f.color.at(x, y, 0) = 0.45f + 0.35f * t;
-      f.color.at(x, y, 1) = 0.40f + 0.30f * std::sin(0.05f * x + 0.5f * t);
-      f.color.at(x, y, 2) = 0.50f + 0.30f * std::cos(0.03f * y + t);
-    }
+  const Frame f = scene::bench_frame(w, h);
   RenderSettings s = blur_at_infinity(4.0, 0.015 * w);
   s.camera.max_coc_px = 0.03 * w;
   const char* th = std::getenv("DOFKIT_THREADS");

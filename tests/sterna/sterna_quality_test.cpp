@@ -12,6 +12,7 @@
 #include <limits>
 #include <string>
 
+#include "scene/bench_frame.hpp"
 #include "dofkit/render.hpp"
 #include "io/image_io.hpp"
 #include "metrics/metrics.hpp"
@@ -251,23 +252,7 @@ TEST(SternaQuality, DISABLED_MeasureTime1080p) {
   // The frame of `dofkit bench` (focus 4 m, K = 1.5 % of the width, clamp 3 %), timed as
   // process CPU time with one thread so that a loaded machine does not distort it.
   const int w = 1920, h = 1080;
-  Frame f;
-  f.color = Image(w, h, 4, 1.0f);
-  f.depth = Image(w, h, 1);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const float u = (x + 0.5f) / w, v = (y + 0.5f) / h;
-      float z;
-      if (u > 0.08f && u < 0.16f) z = 1.2f;
-      else if (std::hypot(u - 0.55f, v - 0.5f) < 0.18f) z = 4.0f;
-      else if (v > 0.65f) z = 1.5f / std::max(0.02f, (v - 0.6f) * 2.6f);
-      else z = v < 0.1f ? std::numeric_limits<float>::infinity() : 8.0f + 60.0f * (0.65f - v);
-      f.depth.at(x, y) = z;
-      const float t = std::sin(0.11f * x) * std::sin(0.07f * y) + 0.3f * std::sin(1.7f * x + 0.9f * y);
-      f.color.at(x, y, 0) = 0.45f + 0.35f * t;
-      f.color.at(x, y, 1) = 0.40f + 0.30f * std::sin(0.05f * x + 0.5f * t);
-      f.color.at(x, y, 2) = 0.50f + 0.30f * std::cos(0.03f * y + t);
-    }
+  const Frame f = scene::bench_frame(w, h);
   for (const auto& p : std::vector<std::map<std::string, std::string>>{
            {}, {{"bokeh", "polygon"}}, {{"per_pixel_scale", "on"}}, {{"firefly", "karis"}}, {{"near_upsample", "bicubic"}}}) {
     RenderSettings rs;

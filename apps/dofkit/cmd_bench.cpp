@@ -38,15 +38,6 @@ struct Size {
   int w = 0, h = 0;
 };
 
-Size parse_size(const std::string& s) {
-  Size z;
-  char x = 0;
-  std::istringstream in(s);
-  if (!(in >> z.w >> x >> z.h) || (x != 'x' && x != 'X') || z.w < 1 || z.h < 1 || z.w > 16384 || z.h > 16384)
-    throw_usage("--size " + s + ": expected WxH with 1 <= W, H <= 16384");
-  return z;
-}
-
 RenderSettings bench_settings(const std::string& method_spec, int w, int threads) {
   // Same syntax as `dofkit quality --methods`: name or name:key=value,key=value.
   const std::vector<MethodSpec> specs = parse_method_list(method_spec);
@@ -163,7 +154,11 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--child", opts->child, "internal: run one measurement")->group("");
   cmd->callback([opts] {
     std::vector<Size> sizes;
-    for (const auto& s : opts->sizes) sizes.push_back(parse_size(s));
+    for (const auto& s : opts->sizes) {
+      Size z;
+      parse_size(s, "--size", z.w, z.h);
+      sizes.push_back(z);
+    }
     if (sizes.empty()) sizes = {{1920, 1080}, {3840, 2160}};
     if (opts->threads < 0) throw_usage("--threads: must be >= 0");
     const int threads = opts->threads > 0 ? opts->threads : core::hardware_threads();

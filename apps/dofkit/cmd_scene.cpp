@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "quality_run.hpp"
 #include "dofkit/error.hpp"
 #include "io/image_io.hpp"
 #include "io/layers_io.hpp"
@@ -39,19 +40,6 @@ struct SceneArgs {
   bool list = false;
 };
 
-void parse_size(const std::string& s, int& w, int& h) {
-  const auto x = s.find_first_of("xX");
-  try {
-    if (x == std::string::npos) throw std::invalid_argument(s);
-    std::size_t a = 0, b = 0;
-    w = std::stoi(s.substr(0, x), &a);
-    h = std::stoi(s.substr(x + 1), &b);
-    if (a != x || b != s.size() - x - 1) throw std::invalid_argument(s);
-  } catch (const std::exception&) {
-    throw_usage("--size: expected WIDTHxHEIGHT in pixels, e.g. 640x360 (got '" + s + "')");
-  }
-  if (w <= 0 || h <= 0) throw_usage("--size: width and height must be > 0 (got '" + s + "')");
-}
 
 // Shortest decimal that reads back as the same double (for flags that must reproduce exactly).
 std::string exact(double v) {
@@ -74,7 +62,7 @@ void run_scene(const SceneArgs& a) {
   if (a.threads < 0) throw_usage("--threads: must be >= 0");
 
   scene::SceneOptions opt;
-  parse_size(a.size, opt.width, opt.height);
+  parse_size(a.size, "--size", opt.width, opt.height);
   opt.samples = a.samples;
   opt.focus_m = a.focus_m;
   opt.blur_at_infinity_px = a.blur_px;

@@ -14,6 +14,8 @@
 #include <cstdint>
 #include <numbers>
 
+#include "core/sampling.hpp"
+
 namespace dofkit::scene::detail {
 
 /// 32-bit integer finaliser (a bijection with good avalanche; from the "lowbias32" family).
@@ -81,24 +83,7 @@ struct SobolSet {
   }
 };
 
-/// Shirley–Chiu concentric map [0,1)² → unit disc (area preserving, keeps strata compact).
-inline void concentric_disc(double u, double v, double& x, double& y) {
-  const double a = 2 * u - 1, b = 2 * v - 1;
-  if (a == 0 && b == 0) {
-    x = y = 0;
-    return;
-  }
-  double r, phi;
-  if (std::abs(a) > std::abs(b)) {
-    r = a;
-    phi = (std::numbers::pi / 4) * (b / a);
-  } else {
-    r = b;
-    phi = std::numbers::pi / 2 - (std::numbers::pi / 4) * (a / b);
-  }
-  x = r * std::cos(phi);
-  y = r * std::sin(phi);
-}
+using core::concentric_disc;  // src/core/sampling.hpp
 
 /// Regular n-gon inscribed in the unit circle, vertices at angles (2k+1)π/n + rot (the
 /// Sousa/MJP convention of algorithms.md §3.4). [0,1)² → polygon, area preserving:

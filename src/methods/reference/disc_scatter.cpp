@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "core/parallel.hpp"
+#include "core/sampling.hpp"
 #include "methods/reference/scatter_band.hpp"
 
 namespace dofkit::detail {
@@ -98,15 +99,13 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
   if (opt.depth_order) {
     hidden.assign(n * 4, 0.0f);
     constexpr int kGrid = 8;
-    std::vector<float> ox, oy;  // unit-disc offsets (Shirley–Chiu concentric map of an 8×8 grid)
+    std::vector<float> ox, oy;  // unit-disc offsets: the concentric map of an 8×8 grid
     for (int j = 0; j < kGrid; ++j)
       for (int i = 0; i < kGrid; ++i) {
-        const float a = 2.0f * (i + 0.5f) / kGrid - 1.0f, b = 2.0f * (j + 0.5f) / kGrid - 1.0f;
-        float rr, phi;
-        if (std::fabs(a) > std::fabs(b)) { rr = a; phi = 0.785398163f * (b / a); }
-        else { rr = b; phi = 1.570796327f - 0.785398163f * (a / b); }
-        ox.push_back(rr * std::cos(phi));
-        oy.push_back(rr * std::sin(phi));
+        double dx, dy;
+        core::concentric_disc((i + 0.5) / kGrid, (j + 0.5) / kGrid, dx, dy);
+        ox.push_back(static_cast<float>(dx));
+        oy.push_back(static_cast<float>(dy));
       }
     core::parallel_for(h, [&](int y0, int y1) {
       for (int y = y0; y < y1; ++y)

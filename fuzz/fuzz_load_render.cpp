@@ -32,6 +32,7 @@
 #include <string>
 
 #include "dofkit/render.hpp"
+#include "io/header_check.hpp"
 #include "io/image_io.hpp"
 
 using namespace dofkit;
@@ -66,7 +67,14 @@ const char* extension_for(const std::uint8_t* d, std::size_t n, std::uint8_t pic
 }
 
 // Declared size from the header alone (OIIO open, no pixel read); -1 if it does not open.
+// Files the header check refuses count as "does not open" (the readers below refuse them too);
+// opening them with OIIO directly could allocate what their header claims.
 long long declared_pixels(const std::string& path) {
+  try {
+    io::check_file_header(path, "fuzz");
+  } catch (const Error&) {
+    return -1;
+  }
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
     OIIO::geterror();

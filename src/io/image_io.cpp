@@ -23,6 +23,7 @@
 
 #include "dofkit/error.hpp"
 #include "io/atomic_write.hpp"
+#include "io/header_check.hpp"
 
 namespace fs = std::filesystem;
 
@@ -108,6 +109,7 @@ OpenedFile open_checked(const std::string& path, const char* role) {
   const fs::file_status st = fs::status(path, ec);
   if (ec || !fs::exists(st)) throw_bad_input(path + ": " + role + " file does not exist");
   if (fs::is_directory(st)) throw_bad_input(path + ": " + role + " path is a folder, not an image");
+  check_file_header(path, role);
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);
   OpenedFile f;
@@ -409,6 +411,11 @@ Image read_depth(const std::string& path, const DepthOptions& opt) {
 bool has_depth_channel(const std::string& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return false;
+  try {
+    check_file_header(path, "colour");
+  } catch (const Error&) {
+    return false;  // the colour read that follows reports it
+  }
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
     OIIO::geterror();  // clear the pending message

@@ -7,6 +7,8 @@
 // link.
 #include "io/layers_io.hpp"
 
+#include "io/header_check.hpp"
+
 #include <OpenImageIO/deepdata.h>
 #include <OpenImageIO/imageio.h>
 
@@ -211,6 +213,7 @@ void read_flat_layers(OIIO::ImageInput& in, const std::string& path, Frame& fram
 
 void read_layers(const std::string& path, Frame& frame, int max_layers) {
   if (max_layers < 1) throw_usage("read_layers: max_layers must be >= 1 (got " + std::to_string(max_layers) + ")");
+  check_file_header(path, "layered input");
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw_bad_input(path + ": cannot open layered input: " + OIIO::geterror());
   if (in->spec().deep)

@@ -1,4 +1,5 @@
 // Colour round trips through every supported format, and the sRGB decode of integer files.
+#include <OpenImageIO/imagebufalgo.h>
 #include <gtest/gtest.h>
 
 #include "dofkit/error.hpp"
@@ -306,4 +307,82 @@ TEST(Write, ReplacesExistingFileAtomically) {
   io::write_image(dir / "o.exr", test_rgba(4, 4));
   EXPECT_EQ(io::read_color(dir / "o.exr").width(), 4);
   EXPECT_EQ(dir.entries(), std::vector<std::string>{"o.exr"});
+}
+
+// The EXR header walk that runs before OpenEXR (src/io/header_check.cpp) must accept every
+// legitimate layout: scanline files with each compression's chunk height, tiled files with
+// mip levels, multi-part files, and data windows that do not start at the origin.
+TEST(RoundTrip, ExrLayoutsPassTheHeaderCheck) {
+  ScratchDir dir;
+  const Image img = test_rgba(53, 29, false, true);
+  std::vector<float> interleaved(static_cast<std::size_t>(53) * 29 * 4);
+  for (int y = 0; y < 29; ++y)
+    for (int x = 0; x < 53; ++x)
+      for (int c = 0; c < 4; ++c) interleaved[(static_cast<std::size_t>(y) * 53 + x) * 4 + c] = img.at(x, y, c);
+  struct Layout {
+    const char* name;
+    const char* compression;
+    int tile;       // 0 = scanline
+    bool mip;
+    int x0, y0;     // data window origin
+    int parts;
+  };
+  const Layout layouts[] = {
+      {"none", "none", 0, false, 0, 0, 1},   {"zip", "zip", 0, false, 0, 0, 1},
+      {"piz", "piz", 0, false, 0, 0, 1},     {"dwab", "dwab", 0, false, 0, 0, 1},
+      {"b44", "b44", 0, false, 0, 0, 1},     {"tiled", "zip", 16, false, 0, 0, 1},
+      {"mip", "zip", 16, true, 0, 0, 1},     {"offset", "zip", 0, false, -7, 5, 1},
+      {"parts", "zip", 0, false, 0, 0, 2},
+  };
+  for (const Layout& l : layouts) {
+    SCOPED_TRACE(l.name);
+    const std::string path = dir / (std::string(l.name) + ".exr");
+    const std::string written = l.mip ? path + ".src.exr" : path;  // the mip case converts it below
+    OIIO::ImageSpec spec(53, 29, 4, OIIO::TypeDesc::HALF);
+    spec.x = l.x0;
+    spec.y = l.y0;
+    spec.full_x = l.x0;
+    spec.full_y = l.y0;
+    spec.attribute("compression", l.compression);
+    if (l.tile) spec.tile_width = spec.tile_height = l.tile;
+    auto out = OIIO::ImageOutput::create(written);
+    ASSERT_TRUE(out);
+    if (l.parts > 1) {
+      std::vector<OIIO::ImageSpec> specs(l.parts, spec);
+      ASSERT_TRUE(out->open(written, l.parts, specs.data())) << out->geterror();
+      ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, interleaved.data())) << out->geterror();
+      ASSERT_TRUE(out->open(written, specs[1], OIIO::ImageOutput::AppendSubimage)) << out->geterror();
+      ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, interleaved.data())) << out->geterror();
+    } else {
+      ASSERT_TRUE(out->open(written, spec, OIIO::ImageOutput::Create)) << out->geterror();
+      ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, interleaved.data())) << out->geterror();
+    }
+    ASSERT_TRUE(out->close());
+    if (l.mip) {
+      // Rewrite it as a tiled, mip-mapped texture (what renderers' texture tools produce).
+      OIIO::ImageBuf src(written);
+      OIIO::ImageSpec config;
+      config.tile_width = config.tile_height = l.tile;
+      config.attribute("compression", l.compression);
+      ASSERT_TRUE(OIIO::ImageBufAlgo::make_texture(OIIO::ImageBufAlgo::MakeTxTexture, src, path, config))
+          << OIIO::geterror();
+      auto in = OIIO::ImageInput::open(path);
+      ASSERT_TRUE(in);
+      EXPECT_TRUE(in->seek_subimage(0, 1)) << "no second mip level";
+    }
+    {  // the file really has the layout under test
+      auto in = OIIO::ImageInput::open(path);
+      ASSERT_TRUE(in);
+      EXPECT_EQ(in->spec().tile_width, l.tile);
+      EXPECT_EQ(in->spec().x, l.x0);
+      EXPECT_EQ(in->seek_subimage(1, 0), l.parts > 1);
+    }
+    Image back;
+    ASSERT_NO_THROW(back = io::read_color(path));
+    ASSERT_EQ(back.width(), 53);
+    ASSERT_EQ(back.height(), 29);
+    double m = 0;
+    for (std::size_t i = 0; i < img.data().size(); ++i) m = std::max(m, std::abs(double(img.data()[i]) - back.data()[i]));
+    EXPECT_LT(m, l.name == std::string("dwab") || l.name == std::string("b44") ? 0.05 : 2e-3);
+  }
 }

@@ -159,6 +159,14 @@ def main():
     files["huge_wide.tif"] = tiff(2, 2, declared=(300000000, 1))
     files["overflow_window.exr"] = exr(2, 2, ["R", "G", "B"], rgba_pixel).replace(
         struct.pack("<4i", 0, 0, 1, 1), struct.pack("<4i", -2147483647, -2147483647, 2147483646, 2147483646))
+    # An attribute whose declared size (1.7 GB) is far beyond the file: OpenEXR allocates and
+    # zeroes the declared size before it notices (found by the fuzzer: 16 s and 1.7 GB for a
+    # 700-byte file under ASan). Refused by dofkit's own header walk before OpenEXR runs.
+    files["huge_attribute.exr"] = good_exr.replace(
+        attr("lineOrder", "lineOrder", b"\0"), b"lineOrder\0lineOrder\0" + struct.pack("<i", 0x67000013) + b"\0")
+    # 1 x 2^27 pixels (within the budget) in a 300-byte file: its scanline offset table alone
+    # would be 1 GiB; the table must be in the file, so the header walk refuses it.
+    files["tall_no_table.exr"] = exr(1, 1, ["R", "G", "B"], rgba_pixel, data_window=(0, 0, 0, (1 << 27) - 1))
     # Channel counts: no channel at all, and more than the limit (64).
     files["zero_channels.exr"] = exr(2, 2, [], rgba_pixel, chlist_override=b"\0")
     files["zero_channels.tif"] = tiff(2, 2, spp=1).replace(struct.pack("<HHIHH", 277, SHORT, 1, 1, 0),

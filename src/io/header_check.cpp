@@ -1,0 +1,176 @@
+// EXR header walk, see header_check.hpp. Layout (OpenEXR file format, "Technical
+// Introduction"): magic 76 2f 31 01; int32 version + flags (0x200 single-part tiled, 0x400
+// long names, 0x800 deep, 0x1000 multi-part); then one header (several for multi-part, the
+// list ended by an empty header) of attributes `name\0 type\0 int32 size, value[size]`,
+// each header ended by a 0 byte; then the chunk offset table (uint64 per chunk).
+#include "io/header_check.hpp"
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "dofkit/error.hpp"
+#include "io/image_io.hpp"
+
+namespace dofkit::io {
+
+namespace {
+
+constexpr std::size_t kMaxHeaderBytes = 16u << 20;  // attributes beyond this are not a real header
+
+std::int32_t le32(const unsigned char* p) {
+  return static_cast<std::int32_t>(static_cast<std::uint32_t>(p[0]) | static_cast<std::uint32_t>(p[1]) << 8 |
+                                   static_cast<std::uint32_t>(p[2]) << 16 | static_cast<std::uint32_t>(p[3]) << 24);
+}
+
+// Scanlines per chunk for each compression code (NONE, RLE, ZIPS, ZIP, PIZ, PXR24, B44,
+// B44A, DWAA, DWAB); unknown codes count as 1 (the decoder rejects them).
+int lines_per_chunk(int compression) {
+  static const int table[] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
+  return compression >= 0 && compression < 10 ? table[compression] : 1;
+}
+
+struct Part {
+  bool has_window = false;
+  long long w = 0, h = 0;
+  int compression = 0;
+  bool tiled = false;
+  long long tile_w = 0, tile_h = 0;
+  long long chunk_count = -1;
+};
+
+class Walker {
+ public:
+  Walker(const std::vector<unsigned char>& b, std::size_t file_size, const std::string& path, const char* role)
+      : b_(b), file_size_(file_size), path_(path), role_(role) {}
+
+  [[noreturn]] void fail(const std::string& why) const {
+    throw_bad_input(path_ + ": cannot read " + role_ + " image: not a valid EXR: " + why);
+  }
+
+  void run() {
+    const std::int32_t version = le32(b_.data() + 4);
+    const bool single_tiled = version & 0x200, long_names = version & 0x400, multipart = version & 0x1000;
+    const std::size_t max_name = long_names ? 256 : 32;
+    pos_ = 8;
+    std::vector<Part> parts;
+    for (;;) {
+      Part part;
+      part.tiled = single_tiled && !multipart;
+      const bool empty = read_header(part, max_name);
+      if (empty && (multipart ? !parts.empty() : true)) {
+        if (!multipart) parts.push_back(part);
+        break;
+      }
+      parts.push_back(part);
+      if (!multipart) break;
+      if (parts.size() > 4096) fail("more than 4096 parts");
+    }
+    // The chunk offset table follows the headers and must be in the file.
+    long long chunks = 0;
+    for (const Part& p : parts) {
+      if (!p.has_window) fail("a header has no dataWindow");
+      const long long budget = pixel_budget();
+      if (p.w <= 0 || p.h <= 0) fail("empty or inverted dataWindow");
+      if (p.w > budget || p.h > budget || p.w * p.h > budget)
+        throw_bad_input(path_ + ": " + role_ + " image declares " + std::to_string(p.w) + "x" + std::to_string(p.h) +
+                        " pixels, more than the limit of " + std::to_string(budget) + " (--max-pixels)");
+      if (p.chunk_count >= 0) {
+        chunks += p.chunk_count;
+      } else if (p.tiled) {
+        if (p.tile_w <= 0 || p.tile_h <= 0) fail("tiled image without a valid tile size");
+        chunks += ((p.w + p.tile_w - 1) / p.tile_w) * ((p.h + p.tile_h - 1) / p.tile_h);
+      } else {
+        const long long lpc = lines_per_chunk(p.compression);
+        chunks += (p.h + lpc - 1) / lpc;
+      }
+    }
+    const long long table_bytes = chunks * 8;
+    if (table_bytes > static_cast<long long>(file_size_ - std::min(file_size_, pos_)))
+      fail("file is truncated (its chunk table needs " + std::to_string(table_bytes) + " bytes, " +
+           std::to_string(file_size_ - std::min(file_size_, pos_)) + " remain)");
+  }
+
+ private:
+  // Reads one header; returns true if it was empty (a lone 0 byte).
+  bool read_header(Part& part, std::size_t max_name) {
+    for (int n = 0;; ++n) {
+      const std::string name = read_string(max_name, "attribute name");
+      if (name.empty()) return n == 0;
+      const std::string type = read_string(max_name, "attribute type");
+      need(4, "attribute size");
+      const std::int32_t size = le32(b_.data() + pos_);
+      pos_ += 4;
+      if (size < 0) fail("attribute '" + name + "' has a negative size");
+      if (static_cast<std::size_t>(size) > file_size_ - pos_)
+        fail("attribute '" + name + "' declares " + std::to_string(size) + " bytes but only " +
+             std::to_string(file_size_ - pos_) + " remain in the file");
+      need(static_cast<std::size_t>(size), "attribute value");
+      const unsigned char* v = b_.data() + pos_;
+      if (name == "dataWindow" && type == "box2i" && size == 16) {
+        const long long x0 = le32(v), y0 = le32(v + 4), x1 = le32(v + 8), y1 = le32(v + 12);
+        part.has_window = true;
+        part.w = x1 - x0 + 1;
+        part.h = y1 - y0 + 1;
+      } else if (name == "compression" && size == 1) {
+        part.compression = v[0];
+      } else if (name == "tiles" && type == "tiledesc" && size >= 8) {
+        part.tile_w = static_cast<std::uint32_t>(le32(v));
+        part.tile_h = static_cast<std::uint32_t>(le32(v + 4));
+      } else if (name == "type" && type == "string") {
+        const std::string t(reinterpret_cast<const char*>(v), static_cast<std::size_t>(size));
+        part.tiled = t == "tiledimage" || t == "deeptile";
+      } else if (name == "chunkCount" && size == 4) {
+        part.chunk_count = le32(v);
+        if (part.chunk_count < 0) fail("negative chunkCount");
+      }
+      pos_ += static_cast<std::size_t>(size);
+    }
+  }
+
+  std::string read_string(std::size_t max_len, const char* what) {
+    std::size_t end = pos_;
+    while (end < b_.size() && b_[end] != 0) {
+      if (end - pos_ >= max_len) fail(std::string(what) + " is too long");
+      ++end;
+    }
+    if (end >= b_.size()) fail(std::string("header ends inside an ") + what);
+    std::string s(reinterpret_cast<const char*>(b_.data() + pos_), end - pos_);
+    pos_ = end + 1;
+    return s;
+  }
+
+  void need(std::size_t n, const char* what) {
+    if (n > b_.size() - std::min(b_.size(), pos_)) {
+      if (b_.size() < file_size_) fail(std::string("header larger than ") + std::to_string(kMaxHeaderBytes) + " bytes");
+      fail(std::string("header ends inside an ") + what);
+    }
+  }
+
+  const std::vector<unsigned char>& b_;
+  std::size_t file_size_;
+  const std::string& path_;
+  const char* role_;
+  std::size_t pos_ = 0;
+};
+
+}  // namespace
+
+void check_file_header(const std::string& path, const char* role) {
+  std::ifstream f(path, std::ios::binary | std::ios::ate);
+  if (!f) return;  // the caller reports missing / unreadable files
+  const std::streamoff end = f.tellg();
+  if (end < 8) return;
+  const std::size_t file_size = static_cast<std::size_t>(end);
+  std::vector<unsigned char> b(std::min(file_size, kMaxHeaderBytes));
+  f.seekg(0);
+  if (!f.read(reinterpret_cast<char*>(b.data()), static_cast<std::streamsize>(b.size()))) return;
+  const bool exr = b[0] == 0x76 && b[1] == 0x2f && b[2] == 0x31 && b[3] == 0x01;
+  if (!exr) return;
+  Walker(b, file_size, path, role).run();
+}
+
+}  // namespace dofkit::io

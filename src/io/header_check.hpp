@@ -1,0 +1,19 @@
+// Header sanity checks that run on the raw bytes of a file *before* OpenImageIO opens it.
+//
+// Why: some decoders trust sizes written in the header and allocate them before noticing
+// that the file is shorter. OpenEXR, for one, allocates an attribute's declared size (up to
+// 2 GiB) before reading it, so a 300-byte file can make the loader allocate and zero 1.7 GB
+// (found by the fuzzer). We walk the EXR header ourselves — it is a simple list of
+// (name, type, size, value) records — and refuse a file whose records claim more bytes than
+// the file holds, or whose data window is beyond the pixel budget, before any decoder runs.
+#pragma once
+#include <string>
+
+namespace dofkit::io {
+
+/// Throws Error(bad_input) naming `path` if its header is structurally impossible (see
+/// above). Files that are not EXR are left to their decoders; an unreadable path is not an
+/// error here (the caller reports it).
+void check_file_header(const std::string& path, const char* role);
+
+}  // namespace dofkit::io

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cctype>
 #include <cstring>
 #include <fstream>
 #include <string>
@@ -157,6 +158,32 @@ class Walker {
   std::size_t pos_ = 0;
 };
 
+// PNG: 8-byte signature, then chunks `uint32 length (big-endian), type[4], data, crc`. Decoders
+// allocate a chunk's declared length before reading it (libpng: text and unknown chunks), so
+// every chunk up to IEND must fit in the file. Only the 8-byte chunk heads are read.
+void check_png(std::ifstream& f, std::size_t file_size, const std::string& path, const char* role) {
+  auto fail = [&](const std::string& why) {
+    throw_bad_input(path + ": cannot read " + role + " image: not a valid PNG: " + why);
+  };
+  std::size_t pos = 8;
+  for (;;) {
+    if (file_size - pos < 12) fail("file is truncated (no IEND chunk)");
+    unsigned char head[8];
+    f.seekg(static_cast<std::streamoff>(pos));
+    if (!f.read(reinterpret_cast<char*>(head), 8)) fail("cannot read a chunk header");
+    const std::uint32_t len = static_cast<std::uint32_t>(head[0]) << 24 | static_cast<std::uint32_t>(head[1]) << 16 |
+                              static_cast<std::uint32_t>(head[2]) << 8 | head[3];
+    std::string type(reinterpret_cast<const char*>(head + 4), 4);
+    for (char& c : type)
+      if (!std::isalpha(static_cast<unsigned char>(c))) c = '?';
+    if (len > file_size - pos - 12)
+      fail("chunk '" + type + "' declares " + std::to_string(len) + " bytes but only " +
+           std::to_string(file_size - pos - 12) + " remain in the file");
+    pos += 12 + static_cast<std::size_t>(len);
+    if (type == "IEND") return;
+  }
+}
+
 }  // namespace
 
 void check_file_header(const std::string& path, const char* role) {
@@ -165,11 +192,16 @@ void check_file_header(const std::string& path, const char* role) {
   const std::streamoff end = f.tellg();
   if (end < 8) return;
   const std::size_t file_size = static_cast<std::size_t>(end);
+  unsigned char magic[8];
+  f.seekg(0);
+  if (!f.read(reinterpret_cast<char*>(magic), 8)) return;
+  static const unsigned char png_sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (std::memcmp(magic, png_sig, 8) == 0) return check_png(f, file_size, path, role);
+  const bool exr = magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01;
+  if (!exr) return;
   std::vector<unsigned char> b(std::min(file_size, kMaxHeaderBytes));
   f.seekg(0);
   if (!f.read(reinterpret_cast<char*>(b.data()), static_cast<std::streamsize>(b.size()))) return;
-  const bool exr = b[0] == 0x76 && b[1] == 0x2f && b[2] == 0x31 && b[3] == 0x01;
-  if (!exr) return;
   Walker(b, file_size, path, role).run();
 }
 

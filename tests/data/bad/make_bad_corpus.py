@@ -167,6 +167,11 @@ def main():
     # 1 x 2^27 pixels (within the budget) in a 300-byte file: its scanline offset table alone
     # would be 1 GiB; the table must be in the file, so the header walk refuses it.
     files["tall_no_table.exr"] = exr(1, 1, ["R", "G", "B"], rgba_pixel, data_window=(0, 0, 0, (1 << 27) - 1))
+    # A tEXt chunk whose length field claims 754 MB in a 100-byte PNG: libpng allocates the
+    # declared length first (found by the fuzzer: 1 GB and 12 s under ASan for a 5x6 PNG).
+    p = good_png_small = png(4, 4, 2)
+    iend = p.rindex(b"IEND") - 4
+    files["huge_text.png"] = p[:iend] + struct.pack(">I", 0x2d000014) + b"tEXtComment\0hello" + p[iend:]
     # Channel counts: no channel at all, and more than the limit (64).
     files["zero_channels.exr"] = exr(2, 2, [], rgba_pixel, chlist_override=b"\0")
     files["zero_channels.tif"] = tiff(2, 2, spp=1).replace(struct.pack("<HHIHH", 277, SHORT, 1, 1, 0),

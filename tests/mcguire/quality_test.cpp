@@ -93,17 +93,16 @@ TEST(McguireQuality, NearEdgesSofterThanHardEdgedBlur) {
         n += near;
       }
     ASSERT_GT(n, 500) << name;
-    // Measured (64-sample ground truth, scenes of commit 4735d48): occluder book 27.71 vs
-    // 26.12, demo 28.12 vs 28.65, g3d 22.04 vs 17.67; fence book 24.91 vs 23.87, demo 26.26
-    // vs 24.66, g3d 15.09 vs 18.90.
-    // Asserted where the near field wins; demo on occluder and g3d on fence do not (see
-    // docs/methods/mcguire.md, "Accepted artifacts / open problems").
+    // Measured (64-sample ground truth): occluder book 27.71 vs 26.12, demo 30.68 vs 28.65,
+    // g3d 22.04 vs 17.67; fence book 24.91 vs 23.87, demo 30.14 vs 24.66, g3d 15.09 vs 18.90.
+    // (demo lost on occluder, 28.12 vs 28.65, while its coverage_boost default was 1.5.)
+    // g3d on fence does not win: its coverage curve makes the thin blurred bars nearly opaque
+    // (see docs/methods/mcguire.md, "Accepted artifacts / open problems").
     for (const char* v : {"book", "demo", "g3d"}) {
       const double ours = metrics::psnr_masked(s.ground_truth, render_variant(s, v).image, band);
       const double hard = metrics::psnr_masked(s.ground_truth, render_variant(s, v, false).image, band);
       std::printf("%s %s: near-edge band (%d px) PSNR %.2f dB, hard near edges %.2f dB\n", name, v, n, ours, hard);
-      const std::string key = std::string(name) + ":" + v;
-      if (key == "occluder:demo" || key == "fence:g3d") continue;
+      if (std::string(name) == "fence" && std::string(v) == "g3d") continue;
       EXPECT_GT(ours, hard) << name << " " << v;
     }
   }
@@ -148,9 +147,12 @@ TEST(McguireQuality, NoFarHaloOverSharpMidObject) {
   }
 }
 
-// Known failure, kept visible: the g3d variant on `fence` scores 19.24 dB against the
-// input's 21.60 dB (its near coverage curve makes the blurred bars nearly opaque and its
-// composite keeps the sharp image under the near layer). Enable once fixed.
+// Known failure of the G3D 10 rules as specified (algorithms.md 2.7), kept visible: g3d on
+// `fence` scores 15.71 dB against the input's 18.61 dB. Measured causes: the coverage curve
+// t = sat(1 - 0.025/(fov a)) lifts the thin bars' blurred coverage (~0.1..0.5) to ~0.7..1
+// (without the curve, a' = a: 20.34 dB); and the composite saturate(-12 s) never blurs a
+// near pixel, so the sharp bars show wherever the near layer is not opaque (near layer
+// removed: 19.52 dB). Neither is a misread of 2.7; details in docs/methods/mcguire.md.
 TEST(McguireQuality, DISABLED_G3dFenceBeatsInput) {
   const scene::SceneRender& s = scene_320("fence");
   const metrics::Scores in = metrics::compare(s.ground_truth, s.pinhole.color, &s.pinhole.depth);

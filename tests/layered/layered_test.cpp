@@ -71,6 +71,24 @@ TEST(LayeredMattes, OneFragmentSumsToOneAcrossLayers) {
   for (int k = 0; k < p.count; ++k) EXPECT_EQ(p.weight(k, static_cast<float>(p.anchor[k])), 1.0f);
 }
 
+TEST(LayeredMattes, NearestMatteCountsEachFragmentOnce) {
+  // Matte::nearest (the disc PSF's default): one layer holds each fragment, at weight 1, the
+  // layer of the nearest anchor.
+  LayerPlan p = plan_layers(25, 12, 9);
+  p.matte = dofkit::detail::layered::Matte::nearest;
+  for (float r = -30; r <= 30; r += 0.0137f) {
+    int used = 0, which = -1;
+    for (int k = 0; k < p.count; ++k) {
+      const float w = p.weight(k, r);
+      ASSERT_TRUE(w == 0.0f || w == 1.0f);
+      if (w > 0) ++used, which = k;
+    }
+    ASSERT_EQ(used, 1) << "r = " << r;
+    for (int k = 0; k < p.count; ++k)
+      EXPECT_LE(std::fabs(r - p.anchor[which]), std::fabs(r - p.anchor[k]) + 1e-4) << "r = " << r;
+  }
+}
+
 TEST(LayeredBlur, TwoStepsEqualOneOfCombinedSigma) {
   // The recursion relies on H(σ₂) ∗ H(σ₁) = H(sqrt(σ₁² + σ₂²)); the extended-box Gaussians
   // match variance exactly and shape to ~1 %, so two steps and one step agree closely.
@@ -124,21 +142,39 @@ Frame bar_frame(int w, int h, int bx0, int bx1, bool hidden) {
   return f;
 }
 
-RenderSettings layered_settings(double focus_m, double k_px) {
+// psf=gaussian pins S&W's recursive Gaussian (the default for multi-layer input is the disc).
+RenderSettings layered_settings(double focus_m, double k_px, const char* psf = "gaussian") {
   RenderSettings rs;
   rs.method = "layered";
   rs.camera.model = BlurAtInfinity{focus_m, k_px};
+  rs.params["psf"] = psf;
   return rs;
 }
 
 TEST(Layered, SceneInFocusLayerIsUnchanged) {
   // Every CoC within ±0.5 px: one layer, returned as is (single and multi-layer input).
-  for (bool hidden : {false, true}) {
-    Frame f = bar_frame(64, 40, 20, 30, hidden);
-    const RenderResult r = render(f, layered_settings(5.0, 0.05));
-    ASSERT_EQ(r.image.data().size(), f.color.data().size());
-    EXPECT_EQ(r.image.data(), f.color.data()) << (hidden ? "multi" : "single");
-  }
+  for (const char* psf : {"gaussian", "disc"})
+    for (bool hidden : {false, true}) {
+      Frame f = bar_frame(64, 40, 20, 30, hidden);
+      const RenderResult r = render(f, layered_settings(5.0, 0.05, psf));
+      ASSERT_EQ(r.image.data().size(), f.color.data().size());
+      EXPECT_EQ(r.image.data(), f.color.data()) << (hidden ? "multi " : "single ") << psf;
+    }
+}
+
+TEST(Layered, DiscPartialOcclusionShowsHiddenBackground) {
+  // As below with the disc PSF (the default for multi-layer input): the 6 px bar with an
+  // 18 px CoC radius covers at most 6 / 37 of the centre's disc, so mostly the hidden blue
+  // fragment behind it is seen; the result stays opaque.
+  const int w = 120, h = 48, bx0 = 57, bx1 = 63;
+  RenderSettings rs = layered_settings(10.0, 2.0, "disc");
+  const RenderResult multi = render(bar_frame(w, h, bx0, bx1, true), rs);
+  const int cx = 60, cy = h / 2;
+  EXPECT_GT(multi.image.at(cx, cy, 2), 0.5f);
+  EXPECT_LT(multi.image.at(cx, cy, 0), 0.25f);
+  EXPECT_NEAR(multi.image.at(cx, cy, 3), 1.0f, 1e-4);
+  rs.params.erase("psf");  // auto: disc for multi-layer input
+  EXPECT_EQ(render(bar_frame(w, h, bx0, bx1, true), rs).image.data(), multi.image.data());
 }
 
 TEST(Layered, PartialOcclusionShowsHiddenBackground) {
@@ -195,19 +231,22 @@ TEST(LayeredInpaint, PushPullExtrapolatesTheLayer) {
 }
 
 TEST(Layered, SameResultForAnyThreadCountAndDebugViews) {
-  Frame f = bar_frame(90, 50, 30, 50, true);
-  RenderSettings rs = layered_settings(10.0, 3.0);
-  rs.threads = 1;
-  const RenderResult one = render(f, rs);
-  rs.threads = 2;
-  const RenderResult two = render(f, rs);
-  EXPECT_EQ(one.image.data(), two.image.data());
-  for (const char* view : {"front", "back", "layer_0_matted", "layer_0_blurred"}) {
-    rs.debug_view = view;
-    const RenderResult d = render(f, rs);
-    EXPECT_EQ(d.debug.width(), 90) << view;
-    EXPECT_EQ(d.debug.channels(), 4) << view;
-  }
+  for (const char* psf : {"gaussian", "disc"})
+    for (bool hidden : {true, false}) {
+      Frame f = bar_frame(90, 50, 30, 50, hidden);
+      RenderSettings rs = layered_settings(10.0, 3.0, psf);
+      rs.threads = 1;
+      const RenderResult one = render(f, rs);
+      rs.threads = 2;
+      const RenderResult two = render(f, rs);
+      EXPECT_EQ(one.image.data(), two.image.data()) << psf << (hidden ? " multi" : " single");
+      for (const char* view : {"front", "back", "layer_0_matted", "layer_0_blurred"}) {
+        rs.debug_view = view;
+        const RenderResult d = render(f, rs);
+        EXPECT_EQ(d.debug.width(), 90) << view;
+        EXPECT_EQ(d.debug.channels(), 4) << view;
+      }
+    }
 }
 
 }  // namespace

@@ -60,8 +60,25 @@ LayerPlan plan_layers(double near_px, double far_px, int max_layers, double c, d
 // [a_k, a_{k−1}] at weight 1 (its plateau, hard cut at the near end a_{k−1}: nothing nearer
 // ever leaks into a farther layer) and a ramp 0 → 1 over (a_{k+1}, a_k). Boundary layers take
 // everything beyond the outermost anchors.
+//
+// The catch (found against the ground truth): "over" is exact only where the blurred copies
+// stay opaque. Where a fragment's neighbourhood is transparent once blurred — a thin bar, an
+// object's silhouette — the blurred alphas are small, "over" is nearly a sum, and the fragment
+// is counted 1 + u times: thin near objects come out too dark / too strong. Matte::nearest
+// puts every fragment wholly into the layer of the nearest anchor, so each fragment is counted
+// once whatever the blur; the price is a radius quantised to the anchors and seams where one
+// continuous surface crosses from one layer into the next (each half's blurred edge is
+// half-transparent, and 1/2 over 1/2 covers 3/4) — the fill under nearer content
+// (inpaint.hpp, `under`) closes those.
 float LayerPlan::weight(int k, float r) const {
-  const double near_end = k == 0 ? std::numeric_limits<double>::infinity() : anchor[k - 1];
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  if (matte == Matte::nearest) {
+    // Layer k holds [mid(a_{k+1}, a_k), mid(a_k, a_{k−1})).
+    const double hi = k == 0 ? inf : 0.5 * (anchor[k - 1] + anchor[k]);
+    const double lo = k == count - 1 ? -inf : 0.5 * (anchor[k] + anchor[k + 1]);
+    return r >= lo && r < hi ? 1.0f : 0.0f;
+  }
+  const double near_end = k == 0 ? inf : anchor[k - 1];
   if (r > near_end) return 0.0f;
   if (r >= anchor[k] || k == count - 1) return 1.0f;
   const double far_end = anchor[k + 1];
@@ -70,7 +87,8 @@ float LayerPlan::weight(int k, float r) const {
 }
 
 double LayerPlan::near_limit(int k) const {
-  return k == 0 ? std::numeric_limits<double>::infinity() : anchor[k - 1];
+  if (k == 0) return std::numeric_limits<double>::infinity();
+  return matte == Matte::nearest ? 0.5 * (anchor[k - 1] + anchor[k]) : anchor[k - 1];
 }
 
 }  // namespace dofkit::detail::layered

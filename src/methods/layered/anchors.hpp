@@ -22,7 +22,14 @@ namespace dofkit::detail::layered {
 /// sqrt(1² + … + n²): the blur (in units of s) of a layer n steps from focus.
 double stacked_sigma(int n);
 
+/// How a fragment between two neighbouring anchors a_{k+1} < r < a_k is shared (see
+/// LayerPlan::weight): `over` — weight u in the nearer layer and 1 in the farther (exact
+/// under "over" when unblurred, blur interpolated between anchors); `nearest` — wholly in the
+/// layer whose anchor is nearest in CoC (no copy counted twice once blurred).
+enum class Matte { over, nearest };
+
 struct LayerPlan {
+  Matte matte = Matte::over;
   int count = 1;            ///< K
   int focus = 0;            ///< k_focus
   double scale_front = 0;   ///< s for the near side (px per step unit)
@@ -45,5 +52,6 @@ struct LayerPlan {
 /// `unit_sigma_px` is the step unit before scaling (S4: 1 px); smaller gives more, finer layers.
 LayerPlan plan_layers(double near_px, double far_px, int max_layers, double sigma_per_radius = 0.5,
                       double unit_sigma_px = 1.0);
+
 
 }  // namespace dofkit::detail::layered

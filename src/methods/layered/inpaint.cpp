@@ -15,7 +15,7 @@ struct Level {
 };
 }  // namespace
 
-void push_pull_fill(Image& layer, const std::vector<std::uint8_t>& hole, bool opaque) {
+void push_pull_fill(Image& layer, const std::vector<std::uint8_t>& hole, bool opaque, bool under) {
   const int w = layer.width(), h = layer.height();
   std::vector<Level> pyr;
   pyr.push_back({layer, Image(w, h, 1, 0.0f)});
@@ -76,7 +76,12 @@ void push_pull_fill(Image& layer, const std::vector<std::uint8_t>& hole, bool op
       for (int k = 0; k < 3; ++k) v[k] /= v[3];
       v[3] = 1.0f;
     }
-    for (int k = 0; k < 4; ++k) layer.plane(k)[i] = v[k];
+    if (under) {
+      const float t = 1.0f - layer.plane(3)[i];
+      for (int k = 0; k < 4; ++k) layer.plane(k)[i] += t * v[k];
+    } else {
+      for (int k = 0; k < 4; ++k) layer.plane(k)[i] = v[k];
+    }
   }
 }
 

@@ -15,6 +15,8 @@ namespace dofkit::detail::layered {
 /// the hole (a hole bordered by this layer on one side only is filled half-transparent and
 /// lets the farther layers show). `opaque` = true un-premultiplies the fill to alpha 1
 /// (used for the farthest layer, the backstop that keeps the result opaque).
-void push_pull_fill(Image& layer, const std::vector<std::uint8_t>& hole, bool opaque);
+/// `under` = true keeps what the layer already holds at a hole pixel (hidden fragments of
+/// multi-layer input) in front of the fill: layer = layer over fill there.
+void push_pull_fill(Image& layer, const std::vector<std::uint8_t>& hole, bool opaque, bool under = false);
 
 }  // namespace dofkit::detail::layered

@@ -184,6 +184,75 @@ void check_png(std::ifstream& f, std::size_t file_size, const std::string& path,
   }
 }
 
+// TIFF (classic, not BigTIFF): "II*\0" / "MM\0*", uint32 offset of the first IFD; an IFD is a
+// uint16 entry count, 12-byte entries (tag, type, count, value-or-offset) and the uint32 offset
+// of the next IFD. OIIO 2.4 reads a strip or tile that lies (partly) past the end of the file as
+// zeros and reports success, so a truncated TIFF would load as a silently black image: every
+// strip/tile (offset, byte count) pair of every IFD must lie inside the file.
+void check_tiff(std::ifstream& f, std::size_t file_size, bool big_endian, const std::string& path,
+                const char* role) {
+  auto fail = [&](const std::string& why) {
+    throw_bad_input(path + ": cannot read " + role + " image: not a valid TIFF: " + why);
+  };
+  auto read_at = [&](std::size_t pos, std::size_t n, unsigned char* out) {
+    if (pos > file_size || n > file_size - pos) return false;
+    f.clear();
+    f.seekg(static_cast<std::streamoff>(pos));
+    return static_cast<bool>(f.read(reinterpret_cast<char*>(out), static_cast<std::streamsize>(n)));
+  };
+  auto u16 = [&](const unsigned char* p) -> std::uint32_t {
+    return big_endian ? (std::uint32_t(p[0]) << 8 | p[1]) : (std::uint32_t(p[1]) << 8 | p[0]);
+  };
+  auto u32 = [&](const unsigned char* p) -> std::uint32_t {
+    return big_endian ? (std::uint32_t(p[0]) << 24 | std::uint32_t(p[1]) << 16 | std::uint32_t(p[2]) << 8 | p[3])
+                      : (std::uint32_t(p[3]) << 24 | std::uint32_t(p[2]) << 16 | std::uint32_t(p[1]) << 8 | p[0]);
+  };
+  // Values of a SHORT/LONG array entry (inline when they fit in 4 bytes). Arrays longer than
+  // the file could hold are themselves a defect.
+  auto values = [&](const unsigned char* e, std::vector<std::uint64_t>& out) {
+    const std::uint32_t type = u16(e + 2), count = u32(e + 4);
+    const std::size_t size = type == 3 ? 2 : type == 4 ? 4 : 0;
+    if (size == 0) fail("strip/tile table of type " + std::to_string(type));
+    if (count > file_size / size) fail("strip/tile table longer than the file");
+    std::vector<unsigned char> raw(count * size);
+    if (count * size <= 4) {
+      std::memcpy(raw.data(), e + 8, count * size);
+    } else if (!read_at(u32(e + 8), raw.size(), raw.data())) {
+      fail("strip/tile table lies past the end of the file");
+    }
+    out.resize(count);
+    for (std::uint32_t i = 0; i < count; ++i) out[i] = size == 2 ? u16(&raw[i * 2]) : u32(&raw[i * 4]);
+  };
+  unsigned char b4[4];
+  if (!read_at(4, 4, b4)) return;
+  std::size_t ifd = u32(b4);
+  std::vector<std::size_t> seen;
+  while (ifd != 0) {
+    if (std::find(seen.begin(), seen.end(), ifd) != seen.end()) fail("its directories form a loop");
+    if (seen.size() >= 1024) fail("more than 1024 directories");
+    seen.push_back(ifd);
+    unsigned char b2[2];
+    if (!read_at(ifd, 2, b2)) fail("directory offset " + std::to_string(ifd) + " is past the end of the file");
+    const std::uint32_t n = u16(b2);
+    std::vector<unsigned char> entries(static_cast<std::size_t>(n) * 12 + 4);
+    if (!read_at(ifd + 2, entries.size(), entries.data())) fail("directory runs past the end of the file");
+    std::vector<std::uint64_t> offsets, counts;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const unsigned char* e = &entries[static_cast<std::size_t>(i) * 12];
+      const std::uint32_t tag = u16(e);
+      if (tag == 273 || tag == 324) values(e, offsets);
+      if (tag == 279 || tag == 325) values(e, counts);
+    }
+    if (offsets.size() != counts.size())
+      fail(std::to_string(offsets.size()) + " strip/tile offsets but " + std::to_string(counts.size()) + " byte counts");
+    for (std::size_t i = 0; i < offsets.size(); ++i)
+      if (offsets[i] > file_size || counts[i] > file_size - offsets[i])
+        fail("strip/tile " + std::to_string(i) + " (" + std::to_string(counts[i]) + " bytes at offset " +
+             std::to_string(offsets[i]) + ") lies past the end of the " + std::to_string(file_size) + "-byte file");
+    ifd = u32(&entries[static_cast<std::size_t>(n) * 12]);
+  }
+}
+
 }  // namespace
 
 void check_file_header(const std::string& path, const char* role) {
@@ -197,6 +266,10 @@ void check_file_header(const std::string& path, const char* role) {
   if (!f.read(reinterpret_cast<char*>(magic), 8)) return;
   static const unsigned char png_sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (std::memcmp(magic, png_sig, 8) == 0) return check_png(f, file_size, path, role);
+  if (magic[0] == 'I' && magic[1] == 'I' && magic[2] == 42 && magic[3] == 0)
+    return check_tiff(f, file_size, false, path, role);
+  if (magic[0] == 'M' && magic[1] == 'M' && magic[2] == 0 && magic[3] == 42)
+    return check_tiff(f, file_size, true, path, role);
   const bool exr = magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01;
   if (!exr) return;
   std::vector<unsigned char> b(std::min(file_size, kMaxHeaderBytes));

@@ -7,14 +7,16 @@
 // (name, type, size, value) records — and refuse a file whose records claim more bytes than
 // the file holds, or whose data window is beyond the pixel budget, before any decoder runs.
 // PNG likewise: libpng allocates a text chunk's declared length (the fuzzer made a 313-byte
-// file claim a 754 MB tEXt chunk), so every chunk must fit in the file.
+// file claim a 754 MB tEXt chunk), so every chunk must fit in the file. TIFF: OIIO reads a
+// strip that lies past the end of the file as zeros without an error, so every strip and
+// tile must lie inside the file.
 #pragma once
 #include <string>
 
 namespace dofkit::io {
 
 /// Throws Error(bad_input) naming `path` if its header is structurally impossible (see
-/// above). Files that are neither EXR nor PNG are left to their decoders; an unreadable path is not an
+/// above). Files that are not EXR, PNG or classic TIFF are left to their decoders; an unreadable path is not an
 /// error here (the caller reports it).
 void check_file_header(const std::string& path, const char* role);
 

@@ -386,3 +386,49 @@ TEST(RoundTrip, ExrLayoutsPassTheHeaderCheck) {
     EXPECT_LT(m, l.name == std::string("dwab") || l.name == std::string("b44") ? 0.05 : 2e-3);
   }
 }
+
+// The TIFF directory walk (src/io/header_check.cpp) must accept strip and tile layouts,
+// compressed strips and multi-page files as OIIO/libtiff write them.
+TEST(RoundTrip, TiffLayoutsPassTheHeaderCheck) {
+  ScratchDir dir;
+  const Image img = test_rgba(45, 31, false, false);
+  std::vector<float> interleaved(static_cast<std::size_t>(45) * 31 * 4);
+  for (int y = 0; y < 31; ++y)
+    for (int x = 0; x < 45; ++x)
+      for (int c = 0; c < 4; ++c) interleaved[(static_cast<std::size_t>(y) * 45 + x) * 4 + c] = img.at(x, y, c);
+  struct Layout {
+    const char* name;
+    const char* compression;
+    int tile;
+    int pages;
+  };
+  for (const Layout& l : {Layout{"strips", "none", 0, 1}, Layout{"zip", "zip", 0, 1}, Layout{"lzw_tiles", "lzw", 16, 1},
+                          Layout{"pages", "zip", 0, 3}}) {
+    SCOPED_TRACE(l.name);
+    const std::string path = dir / (std::string(l.name) + ".tif");
+    OIIO::ImageSpec spec(45, 31, 4, OIIO::TypeDesc::FLOAT);
+    spec.attribute("compression", l.compression);
+    spec.attribute("tiff:RowsPerStrip", 4);  // several strips
+    if (l.tile) spec.tile_width = spec.tile_height = l.tile;
+    auto out = OIIO::ImageOutput::create(path);
+    ASSERT_TRUE(out);
+    std::vector<OIIO::ImageSpec> specs(l.pages, spec);
+    ASSERT_TRUE(l.pages > 1 ? out->open(path, l.pages, specs.data()) : out->open(path, spec)) << out->geterror();
+    for (int p = 0; p < l.pages; ++p) {
+      if (p > 0) ASSERT_TRUE(out->open(path, spec, OIIO::ImageOutput::AppendSubimage)) << out->geterror();
+      ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, interleaved.data())) << out->geterror();
+    }
+    ASSERT_TRUE(out->close());
+    {
+      auto in = OIIO::ImageInput::open(path);
+      ASSERT_TRUE(in);
+      EXPECT_EQ(in->spec().tile_width, l.tile);
+      EXPECT_EQ(in->seek_subimage(l.pages - 1, 0), true);
+    }
+    Image back;
+    ASSERT_NO_THROW(back = io::read_color(path));
+    double m = 0;
+    for (std::size_t i = 0; i < img.data().size(); ++i) m = std::max(m, std::abs(double(img.data()[i]) - back.data()[i]));
+    EXPECT_LT(m, 1e-6);
+  }
+}

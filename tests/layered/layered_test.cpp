@@ -68,14 +68,16 @@ TEST(LayeredMattes, OneFragmentSumsToOneAcrossLayers) {
     EXPECT_GE(sum, 1.0 - 1e-6);
   }
   // At an anchor the fragment is whole in that layer (no interpolation).
-  for (int k = 0; k < p.count; ++k) EXPECT_EQ(p.weight(k, static_cast<float>(p.anchor[k])), 1.0f);
+  for (int k = 0; k < p.count; ++k) EXPECT_NEAR(p.weight(k, static_cast<float>(p.anchor[k])), 1.0f, 1e-6);
+  // An exactly-in-focus fragment (r = 0, the focus anchor) is in the focus layer only, not
+  // also in the first back layer (where it would be blurred into a halo).
+  for (int j = 0; j < p.count; ++j) EXPECT_EQ(p.weight(j, 0.0f), j == p.focus ? 1.0f : 0.0f) << "layer " << j;
 }
 
 TEST(LayeredMattes, NearestMatteCountsEachFragmentOnce) {
-  // Matte::nearest (the disc PSF's default): one layer holds each fragment, at weight 1, the
-  // layer of the nearest anchor.
+  // band 0: one layer holds each fragment, at weight 1, the layer of the nearest anchor.
   LayerPlan p = plan_layers(25, 12, 9);
-  p.matte = dofkit::detail::layered::Matte::nearest;
+  p.band = 0;
   for (float r = -30; r <= 30; r += 0.0137f) {
     int used = 0, which = -1;
     for (int k = 0; k < p.count; ++k) {
@@ -86,6 +88,30 @@ TEST(LayeredMattes, NearestMatteCountsEachFragmentOnce) {
     ASSERT_EQ(used, 1) << "r = " << r;
     for (int k = 0; k < p.count; ++k)
       EXPECT_LE(std::fabs(r - p.anchor[which]), std::fabs(r - p.anchor[k]) + 1e-4) << "r = " << r;
+  }
+}
+
+TEST(LayeredMattes, NarrowBandRampsOnlyInTheMiddleOfTheGap) {
+  // band 1/4 (the disc PSF's default): coverage under "over" is 1 everywhere; two layers share
+  // a fragment only within the middle quarter of a gap, elsewhere it is whole in one.
+  LayerPlan p = plan_layers(25, 12, 9);
+  p.band = 0.25;
+  for (float r = -30; r <= 30; r += 0.0137f) {
+    double covered = 0;
+    int used = 0;
+    for (int k = 0; k < p.count; ++k) {
+      const double w = p.weight(k, r);
+      covered += (1 - covered) * w;
+      used += w > 0;
+    }
+    EXPECT_NEAR(covered, 1.0, 1e-6) << "r = " << r;
+    int k = 0;
+    while (k + 1 < p.count && r < p.anchor[k + 1]) ++k;  // a_{k+1} <= r < a_k (or beyond)
+    if (k + 1 < p.count && r < p.anchor[k]) {
+      const double u = (r - p.anchor[k + 1]) / (p.anchor[k] - p.anchor[k + 1]);
+      if (std::fabs(u - 0.5) > 0.125 + 1e-4) EXPECT_EQ(used, 1) << "r = " << r << ", u = " << u;
+      if (std::fabs(u - 0.5) < 0.125 - 1e-4) EXPECT_EQ(used, 2) << "r = " << r << ", u = " << u;
+    }
   }
 }
 
@@ -224,6 +250,14 @@ TEST(LayeredInpaint, PushPullExtrapolatesTheLayer) {
   EXPECT_LT(a, 0.8f);
   EXPECT_NEAR(filled.at(16, 8, 0) / a, 0.5f, 1e-4);  // colour is the layer's own
   EXPECT_EQ(filled.at(3, 3, 0), 0.5f);              // known pixels untouched
+  // under: what the layer holds at a hole pixel (a hidden fragment) stays in front of the fill.
+  Image held = layer;
+  held.at(16, 8, 2) = 0.3f;
+  held.at(16, 8, 3) = 0.6f;
+  detail::layered::push_pull_fill(held, hole, false, true);
+  EXPECT_NEAR(held.at(16, 8, 3), 0.6f + 0.4f * a, 1e-5);
+  EXPECT_NEAR(held.at(16, 8, 2), 0.3f, 1e-6);                  // the fill has no blue
+  EXPECT_NEAR(held.at(16, 8, 0), 0.4f * filled.at(16, 8, 0), 1e-5);
   Image opaque = layer;
   detail::layered::push_pull_fill(opaque, hole, true);
   EXPECT_EQ(opaque.at(16, 8, 3), 1.0f);

@@ -22,14 +22,10 @@ namespace dofkit::detail::layered {
 /// sqrt(1² + … + n²): the blur (in units of s) of a layer n steps from focus.
 double stacked_sigma(int n);
 
-/// How a fragment between two neighbouring anchors a_{k+1} < r < a_k is shared (see
-/// LayerPlan::weight): `over` — weight u in the nearer layer and 1 in the farther (exact
-/// under "over" when unblurred, blur interpolated between anchors); `nearest` — wholly in the
-/// layer whose anchor is nearest in CoC (no copy counted twice once blurred).
-enum class Matte { over, nearest };
-
 struct LayerPlan {
-  Matte matte = Matte::over;
+  /// Width of the matte's ramp as a fraction of the gap between two anchors (see weight):
+  /// 1 = S&W's ramp over the whole gap, 0 = each fragment wholly in its nearest anchor's layer.
+  double band = 1.0;
   int count = 1;            ///< K
   int focus = 0;            ///< k_focus
   double scale_front = 0;   ///< s for the near side (px per step unit)

@@ -16,10 +16,10 @@
 //    layer is filled opaque so the result never turns transparent or black;
 //  * step sizes are scaled per side so the outermost anchor sits on the scene's extreme CoC;
 //  * psf=disc (the default for multi-layer input): each layer is blurred once by the disc of
-//    its anchor radius (disc_blur.hpp) and composited with "over", fragments go wholly into
-//    the layer of the nearest anchor (Matte::nearest) and, for multi-layer input, the
-//    push-pull fill goes *under* the hidden fragments — measured against the ground truth,
-//    this is what makes multi-layer input beat the reference at edges.
+//    its anchor radius (disc_blur.hpp) and composited with "over", and the matte ramp between
+//    two anchors is narrowed to a quarter of the gap (LayerPlan::band) so that thin near
+//    objects are not counted twice — measured against the ground truth, this is what makes
+//    multi-layer input beat the reference at edges.
 // Memory: the current layer, F, B and the focus layer (4 RGBA frames) whatever K is (the
 // disc adds one plane of double prefix sums).
 #include <cmath>
@@ -61,15 +61,13 @@ void render_layered(const MethodContext& ctx, Image& out) {
   const bool half_res = ctx.params.get_bool("half_res", true);
   const std::string fill = ctx.params.get_choice("fill", "auto", {"auto", "on", "off", "under"});
   const std::string psf = ctx.params.get_choice("psf", "auto", {"auto", "gaussian", "disc"});
-  const std::string matte = ctx.params.get_choice("matte", "auto", {"auto", "over", "nearest"});
   const Frame& frame = ctx.frame;
   const bool multi = frame.has_layers();
   // auto: the disc for multi-layer input (it beats every single-layer method there, see
   // docs/methods/layered.md), the O(1)-per-pixel recursive Gaussian for one RGB-D frame.
   const bool disc = psf == "disc" || (psf == "auto" && multi);
-  // auto: push-pull for single input; for multi-layer input with the disc, the fill goes
-  // *under* the hidden fragments (it closes the seams of the nearest matte).
-  const bool fill_under = fill == "under" || (fill == "auto" && multi && disc);
+  // auto: push-pull for single input only (`under` is an option for multi-layer input).
+  const bool fill_under = fill == "under";
   const bool do_fill = fill == "on" || fill_under || (fill == "auto" && !multi);
 
   Fragments frags;
@@ -97,7 +95,10 @@ void render_layered(const MethodContext& ctx, Image& out) {
   double near_px, far_px;
   coc_extremes(frags, near_px, far_px);
   LayerPlan plan = plan_layers(near_px, far_px, cap, c, unit);
-  plan.matte = matte == "nearest" || (matte == "auto" && disc) ? Matte::nearest : Matte::over;
+  // Matte ramp: S&W's full-gap ramp for the Gaussian; a quarter of the gap for the disc
+  // (measured, docs/methods/layered.md: 0 leaves seams on continuous surfaces, wider bands
+  // count thin near objects up to 1 + u times).
+  plan.band = ctx.params.get_double("matte_band", disc ? 0.25 : 1.0, 0.0, 1.0);
 
   Image layer, focus_layer;
   std::vector<std::uint8_t> hole;
@@ -191,9 +192,9 @@ const MethodDef& layered_method() {
        {"sigma_per_radius", "0.6", "Gaussian sigma per px of CoC radius (0.1-2); S4 d_pix = 4 sigma gives 0.5, 0.6 measured best against the ground truth"},
        {"step_px", "1", "unit of the per-step sigma sigma_k = unit * |k - k_focus| before fitting the scene's CoC range, px (0.1-8); smaller = more, finer layers"},
        {"half_res", "on", "blur steps of sigma >= 4 px at half resolution (same variance, about 4x less blur work): on/off"},
-       {"fill", "auto", "inpaint disoccluded layer pixels by push-pull: auto (single-layer input: on; multi-layer input: under with the disc PSF, off with the Gaussian), on, off, under (the fill goes behind what the layer holds there)"},
+       {"fill", "auto", "inpaint disoccluded layer pixels by push-pull: auto (single-layer input only), on, off, under (the fill goes behind what the layer holds there: hidden fragments of multi-layer input stay in front)"},
        {"psf", "auto", "layer blur: auto (disc for multi-layer input, gaussian for one RGB-D frame), gaussian (S&W's recursive Gaussians, O(1) per pixel) or disc (each layer blurred once by the anti-aliased disc of its anchor CoC radius and composited with over, O(R) per pixel)"},
-       {"matte", "auto", "share of a fragment between anchors a_(k+1) < r < a_k: auto (over for gaussian, nearest for disc), over (u in the nearer layer, 1 in the farther: blur interpolated), nearest (wholly in the layer of the nearest anchor: counted once)"}},
+       {"matte_band", "1 (gaussian) / 0.25 (disc)", "width of the matte ramp between two anchors as a fraction of the gap (0-1): 1 = S&W (u in the nearer layer over 1 in the farther, blur interpolated), 0 = each fragment wholly in its nearest anchor's layer (counted once)"}},
       debug_views(),
       render_layered};
   return def;

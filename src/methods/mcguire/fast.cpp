@@ -24,6 +24,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -56,9 +57,9 @@ constexpr int kBlock = 32;  // outputs per tap-bound block
 
 bool fast_supported(const Constants& k) { return k.variant != Variant::g3d; }
 
-void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int wo, Image& t_blur, Image& t_near,
-                          Workspace& ws) {
-  const int W = packed.width(), H = packed.height(), R = k.r_max, f = k.f;
+void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src, const Constants& k, int ox, int wo,
+                          Image& t_blur, Image& t_near, Workspace& ws) {
+  const int W = src.w, H = src.h, R = k.r_max, f = k.f;
   const float rmax = static_cast<float>(R);
   t_blur.resize(wo, H, 5);
   t_near.resize(wo, H, 5);
@@ -71,50 +72,66 @@ void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int w
   load_table(k, table);
 
   const int P = W + 2 * R;             // padded row: x = source + R, clamped at the edges
+  const int PS = P + kPrepSlack;       // padded arrays incl. slack
   const int M = (P + f - 1) / f + 64;  // phase array length (+ slack for vector over-reads)
-  // Scratch per chunk (floats): 7 phase planes (f·M each), r_a/nearness/reach (wo, wo, P),
-  // then doubles: prefix 4·(P+1), near bins 5·(wo+2).
-  const std::size_t n_float = 7 * static_cast<std::size_t>(f) * M + 2 * (wo + 64) + P;
+  // Scratch per chunk, in floats (each block rounded up to 16 floats = 64 bytes): 7 phase
+  // planes (f·M each), 5 padded source planes, s_pad, rb_pad, reach (int), r_a, nearness;
+  // then doubles: prefix sums 4·(P+1), near bins 5·(wo+2).
+  auto up16 = [](std::size_t n) { return (n + 15) & ~std::size_t(15); };
+  const std::size_t n_ph = up16(7 * static_cast<std::size_t>(f) * M), n_pad = up16(PS), n_wo = up16(wo + 32);
+  const std::size_t n_float = n_ph + 8 * n_pad + 2 * n_wo;
   const std::size_t n_double = 4 * static_cast<std::size_t>(P + 1) + 5 * static_cast<std::size_t>(wo + 2);
-  const std::size_t per_chunk = n_float + 2 * n_double + 8;
+  const std::size_t per_chunk = n_float + 2 * n_double + 32;
   const int nchunk = std::min(H, 64);
   Image& scratch = ws.image("mcguire.fast.h_scratch", static_cast<int>(per_chunk), nchunk, 1);
+  const float inv_rmax = R > 0 ? 1.0f / rmax : 0.0f;
 
   core::parallel_for(nchunk, [&](int c0, int c1) {
     std::vector<GatherTap> taps(2 * R + 1);
     for (int chunk = c0; chunk < c1; ++chunk) {
-      float* base = scratch.row(0, chunk);
+      float* base = reinterpret_cast<float*>((reinterpret_cast<std::uintptr_t>(scratch.row(0, chunk)) + 63) &
+                                             ~std::uintptr_t(63));
       float* ph = base;  // phase planes: q·(f·M) + p·M + m
       const std::size_t plane = static_cast<std::size_t>(f) * M;
-      float* r_a = ph + 7 * plane;
-      float* nearness = r_a + wo + 32;
-      float* reach = nearness + wo + 32;
-      double* dbl = reinterpret_cast<double*>(reinterpret_cast<std::uintptr_t>(reach + P + 2) & ~std::uintptr_t(7));
-      double* prefix = dbl;                             // 4 × (P+1)
+      float* pad[5];
+      for (int c = 0; c < 5; ++c) pad[c] = base + n_ph + c * n_pad;
+      float* s_pad = base + n_ph + 5 * n_pad;
+      float* rb_pad = s_pad + n_pad;
+      int* reach = reinterpret_cast<int*>(rb_pad + n_pad);
+      float* r_a = rb_pad + 2 * n_pad;
+      float* nearness = r_a + n_wo;
+      double* prefix = reinterpret_cast<double*>(nearness + n_wo);  // 4 × (P+1)
       double* bins = prefix + 4 * static_cast<std::size_t>(P + 1);  // 5 × (wo+2)
+
+      PrepRowJob prep;
+      for (int c = 0; c < 5; ++c) prep.pad[c] = pad[c];
+      prep.P = P;
+      prep.f = f;
+      prep.M = M;
+      prep.ph = ph;
+      prep.s_pad = s_pad;
+      prep.rb_pad = rb_pad;
+      prep.reach = reach;
+      prep.inv_rmax = inv_rmax;
+      prep.rmax = rmax;
+      prep.focus_px = k.focus_px;
+      prep.dc = k.variant == Variant::book ? 0.5f : 0.8f;
+
       for (int y = chunk_begin(H, nchunk, chunk); y < chunk_begin(H, nchunk, chunk + 1); ++y) {
-        const float* col[4] = {packed.row(0, y), packed.row(1, y), packed.row(2, y), packed.row(3, y)};
-        const float* s = packed.row(4, y);
-        // Phase-split padded row: padded x = f·m + p lives at phase p, index m.
-        bool any_near_src = false;
-        for (int p = 0; p < f; ++p) {
-          const std::size_t at0 = static_cast<std::size_t>(p) * M;
-          for (int x = p, m = 0; x < P; x += f, ++m) {
-            const int src = std::clamp(x - R, 0, W - 1);
-            const float r_b = s[src] * rmax;
-            for (int c = 0; c < 4; ++c) ph[c * plane + at0 + m] = col[c][src];
-            const float den = den_of(k, r_b);
-            ph[4 * plane + at0 + m] = den;
-            const bool nb = in_near(r_b);
-            ph[5 * plane + at0 + m] = nb ? 0.0f : 1.0f;
-            ph[6 * plane + at0 + m] = std::fabs(r_b);
-            reach[x] = nb ? 0.0f : static_cast<float>(reach_of(den));
-            any_near_src |= r_b > 0;
-          }
+        // Padded source row: R copies of the first pixel, the row, R + slack copies of the last.
+        for (int c = 0; c < 5; ++c) {
+          const float* row = c < 4 ? colour.row(c, src.y + y) + src.x : coc.row(0, src.y + y) + src.x;
+          std::fill_n(pad[c], R, row[0]);
+          std::copy_n(row, W, pad[c] + R);
+          std::fill_n(pad[c] + R + W, R + kPrepSlack, row[W - 1]);
         }
-        bool any_box = false;
+        prep_row_simd(prep);
+        const float* const* col = pad;
+        const int cx0 = ox + R;  // padded x of output 0's centre
+        bool any_near_src = false, any_box = false;
+        for (int x = 0; x < P; ++x) any_near_src |= rb_pad[x] > 0;
         for (int i = 0; i < wo; ++i) {
-          r_a[i] = s[ox + f * i] * rmax;
+          r_a[i] = rb_pad[cx0 + f * i];
           nearness[i] = saturate(4.0f * r_a[i]);
           any_box |= nearness[i] == 1.0f;
         }
@@ -128,11 +145,10 @@ void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int w
           double q0 = 0, q1 = 0, q2 = 0, q3 = 0;
           S0[0] = S1[0] = S2[0] = S3[0] = 0;
           for (int x = 0; x < P; ++x) {
-            const int src = std::clamp(x - R, 0, W - 1);
-            S0[x + 1] = q0 += col[0][src];
-            S1[x + 1] = q1 += col[1][src];
-            S2[x + 1] = q2 += col[2][src];
-            S3[x + 1] = q3 += col[3][src];
+            S0[x + 1] = q0 += col[0][x];
+            S1[x + 1] = q1 += col[1][x];
+            S2[x + 1] = q2 += col[2][x];
+            S3[x + 1] = q3 += col[3][x];
           }
         }
         const float box_w = static_cast<float>(2 * R + 1);  // the plain pass's Σw (every w = 1)
@@ -146,9 +162,9 @@ void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int w
           if (gather) {
             int L = R;
             if (!frac) {
-              float m = 0;
+              int m = 0;
               for (int x = ox + f * i0; x <= ox + f * (i1 - 1) + 2 * R; ++x) m = std::max(m, reach[x]);
-              L = std::min(R, static_cast<int>(m));
+              L = std::min(R, m);
             }
             int nt = 0;
             for (int d = -L; d <= L; ++d) {
@@ -174,14 +190,14 @@ void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int w
           }
           for (int i = i0; i < i1; ++i) {
             if (nearness[i] != 1.0f) continue;
-            const int a = ox + f * i + R;  // padded centre; taps a−R .. a+R
+            const int a = cx0 + f * i;  // padded centre; taps a−R .. a+R
             for (int c = 0; c < 4; ++c) {
               const double* S = prefix + c * static_cast<std::size_t>(P + 1);
               t_blur.row(c, y)[i] = static_cast<float>(S[a + R + 1] - S[a - R]) / box_w;
             }
           }
         }
-        for (int i = 0; i < wo; ++i) t_blur.row(4, y)[i] = s[ox + f * i];
+        for (int i = 0; i < wo; ++i) t_blur.row(4, y)[i] = s_pad[cx0 + f * i];
 
         // Near field: box scatter via a difference array over the output index.
         if (hbox < 0 || !any_near_src) {
@@ -189,28 +205,36 @@ void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int w
           continue;
         }
         std::fill_n(bins, 5 * static_cast<std::size_t>(wo + 2), 0.0);
-        const int base_x = ox + R;  // padded centre of output 0
-        for (int x = 0; x < P; ++x) {
-          const int src = std::clamp(x - R, 0, W - 1);
-          const float r_b = s[src] * rmax;
-          if (!(r_b >= 0.0f)) continue;
-          const float alpha = near_alpha_horizontal(k, 0.0f, r_b);
-          if (alpha == 0.0f) continue;
-          const int h = std::min(static_cast<int>(std::floor(r_b)), hbox);
-          // Outputs i with |base_x + f·i − x| <= h.
-          const int lo_num = x - h - base_x, hi_num = x + h - base_x;
-          int ilo = lo_num <= 0 ? -((-lo_num) / f) : (lo_num + f - 1) / f;
-          int ihi = hi_num >= 0 ? hi_num / f : -((-hi_num + f - 1) / f);
-          ilo = std::max(ilo, 0);
-          ihi = std::min(ihi, wo - 1);
-          if (ilo > ihi) continue;
-          for (int c = 0; c < 4; ++c) {
-            const double v = static_cast<double>(alpha * col[c][src]);
-            bins[c * (wo + 2) + ilo] += v;
-            bins[c * (wo + 2) + ihi + 1] -= v;
+        // The divisions by f below are by a compile-time constant (shifts / multiplies).
+        auto scatter = [&](auto fc) {
+          constexpr int F = decltype(fc)::value;
+          for (int x = 0; x < P; ++x) {
+            const float r_b = rb_pad[x];
+            if (!(r_b > 0.0f)) continue;  // α = 0 for r_B <= 0
+            const float alpha = near_alpha_horizontal(k, 0.0f, r_b);
+            if (alpha == 0.0f) continue;
+            const int h = std::min(static_cast<int>(r_b), hbox);  // r_B > 0: truncation = floor
+            // Outputs i with |cx0 + F·i − x| <= h.
+            const int lo_num = x - h - cx0, hi_num = x + h - cx0;
+            int ilo = lo_num <= 0 ? -((-lo_num) / F) : (lo_num + F - 1) / F;
+            int ihi = hi_num >= 0 ? hi_num / F : -((-hi_num + F - 1) / F);
+            ilo = std::max(ilo, 0);
+            ihi = std::min(ihi, wo - 1);
+            if (ilo > ihi) continue;
+            for (int c = 0; c < 4; ++c) {
+              const double v = static_cast<double>(alpha * col[c][x]);
+              bins[c * (wo + 2) + ilo] += v;
+              bins[c * (wo + 2) + ihi + 1] -= v;
+            }
+            bins[4 * (wo + 2) + ilo] += alpha;
+            bins[4 * (wo + 2) + ihi + 1] -= alpha;
           }
-          bins[4 * (wo + 2) + ilo] += alpha;
-          bins[4 * (wo + 2) + ihi + 1] -= alpha;
+        };
+        switch (f) {
+          case 1: scatter(std::integral_constant<int, 1>{}); break;
+          case 2: scatter(std::integral_constant<int, 2>{}); break;
+          case 3: scatter(std::integral_constant<int, 3>{}); break;
+          default: scatter(std::integral_constant<int, 4>{}); break;
         }
         {
           // Five independent running sums in one loop.

@@ -10,14 +10,18 @@ namespace dofkit::detail::mcguire {
 /// Whether blur_horizontal_fast / blur_vertical_fast handle this variant (book, demo).
 bool fast_supported(const Constants& k);
 
-/// P2 as blur_horizontal_plain (book/demo only); scratch from `ws`.
-void blur_horizontal_fast(const Image& packed, const Constants& k, int ox, int wo, Image& t_blur, Image& t_near,
-                          Workspace& ws);
+/// P2 as blur_horizontal_plain (book/demo only) on the buffer pack_coc(colour, coc, src)
+/// would produce, read straight from colour and CoC (s computed as pack_coc does, so the
+/// packed copy is never written); scratch from `ws`.
+void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src, const Constants& k, int ox, int wo,
+                          Image& t_blur, Image& t_near, Workspace& ws);
 /// P3 as blur_vertical_plain (book/demo only); scratch from `ws`.
 void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constants& k, int oy, int ho, Image& blur,
                         Image& near, Workspace& ws);
 /// P4 as composite() (every variant), row-organised and vectorisable; no weights output.
-void composite_fast(const Image& packed, int ox, int oy, const Image& blur, const Image& near, const Constants& k,
+/// Reads the sharp colour and s from colour/CoC like blur_horizontal_fast (packed pixel
+/// (x, y) = source pixel (src.x + x, src.y + y)).
+void composite_fast(const Image& colour, const Image& coc, const Rect& src, int ox, int oy, const Image& blur, const Image& near, const Constants& k,
                     const Rect& inner, Image& out, Workspace& ws);
 
 }  // namespace dofkit::detail::mcguire

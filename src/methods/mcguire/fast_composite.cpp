@@ -29,19 +29,25 @@ void fill_taps(int n_out, int n_low, int f, bool fix, int* i0, int* i1, float* w
   }
 }
 
-// One low-res row (9 channels) interpolated to inner.w columns.
+// One low-res row (9 channels: near 5, blurry 4) interpolated to w columns.
 void h_interp(const Image& blur, const Image& near, int row, int w, const int* i0, const int* i1, const float* w1,
-              float* dst) {
-  for (int c = 0; c < 9; ++c) {
-    const float* a = c < 5 ? near.row(c, row) : blur.row(c - 5, row);
-    float* o = dst + static_cast<std::size_t>(c) * w;
-    for (int x = 0; x < w; ++x) o[x] = a[i0[x]] + (a[i1[x]] - a[i0[x]]) * w1[x];
-  }
+              int f_pattern, float* dst) {
+  InterpRowJob job;
+  job.f_pattern = f_pattern;
+  job.n_low = blur.width();
+  job.nc = 9;
+  job.w = w;
+  for (int c = 0; c < 9; ++c) job.src[c] = c < 5 ? near.row(c, row) : blur.row(c - 5, row);
+  job.dst = dst;
+  job.i0 = i0;
+  job.i1 = i1;
+  job.w1 = w1;
+  interp_row_simd(job);
 }
 
 }  // namespace
 
-void composite_fast(const Image& packed, int ox, int oy, const Image& blur, const Image& near, const Constants& k,
+void composite_fast(const Image& colour, const Image& coc, const Rect& src, int ox, int oy, const Image& blur, const Image& near, const Constants& k,
                     const Rect& inner, Image& out, Workspace& ws) {
   const int w = inner.w, h = inner.h;
   Image& taps = ws.image("mcguire.fast.c_taps", std::max(w, h), 6, 1);
@@ -53,6 +59,8 @@ void composite_fast(const Image& packed, int ox, int oy, const Image& blur, cons
   float* wyv = taps.row(0, 5);
   fill_taps(w, blur.width(), k.f, k.lowres_offset_fix, tx0, tx1, wx);
   fill_taps(h, blur.height(), k.f, k.lowres_offset_fix, ty0, ty1, wyv);
+  // With the offset fix the horizontal taps are x / f and x / f + 1 (see fill_taps).
+  const int fpat = k.lowres_offset_fix ? k.f : 0;
   const int nchunk = std::min(h, 64);
   Image& cache = ws.image("mcguire.fast.c_rows", 9 * w, 2 * nchunk, 1);
   core::parallel_for(nchunk, [&](int c0, int c1) {
@@ -70,14 +78,14 @@ void composite_fast(const Image& packed, int ox, int oy, const Image& blur, cons
           std::swap(have_a, have_b);
         }
         if (have_a != r0) {
-          h_interp(blur, near, r0, w, tx0, tx1, wx, row_a);
+          h_interp(blur, near, r0, w, tx0, tx1, wx, fpat, row_a);
           have_a = r0;
         }
         if (have_b != r1) {
           if (r1 == r0) {
             std::copy_n(row_a, 9 * static_cast<std::size_t>(w), row_b);
           } else {
-            h_interp(blur, near, r1, w, tx0, tx1, wx, row_b);
+            h_interp(blur, near, r1, w, tx0, tx1, wx, fpat, row_b);
           }
           have_b = r1;
         }
@@ -86,11 +94,14 @@ void composite_fast(const Image& packed, int ox, int oy, const Image& blur, cons
         job.bot = row_b;
         job.wy = wyv[y];
         job.w = w;
+        const int sy = src.y + oy + y, sx = src.x + ox;
         for (int c = 0; c < 4; ++c) {
-          job.col[c] = packed.row(c, oy + y) + ox;
+          job.col[c] = colour.row(c, sy) + sx;
           job.out[c] = out.row(c, inner.y + y) + inner.x;
         }
-        job.s = packed.row(4, oy + y) + ox;
+        job.coc = coc.row(0, sy) + sx;
+        job.inv_rmax = k.r_max > 0 ? 1.0f / static_cast<float>(k.r_max) : 0.0f;
+        job.focus_px = k.focus_px;
         job.far_rescale = k.far_rescale;
         job.coverage_boost = k.coverage_boost;
         job.g3d = k.variant == Variant::g3d;

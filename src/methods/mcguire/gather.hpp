@@ -40,11 +40,46 @@ struct CompositeRowJob {
   float wy = 0;                ///< vertical bilinear weight of bot
   int w = 0;
   const float* col[4] = {};    ///< sharp premultiplied RGBA
-  const float* s = nullptr;    ///< packed s
+  const float* coc = nullptr;  ///< signed CoC px; s = clamp(r / R_max, −1, 1), 0 where |r| <= focus_px (pack_coc)
+  float inv_rmax = 0, focus_px = 0;
   float far_rescale = 1, coverage_boost = 1;
   bool g3d = false, double_coc = false;
   float* out[4] = {};
 };
 void composite_row_simd(const CompositeRowJob& job);
+
+/// One low-res row of the composite interpolated horizontally: for each of `nc` channels,
+/// dst[c][x] = a[c][i0[x]] + (a[c][i1[x]] − a[c][i0[x]])·w1[x] for x < w.
+struct InterpRowJob {
+  int nc = 0, w = 0;
+  const float* src[9] = {};
+  float* dst = nullptr;  ///< channel c at dst + c·w
+  const int* i0 = nullptr;
+  const int* i1 = nullptr;
+  const float* w1 = nullptr;
+  int f_pattern = 0;  ///< f if i0[x] = x / f and i1 = i0 + 1 below the row end (offset fix), else 0
+  int n_low = 0;      ///< floats in each src row
+};
+void interp_row_simd(const InterpRowJob& job);
+
+/// Row set-up of the fast horizontal pass. Input: one padded source row (padded x = source
+/// x + R, clamped), 4 colour planes and the signed CoC r, each holding P + kPrepSlack floats
+/// (the slack replicates the last pixel); s_pad, rb_pad, reach hold P + kPrepSlack too. Computes s exactly as pack_coc does and r_B = s·R_max, then writes
+///   s_pad[x], rb_pad[x]                        contiguous, x < P
+///   reach[x] = far tap ? ⌊1.2·den⌋ + 1 : 0       contiguous, x < P (int)
+///   phase planes ph[q·plane + p·M + m] for padded x = f·m + p: q = 0..3 colour, 4 den,
+///   5 far flag (1 = not near), 6 |r_B|          (den = 0.001 + dc·|r_B|, as far_weight())
+struct PrepRowJob {
+  const float* pad[5] = {};  ///< padded R, G, B, A, r
+  int P = 0, f = 1;
+  int M = 0;                 ///< phase length (>= ⌈P/f⌉ + 16)
+  float* ph = nullptr;
+  float* s_pad = nullptr;
+  float* rb_pad = nullptr;
+  int* reach = nullptr;
+  float inv_rmax = 0, rmax = 0, focus_px = 0, dc = 0.8f;
+};
+constexpr int kPrepSlack = 80;
+void prep_row_simd(const PrepRowJob& job);
 
 }  // namespace dofkit::detail::mcguire

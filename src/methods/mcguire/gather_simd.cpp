@@ -86,6 +86,7 @@ void CompositeRow(const CompositeRowJob& job) {
   const int w = job.w;
   const auto zero = hn::Zero(df), one = hn::Set(df, 1.0f), m1 = hn::Set(df, -1.0f);
   const auto wy = hn::Set(df, job.wy), rescale = hn::Set(df, job.far_rescale), boost = hn::Set(df, job.coverage_boost);
+  const auto focus = hn::Set(df, job.focus_px), inv_rmax = hn::Set(df, job.inv_rmax);
   const auto two = hn::Set(df, 2.0f), c01 = hn::Set(df, 0.1f), c15 = hn::Set(df, 1.5f), m12 = hn::Set(df, -12.0f);
   const bool do_boost = job.coverage_boost != 1.0f;
   auto compute = [&](int x) {
@@ -94,7 +95,9 @@ void CompositeRow(const CompositeRowJob& job) {
       return hn::Add(t, hn::Mul(hn::Sub(hn::LoadU(df, job.bot + static_cast<std::size_t>(c) * w + x), t), wy));
     };
     auto n0 = L(0), n1 = L(1), n2 = L(2), n3 = L(3), n4 = L(4);
-    auto s = hn::LoadU(df, job.s + x);
+    // s exactly as pack_coc: 0 in the focus field, else clamp(r / R_max, −1, 1).
+    const auto r = hn::LoadU(df, job.coc + x);
+    auto s = hn::IfThenZeroElse(hn::Le(hn::Abs(r), focus), hn::Min(hn::Max(hn::Mul(r, inv_rmax), m1), one));
     s = hn::IfThenElse(hn::Lt(s, zero), hn::Max(hn::Mul(s, rescale), m1), s);
     hn::Vec<decltype(df)> ba;
     if (job.g3d) {
@@ -130,13 +133,13 @@ void CompositeRow(const CompositeRowJob& job) {
     } else {
       // Narrower than one vector: pad through a small stack copy.
       // Pad to one vector through stack copies (lanes <= 16).
-      alignas(64) float top[9 * 64] = {}, bot[9 * 64] = {}, col[4][64] = {}, s[64] = {}, out[4][64] = {};
+      alignas(64) float top[9 * 64] = {}, bot[9 * 64] = {}, col[4][64] = {}, coc[64] = {}, out[4][64] = {};
       for (int c = 0; c < 9; ++c) {
         std::copy_n(job.top + static_cast<std::size_t>(c) * w, w, top + c * lanes);
         std::copy_n(job.bot + static_cast<std::size_t>(c) * w, w, bot + c * lanes);
       }
       for (int c = 0; c < 4; ++c) std::copy_n(job.col[c], w, col[c]);
-      std::copy_n(job.s, w, s);
+      std::copy_n(job.coc, w, coc);
       CompositeRowJob p = job;
       p.top = top;
       p.bot = bot;
@@ -145,11 +148,136 @@ void CompositeRow(const CompositeRowJob& job) {
         p.col[c] = col[c];
         p.out[c] = out[c];
       }
-      p.s = s;
+      p.coc = coc;
       CompositeRow(p);
       for (int c = 0; c < 4; ++c) std::copy_n(out[c], w, job.out[c]);
     }
   }
+}
+
+void InterpRow(const InterpRowJob& job) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const int lanes = static_cast<int>(hn::Lanes(df));
+  const int w = job.w;
+  int x = 0;
+  if (job.f_pattern >= 2 && lanes % job.f_pattern == 0) {  // f = 1: l / f + 1 would leave the vector
+    // i0[x] = x / f, i1 = i0 + 1: the lanes of output x0 (a multiple of f) read texels
+    // x0/f + l/f and x0/f + l/f + 1, a permutation of one unaligned load, while the
+    // load and i1 stay inside the row (the remaining outputs take the gather path).
+    const int f = job.f_pattern;
+    alignas(64) int32_t lane0[64], lane1[64];
+    for (int l = 0; l < lanes; ++l) {
+      lane0[l] = l / f;
+      lane1[l] = l / f + 1;
+    }
+    const auto idx0 = hn::SetTableIndices(df, lane0), idx1 = hn::SetTableIndices(df, lane1);
+    for (; x + lanes <= w && x / f + lanes <= job.n_low; x += lanes) {
+      const auto w1 = hn::LoadU(df, job.w1 + x);
+      for (int c = 0; c < job.nc; ++c) {
+        const auto v = hn::LoadU(df, job.src[c] + x / f);
+        const auto a = hn::TableLookupLanes(v, idx0), b = hn::TableLookupLanes(v, idx1);
+        hn::StoreU(hn::Add(a, hn::Mul(hn::Sub(b, a), w1)), df, job.dst + static_cast<std::size_t>(c) * w + x);
+      }
+    }
+  }
+  for (; x + lanes <= w; x += lanes) {
+    const auto i0 = hn::LoadU(di, job.i0 + x), i1 = hn::LoadU(di, job.i1 + x);
+    const auto w1 = hn::LoadU(df, job.w1 + x);
+    for (int c = 0; c < job.nc; ++c) {
+      const auto a = hn::GatherIndex(df, job.src[c], i0);
+      const auto b = hn::GatherIndex(df, job.src[c], i1);
+      hn::StoreU(hn::Add(a, hn::Mul(hn::Sub(b, a), w1)), df, job.dst + static_cast<std::size_t>(c) * w + x);
+    }
+  }
+  for (; x < w; ++x)
+    for (int c = 0; c < job.nc; ++c) {
+      const float a = job.src[c][job.i0[x]], b = job.src[c][job.i1[x]];
+      job.dst[static_cast<std::size_t>(c) * w + x] = a + (b - a) * job.w1[x];
+    }
+}
+
+// Keeps the compiler from fusing the multiply that produced v into a following add: den
+// must round exactly as the scalar 0.001 + c·|r| of far_weight() (a contracted FMA would
+// move the table index at its steps).
+template <class V>
+HWY_INLINE V Opaque(V v) {
+#if HWY_ARCH_X86 && HWY_TARGET != HWY_SCALAR && HWY_TARGET != HWY_EMU128
+  asm("" : "+v"(v.raw));
+#endif
+  return v;
+}
+
+// Phase split of one padded plane: dst[p·M + m] = src[f·m + p] for m < mcount (+ up to one
+// vector more, inside the slack).
+template <class D>
+HWY_INLINE void SplitPhases(D d, int f, int M, int mcount, const float* src, float* dst) {
+  const int lanes = static_cast<int>(hn::Lanes(d));
+  hn::Vec<D> v0, v1, v2, v3;
+  for (int m = 0; m < mcount; m += lanes) {
+    const float* p = src + static_cast<std::size_t>(f) * m;
+    switch (f) {
+      case 1:
+        hn::StoreU(hn::LoadU(d, p), d, dst + m);
+        break;
+      case 2:
+        hn::LoadInterleaved2(d, p, v0, v1);
+        hn::StoreU(v0, d, dst + m);
+        hn::StoreU(v1, d, dst + M + m);
+        break;
+      case 3:
+        hn::LoadInterleaved3(d, p, v0, v1, v2);
+        hn::StoreU(v0, d, dst + m);
+        hn::StoreU(v1, d, dst + M + m);
+        hn::StoreU(v2, d, dst + 2 * M + m);
+        break;
+      default:
+        hn::LoadInterleaved4(d, p, v0, v1, v2, v3);
+        hn::StoreU(v0, d, dst + m);
+        hn::StoreU(v1, d, dst + M + m);
+        hn::StoreU(v2, d, dst + 2 * M + m);
+        hn::StoreU(v3, d, dst + 3 * M + m);
+        break;
+    }
+  }
+}
+
+void PrepRow(const PrepRowJob& job) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const int lanes = static_cast<int>(hn::Lanes(df));
+  const auto one = hn::Set(df, 1.0f), m1 = hn::Set(df, -1.0f), zero = hn::Zero(df);
+  const auto focus = hn::Set(df, job.focus_px), inv_rmax = hn::Set(df, job.inv_rmax), rmax = hn::Set(df, job.rmax);
+  const auto c0001 = hn::Set(df, 0.001f), dc = hn::Set(df, job.dc), c12 = hn::Set(df, 1.2f), q = hn::Set(df, 0.25f);
+  const auto ione = hn::Set(di, 1);
+  // Contiguous: s, r_B, reach. Runs 64 floats past P (inside the slack) so that the phase
+  // split of r_B below, which reads up to f·lanes − 1 floats past P, reads computed values.
+  for (int x = 0; x < job.P + 64; x += lanes) {
+    const auto r = hn::LoadU(df, job.pad[4] + x);
+    const auto s = hn::IfThenZeroElse(hn::Le(hn::Abs(r), focus), hn::Min(hn::Max(hn::Mul(r, inv_rmax), m1), one));
+    const auto rb = hn::Mul(s, rmax);
+    hn::StoreU(s, df, job.s_pad + x);
+    hn::StoreU(rb, df, job.rb_pad + x);
+    const auto den = hn::Add(c0001, Opaque(hn::Mul(dc, hn::Abs(rb))));
+    const auto reach = hn::Add(hn::ConvertTo(di, hn::Mul(c12, den)), ione);
+    hn::StoreU(hn::IfThenElseZero(hn::RebindMask(di, hn::Le(rb, q)), reach), di, job.reach + x);
+  }
+  const int f = job.f, M = job.M, mcount = (job.P + f - 1) / f;
+  const std::size_t plane = static_cast<std::size_t>(f) * M;
+  for (int c = 0; c < 4; ++c) SplitPhases(df, f, M, mcount, job.pad[c], job.ph + c * plane);
+  float* den_pl = job.ph + 4 * plane;
+  float* flag_pl = job.ph + 5 * plane;
+  float* abs_pl = job.ph + 6 * plane;
+  SplitPhases(df, f, M, mcount, job.rb_pad, abs_pl);  // r_B, made |r_B| below
+  for (int p = 0; p < f; ++p)
+    for (int m = 0; m < mcount; m += lanes) {
+      const std::size_t at = static_cast<std::size_t>(p) * M + m;
+      const auto rb = hn::LoadU(df, abs_pl + at);
+      const auto ab = hn::Abs(rb);
+      hn::StoreU(hn::Add(c0001, Opaque(hn::Mul(dc, ab))), df, den_pl + at);
+      hn::StoreU(hn::IfThenElse(hn::Gt(rb, q), zero, one), df, flag_pl + at);
+      hn::StoreU(ab, df, abs_pl + at);
+    }
 }
 
 }  // namespace HWY_NAMESPACE
@@ -162,5 +290,9 @@ HWY_EXPORT(FarGather);
 void far_gather_simd(const GatherJob& job) { HWY_DYNAMIC_DISPATCH(FarGather)(job); }
 HWY_EXPORT(CompositeRow);
 void composite_row_simd(const CompositeRowJob& job) { HWY_DYNAMIC_DISPATCH(CompositeRow)(job); }
+HWY_EXPORT(InterpRow);
+void interp_row_simd(const InterpRowJob& job) { HWY_DYNAMIC_DISPATCH(InterpRow)(job); }
+HWY_EXPORT(PrepRow);
+void prep_row_simd(const PrepRowJob& job) { HWY_DYNAMIC_DISPATCH(PrepRow)(job); }
 }  // namespace dofkit::detail::mcguire
 #endif  // HWY_ONCE

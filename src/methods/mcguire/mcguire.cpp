@@ -108,11 +108,28 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
   const int ox = inner.x - src.x, oy = inner.y - src.y;  // inner origin inside the packed buffer
 
   Workspace& ws = ctx.workspace;
-  Image& packed = ws.image("mcguire.packed", src.w, src.h, mcguire::kPacked);
-  mcguire::pack_coc(colour, ctx.coc, src, k, packed);
+  // impl=plain runs the obviously-correct passes (the test oracle); fast runs the SIMD /
+  // box-sum passes for book/demo and the tap-bounded passes of blur.cpp for g3d.
+  const bool plain = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
+  const bool fast_blur = !plain && mcguire::fast_supported(k);
+  const bool plain_composite = plain || ctx.debug.wants("weights");
+  // P1's packed copy: the plain passes (and g3d's blur) read it; the fast book/demo passes
+  // compute s from the CoC as they read colour, so then it is never written.
+  Image* packed = nullptr;
+  if (!fast_blur || plain_composite) {
+    packed = &ws.image("mcguire.packed", src.w, src.h, mcguire::kPacked);
+    mcguire::pack_coc(colour, ctx.coc, src, k, *packed);
+  }
   ctx.debug.offer("coc", [&] {
-    Image v(packed.width(), packed.height(), 1);
-    for (std::size_t i = 0; i < v.plane_size(); ++i) v.plane(0)[i] = packed.plane(4)[i] * 0.5f + 0.5f;
+    // s·0.5 + 0.5 with s as pack_coc computes it.
+    Image v(src.w, src.h, 1);
+    const float inv_rmax = k.r_max > 0 ? 1.0f / static_cast<float>(k.r_max) : 0.0f;
+    for (int y = 0; y < src.h; ++y)
+      for (int x = 0; x < src.w; ++x) {
+        const float r = ctx.coc.at(src.x + x, src.y + y);
+        const float s = std::fabs(r) <= k.focus_px ? 0.0f : std::clamp(r * inv_rmax, -1.0f, 1.0f);
+        v.at(x, y) = s * 0.5f + 0.5f;
+      }
     return v;
   });
 
@@ -128,12 +145,12 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     // Everything is in the focus field: the composite would return the sharp input exactly.
     for (int c = 0; c < 4; ++c)
       for (int y = 0; y < inner.h; ++y)
-        std::copy_n(packed.row(c, oy + y) + ox, inner.w, out.row(c, inner.y + y) + inner.x);
+        std::copy_n(colour.row(c, inner.y + y) + inner.x, inner.w, out.row(c, inner.y + y) + inner.x);
     ctx.debug.offer("near", [&] { return Image(wo, ho, 4, 0.0f); });
     ctx.debug.offer("far", [&] {
       Image v(inner.w, inner.h, 4);
       for (int c = 0; c < 4; ++c)
-        for (int y = 0; y < inner.h; ++y) std::copy_n(packed.row(c, oy + y) + ox, inner.w, v.row(c, y));
+        for (int y = 0; y < inner.h; ++y) std::copy_n(colour.row(c, inner.y + y) + inner.x, inner.w, v.row(c, y));
       return v;
     });
     ctx.debug.offer("weights", [&] {
@@ -144,17 +161,14 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     });
     return;
   }
-  // impl=plain runs the obviously-correct passes (the test oracle); fast runs the SIMD /
-  // box-sum passes for book/demo and the tap-bounded passes of blur.cpp for g3d.
-  const bool plain = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
   if (plain) {
-    mcguire::blur_horizontal_plain(packed, k, ox, wo, t_blur, t_near);
+    mcguire::blur_horizontal_plain(*packed, k, ox, wo, t_blur, t_near);
     mcguire::blur_vertical_plain(t_blur, t_near, k, oy, ho, blur, near);
-  } else if (mcguire::fast_supported(k)) {
-    mcguire::blur_horizontal_fast(packed, k, ox, wo, t_blur, t_near, ws);
+  } else if (fast_blur) {
+    mcguire::blur_horizontal_fast(colour, ctx.coc, src, k, ox, wo, t_blur, t_near, ws);
     mcguire::blur_vertical_fast(t_blur, t_near, k, oy, ho, blur, near, ws);
   } else {
-    mcguire::blur_horizontal(packed, k, ox, wo, t_blur, t_near);
+    mcguire::blur_horizontal(*packed, k, ox, wo, t_blur, t_near);
     mcguire::blur_vertical(t_blur, t_near, k, oy, ho, blur, near);
   }
   ctx.debug.offer("far", blur);
@@ -166,10 +180,10 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     return v;
   });
   Image weights;
-  if (plain || ctx.debug.wants("weights"))
-    mcguire::composite(packed, ox, oy, blur, near, k, inner, out, ctx.debug.wants("weights") ? &weights : nullptr);
+  if (plain_composite)
+    mcguire::composite(*packed, ox, oy, blur, near, k, inner, out, ctx.debug.wants("weights") ? &weights : nullptr);
   else
-    mcguire::composite_fast(packed, ox, oy, blur, near, k, inner, out, ws);
+    mcguire::composite_fast(colour, ctx.coc, src, ox, oy, blur, near, k, inner, out, ws);
   ctx.debug.offer("weights", weights);
 }
 

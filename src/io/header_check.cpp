@@ -215,7 +215,9 @@ void check_tiff(std::ifstream& f, std::size_t file_size, bool big_endian, const 
     if (size == 0) fail("strip/tile table of type " + std::to_string(type));
     if (count > file_size / size) fail("strip/tile table longer than the file");
     std::vector<unsigned char> raw(count * size);
-    if (count * size <= 4) {
+    if (count == 0) {
+      // an empty table: nothing to check (the decoder refuses an image without strips)
+    } else if (count * size <= 4) {
       std::memcpy(raw.data(), e + 8, count * size);
     } else if (!read_at(u32(e + 8), raw.size(), raw.data())) {
       fail("strip/tile table lies past the end of the file");

@@ -245,6 +245,9 @@ void check_tiff(std::ifstream& f, std::size_t file_size, bool big_endian, const 
       if (tag == 273 || tag == 324) values(e, offsets);
       if (tag == 279 || tag == 325) values(e, counts);
     }
+    // Every directory in the main chain is an image and needs its data; OIIO reads an image
+    // without strips as zeros.
+    if (offsets.empty()) fail("directory " + std::to_string(seen.size() - 1) + " has no strips or tiles");
     if (offsets.size() != counts.size())
       fail(std::to_string(offsets.size()) + " strip/tile offsets but " + std::to_string(counts.size()) + " byte counts");
     for (std::size_t i = 0; i < offsets.size(); ++i)

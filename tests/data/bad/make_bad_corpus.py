@@ -181,6 +181,10 @@ def main():
     # TIFF whose strip lies beyond the end of the file.
     files["strip_past_eof.tif"] = tiff(4, 4, strip_offset=100000)
     files["truncated_strip.tif"] = tiff(4, 4)[:-28]
+    # Empty strip tables (count 0): the fuzzer found the directory walk memcpy'ing from them.
+    files["empty_strip_table.tif"] = tiff(4, 4).replace(struct.pack("<HHII", 273, LONG, 1, 8 + 126 + 6),
+                                                        struct.pack("<HHII", 273, LONG, 0, 0)).replace(
+        struct.pack("<HHII", 279, LONG, 1, 48), struct.pack("<HHII", 279, LONG, 0, 0))
     # JPEG that stops right after its start-of-image and a partial APP0 segment.
     files["jpeg_soi_only.jpg"] = b"\xff\xd8\xff\xe0\x00\x10JFIF\x00"
     # Frame-level defects: colour and depth of different sizes, invalid depth values.

@@ -80,6 +80,18 @@ struct PrepRowJob {
   float inv_rmax = 0, rmax = 0, focus_px = 0, dc = 0.8f;
 };
 constexpr int kPrepSlack = 80;
+
+/// Sliding row sum update of the fast vertical pass: dst[i] += Σ_k plus[k][i] − Σ_k minus[k][i]
+/// for i < n, in double (the float rows are exact in double, so the only rounding is that of
+/// the double additions).
+struct SlideRowsJob {
+  double* dst = nullptr;
+  int n = 0;
+  int nplus = 0, nminus = 0;
+  const float* plus[8] = {};
+  const float* minus[8] = {};
+};
+void slide_rows_simd(const SlideRowsJob& job);
 void prep_row_simd(const PrepRowJob& job);
 
 }  // namespace dofkit::detail::mcguire

@@ -280,6 +280,25 @@ void PrepRow(const PrepRowJob& job) {
     }
 }
 
+void SlideRows(const SlideRowsJob& job) {
+  const hn::ScalableTag<double> dd;
+  const hn::Rebind<float, decltype(dd)> df;
+  const int lanes = static_cast<int>(hn::Lanes(dd));
+  int i = 0;
+  for (; i + lanes <= job.n; i += lanes) {
+    auto acc = hn::LoadU(dd, job.dst + i);
+    for (int k = 0; k < job.nplus; ++k) acc = hn::Add(acc, hn::PromoteTo(dd, hn::LoadU(df, job.plus[k] + i)));
+    for (int k = 0; k < job.nminus; ++k) acc = hn::Sub(acc, hn::PromoteTo(dd, hn::LoadU(df, job.minus[k] + i)));
+    hn::StoreU(acc, dd, job.dst + i);
+  }
+  for (; i < job.n; ++i) {
+    double acc = job.dst[i];
+    for (int k = 0; k < job.nplus; ++k) acc += static_cast<double>(job.plus[k][i]);
+    for (int k = 0; k < job.nminus; ++k) acc -= static_cast<double>(job.minus[k][i]);
+    job.dst[i] = acc;
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::mcguire
 HWY_AFTER_NAMESPACE();
@@ -292,6 +311,8 @@ HWY_EXPORT(CompositeRow);
 void composite_row_simd(const CompositeRowJob& job) { HWY_DYNAMIC_DISPATCH(CompositeRow)(job); }
 HWY_EXPORT(InterpRow);
 void interp_row_simd(const InterpRowJob& job) { HWY_DYNAMIC_DISPATCH(InterpRow)(job); }
+HWY_EXPORT(SlideRows);
+void slide_rows_simd(const SlideRowsJob& job) { HWY_DYNAMIC_DISPATCH(SlideRows)(job); }
 HWY_EXPORT(PrepRow);
 void prep_row_simd(const PrepRowJob& job) { HWY_DYNAMIC_DISPATCH(PrepRow)(job); }
 }  // namespace dofkit::detail::mcguire

@@ -279,21 +279,37 @@ TEST(Mcguire, FastPathMatchesPlain) {
       {"demo", {{"near_field", "off"}}, 150, 90},
       {"demo", {{"lowres_offset_fix", "off"}, {"near_radius_px", "5"}}, 150, 90},
       {"demo", {}, 37, 29},  // fewer outputs per row than SIMD lanes
+      // Each reduction factor takes its own phase split (LoadInterleaved2/3/4, plain loads
+      // for 1) and composite interpolation (lane permutes for f = 2, 4; gathers for 1, 3).
+      {"demo", {{"reduction", "2"}}, 131, 77},
+      {"book", {{"reduction", "1"}}, 65, 41},
+      {"book", {{"reduction", "3"}}, 119, 83},
+      {"g3d", {{"reduction", "3"}}, 101, 59},
+      {"demo", {{"near_radius_px", "3"}}, 150, 90},  // near box narrower than R_max
   };
   for (const Case& cs : cases) {
     const Frame f = mixed_frame(cs.w, cs.h);
     RenderSettings s = settings(cs.variant);
     for (const auto& [key, v] : cs.extra) s.params[key] = v;
     s.params["impl"] = "plain";
+    s.threads = 1;
     const RenderResult a = render(f, s);
     s.params["impl"] = "fast";
-    const RenderResult b = render(f, s);
-    ASSERT_EQ(a.image.data().size(), b.image.data().size());
-    double worst = 0;
-    for (std::size_t i = 0; i < a.image.data().size(); ++i) {
-      const double x = a.image.data()[i], y = b.image.data()[i];
-      worst = std::max(worst, std::fabs(x - y) / std::max(1.0, std::fabs(x)));
+    std::vector<float> fast_one_thread;
+    for (int threads : {1, 2}) {
+      s.threads = threads;
+      const RenderResult b = render(f, s);
+      ASSERT_EQ(a.image.data().size(), b.image.data().size());
+      double worst = 0;
+      for (std::size_t i = 0; i < a.image.data().size(); ++i) {
+        const double x = a.image.data()[i], y = b.image.data()[i];
+        worst = std::max(worst, std::fabs(x - y) / std::max(1.0, std::fabs(x)));
+      }
+      EXPECT_LE(worst, 1e-4) << cs.variant << " " << cs.w << "x" << cs.h << " case " << (&cs - cases.data())
+                             << " threads " << threads;
+      // The fast path's chunking does not depend on the thread count: identical bits.
+      if (threads == 1) fast_one_thread = b.image.data();
+      else EXPECT_EQ(fast_one_thread, b.image.data()) << "case " << (&cs - cases.data());
     }
-    EXPECT_LE(worst, 1e-4) << cs.variant << " " << cs.w << "x" << cs.h << " case " << (&cs - cases.data());
   }
 }

@@ -76,11 +76,12 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   const int M = (P + f - 1) / f + 64;  // phase array length (+ slack for vector over-reads)
   // Scratch per chunk, in floats (each block rounded up to 16 floats = 64 bytes): 7 phase
   // planes (f·M each), 5 padded source planes, s_pad, rb_pad, reach (int), r_a, nearness;
-  // then doubles: prefix sums 4·(P+1), near bins 5·(wo+2).
+  // then doubles: block prefix + partial sums 4·PST (PST = 2P + 4 >= 2·nb + 1), near bins 5·(wo+2).
   auto up16 = [](std::size_t n) { return (n + 15) & ~std::size_t(15); };
   const std::size_t n_ph = up16(7 * static_cast<std::size_t>(f) * M), n_pad = up16(PS), n_wo = up16(wo + 32);
   const std::size_t n_float = n_ph + 8 * n_pad + 2 * n_wo;
-  const std::size_t n_double = 4 * static_cast<std::size_t>(P + 1) + 5 * static_cast<std::size_t>(wo + 2);
+  const std::size_t PST = 2 * static_cast<std::size_t>(P) + 4;
+  const std::size_t n_double = 4 * PST + 5 * static_cast<std::size_t>(wo + 2);
   const std::size_t per_chunk = n_float + 2 * n_double + 32;
   const int nchunk = std::min(H, 64);
   Image& scratch = ws.image("mcguire.fast.h_scratch", static_cast<int>(per_chunk), nchunk, 1);
@@ -100,8 +101,8 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
       int* reach = reinterpret_cast<int*>(rb_pad + n_pad);
       float* r_a = rb_pad + 2 * n_pad;
       float* nearness = r_a + n_wo;
-      double* prefix = reinterpret_cast<double*>(nearness + n_wo);  // 4 × (P+1)
-      double* bins = prefix + 4 * static_cast<std::size_t>(P + 1);  // 5 × (wo+2)
+      double* prefix = reinterpret_cast<double*>(nearness + n_wo);  // 4 × PST
+      double* bins = prefix + 4 * PST;                             // 5 × (wo+2)
 
       PrepRowJob prep;
       for (int c = 0; c < 5; ++c) prep.pad[c] = pad[c];
@@ -128,27 +129,35 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         prep_row_simd(prep);
         const float* const* col = pad;
         const int cx0 = ox + R;  // padded x of output 0's centre
-        bool any_near_src = false, any_box = false;
-        for (int x = 0; x < P; ++x) any_near_src |= rb_pad[x] > 0;
+        const bool any_near_src = prep.any_near;
+        bool any_box = false;
         for (int i = 0; i < wo; ++i) {
           r_a[i] = rb_pad[cx0 + f * i];
           nearness[i] = saturate(4.0f * r_a[i]);
           any_box |= nearness[i] == 1.0f;
         }
-        // Near-centre box: prefix sums of the padded row.
+        // Near-centre box: output i's window is padded [ox + f·i, ox + f·i + 2R], i.e. with
+        // 2R + 1 = f·qb + rem, the q whole f-blocks j = i .. i + qb − 1 of the grid starting at
+        // ox plus the first rem pixels of block i + qb. So W(i) = PG[i + qb] − PG[i] +
+        // Rm(i + qb) with G(j) the block sums, PG their prefix sums and Rm(j) the partial
+        // block sums (all double): a running sum over ≈ P/f blocks instead of P pixels.
+        const int qb = (2 * R + 1) / f, rem = (2 * R + 1) % f, nb = wo + qb;
         if (any_box) {
-          // Four independent running sums in one loop (the adds of one channel form a chain).
-          double* S0 = prefix;
-          double* S1 = S0 + (P + 1);
-          double* S2 = S1 + (P + 1);
-          double* S3 = S2 + (P + 1);
-          double q0 = 0, q1 = 0, q2 = 0, q3 = 0;
-          S0[0] = S1[0] = S2[0] = S3[0] = 0;
-          for (int x = 0; x < P; ++x) {
-            S0[x + 1] = q0 += col[0][x];
-            S1[x + 1] = q1 += col[1][x];
-            S2[x + 1] = q2 += col[2][x];
-            S3[x + 1] = q3 += col[3][x];
+          for (int c = 0; c < 4; ++c) {
+            double* PG = prefix + c * PST;
+            double* RM = PG + (nb + 1);
+            BlockSumsJob bs;
+            bs.ph_plane = ph + c * plane;
+            bs.M = M;
+            bs.f = f;
+            bs.x0 = ox;
+            bs.rem = rem;
+            bs.nb = nb;
+            bs.G = PG + 1;  // block sums, turned into prefix sums in place
+            bs.Rm = RM;
+            block_sums_simd(bs);
+            PG[0] = 0;
+            for (int j = 0; j < nb; ++j) PG[j + 1] += PG[j];
           }
         }
         const float box_w = static_cast<float>(2 * R + 1);  // the plain pass's Σw (every w = 1)
@@ -190,10 +199,10 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
           }
           for (int i = i0; i < i1; ++i) {
             if (nearness[i] != 1.0f) continue;
-            const int a = cx0 + f * i;  // padded centre; taps a−R .. a+R
             for (int c = 0; c < 4; ++c) {
-              const double* S = prefix + c * static_cast<std::size_t>(P + 1);
-              t_blur.row(c, y)[i] = static_cast<float>(S[a + R + 1] - S[a - R]) / box_w;
+              const double* PG = prefix + c * PST;
+              const double* RM = PG + (nb + 1);
+              t_blur.row(c, y)[i] = static_cast<float>(PG[i + qb] - PG[i] + RM[i + qb]) / box_w;
             }
           }
         }
@@ -312,28 +321,27 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
         const float* sa = t_blur.row(4, oy + f * j);
         for (int i = 0; i < W; ++i) chunk_box |= saturate(4.0f * (sa[i] * rmax)) == 1.0f;
       }
-      auto add_rows = [&](double* sum, const Image& img, int nc, int from, int to, double sign) {
-        for (int b = from; b <= to; ++b) {
-          const int row = std::clamp(b, 0, H - 1);
-          for (int c = 0; c < nc; ++c) {
-            const float* src = img.row(c, row);
-            double* dst = sum + c * static_cast<std::size_t>(W);
-            for (int i = 0; i < W; ++i) dst[i] += sign * src[i];
-          }
-        }
-      };
       const float box_w = static_cast<float>(2 * R + 1);
       for (int j = j0; j < j1; ++j) {
         const int a = oy + f * j;
         if (j == j0) {
-          if (chunk_box) {
-            std::fill_n(sum_b, 4 * static_cast<std::size_t>(W), 0.0);
-            add_rows(sum_b, t_blur, 4, a - R, a + R, 1.0);
-          }
-          if (hbox >= 0) {
-            std::fill_n(sum_n, 5 * static_cast<std::size_t>(W), 0.0);
-            add_rows(sum_n, t_near, 5, a - hbox, a + hbox, 1.0);
-          }
+          // Window sums from scratch, 8 rows per pass.
+          auto init = [&](double* sum, const Image& img, int nc, int r) {
+            for (int c = 0; c < nc; ++c) {
+              double* dst = sum + c * static_cast<std::size_t>(W);
+              std::fill_n(dst, W, 0.0);
+              for (int b0 = a - r; b0 <= a + r; b0 += 8) {
+                SlideRowsJob job;
+                job.dst = dst;
+                job.n = W;
+                for (int b = b0; b <= std::min(a + r, b0 + 7); ++b)
+                  job.plus[job.nplus++] = img.row(c, std::clamp(b, 0, H - 1));
+                slide_rows_simd(job);
+              }
+            }
+          };
+          if (chunk_box) init(sum_b, t_blur, 4, R);
+          if (hbox >= 0) init(sum_n, t_near, 5, hbox);
         } else {
           // Rows entering (prev + r, a + r] and leaving [prev − r, a − r) the window, at most
           // f of each (f <= 4 <= 8), folded into one pass over the sums.

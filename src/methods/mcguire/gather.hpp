@@ -78,6 +78,7 @@ struct PrepRowJob {
   float* rb_pad = nullptr;
   int* reach = nullptr;
   float inv_rmax = 0, rmax = 0, focus_px = 0, dc = 0.8f;
+  bool any_near = false;     ///< out: some r_B > 0 in [0, P)
 };
 constexpr int kPrepSlack = 80;
 
@@ -92,6 +93,17 @@ struct SlideRowsJob {
   const float* minus[8] = {};
 };
 void slide_rows_simd(const SlideRowsJob& job);
-void prep_row_simd(const PrepRowJob& job);
+void prep_row_simd(PrepRowJob& job);
+
+/// Block sums of one padded plane for the near-centre box of the fast horizontal pass:
+/// G[j] = Σ_{t<f} v[x0 + f·j + t] and Rm[j] = Σ_{t<rem} v[x0 + f·j + t] in double, j < nb,
+/// read from the plane's phase split (ph_plane[p·M + m] = v[f·m + p]).
+struct BlockSumsJob {
+  const float* ph_plane = nullptr;
+  int M = 0, f = 1, x0 = 0, rem = 0, nb = 0;
+  double* G = nullptr;
+  double* Rm = nullptr;
+};
+void block_sums_simd(const BlockSumsJob& job);
 
 }  // namespace dofkit::detail::mcguire

@@ -242,7 +242,7 @@ HWY_INLINE void SplitPhases(D d, int f, int M, int mcount, const float* src, flo
   }
 }
 
-void PrepRow(const PrepRowJob& job) {
+void PrepRow(PrepRowJob& job) {
   const hn::ScalableTag<float> df;
   const hn::RebindToSigned<decltype(df)> di;
   const int lanes = static_cast<int>(hn::Lanes(df));
@@ -250,18 +250,21 @@ void PrepRow(const PrepRowJob& job) {
   const auto focus = hn::Set(df, job.focus_px), inv_rmax = hn::Set(df, job.inv_rmax), rmax = hn::Set(df, job.rmax);
   const auto c0001 = hn::Set(df, 0.001f), dc = hn::Set(df, job.dc), c12 = hn::Set(df, 1.2f), q = hn::Set(df, 0.25f);
   const auto ione = hn::Set(di, 1);
+  auto any = hn::Zero(df);
   // Contiguous: s, r_B, reach. Runs 64 floats past P (inside the slack) so that the phase
   // split of r_B below, which reads up to f·lanes − 1 floats past P, reads computed values.
   for (int x = 0; x < job.P + 64; x += lanes) {
     const auto r = hn::LoadU(df, job.pad[4] + x);
     const auto s = hn::IfThenZeroElse(hn::Le(hn::Abs(r), focus), hn::Min(hn::Max(hn::Mul(r, inv_rmax), m1), one));
     const auto rb = hn::Mul(s, rmax);
+    if (x < job.P) any = hn::Max(any, rb);  // lanes past P replicate the last pixel
     hn::StoreU(s, df, job.s_pad + x);
     hn::StoreU(rb, df, job.rb_pad + x);
     const auto den = hn::Add(c0001, Opaque(hn::Mul(dc, hn::Abs(rb))));
     const auto reach = hn::Add(hn::ConvertTo(di, hn::Mul(c12, den)), ione);
     hn::StoreU(hn::IfThenElseZero(hn::RebindMask(di, hn::Le(rb, q)), reach), di, job.reach + x);
   }
+  job.any_near = !hn::AllTrue(df, hn::Le(any, zero));
   const int f = job.f, M = job.M, mcount = (job.P + f - 1) / f;
   const std::size_t plane = static_cast<std::size_t>(f) * M;
   for (int c = 0; c < 4; ++c) SplitPhases(df, f, M, mcount, job.pad[c], job.ph + c * plane);
@@ -299,6 +302,36 @@ void SlideRows(const SlideRowsJob& job) {
   }
 }
 
+void BlockSums(const BlockSumsJob& job) {
+  const hn::ScalableTag<double> dd;
+  const hn::Rebind<float, decltype(dd)> df;
+  const int lanes = static_cast<int>(hn::Lanes(dd));
+  const float* ph[4];
+  for (int t = 0; t < job.f; ++t) {
+    const int x = job.x0 + t;
+    ph[t] = job.ph_plane + static_cast<std::size_t>(x % job.f) * job.M + x / job.f;
+  }
+  int j = 0;
+  for (; j + lanes <= job.nb; j += lanes) {
+    auto g = hn::Zero(dd), part = hn::Zero(dd);
+    for (int t = 0; t < job.f; ++t) {
+      g = hn::Add(g, hn::PromoteTo(dd, hn::LoadU(df, ph[t] + j)));
+      if (t + 1 == job.rem) part = g;
+    }
+    hn::StoreU(g, dd, job.G + j);
+    hn::StoreU(part, dd, job.Rm + j);
+  }
+  for (; j < job.nb; ++j) {
+    double g = 0, part = 0;
+    for (int t = 0; t < job.f; ++t) {
+      g += static_cast<double>(ph[t][j]);
+      if (t + 1 == job.rem) part = g;
+    }
+    job.G[j] = g;
+    job.Rm[j] = part;
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::mcguire
 HWY_AFTER_NAMESPACE();
@@ -314,6 +347,8 @@ void interp_row_simd(const InterpRowJob& job) { HWY_DYNAMIC_DISPATCH(InterpRow)(
 HWY_EXPORT(SlideRows);
 void slide_rows_simd(const SlideRowsJob& job) { HWY_DYNAMIC_DISPATCH(SlideRows)(job); }
 HWY_EXPORT(PrepRow);
-void prep_row_simd(const PrepRowJob& job) { HWY_DYNAMIC_DISPATCH(PrepRow)(job); }
+void prep_row_simd(PrepRowJob& job) { HWY_DYNAMIC_DISPATCH(PrepRow)(job); }
+HWY_EXPORT(BlockSums);
+void block_sums_simd(const BlockSumsJob& job) { HWY_DYNAMIC_DISPATCH(BlockSums)(job); }
 }  // namespace dofkit::detail::mcguire
 #endif  // HWY_ONCE

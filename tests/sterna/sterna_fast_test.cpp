@@ -148,7 +148,7 @@ TEST(SternaFast, RepeatedFramesOfChangingSizeReuseTheWorkspaceCorrectly) {
 }
 
 // Profiling harness (not run in CI): the `dofkit bench` frame at 1920x1080 rendered repeatedly
-// by one Renderer (steady state), 1 thread unless DOFKIT_THREADS is set; prints the CPU time
+// by one Renderer (steady state), 1 thread unless DOFKIT_THREADS is set, DOFKIT_FRAMES frames (10); prints the CPU time
 // per frame. Use with perf: perf record build/test_sterna
 // --gtest_also_run_disabled_tests --gtest_filter=SternaFast.DISABLED_ProfileBenchFrame
 TEST(SternaFast, DISABLED_ProfileBenchFrame) {
@@ -162,7 +162,8 @@ TEST(SternaFast, DISABLED_ProfileBenchFrame) {
   if (impl) s.params["impl"] = impl;
   Renderer r(s);
   r.render(f);
-  const int n = 10;
+  const char* frames = std::getenv("DOFKIT_FRAMES");
+  const int n = frames ? std::max(1, std::atoi(frames)) : 10;
   const std::clock_t c0 = std::clock();
   for (int i = 0; i < n; ++i) r.render(f);
   std::printf("sterna %s, %d thread(s): CPU %.1f ms per frame (mean of %d, steady state)\n", impl ? impl : "fast",

@@ -39,6 +39,16 @@ double max_encoded_diff(const Image& a, const Image& b, double min_alpha = 0.0) 
   return m;
 }
 
+// Planar image → interleaved samples, as OIIO's write_image takes them.
+std::vector<float> interleave(const Image& img) {
+  const int w = img.width(), h = img.height(), n = img.channels();
+  std::vector<float> v(static_cast<std::size_t>(w) * h * n);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < n; ++c) v[(static_cast<std::size_t>(y) * w + x) * n + c] = img.at(x, y, c);
+  return v;
+}
+
 }  // namespace
 
 TEST(RoundTrip, ExrFloatRgbaIsExact) {
@@ -315,10 +325,7 @@ TEST(Write, ReplacesExistingFileAtomically) {
 TEST(RoundTrip, ExrLayoutsPassTheHeaderCheck) {
   ScratchDir dir;
   const Image img = test_rgba(53, 29, false, true);
-  std::vector<float> interleaved(static_cast<std::size_t>(53) * 29 * 4);
-  for (int y = 0; y < 29; ++y)
-    for (int x = 0; x < 53; ++x)
-      for (int c = 0; c < 4; ++c) interleaved[(static_cast<std::size_t>(y) * 53 + x) * 4 + c] = img.at(x, y, c);
+  const std::vector<float> interleaved = interleave(img);
   struct Layout {
     const char* name;
     const char* compression;
@@ -392,10 +399,7 @@ TEST(RoundTrip, ExrLayoutsPassTheHeaderCheck) {
 TEST(RoundTrip, TiffLayoutsPassTheHeaderCheck) {
   ScratchDir dir;
   const Image img = test_rgba(45, 31, false, false);
-  std::vector<float> interleaved(static_cast<std::size_t>(45) * 31 * 4);
-  for (int y = 0; y < 31; ++y)
-    for (int x = 0; x < 45; ++x)
-      for (int c = 0; c < 4; ++c) interleaved[(static_cast<std::size_t>(y) * 45 + x) * 4 + c] = img.at(x, y, c);
+  const std::vector<float> interleaved = interleave(img);
   struct Layout {
     const char* name;
     const char* compression;

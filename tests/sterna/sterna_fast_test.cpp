@@ -117,6 +117,24 @@ TEST(SternaFast, EqualsPlainOnEveryCoveredSetting) {
   }
 }
 
+TEST(SternaFast, EqualsPlainOnOpaqueFrames) {
+  // Alpha 1 everywhere: the fast gather then derives the near and far alpha planes without
+  // gathering them (fast_gather.cpp); a frame whose alpha is constant but not 1 takes the
+  // near shortcut only. Both must still equal plain bit for bit.
+  for (float alpha : {1.0f, 0.5f}) {
+    Frame f = test_frame(203, 117);
+    for (int y = 0; y < f.color.height(); ++y)
+      for (int x = 0; x < f.color.width(); ++x) {
+        const float a = f.color.at(x, y, 3);
+        for (int c = 0; c < 3; ++c) f.color.at(x, y, c) *= alpha / a;
+        f.color.at(x, y, 3) = alpha;
+      }
+    for (const auto& p : std::vector<std::map<std::string, std::string>>{{}, {{"firefly", "karis"}}, {{"strength", "0.1"}}})
+      expect_fast_equals_plain(f, blur_at_infinity(2.0, 9.0, p),
+                               "alpha=" + std::to_string(alpha) + (p.empty() ? "" : " " + p.begin()->first));
+  }
+}
+
 TEST(SternaFast, EqualsPlainForTheNativeNearFarBlendModel) {
   const Frame f = test_frame(160, 90);
   RenderSettings s;

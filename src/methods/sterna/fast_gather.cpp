@@ -48,6 +48,12 @@ struct Tap {
   float w00, w10, w01, w11;  // bilinear weights (gather.cpp split())
 };
 
+// A tap with its weights already broadcast to vectors (loaded, not rebuilt, per tap).
+struct alignas(32) TapV {
+  V8 w00, w10, w01, w11;
+  std::ptrdiff_t off;
+};
+
 // gather.cpp's split(): integer part and bilinear weights of an offset.
 Tap split(float ox, float oy, int pitch) {
   const float fx0 = std::floor(ox), fy0 = std::floor(oy);
@@ -60,12 +66,11 @@ constexpr int kSeg = kStripTiles * kTile;  // texels per segment = strip width (
 constexpr int kVecs = kSeg / 8;
 
 // Σ_taps bilinear(src) for the kSeg texels starting at `base` (one channel), into acc.
-__attribute__((always_inline)) inline void gather_seg(const float* base, const Tap* taps, int ntaps,
+__attribute__((always_inline)) inline void gather_seg(const float* base, const TapV* taps, int ntaps,
                                                       std::ptrdiff_t pitch, V8* acc) {
   for (int v = 0; v < kVecs; ++v) acc[v] = splat(0.0f);
   for (int t = 0; t < ntaps; ++t) {
-    const V8 w00 = splat(taps[t].w00), w10 = splat(taps[t].w10), w01 = splat(taps[t].w01),
-             w11 = splat(taps[t].w11);
+    const V8 w00 = taps[t].w00, w10 = taps[t].w10, w01 = taps[t].w01, w11 = taps[t].w11;
     const float* r0 = base + taps[t].off;
     const float* r1 = r0 + pitch;
     for (int v = 0; v < kVecs; ++v)
@@ -76,9 +81,15 @@ __attribute__((always_inline)) inline void gather_seg(const float* base, const T
 
 struct Job {
   const Buffers* b;
-  const Tap* taps;
+  const TapV* taps;
   int ntaps;
   float inv_taps;
+  // Opaque-frame shortcuts (see gather()): colour_h alpha is this one value everywhere, so its
+  // near gather is the same number at every texel (near_alpha, computed once) ...
+  bool near_alpha_const;
+  float near_alpha;
+  // ... and colourFar_h alpha equals far_h bit for bit, so its far gather is the denominator's.
+  bool far_alpha_is_den;
 };
 
 // Whether any tile of segment [tx0, tx1) in tile row ty has `bit`.
@@ -125,7 +136,12 @@ STERNA_SIMD void gather_strip(const Job& job, int tx0, int tx1, float* inv_den) 
   for (int c = 0; c < 4; ++c)
     for (int y = 0; y < h; ++y) {
       const float* base = b.src_row(*b.near_src, c, y) + x0;
-      if (seg_has(b, y / kTile, tx0, tx1, kNearBit)) {
+      if (c == 3 && job.near_alpha_const) {
+        const V8 na = splat(job.near_alpha);
+        V8 nbv[kVecs];
+        load_seg(b.near_blur->row(0, y), x0, n, nbv);
+        for (int v = 0; v < kVecs; ++v) res[v] = nbv[v] > zero ? na : load8(base + 8 * v);
+      } else if (seg_has(b, y / kTile, tx0, tx1, kNearBit)) {
         gather_seg(base, job.taps, job.ntaps, pitch, acc);
         V8 nbv[kVecs];
         load_seg(b.near_blur->row(0, y), x0, n, nbv);
@@ -140,11 +156,25 @@ STERNA_SIMD void gather_strip(const Job& job, int tx0, int tx1, float* inv_den) 
     }
   // Far field: the denominator Σ far_h first (kept as 1/den per texel), then the channels.
   for (int y = 0; y < h; ++y) {
-    if (!seg_has(b, y / kTile, tx0, tx1, kFarBit)) continue;
+    if (!seg_has(b, y / kTile, tx0, tx1, kFarBit)) {
+      if (job.far_alpha_is_den) {
+        for (int v = 0; v < kVecs; ++v) res[v] = zero;
+        store_seg(b.dof_far->row(3, y), x0, n, res);
+      }
+      continue;
+    }
     gather_seg(b.src_row(*b.far_src, 4, y) + x0, job.taps, job.ntaps, pitch, acc);
-    for (int v = 0; v < kVecs; ++v) store8(inv_den + static_cast<std::size_t>(y) * kSeg + 8 * v, 1.0f / acc[v]);
+    for (int v = 0; v < kVecs; ++v) {
+      m[v] = 1.0f / acc[v];
+      store8(inv_den + static_cast<std::size_t>(y) * kSeg + 8 * v, m[v]);
+    }
+    if (job.far_alpha_is_den) {  // alpha = Σ alpha_far / Σ far_h with the two sums equal
+      const float* fr = b.far_h_row(y) + x0;
+      for (int v = 0; v < kVecs; ++v) res[v] = load8(fr + 8 * v) > zero ? acc[v] * m[v] : zero;
+      store_seg(b.dof_far->row(3, y), x0, n, res);
+    }
   }
-  for (int c = 0; c < 4; ++c)
+  for (int c = 0; c < (job.far_alpha_is_den ? 3 : 4); ++c)
     for (int y = 0; y < h; ++y) {
       if (seg_has(b, y / kTile, tx0, tx1, kFarBit)) {
         gather_seg(b.src_row(*b.far_src, c, y) + x0, job.taps, job.ntaps, pitch, acc);
@@ -159,6 +189,30 @@ STERNA_SIMD void gather_strip(const Job& job, int tx0, int tx1, float* inv_den) 
       }
       store_seg(b.dof_far->row(c, y), x0, n, res);
     }
+}
+
+// Whether row a equals the value v everywhere (near) / row b bit for bit (far).
+STERNA_SIMD bool row_is(const float* __restrict a, float v, int w) {
+  bool ok = true;
+  for (int x = 0; x < w; ++x) ok &= a[x] == v;
+  return ok;
+}
+STERNA_SIMD bool rows_equal(const float* __restrict a, const float* __restrict b, int w) {
+  bool ok = true;
+  for (int x = 0; x < w; ++x) {
+    std::uint32_t u, v;
+    std::memcpy(&u, a + x, 4);
+    std::memcpy(&v, b + x, 4);
+    ok &= u == v;
+  }
+  return ok;
+}
+
+// The near gather of a plane that holds v everywhere: the sums of gather_seg for one lane.
+STERNA_SIMD float constant_near(const TapV* taps, int ntaps, float v, float inv_taps) {
+  float acc = 0.0f;
+  for (int t = 0; t < ntaps; ++t) acc += taps[t].w00[0] * v + taps[t].w10[0] * v + taps[t].w01[0] * v + taps[t].w11[0] * v;
+  return acc * inv_taps;
 }
 
 STERNA_SIMD void classify_row(const float* __restrict nb, const float* __restrict fr, std::uint8_t* tiles, int w) {
@@ -180,19 +234,43 @@ void gather(const Settings& s, Buffers& b) {
   b.tiles_x = (w + kTile - 1) / kTile;
   b.tiles_y = (h + kTile - 1) / kTile;
   b.tiles->assign(static_cast<std::size_t>(b.tiles_x) * b.tiles_y, 0);
+  // Per tile row: bit 1 = colour_h alpha is a0 there, bit 2 = colourFar_h alpha is far_h.
+  thread_local std::vector<std::uint8_t> alpha_rows;
+  alpha_rows.assign(static_cast<std::size_t>(b.tiles_y), 0);
+  const float a0 = b.src_row(*b.near_src, 3, 0)[0];
   core::parallel_for(b.tiles_y, [&](int t0, int t1) {
-    for (int ty = t0; ty < t1; ++ty)
-      for (int y = ty * kTile; y < std::min(h, (ty + 1) * kTile); ++y)
+    for (int ty = t0; ty < t1; ++ty) {
+      bool near_const = true, far_den = true;
+      for (int y = ty * kTile; y < std::min(h, (ty + 1) * kTile); ++y) {
         classify_row(b.near_blur->row(0, y), b.far_h_row(y), b.tiles->data() + static_cast<std::size_t>(ty) * b.tiles_x,
                      w);
+        near_const = near_const && row_is(b.src_row(*b.near_src, 3, y), a0, w);
+        far_den = far_den && rows_equal(b.src_row(*b.far_src, 3, y), b.far_h_row(y), w);
+      }
+      alpha_rows[ty] = (near_const ? 1 : 0) | (far_den ? 2 : 0);
+    }
   });
+  std::uint8_t alpha_bits = 3;
+  for (std::uint8_t r : alpha_rows) alpha_bits &= r;
 
   const int pitch = b.near_src->width();
-  Tap taps[kTaps];
+  alignas(32) TapV taps[kTaps];
   const int ntaps = static_cast<int>(std::min<std::size_t>(s.offsets.size(), kTaps));
-  for (int t = 0; t < ntaps; ++t)
-    taps[t] = split(s.offsets[t].x * s.kernel_scale, s.offsets[t].y * s.kernel_scale, pitch);
-  const Job job{&b, taps, ntaps, 1.0f / static_cast<float>(s.offsets.size())};
+  for (int t = 0; t < ntaps; ++t) {
+    const Tap tp = split(s.offsets[t].x * s.kernel_scale, s.offsets[t].y * s.kernel_scale, pitch);
+    taps[t] = {splat(tp.w00), splat(tp.w10), splat(tp.w01), splat(tp.w11), tp.off};
+  }
+  const float inv_taps = 1.0f / static_cast<float>(s.offsets.size());
+  // Opaque frames (alpha 1 everywhere, the usual case): the downsample's alpha mean is then
+  // 4/4 = 1 exactly and the bilateral alpha is Σwb·1 / Σwb = 1 exactly, times far(TL) — the far
+  // CoC itself. Two of the nine gathered planes are then known without gathering: the near
+  // alpha gather of a constant plane gives one value everywhere, and the far alpha gather is
+  // the denominator's sum, so alpha_far = den · (1/den). Both are the very operations of the
+  // full gather on the same inputs, so the output stays bit-identical; the checks are exact
+  // (==, bit patterns) and any frame that fails them takes the full gather.
+  const bool near_alpha_const = (alpha_bits & 1) != 0;
+  const Job job{&b,      taps, ntaps, inv_taps, near_alpha_const,
+                near_alpha_const ? constant_near(taps, ntaps, a0, inv_taps) : 0.0f, (alpha_bits & 2) != 0};
   const int strips = (b.tiles_x + kStripTiles - 1) / kStripTiles;
   core::parallel_for(strips, [&](int s0, int s1) {
     thread_local std::vector<float> inv_den;  // 1/Σ far_h of one strip, h × kSeg

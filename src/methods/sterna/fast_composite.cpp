@@ -72,7 +72,18 @@ struct Row {
   float by0, by1, blend;
 };
 
+// Whether any lane of a comparison mask is set.
+__attribute__((always_inline)) inline bool any(I8 m) {
+  std::uint64_t q[4];
+  std::memcpy(q, &m, sizeof q);
+  return (q[0] | q[1] | q[2] | q[3]) != 0;
+}
+
 // 8 pixels from xa + i (xa + i even). Same operations and order as composite.cpp per pixel.
+// A part whose blend is off in all 8 lanes (no far pixel; all four near taps' CoC 0) leaves
+// res = col, as its selects would, and is skipped; the far (near) part is only called with
+// far (near) planes doubled.
+template <bool kFar, bool kNear>
 __attribute__((always_inline)) inline void composite8(const Row& R, int i, const V8* col, V8 fq, V8* res) {
   const V8 by[2] = {splat(R.by0), splat(R.by1)};
   // x-weights (composite.cpp axis()): even x (¼, ¾), odd x (¾, ¼).
@@ -80,6 +91,7 @@ __attribute__((always_inline)) inline void composite8(const Row& R, int i, const
                     V8{0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f}};
   const V8 zero = splat(0.0f);
   for (int c = 0; c < 4; ++c) res[c] = col[c];
+  if (kFar && any(fq > zero)) {
   // Far: CoC-bilateral bilinear.
   V8 wsum = zero, acc[4] = {zero, zero, zero, zero};
   for (int b = 0; b < 2; ++b)
@@ -94,13 +106,23 @@ __attribute__((always_inline)) inline void composite8(const Row& R, int i, const
   const V8 tf = splat(R.blend) * fq;
   const I8 far_on = (fq > zero) & (wsum > zero);
   for (int c = 0; c < 4; ++c) res[c] = far_on ? res[c] + (acc[c] / wsum - res[c]) * tf : res[c];
+  }
+  if (!kNear) return;
   // Near: bilinear field and dilated CoC.
+  V8 nbk[2][2];
+  I8 some = I8{0, 0, 0, 0, 0, 0, 0, 0};
+  for (int b = 0; b < 2; ++b)
+    for (int a = 0; a < 2; ++a) {
+      nbk[b][a] = load8(R.E[b][9] + i + 2 * a);
+      some |= nbk[b][a] > zero;
+    }
+  if (!any(some)) return;
   V8 nb = zero, nf[4] = {zero, zero, zero, zero};
   for (int b = 0; b < 2; ++b)
     for (int a = 0; a < 2; ++a) {
       const int k = i + 2 * a;
       const V8 wk = bx[a] * by[b];
-      nb += wk * load8(R.E[b][9] + k);
+      nb += wk * nbk[b][a];
       for (int c = 0; c < 4; ++c) nf[c] += wk * load8(R.E[b][5 + c] + k);
     }
   const V8 one = splat(1.0f);
@@ -109,12 +131,13 @@ __attribute__((always_inline)) inline void composite8(const Row& R, int i, const
   for (int c = 0; c < 4; ++c) res[c] = near_on ? res[c] + (nf[c] - res[c]) * tn : res[c];
 }
 
-STERNA_SIMD void composite_chunk(const Row& R, int n) {
+template <bool kFar, bool kNear>
+__attribute__((always_inline)) inline void composite_chunk_t(const Row& R, int n) {
   V8 col[4], res[4];
   int i = 0;
   for (; i + 8 <= n; i += 8) {
     for (int c = 0; c < 4; ++c) col[c] = load8(R.col[c] + i);
-    composite8(R, i, col, load8(R.fq + i), res);
+    composite8<kFar, kNear>(R, i, col, load8(R.fq + i), res);
     for (int c = 0; c < 4; ++c) store8(R.out[c] + i, res[c]);
   }
   if (i < n) {  // tail: through a zero-padded copy
@@ -122,12 +145,21 @@ STERNA_SIMD void composite_chunk(const Row& R, int n) {
     for (int c = 0; c < 4; ++c) std::copy(R.col[c] + i, R.col[c] + n, tmp[c]);
     std::copy(R.fq + i, R.fq + n, fqt);
     for (int c = 0; c < 4; ++c) col[c] = load8(tmp[c]);
-    composite8(R, i, col, load8(fqt), res);
+    composite8<kFar, kNear>(R, i, col, load8(fqt), res);
     for (int c = 0; c < 4; ++c) {
       store8(o, res[c]);
       std::copy(o, o + (n - i), R.out[c] + i);
     }
   }
+}
+
+STERNA_SIMD void composite_chunk(const Row& R, int n, bool far, bool near) {
+  if (far && near)
+    composite_chunk_t<true, true>(R, n);
+  else if (far)
+    composite_chunk_t<true, false>(R, n);
+  else
+    composite_chunk_t<false, true>(R, n);
 }
 
 std::vector<float>& scratch(int slot, std::size_t n) {
@@ -157,29 +189,33 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
       for (int r = 0; r < nrows; ++r) blend(ys[r], nullptr, fqbuf + static_cast<std::size_t>(r) * W);
       for (int xa = 0; xa < W; xa += kChunk) {
         const int n = std::min(kChunk, W - xa);
-        // Per row: work unless no far pixel in the chunk and no near tile within one tile.
-        bool work[2] = {false, false};
+        // Per row: the far part where some far(q) > 0 in the chunk, the near part where a near
+        // tile lies within one tile; neither → copy.
+        bool wfar[2] = {false, false}, wnear[2] = {false, false}, work[2] = {false, false};
         for (int r = 0; r < nrows; ++r) {
           const float* fq = fqbuf + static_cast<std::size_t>(r) * W + xa;
-          for (int i = 0; i < n && !work[r]; ++i) work[r] = fq[i] > 0.0f;
+          for (int i = 0; i < n && !wfar[r]; ++i) wfar[r] = fq[i] > 0.0f;
           const int ty = std::min(ys[r] / 2, h - 1) / kTile;
           const int ta = std::max(0, std::min(xa / 2, w - 1) / kTile - 1);
           const int tb = std::min(b.tiles_x - 1, std::min((xa + n - 1) / 2, w - 1) / kTile + 1);
-          for (int tj = std::max(ty - 1, 0); tj <= std::min(ty + 1, b.tiles_y - 1) && !work[r]; ++tj)
-            for (int ti = ta; ti <= tb && !work[r]; ++ti)
-              work[r] = ((*b.tiles)[static_cast<std::size_t>(tj) * b.tiles_x + ti] & 1) != 0;
-          work[r] = work[r] && cblend > 0.0f;
+          for (int tj = std::max(ty - 1, 0); tj <= std::min(ty + 1, b.tiles_y - 1) && !wnear[r]; ++tj)
+            for (int ti = ta; ti <= tb && !wnear[r]; ++ti)
+              wnear[r] = ((*b.tiles)[static_cast<std::size_t>(tj) * b.tiles_x + ti] & 1) != 0;
+          wfar[r] = wfar[r] && cblend > 0.0f;
+          wnear[r] = wnear[r] && cblend > 0.0f;
+          work[r] = wfar[r] || wnear[r];
         }
         Row R;
         R.blend = cblend;
-        if (work[0] || work[1])
+        const bool dfar = wfar[0] || wfar[1], dnear = wnear[0] || wnear[1];
+        if (dfar || dnear)
           for (int bb = 0; bb < 2; ++bb) {
             const float* planes[kPlanes] = {b.far_fill->row(0, j[bb]),  b.far_fill->row(1, j[bb]),
                                             b.far_fill->row(2, j[bb]),  b.far_fill->row(3, j[bb]),
                                             b.far_h_row(j[bb]),         b.near_fill->row(0, j[bb]),
                                             b.near_fill->row(1, j[bb]), b.near_fill->row(2, j[bb]),
                                             b.near_fill->row(3, j[bb]), b.near_blur->row(0, j[bb])};
-            for (int q = 0; q < kPlanes; ++q) {
+            for (int q = dfar ? 0 : 5; q < (dnear ? kPlanes : 5); ++q) {
               float* E = ebuf + (static_cast<std::size_t>(bb) * kPlanes + q) * kEPitch;
               double_row(planes[q], w, xa - 1, n + 2, E);
               R.E[bb][q] = E;
@@ -199,7 +235,7 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
             R.out[c] = out.row(c, y) + xa;
           }
           R.fq = fqbuf + static_cast<std::size_t>(r) * W + xa;
-          composite_chunk(R, n);
+          composite_chunk(R, n, wfar[r], wnear[r]);
         }
       }
     }

@@ -6,6 +6,8 @@
 // body is then the same for every texel and vectorises; interior columns read x − 1 … x + 1
 // directly and only the two border columns clamp.
 #include <algorithm>
+#include <cstdint>
+#include <cstring>
 
 #include "core/parallel.hpp"
 #include "methods/sterna/fast.hpp"
@@ -28,6 +30,23 @@ __attribute__((always_inline)) inline float max9(const Rows& R, int xm, int x, i
   return m;
 }
 
+typedef float V8 __attribute__((vector_size(32)));
+typedef int I8 __attribute__((vector_size(32)));
+
+__attribute__((always_inline)) inline V8 load8(const float* p) {
+  V8 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+__attribute__((always_inline)) inline void store8(float* p, V8 v) { std::memcpy(p, &v, sizeof v); }
+__attribute__((always_inline)) inline bool any(I8 m) {
+  std::uint64_t q[4];
+  std::memcpy(q, &m, sizeof q);
+  return (q[0] | q[1] | q[2] | q[3]) != 0;
+}
+// std::max(m, v) lane by lane: (m < v) ? v : m.
+__attribute__((always_inline)) inline V8 vmax(V8 m, V8 v) { return m < v ? v : m; }
+
 STERNA_SIMD void fill_row(const Rows& R, const float* __restrict factor, float* __restrict out, int w) {
   auto one = [&](int xm, int x, int xp) { out[x] = factor[x] > 0.0f ? max9(R, xm, x, xp) : R.r[1][x]; };
   if (w == 1) {
@@ -35,7 +54,25 @@ STERNA_SIMD void fill_row(const Rows& R, const float* __restrict factor, float* 
     return;
   }
   one(0, 0, 1);
-  for (int x = 1; x < w - 1; ++x) out[x] = factor[x] > 0.0f ? max9(R, x - 1, x, x + 1) : R.r[1][x];
+  // Interior, 8 texels at a time; a vector with no texel to fill is a copy.
+  const V8 zero = V8{0, 0, 0, 0, 0, 0, 0, 0};
+  int x = 1;
+  for (; x + 8 <= w - 1; x += 8) {
+    const I8 on = load8(factor + x) > zero;
+    const V8 c = load8(R.r[1] + x);
+    if (!any(on)) {
+      store8(out + x, c);
+      continue;
+    }
+    V8 m = c;
+    for (int j = 0; j < 3; ++j) {
+      m = vmax(m, load8(R.r[j] + x - 1));
+      m = vmax(m, load8(R.r[j] + x));
+      m = vmax(m, load8(R.r[j] + x + 1));
+    }
+    store8(out + x, on ? m : c);
+  }
+  for (; x < w - 1; ++x) out[x] = factor[x] > 0.0f ? max9(R, x - 1, x, x + 1) : R.r[1][x];
   one(w - 2, w - 1, w - 1);
 }
 

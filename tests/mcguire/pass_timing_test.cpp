@@ -1,0 +1,74 @@
+// Per-pass timing harness for the fast demo path at 1920x1080 (not part of the normal run; no
+// assertions on time). It times P2, P3 and P4 on the `dofkit bench` frame without the
+// renderer's own per-frame work (colour check, CoC from depth), which is what
+// docs/performance_mcguire.md splits. Run with
+//   test_mcguire --gtest_also_run_disabled_tests --gtest_filter=*PassTiming*
+// (MCGUIRE_TIMING_ITERS, default 12; MCGUIRE_TIMING_THREADS, default 1). Under
+// `valgrind --tool=callgrind` it gives the per-pass instruction counts quoted in the note.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+#include "core/parallel.hpp"
+#include "dofkit/coc.hpp"
+#include "methods/mcguire/fast.hpp"
+#include "methods/mcguire/mcguire.hpp"
+#include "scene/bench_frame.hpp"
+
+using namespace dofkit;
+namespace mg = dofkit::detail::mcguire;
+
+TEST(McguirePassTiming, DISABLED_Demo1080p) {
+  const char* it_env = std::getenv("MCGUIRE_TIMING_ITERS");
+  const char* th_env = std::getenv("MCGUIRE_TIMING_THREADS");
+  const int iters = std::max(1, it_env ? std::atoi(it_env) : 12);
+  const int threads = std::max(1, th_env ? std::atoi(th_env) : 1);
+  const int W = 1920, H = 1080;
+  const Frame fr = scene::bench_frame(W, H);
+  const Image coc = compute_coc(fr.depth, scene::bench_camera(W));
+  float max_near = 0, max_far = 0;
+  for (float r : coc.data()) {
+    max_near = std::max(max_near, r);
+    max_far = std::max(max_far, -r);
+  }
+  // The demo constants render_mcguire derives for this frame (mcguire.cpp read_setup).
+  mg::Constants k;
+  k.variant = mg::Variant::demo;
+  k.f = 4;
+  k.r_max = static_cast<int>(std::ceil(std::max(max_near, max_far)));
+  k.r_near = std::ceil(max_near);
+  k.inv_near = 1.0f / std::max(k.r_near, 1e-4f);
+  k.far_rescale = static_cast<float>(k.r_max) / std::max(max_far, 1e-4f);
+  k.coverage_boost = 1.0f;
+  k.double_coc = true;
+  detail::Workspace ws;
+  Image tb, tn, blur, near, out(W, H, 4);
+  const mg::Rect src{0, 0, W, H};
+  std::vector<double> t[3];
+  core::with_threads(threads, [&] {
+    for (int it = 0; it < iters; ++it) {
+      const auto t0 = std::chrono::steady_clock::now();
+      mg::blur_horizontal_fast(fr.color, coc, src, k, 0, W / 4, tb, tn, ws);
+      const auto t1 = std::chrono::steady_clock::now();
+      mg::blur_vertical_fast(tb, tn, k, 0, H / 4, blur, near, ws);
+      const auto t2 = std::chrono::steady_clock::now();
+      mg::composite_fast(fr.color, coc, src, 0, 0, blur, near, k, src, out, ws);
+      const auto t3 = std::chrono::steady_clock::now();
+      if (it == 0 && iters > 1) continue;  // first frame allocates the workspace
+      t[0].push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      t[1].push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+      t[2].push_back(std::chrono::duration<double, std::milli>(t3 - t2).count());
+    }
+  });
+  const char* names[3] = {"P2 horizontal", "P3 vertical", "P4 composite"};
+  for (int i = 0; i < 3; ++i) {
+    std::sort(t[i].begin(), t[i].end());
+    std::printf("%-14s median %7.2f ms  min %7.2f ms  (%d threads, R_max %d)\n", names[i], t[i][t[i].size() / 2],
+                t[i][0], threads, k.r_max);
+  }
+}

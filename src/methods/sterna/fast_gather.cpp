@@ -79,6 +79,25 @@ __attribute__((always_inline)) inline void gather_seg(const float* base, const T
   }
 }
 
+// gather_seg for rows y (acc0) and y + 1 (acc1) at once: a tap's second source row for y is
+// its first for y + 1, so 6 loads serve two output vectors instead of 8. Each sum has the
+// operations and order of gather_seg.
+__attribute__((always_inline)) inline void gather_seg2(const float* base, const TapV* taps, int ntaps,
+                                                       std::ptrdiff_t pitch, V8* acc0, V8* acc1) {
+  for (int v = 0; v < kVecs; ++v) acc0[v] = acc1[v] = splat(0.0f);
+  for (int t = 0; t < ntaps; ++t) {
+    const V8 w00 = taps[t].w00, w10 = taps[t].w10, w01 = taps[t].w01, w11 = taps[t].w11;
+    const float* r0 = base + taps[t].off;
+    const float* r1 = r0 + pitch;
+    const float* r2 = r1 + pitch;
+    for (int v = 0; v < kVecs; ++v) {
+      const V8 c = load8(r1 + 8 * v), d = load8(r1 + 8 * v + 1);
+      acc0[v] += w00 * load8(r0 + 8 * v) + w10 * load8(r0 + 8 * v + 1) + w01 * c + w11 * d;
+      acc1[v] += w00 * c + w10 * d + w01 * load8(r2 + 8 * v) + w11 * load8(r2 + 8 * v + 1);
+    }
+  }
+}
+
 struct Job {
   const Buffers* b;
   const TapV* taps;
@@ -146,66 +165,77 @@ STERNA_SIMD void gather_strip(const Job& job, int tx0, int tx1, float* inv_den) 
   const std::ptrdiff_t pitch = b.near_src->width();
   const V8 inv_taps = splat(job.inv_taps);
   const V8 zero = splat(0.0f);
-  V8 acc[kVecs], res[kVecs], m[kVecs];
+  V8 acc[2][kVecs], res[kVecs];
+  // Σ taps for rows y and y + 1 (both when y + 1 < h) of plane `src`, into acc[0], acc[1].
+  // Rows come in pairs that share a tile row (kTile is even), so they share the field bits.
+  auto run = [&](const Image& src, int c, int y) {
+    const float* base = b.src_row(src, c, y) + x0;
+    prefetch_ahead(job, base, y, h, pitch);
+    if (y + 1 < h) {
+      prefetch_ahead(job, base + pitch, y + 1, h, pitch);
+      gather_seg2(base, job.taps, job.ntaps, pitch, acc[0], acc[1]);
+    } else {
+      gather_seg(base, job.taps, job.ntaps, pitch, acc[0]);
+    }
+  };
   // Near field: (1/49) Σ colour_h where nearBlur_h > 0, else colour_h.
   for (int c = 0; c < 4; ++c)
-    for (int y = 0; y < h; ++y) {
-      const float* base = b.src_row(*b.near_src, c, y) + x0;
-      if (c == 3 && job.near_alpha_const) {
-        const V8 na = splat(job.near_alpha);
-        V8 nbv[kVecs];
-        load_seg(b.near_blur->row(0, y), x0, n, nbv);
-        for (int v = 0; v < kVecs; ++v) res[v] = nbv[v] > zero ? na : load8(base + 8 * v);
-      } else if (seg_has(b, y / kTile, tx0, tx1, kNearBit)) {
-        prefetch_ahead(job, base, y, h, pitch);
-        gather_seg(base, job.taps, job.ntaps, pitch, acc);
-        V8 nbv[kVecs];
-        load_seg(b.near_blur->row(0, y), x0, n, nbv);
-        for (int v = 0; v < kVecs; ++v) {
-          const I8 mask = nbv[v] > zero;
-          res[v] = mask ? acc[v] * inv_taps : load8(base + 8 * v);
+    for (int y = 0; y < h; y += 2) {
+      const bool active = seg_has(b, y / kTile, tx0, tx1, kNearBit);
+      const bool gathered = active && !(c == 3 && job.near_alpha_const);
+      if (gathered) run(*b.near_src, c, y);
+      for (int r = 0; r < 2 && y + r < h; ++r) {
+        const float* base = b.src_row(*b.near_src, c, y + r) + x0;
+        if (active) {
+          V8 nbv[kVecs];
+          load_seg(b.near_blur->row(0, y + r), x0, n, nbv);
+          for (int v = 0; v < kVecs; ++v) {
+            const V8 g = gathered ? acc[r][v] * inv_taps : splat(job.near_alpha);
+            res[v] = nbv[v] > zero ? g : load8(base + 8 * v);
+          }
+        } else {
+          for (int v = 0; v < kVecs; ++v) res[v] = load8(base + 8 * v);
         }
-      } else {
-        for (int v = 0; v < kVecs; ++v) res[v] = load8(base + 8 * v);
+        store_seg(b.dof_near->row(c, y + r), x0, n, res);
       }
-      store_seg(b.dof_near->row(c, y), x0, n, res);
     }
   // Far field: the denominator Σ far_h first (kept as 1/den per texel), then the channels.
-  for (int y = 0; y < h; ++y) {
-    if (!seg_has(b, y / kTile, tx0, tx1, kFarBit)) {
-      if (job.far_alpha_is_den) {
+  for (int y = 0; y < h; y += 2) {
+    const bool active = seg_has(b, y / kTile, tx0, tx1, kFarBit);
+    if (active) run(*b.far_src, 4, y);
+    for (int r = 0; r < 2 && y + r < h; ++r) {
+      float* id = inv_den + static_cast<std::size_t>(y + r) * kSeg;
+      if (active) {
+        V8 m[kVecs];
+        for (int v = 0; v < kVecs; ++v) {
+          m[v] = 1.0f / acc[r][v];
+          store8(id + 8 * v, m[v]);
+        }
+        if (job.far_alpha_is_den) {  // alpha = Σ alpha_far / Σ far_h with the two sums equal
+          const float* fr = b.far_h_row(y + r) + x0;
+          for (int v = 0; v < kVecs; ++v) res[v] = load8(fr + 8 * v) > zero ? acc[r][v] * m[v] : zero;
+          store_seg(b.dof_far->row(3, y + r), x0, n, res);
+        }
+      } else if (job.far_alpha_is_den) {
         for (int v = 0; v < kVecs; ++v) res[v] = zero;
-        store_seg(b.dof_far->row(3, y), x0, n, res);
+        store_seg(b.dof_far->row(3, y + r), x0, n, res);
       }
-      continue;
-    }
-    prefetch_ahead(job, b.src_row(*b.far_src, 4, y) + x0, y, h, pitch);
-    gather_seg(b.src_row(*b.far_src, 4, y) + x0, job.taps, job.ntaps, pitch, acc);
-    for (int v = 0; v < kVecs; ++v) {
-      m[v] = 1.0f / acc[v];
-      store8(inv_den + static_cast<std::size_t>(y) * kSeg + 8 * v, m[v]);
-    }
-    if (job.far_alpha_is_den) {  // alpha = Σ alpha_far / Σ far_h with the two sums equal
-      const float* fr = b.far_h_row(y) + x0;
-      for (int v = 0; v < kVecs; ++v) res[v] = load8(fr + 8 * v) > zero ? acc[v] * m[v] : zero;
-      store_seg(b.dof_far->row(3, y), x0, n, res);
     }
   }
   for (int c = 0; c < (job.far_alpha_is_den ? 3 : 4); ++c)
-    for (int y = 0; y < h; ++y) {
-      if (seg_has(b, y / kTile, tx0, tx1, kFarBit)) {
-        prefetch_ahead(job, b.src_row(*b.far_src, c, y) + x0, y, h, pitch);
-        gather_seg(b.src_row(*b.far_src, c, y) + x0, job.taps, job.ntaps, pitch, acc);
-        const float* fr = b.far_h_row(y) + x0;  // padded plane: whole vectors are readable
-        for (int v = 0; v < kVecs; ++v) {
-          const I8 mask = load8(fr + 8 * v) > zero;
-          m[v] = load8(inv_den + static_cast<std::size_t>(y) * kSeg + 8 * v);
-          res[v] = mask ? acc[v] * m[v] : zero;
+    for (int y = 0; y < h; y += 2) {
+      const bool active = seg_has(b, y / kTile, tx0, tx1, kFarBit);
+      if (active) run(*b.far_src, c, y);
+      for (int r = 0; r < 2 && y + r < h; ++r) {
+        if (active) {
+          const float* fr = b.far_h_row(y + r) + x0;  // padded plane: whole vectors are readable
+          const float* id = inv_den + static_cast<std::size_t>(y + r) * kSeg;
+          for (int v = 0; v < kVecs; ++v) res[v] = load8(fr + 8 * v) > zero ? acc[r][v] * load8(id + 8 * v) : zero;
+        } else {
+          for (int v = 0; v < kVecs; ++v) res[v] = zero;
         }
-      } else {
-        for (int v = 0; v < kVecs; ++v) res[v] = zero;
+        store_seg(b.dof_far->row(c, y + r), x0, n, res);
       }
-      store_seg(b.dof_far->row(c, y), x0, n, res);
     }
 }
 
@@ -253,7 +283,10 @@ void gather(const Settings& s, Buffers& b) {
   b.tiles_y = (h + kTile - 1) / kTile;
   b.tiles->assign(static_cast<std::size_t>(b.tiles_x) * b.tiles_y, 0);
   // Per tile row: bit 1 = colour_h alpha is a0 there, bit 2 = colourFar_h alpha is far_h.
-  thread_local std::vector<std::uint8_t> alpha_rows;
+  // (Thread-local storage of the calling thread, grown once; the workers write through a
+  // pointer — naming the thread_local inside the lambda would give each worker its own.)
+  thread_local std::vector<std::uint8_t> alpha_rows_tls;
+  std::vector<std::uint8_t>& alpha_rows = alpha_rows_tls;
   alpha_rows.assign(static_cast<std::size_t>(b.tiles_y), 0);
   const float a0 = b.src_row(*b.near_src, 3, 0)[0];
   core::parallel_for(b.tiles_y, [&](int t0, int t1) {

@@ -60,12 +60,8 @@ void choose_kernel(const MethodContext& ctx, Settings& s) {
     // The far field usually covers most of the frame and is where the bokeh shows, so the
     // kernel takes the largest far radius; nearer pixels with larger radii saturate (near = 1)
     // and get this kernel too. Only a frame without far field sizes it by its near field.
-    float far_max = 0.0f, near_max = 0.0f;
-    const float* r = ctx.coc.plane(0);
-    for (std::size_t i = 0; i < ctx.coc.plane_size(); ++i) {
-      far_max = std::max(far_max, -r[i]);
-      near_max = std::max(near_max, r[i]);
-    }
+    const sterna::fast::CocRange range = sterna::fast::coc_range(ctx.coc);
+    const float far_max = range.far_max, near_max = range.near_max;
     radius_px = far_max > 0.5f ? far_max : near_max;
   }
   // A kernel below one full-res px would only resample; keep the ramp well defined.

@@ -121,10 +121,22 @@ __attribute__((always_inline)) inline void quad8(const V8 (&c)[4][4], const V8 (
     wsum += wk[k];
     for (int ch = 0; ch < 4; ++ch) acc[ch] += wk[k] * c[k][ch];
   }
-  for (int ch = 0; ch < 4; ++ch) store8(o.col[ch] + i, acc[ch] / wsum);
+  // Without Karis wsum is 4 exactly, and x/4 = x·¼ exactly (both are the rounded x/4).
+  for (int ch = 0; ch < 4; ++ch) store8(o.col[ch] + i, kKaris ? acc[ch] / wsum : acc[ch] * splat(0.25f));
   V8 bsum = zero, bacc[4] = {zero, zero, zero, zero};
+  // 1/(|Δfar| + 0.001) is 1/0.001f where Δfar = 0 (flat far field, or in focus): the same
+  // rounded quotient, so the division is skipped for vectors with Δfar = 0 in every lane.
+  const V8 flat = splat(1.0f / 0.001f);
   for (int k = 0; k < 4; ++k) {
-    const V8 wb = (k == 0 ? splat(1000.0f) : one / (vabs(far[k] - far[0]) + splat(0.001f))) * wk[k];
+    V8 wraw = splat(1000.0f);
+    if (k > 0) {
+      const V8 d = vabs(far[k] - far[0]);
+      std::uint64_t q[4];
+      const I8 nz = d != zero;
+      std::memcpy(q, &nz, sizeof q);
+      wraw = (q[0] | q[1] | q[2] | q[3]) ? one / (d + splat(0.001f)) : flat;
+    }
+    const V8 wb = wraw * wk[k];
     bsum += wb;
     for (int ch = 0; ch < 4; ++ch) bacc[ch] += wb * c[k][ch];
   }

@@ -166,11 +166,13 @@ TEST(SternaFast, RepeatedFramesOfChangingSizeReuseTheWorkspaceCorrectly) {
 }
 
 // Profiling harness (not run in CI): the `dofkit bench` frame at 1920x1080 rendered repeatedly
-// by one Renderer (steady state), 1 thread unless DOFKIT_THREADS is set, DOFKIT_FRAMES frames (10); prints the CPU time
+// by one Renderer (steady state), 1 thread unless DOFKIT_THREADS is set, DOFKIT_FRAMES frames (10), DOFKIT_SIZE=WxH (1920x1080); prints the CPU time
 // per frame. Use with perf: perf record build/test_sterna
 // --gtest_also_run_disabled_tests --gtest_filter=SternaFast.DISABLED_ProfileBenchFrame
 TEST(SternaFast, DISABLED_ProfileBenchFrame) {
-  const int w = 1920, h = 1080;
+  const char* size = std::getenv("DOFKIT_SIZE");  // WxH, default 1920x1080
+  int w = 1920, h = 1080;
+  if (size) std::sscanf(size, "%dx%d", &w, &h);
   const Frame f = scene::bench_frame(w, h);
   RenderSettings s = blur_at_infinity(4.0, 0.015 * w);
   s.camera.max_coc_px = 0.03 * w;

@@ -166,7 +166,8 @@ TEST(SternaFast, RepeatedFramesOfChangingSizeReuseTheWorkspaceCorrectly) {
 }
 
 // Profiling harness (not run in CI): the `dofkit bench` frame at 1920x1080 rendered repeatedly
-// by one Renderer (steady state), 1 thread unless DOFKIT_THREADS is set, DOFKIT_FRAMES frames (10), DOFKIT_SIZE=WxH (1920x1080); prints the CPU time
+// by one Renderer (steady state), 1 thread unless DOFKIT_THREADS is set, DOFKIT_FRAMES frames (10), DOFKIT_SIZE=WxH (1920x1080),
+// DOFKIT_STERNA_IMPL=plain|fast, DOFKIT_STERNA_SET=k=v,k=v; prints the CPU time
 // per frame. Use with perf: perf record build/test_sterna
 // --gtest_also_run_disabled_tests --gtest_filter=SternaFast.DISABLED_ProfileBenchFrame
 TEST(SternaFast, DISABLED_ProfileBenchFrame) {
@@ -180,6 +181,17 @@ TEST(SternaFast, DISABLED_ProfileBenchFrame) {
   s.threads = th ? std::atoi(th) : 1;
   const char* impl = std::getenv("DOFKIT_STERNA_IMPL");
   if (impl) s.params["impl"] = impl;
+  // DOFKIT_STERNA_SET=key=value,key=value: further parameters (e.g. bokeh=polygon).
+  if (const char* set = std::getenv("DOFKIT_STERNA_SET")) {
+    std::string all = set;
+    for (std::size_t pos = 0; pos < all.size();) {
+      const std::size_t end = std::min(all.find(',', pos), all.size());
+      const std::string kv = all.substr(pos, end - pos);
+      const std::size_t eq = kv.find('=');
+      if (eq != std::string::npos) s.params[kv.substr(0, eq)] = kv.substr(eq + 1);
+      pos = end + 1;
+    }
+  }
   Renderer r(s);
   r.render(f);
   const char* frames = std::getenv("DOFKIT_FRAMES");

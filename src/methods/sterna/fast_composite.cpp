@@ -24,6 +24,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <immintrin.h>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -206,6 +207,17 @@ STERNA_SIMD void composite_chunk(const Pair& R, int xa, int n) {
     chunk_t<1>(R, xa, n);
 }
 
+// In-focus chunks are copies. Non-temporal stores (where dst is 16-byte aligned) write them
+// without first reading the destination lines into the cache: 8.0 → 6.3 ms CPU for a 1080p
+// frame that is all copies. (Streaming the computed groups as well was slower: 8 scattered
+// 32-byte stores per group defeat the write-combining buffers.)
+void stream_copy(const float* src, float* dst, int n) {
+  int i = 0;
+  for (; i < n && (reinterpret_cast<std::uintptr_t>(dst + i) & 15) != 0; ++i) dst[i] = src[i];
+  for (; i + 4 <= n; i += 4) _mm_stream_ps(dst + i, _mm_loadu_ps(src + i));
+  for (; i < n; ++i) dst[i] = src[i];
+}
+
 std::vector<float>& scratch(int slot, std::size_t n) {
   thread_local std::vector<float> bufs[1];
   if (bufs[slot].size() < n) bufs[slot].resize(n);
@@ -263,8 +275,7 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
         R.near = wnear && cblend > 0.0f;
         if (!R.far && !R.near) {
           for (int r = 0; r < nrows; ++r)
-            for (int c = 0; c < 4; ++c)
-              std::copy(color.row(c, ys[r]) + xa, color.row(c, ys[r]) + xa + n, out.row(c, ys[r]) + xa);
+            for (int c = 0; c < 4; ++c) stream_copy(color.row(c, ys[r]) + xa, out.row(c, ys[r]) + xa, n);
           continue;
         }
         for (int r = 0; r < nrows; ++r) {
@@ -277,6 +288,7 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
         composite_chunk(R, xa, n);
       }
     }
+    _mm_sfence();  // the streamed copies are globally visible before the task completes
   }, 4);
 }
 

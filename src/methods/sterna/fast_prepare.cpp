@@ -215,6 +215,36 @@ void max_line(const float* in, float* out, int n, int r, std::vector<float>& buf
   for (int x = 0; x < n; ++x) out[x] = std::max(suf[x], pre[x + 2 * r]);
 }
 
+// The same row max by a sparse table: with p the largest power of two ≤ k = 2r + 1, the max
+// over a window of k equals the max of the two length-p blocks at its two ends, and length-p
+// block maxima take log2(p) passes of pairwise maxima (each pass doubles the block). Every
+// pass is an element-wise loop (vectorised), against the three dependent scans of max_line.
+// Max of non-negative finite values (near factors, +0 never −0) is exact in any order, so the
+// result equals max_line's.
+STERNA_SIMD void max_pass(float* __restrict dst, const float* __restrict src, int s, int n) {
+  for (int i = 0; i < n; ++i) dst[i] = std::max(src[i], src[i + s]);
+}
+
+void max_line_blocks(const float* in, float* out, int n, int r, std::vector<float>& buf) {
+  const int k = 2 * r + 1;
+  int p = 1;
+  while (2 * p <= k) p *= 2;
+  const int len = n + 2 * r;  // padded row: r zeros, the row, r zeros
+  const std::size_t stride = static_cast<std::size_t>(len) + p;
+  if (buf.size() < 2 * stride) buf.resize(2 * stride);
+  float* cur = buf.data();
+  float* nxt = cur + stride;
+  std::fill(cur, cur + r, 0.0f);
+  std::copy(in, in + n, cur + r);
+  std::fill(cur + r + n, cur + stride, 0.0f);
+  std::fill(nxt + len, nxt + stride, 0.0f);
+  for (int s = 1; s < p; s *= 2) {  // cur[i] = max over [i, i + s) → nxt[i] = max over [i, i + 2s)
+    max_pass(nxt, cur, s, len);
+    std::swap(cur, nxt);
+  }
+  max_pass(out, cur, k - p, n);  // window [x, x + k) of the padded row = [x − r, x + r]
+}
+
 }  // namespace
 
 void BlendRow::init(const MethodContext& c, const Settings& s) {
@@ -293,7 +323,7 @@ void dilate(const Settings& s, Buffers& b) {
   // P3: max along x, per row.
   core::parallel_for(h, [&](int y0, int y1) {
     std::vector<float>& buf = scratch(3, 0);
-    for (int y = y0; y < y1; ++y) max_line(b.near_h->row(0, y), b.tmp->row(0, y), w, r, buf);
+    for (int y = y0; y < y1; ++y) max_line_blocks(b.near_h->row(0, y), b.tmp->row(0, y), w, r, buf);
   }, 8);
   // P4: max along y. Padded row index p in [0, P) holds row p - r (zero outside the image);
   // each block of k rows gets its prefix maxima (pre) and suffix maxima (suf), and row y is

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/parallel.hpp"
+#include "methods/starcraft/final_simd.hpp"
 #include "methods/starcraft/starcraft.hpp"
 
 namespace dofkit::detail::starcraft {
@@ -108,33 +109,60 @@ void final_pass_plain(const Image& color, const Image& depth, const Image& level
 
 // The same pass organised by rows for speed (the plain version above is its test oracle):
 // the quarter-res planes are interpolated vertically once per row and horizontally into
-// full-width rows, the per-pixel level decision is made once for all channels, and the small
-// blur reads five clamp-padded source rows, so every inner loop is branch-free and vectorises
-// (compiled for AVX-512, AVX2 and baseline x86-64, chosen at run time).
+// full-width rows, the per-pixel level decision is made once for all channels, and the
+// small blur reads the five source rows around y in place. The interior of each row runs in
+// the Highway kernels of final_simd.cpp (run-time dispatch: AVX-512, AVX2, SSE4, ...); the
+// two columns at each border, where the small blur's taps are clamped, and the tails use the
+// scalar form below, which has the same arithmetic.
 namespace {
 
 struct RowScratch {
-  std::vector<float> vrow, hrow, ws, wm, wl, wsrc, pad;
+  std::vector<float> vrow, hrow, ws, wm, wl, wsrc;
 };
 
 struct FinalGeometry {
   int w, h, lw, lh;
-  const int* xa;
-  const int* xb;
-  const float* tx;
 };
 
-constexpr int kPad = 2;
+/// Scalar weights of pixel x (same operations as FinalWeights).
+inline bool weights_scalar(const WeightRow& r, int x) {
+  constexpr float kTieTolerance = 1e-5f;
+  float c = r.inv_blur[x] <= (1.0f / r.z[x]) * (1.0f + kTieTolerance) ? r.cown[x] : r.cb[x];
+  if (r.keep_own_blur) c = std::max(c, r.cown[x]);
+  const LevelWeights lwt = level_weights(c);
+  r.ws[x] = lwt.small;
+  r.wm[x] = lwt.medium;
+  r.wl[x] = lwt.large;
+  const float alpha = (16.0f / 17.0f) * lwt.small + lwt.medium + lwt.large;
+  r.wsrc[x] = 1.0f - alpha;
+  return alpha != 0.0f;
+}
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
+/// Scalar mix of pixel x, the small blur's columns clamped to [0, w − 1].
+inline void mix_scalar(const MixRow& r, int x, int w) {
+  constexpr float kTiny = 1e-6f;
+  if (r.wsrc[x] == 1.0f) {
+    r.out[x] = r.src[x];
+    return;
+  }
+  auto at = [&](int k, int dx) { return r.rows[k][clampi(x + dx, 0, w - 1)]; };
+  const float small = ((at(0, 0) + at(0, 1) + at(1, 0) + at(1, 1)) + (at(1, -2) + at(1, -1) + at(2, -2) + at(2, -1)) +
+                       (at(3, -1) + at(3, 0) + at(4, -1) + at(4, 0)) + (at(2, 1) + at(2, 2) + at(3, 1) + at(3, 2))) *
+                      (1.0f / 17.0f);
+  const float med = r.med[x];
+  const float lg = r.cb[x] > kTiny ? r.num[x] / r.cb[x] : med;
+  r.out[x] = r.ws[x] * small + r.wm[x] * med + r.wl[x] * lg + r.wsrc[x] * r.src[x];
+}
+
 void final_row(const Image& color, const Image& depth, const Image& level, const Image& medium,
                const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
                const FinalGeometry& g, RowScratch& sc, int y) {
-  constexpr float kTiny = 1e-6f;
-  constexpr float kTieTolerance = 1e-5f;
   const int w = g.w, h = g.h, lw = g.lw, lh = g.lh;
   // Vertical lerp of the quarter-res rows around this row, then horizontal lerp to full res:
   // planes 0-3 numerators, 4 the blurred level (normaliser), 5 the blurred inverse depth.
+  // Column x = 4i + k sits at quarter-res coordinate i + (2k − 3)/8, so the horizontal
+  // footprint repeats every 4 columns: k = 0, 1 lerp cells (i − 1, i) at 5/8, 7/8 and
+  // k = 2, 3 lerp cells (i, i + 1) at 1/8, 3/8, with indices clamped to the grid.
   const float fy = (y + 0.5f) / kDown - 0.5f;
   const float y0f = std::floor(fy);
   const float ty = fy - y0f;
@@ -147,29 +175,20 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
     float* v = sc.vrow.data() + static_cast<std::size_t>(p) * lw;
     for (int i = 0; i < lw; ++i) v[i] = ra[i] + (rb[i] - ra[i]) * ty;
     float* hr = sc.hrow.data() + static_cast<std::size_t>(p) * w;
-    for (int x = 0; x < w; ++x) hr[x] = v[g.xa[x]] + (v[g.xb[x]] - v[g.xa[x]]) * g.tx[x];
+    for (int i = 0; i < lw; ++i) {
+      const float vl = v[i > 0 ? i - 1 : 0], vc = v[i], vr = v[i + 1 < lw ? i + 1 : lw - 1];
+      const float e[4] = {vl + (vc - vl) * 0.625f, vl + (vc - vl) * 0.875f, vc + (vr - vc) * 0.125f,
+                          vc + (vr - vc) * 0.375f};
+      const int n = std::min(4, w - 4 * i);
+      for (int k = 0; k < n; ++k) hr[4 * i + k] = e[k];
+    }
   }
   const float* cb = sc.hrow.data() + static_cast<std::size_t>(4) * w;
-  const float* inv_blur = sc.hrow.data() + static_cast<std::size_t>(5) * w;
   // Level decision and weights, once per pixel.
-  const float* cown = level.row(0, y);
-  const float* z = depth.row(0, y);
-  float* ws = sc.ws.data();
-  float* wm = sc.wm.data();
-  float* wl = sc.wl.data();
-  float* wsrc = sc.wsrc.data();
-  int any = 0;
-  for (int x = 0; x < w; ++x) {
-    float c = inv_blur[x] <= (1.0f / z[x]) * (1.0f + kTieTolerance) ? cown[x] : cb[x];
-    if (keep_own_blur) c = std::max(c, cown[x]);
-    const LevelWeights lwt = level_weights(c);
-    ws[x] = lwt.small;
-    wm[x] = lwt.medium;
-    wl[x] = lwt.large;
-    const float alpha = (16.0f / 17.0f) * lwt.small + lwt.medium + lwt.large;
-    wsrc[x] = 1.0f - alpha;
-    any |= alpha != 0.0f;
-  }
+  const WeightRow wr{level.row(0, y), depth.row(0, y), sc.hrow.data() + static_cast<std::size_t>(5) * w, cb,
+                     keep_own_blur, sc.ws.data(), sc.wm.data(), sc.wl.data(), sc.wsrc.data()};
+  bool any = false;
+  for (int x = final_weights_simd(wr, 0, w, any); x < w; ++x) any |= weights_scalar(wr, x);
   for (int ch = 0; ch < 4; ++ch) {
     const float* src = color.row(ch, y);
     float* o = out.row(ch, y);
@@ -177,43 +196,13 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
       std::copy(src, src + w, o);
       continue;
     }
-    // Rows y−2 … y+2, clamp-padded by 2 px on each side.
-    const std::size_t stride = w + 2 * kPad;
-    for (int k = 0; k < 5; ++k) {
-      const float* r = color.row(ch, clampi(y + k - 2, 0, h - 1));
-      float* d = sc.pad.data() + static_cast<std::size_t>(k) * stride;
-      std::copy(r, r + w, d + kPad);
-      for (int i = 0; i < kPad; ++i) {
-        d[i] = r[0];
-        d[w + kPad + i] = r[w - 1];
-      }
-    }
-    const float* __restrict m2 = sc.pad.data() + kPad;  // row y−2 at column 0
-    const float* __restrict m1 = m2 + stride;
-    const float* __restrict r0 = m1 + stride;
-    const float* __restrict p1 = r0 + stride;
-    const float* __restrict p2 = p1 + stride;
-    const float* __restrict med = medium.row(ch, y);
-    const float* __restrict num = sc.hrow.data() + static_cast<std::size_t>(ch) * w;
-    const float* __restrict s = src;
-    const float* __restrict cbr = cb;
-    const float* __restrict wsr = ws;
-    const float* __restrict wmr = wm;
-    const float* __restrict wlr = wl;
-    const float* __restrict wsrcr = wsrc;
-    float* __restrict od = o;
-    // Same arithmetic as the plain pass; the division's denominator is made safe before the
-    // select so the loop has no branch (and no trapping lane).
-    for (int x = 0; x < w; ++x) {
-      const float small = ((m2[x] + m2[x + 1] + m1[x] + m1[x + 1]) + (m1[x - 2] + m1[x - 1] + r0[x - 2] + r0[x - 1]) +
-                           (p1[x - 1] + p1[x] + p2[x - 1] + p2[x]) + (r0[x + 1] + r0[x + 2] + p1[x + 1] + p1[x + 2])) *
-                          (1.0f / 17.0f);
-      const bool has_large = cbr[x] > kTiny;
-      const float q = num[x] / (has_large ? cbr[x] : 1.0f);
-      const float lg = has_large ? q : med[x];
-      const float mixed = wsr[x] * small + wmr[x] * med[x] + wlr[x] * lg + wsrcr[x] * s[x];
-      od[x] = wsrcr[x] == 1.0f ? s[x] : mixed;
-    }
+    MixRow mr{{}, medium.row(ch, y), sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm, wr.wl,
+              wr.wsrc, src, o};
+    for (int k = 0; k < 5; ++k) mr.rows[k] = color.row(ch, clampi(y + k - 2, 0, h - 1));
+    // Columns 2 … w − 3 read x − 2 … x + 2 without clamping.
+    const int lo = std::min(2, w), hi = std::max(lo, w - 2);
+    for (int x = 0; x < lo; ++x) mix_scalar(mr, x, w);
+    for (int x = final_mix_simd(mr, lo, hi); x < w; ++x) mix_scalar(mr, x, w);
   }
 }
 
@@ -229,26 +218,12 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
   const int w = color.width(), h = color.height();
   const int lw = large.width(), lh = large.height();
   out.resize(w, h, 4);
-  // Horizontal bilinear footprint of each full-res column on the quarter-res grid.
-  thread_local std::vector<int> xa, xb;
-  thread_local std::vector<float> tx;
-  xa.resize(w);
-  xb.resize(w);
-  tx.resize(w);
-  for (int x = 0; x < w; ++x) {
-    const float fx = (x + 0.5f) / kDown - 0.5f;
-    const float x0f = std::floor(fx);
-    tx[x] = fx - x0f;
-    xa[x] = clampi(static_cast<int>(x0f), 0, lw - 1);
-    xb[x] = clampi(static_cast<int>(x0f) + 1, 0, lw - 1);
-  }
-  const FinalGeometry g{w, h, lw, lh, xa.data(), xb.data(), tx.data()};
+  const FinalGeometry g{w, h, lw, lh};
   core::parallel_for(h, [&](int y0, int y1) {
     thread_local RowScratch sc;  // per worker, kept between frames
     sc.vrow.resize(static_cast<std::size_t>(lw) * 6);
     sc.hrow.resize(static_cast<std::size_t>(w) * 6);
     for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
-    sc.pad.resize(static_cast<std::size_t>(w + 2 * kPad) * 5);
     for (int y = y0; y < y1; ++y)
       final_row(color, depth, level, medium, large, inv_depth, keep_own_blur, out, g, sc, y);
   }, 8);

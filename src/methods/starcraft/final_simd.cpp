@@ -1,0 +1,108 @@
+// Highway kernels of the final pass (declared in final_simd.hpp). The arithmetic is the
+// plain pass's, operation for operation (same association of the sums, separate multiply
+// and add), so the scalar edges and tails in final.cpp produce the same values.
+#include "methods/starcraft/final_simd.hpp"
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "methods/starcraft/final_simd.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+HWY_BEFORE_NAMESPACE();
+namespace dofkit::detail::starcraft {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+int FinalWeights(const WeightRow& r, int x0, int x1, bool& any) {
+  const hn::ScalableTag<float> d;
+  const int n = static_cast<int>(hn::Lanes(d));
+  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f);
+  const auto tie = hn::Set(d, 1.0f + 1e-5f);
+  const auto k2 = hn::Set(d, 2.0f), k3 = hn::Set(d, 3.0f), k4 = hn::Set(d, 4.0f);
+  const auto k16_17 = hn::Set(d, 16.0f / 17.0f);
+  auto alpha_max = zero;  // alpha >= 0, so "some alpha != 0" is "max alpha > 0"
+  int x = x0;
+  for (; x + n <= x1; x += n) {
+    const auto cown = hn::LoadU(d, r.cown + x);
+    const auto inv_own = hn::Div(one, hn::LoadU(d, r.z + x));
+    // Rule 3: the blurred neighbourhood lies behind (or level with) the pixel → own level.
+    const auto behind = hn::Le(hn::LoadU(d, r.inv_blur + x), hn::Mul(inv_own, tie));
+    auto c = hn::IfThenElse(behind, cown, hn::LoadU(d, r.cb + x));
+    if (r.keep_own_blur) c = hn::Max(c, cown);
+    // level_weights with d0 = 0.5, d1 = d2 = 0.25: the divisions by powers of two are the
+    // exact multiplications by 2 and 4 used here.
+    auto sat = [&](auto v) { return hn::Min(hn::Max(v, zero), one); };
+    const auto c2 = hn::Mul(c, k2), c4 = hn::Mul(c, k4);
+    const auto xw = sat(hn::Sub(one, c2));
+    const auto yw = sat(hn::Sub(k3, c4));
+    const auto zw = sat(hn::Sub(k4, c4));
+    const auto ww = sat(hn::Add(hn::Neg(k3), c4));
+    const auto ys = hn::Min(yw, hn::Sub(one, xw));
+    const auto zs = hn::Min(zw, hn::Sub(one, yw));
+    const auto alpha = hn::Add(hn::Add(hn::Mul(k16_17, ys), zs), ww);
+    hn::StoreU(ys, d, r.ws + x);
+    hn::StoreU(zs, d, r.wm + x);
+    hn::StoreU(ww, d, r.wl + x);
+    hn::StoreU(hn::Sub(one, alpha), d, r.wsrc + x);
+    alpha_max = hn::Max(alpha_max, alpha);
+  }
+  if (!hn::AllTrue(d, hn::Eq(alpha_max, zero))) any = true;
+  return x;
+}
+
+int FinalMix(const MixRow& r, int x0, int x1) {
+  const hn::ScalableTag<float> d;
+  const int n = static_cast<int>(hn::Lanes(d));
+  const auto one = hn::Set(d, 1.0f), tiny = hn::Set(d, 1e-6f), k17 = hn::Set(d, 1.0f / 17.0f);
+  const float* m2 = r.rows[0];
+  const float* m1 = r.rows[1];
+  const float* r0 = r.rows[2];
+  const float* p1 = r.rows[3];
+  const float* p2 = r.rows[4];
+  int x = x0;
+  for (; x + n <= x1; x += n) {
+    const auto s = hn::LoadU(d, r.src + x);
+    const auto wsrc = hn::LoadU(d, r.wsrc + x);
+    const auto focus = hn::Eq(wsrc, one);
+    if (hn::AllTrue(d, focus)) {  // every lane in focus: the source, bit for bit
+      hn::StoreU(s, d, r.out + x);
+      continue;
+    }
+    auto L = [&](const float* p, int o) { return hn::LoadU(d, p + x + o); };
+    // The four 2×2 blocks of the pinwheel, each summed left to right as in the plain pass.
+    const auto t0 = hn::Add(hn::Add(hn::Add(L(m2, 0), L(m2, 1)), L(m1, 0)), L(m1, 1));
+    const auto t1 = hn::Add(hn::Add(hn::Add(L(m1, -2), L(m1, -1)), L(r0, -2)), L(r0, -1));
+    const auto t2 = hn::Add(hn::Add(hn::Add(L(p1, -1), L(p1, 0)), L(p2, -1)), L(p2, 0));
+    const auto t3 = hn::Add(hn::Add(hn::Add(L(r0, 1), L(r0, 2)), L(p1, 1)), L(p1, 2));
+    const auto small = hn::Mul(hn::Add(hn::Add(hn::Add(t0, t1), t2), t3), k17);
+    const auto med = hn::LoadU(d, r.med + x);
+    const auto cb = hn::LoadU(d, r.cb + x);
+    const auto has_large = hn::Gt(cb, tiny);
+    const auto q = hn::Div(hn::LoadU(d, r.num + x), hn::IfThenElse(has_large, cb, one));
+    const auto lg = hn::IfThenElse(has_large, q, med);
+    const auto mixed = hn::Add(hn::Add(hn::Add(hn::Mul(hn::LoadU(d, r.ws + x), small),
+                                               hn::Mul(hn::LoadU(d, r.wm + x), med)),
+                                       hn::Mul(hn::LoadU(d, r.wl + x), lg)),
+                               hn::Mul(wsrc, s));
+    hn::StoreU(hn::IfThenElse(focus, s, mixed), d, r.out + x);
+  }
+  return x;
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace dofkit::detail::starcraft
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace dofkit::detail::starcraft {
+
+HWY_EXPORT(FinalWeights);
+HWY_EXPORT(FinalMix);
+
+int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any) {
+  return HWY_DYNAMIC_DISPATCH(FinalWeights)(r, x0, x1, any);
+}
+int final_mix_simd(const MixRow& r, int x0, int x1) { return HWY_DYNAMIC_DISPATCH(FinalMix)(r, x0, x1); }
+
+}  // namespace dofkit::detail::starcraft
+#endif  // HWY_ONCE

@@ -1,0 +1,41 @@
+// SIMD kernels of the final pass (final.cpp), Highway with run-time dispatch (final_simd.cpp).
+// Each processes whole vectors from `x0` and returns the first column it did not process;
+// the caller finishes the row with the scalar form of the same arithmetic.
+#pragma once
+
+namespace dofkit::detail::starcraft {
+
+/// Per-pixel level decision and level weights of one row (see final.cpp step 2 and 4):
+/// ws/wm/wl = small/medium/large weights, wsrc = 1 − alpha (the source's share).
+/// `any` is set when some processed pixel has alpha != 0.
+struct WeightRow {
+  const float* cown;      ///< own level c (C1), full res
+  const float* z;         ///< depth (m; +inf allowed)
+  const float* inv_blur;  ///< blurred 1/z, up-sampled to full res
+  const float* cb;        ///< blurred level (C3 plane 4), up-sampled
+  bool keep_own_blur;
+  float* ws;
+  float* wm;
+  float* wl;
+  float* wsrc;
+};
+int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any);
+
+/// Mix of one channel of one row: the 17-tap small blur read from five source rows
+/// rows[0..4] = y−2 … y+2 (x−2 … x+2 must be valid columns), the medium level, the large
+/// numerator `num` over the up-sampled blurred level `cb`, blended over `src`.
+struct MixRow {
+  const float* rows[5];
+  const float* med;
+  const float* num;
+  const float* cb;
+  const float* ws;
+  const float* wm;
+  const float* wl;
+  const float* wsrc;
+  const float* src;
+  float* out;
+};
+int final_mix_simd(const MixRow& r, int x0, int x1);
+
+}  // namespace dofkit::detail::starcraft

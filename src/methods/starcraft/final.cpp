@@ -175,13 +175,16 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
     float* v = sc.vrow.data() + static_cast<std::size_t>(p) * lw;
     for (int i = 0; i < lw; ++i) v[i] = ra[i] + (rb[i] - ra[i]) * ty;
     float* hr = sc.hrow.data() + static_cast<std::size_t>(p) * w;
-    for (int i = 0; i < lw; ++i) {
+    auto cell = [&](int i) {
       const float vl = v[i > 0 ? i - 1 : 0], vc = v[i], vr = v[i + 1 < lw ? i + 1 : lw - 1];
       const float e[4] = {vl + (vc - vl) * 0.625f, vl + (vc - vl) * 0.875f, vc + (vr - vc) * 0.125f,
                           vc + (vr - vc) * 0.375f};
       const int n = std::min(4, w - 4 * i);
       for (int k = 0; k < n; ++k) hr[4 * i + k] = e[k];
-    }
+    };
+    cell(0);
+    // Cells 1 … lw − 2 have both neighbours and all four columns inside the row.
+    for (int i = lw > 2 ? final_hlerp_simd(v, hr, 1, lw - 1) : 1; i < lw; ++i) cell(i);
   }
   const float* cb = sc.hrow.data() + static_cast<std::size_t>(4) * w;
   // Level decision and weights, once per pixel.

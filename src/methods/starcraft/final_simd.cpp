@@ -3,6 +3,8 @@
 // and add), so the scalar edges and tails in final.cpp produce the same values.
 #include "methods/starcraft/final_simd.hpp"
 
+#include <cstddef>
+
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "methods/starcraft/final_simd.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -89,6 +91,20 @@ int FinalMix(const MixRow& r, int x0, int x1) {
   return x;
 }
 
+int FinalHlerp(const float* v, float* out, int i0, int i1) {
+  const hn::ScalableTag<float> d;
+  const int n = static_cast<int>(hn::Lanes(d));
+  const auto t0 = hn::Set(d, 0.625f), t1 = hn::Set(d, 0.875f), t2 = hn::Set(d, 0.125f), t3 = hn::Set(d, 0.375f);
+  int i = i0;
+  for (; i + n <= i1; i += n) {
+    const auto vl = hn::LoadU(d, v + i - 1), vc = hn::LoadU(d, v + i), vr = hn::LoadU(d, v + i + 1);
+    const auto dl = hn::Sub(vc, vl), dr = hn::Sub(vr, vc);
+    hn::StoreInterleaved4(hn::Add(vl, hn::Mul(dl, t0)), hn::Add(vl, hn::Mul(dl, t1)), hn::Add(vc, hn::Mul(dr, t2)),
+                          hn::Add(vc, hn::Mul(dr, t3)), d, out + 4 * static_cast<std::ptrdiff_t>(i));
+  }
+  return i;
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::starcraft
 HWY_AFTER_NAMESPACE();
@@ -98,11 +114,15 @@ namespace dofkit::detail::starcraft {
 
 HWY_EXPORT(FinalWeights);
 HWY_EXPORT(FinalMix);
+HWY_EXPORT(FinalHlerp);
 
 int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any) {
   return HWY_DYNAMIC_DISPATCH(FinalWeights)(r, x0, x1, any);
 }
 int final_mix_simd(const MixRow& r, int x0, int x1) { return HWY_DYNAMIC_DISPATCH(FinalMix)(r, x0, x1); }
+int final_hlerp_simd(const float* v, float* out, int i0, int i1) {
+  return HWY_DYNAMIC_DISPATCH(FinalHlerp)(v, out, i0, i1);
+}
 
 }  // namespace dofkit::detail::starcraft
 #endif  // HWY_ONCE

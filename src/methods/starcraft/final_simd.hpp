@@ -38,4 +38,8 @@ struct MixRow {
 };
 int final_mix_simd(const MixRow& r, int x0, int x1);
 
+/// Horizontal up-sampling of one quarter-res row `v` to full res: cell i writes columns
+/// 4i … 4i + 3 (see final.cpp). Reads v[i − 1 … i + 1]: valid for 1 <= i < lw − 1.
+int final_hlerp_simd(const float* v, float* out, int i0, int i1);
+
 }  // namespace dofkit::detail::starcraft

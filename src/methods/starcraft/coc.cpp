@@ -53,16 +53,6 @@ LevelGeometry make_geometry(const MethodContext& ctx, const Settings& s) {
   return g;
 }
 
-float LevelGeometry::level_of_radius(float r) const {
-  // Work in v = r² − 0.25 (variance × 4 above the in-focus disc); levels at v_s, v_m, v_l.
-  const float v = std::max(0.0f, r * r - 0.25f);
-  const float vs = r_small * r_small - 0.25f, vm = r_medium * r_medium - 0.25f, vl = r_large * r_large - 0.25f;
-  if (v <= vs) return 0.5f * v / vs;
-  if (v <= vm) return 0.5f + 0.25f * (v - vs) / (vm - vs);
-  if (v <= vl) return 0.75f + 0.25f * (v - vm) / (vl - vm);
-  return 1.0f;
-}
-
 void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& level) {
   const int w = ctx.frame.width(), h = ctx.frame.height();
   level.resize(w, h, 1);

@@ -18,6 +18,7 @@
 // * RGBA premultiplied throughout; alpha is blurred like colour.
 // * A tie in the depth test (flat neighbourhood) keeps the pixel's own level.
 #pragma once
+#include <algorithm>
 #include <vector>
 
 #include "dofkit/image.hpp"
@@ -56,6 +57,17 @@ struct LevelGeometry {
   /// removed first (r² − 0.25), so |r| <= 0.5 px gives c = 0 exactly.
   float level_of_radius(float r) const;
 };
+
+// Inline so compute_levels' per-pixel loop is not a call per pixel.
+inline float LevelGeometry::level_of_radius(float r) const {
+  // Work in v = r² − 0.25 (variance × 4 above the in-focus disc); levels at v_s, v_m, v_l.
+  const float v = std::max(0.0f, r * r - 0.25f);
+  const float vs = r_small * r_small - 0.25f, vm = r_medium * r_medium - 0.25f, vl = r_large * r_large - 0.25f;
+  if (v <= vs) return 0.5f * v / vs;
+  if (v <= vm) return 0.5f + 0.25f * (v - vs) / (vm - vs);
+  if (v <= vl) return 0.75f + 0.25f * (v - vm) / (vl - vm);
+  return 1.0f;
+}
 
 /// Tunable parameters (the --set keys; see starcraft.cpp for the documentation).
 struct Settings {

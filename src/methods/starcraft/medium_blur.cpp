@@ -7,6 +7,7 @@
 
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
+#include "methods/starcraft/final_simd.hpp"
 #include "methods/starcraft/starcraft.hpp"
 
 namespace dofkit::detail::starcraft {
@@ -16,14 +17,18 @@ void medium_blur(const Image& color, const Image& level, float sigma, Image& med
   const int w = color.width(), h = color.height();
   medium.resize(w, h, 4);
   weight.resize(w, h, 1);
-  std::copy(level.data().begin(), level.data().end(), weight.data().begin());
+  // fast: the weight plane is filled row by row with the weighting (one pass over the rows
+  // instead of a separate copy), the multiply and the normalisation below run in the SIMD
+  // kernels of final_simd.cpp; same arithmetic, bit for bit.
+  if (plain) std::copy(level.data().begin(), level.data().end(), weight.data().begin());
   core::parallel_for(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* c = level.row(0, y);
+      if (!plain) std::copy(c, c + w, weight.row(0, y));
       for (int ch = 0; ch < 4; ++ch) {
         const float* s = color.row(ch, y);
         float* d = medium.row(ch, y);
-        for (int x = 0; x < w; ++x) d[x] = c[x] * s[x];
+        for (int x = plain ? 0 : medium_weigh_simd(c, s, d, 0, w); x < w; ++x) d[x] = c[x] * s[x];
       }
     }
   }, 16);
@@ -39,7 +44,8 @@ void medium_blur(const Image& color, const Image& level, float sigma, Image& med
       for (int ch = 0; ch < 4; ++ch) {
         const float* s = color.row(ch, y);
         float* d = medium.row(ch, y);
-        for (int x = 0; x < w; ++x) d[x] = wt[x] > kTiny ? d[x] / wt[x] : s[x];
+        for (int x = plain ? 0 : medium_normalise_simd(wt, s, d, 0, w); x < w; ++x)
+          d[x] = wt[x] > kTiny ? d[x] / wt[x] : s[x];
       }
     }
   }, 16);

@@ -127,6 +127,40 @@ int MediumNormalise(const float* wt, const float* src, float* dst, int x0, int x
   return x;
 }
 
+int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1) {
+  const hn::ScalableTag<float> d;
+  const int n = static_cast<int>(hn::Lanes(d));
+  const auto zero = hn::Zero(d), inv16 = hn::Set(d, 1.0f / 16.0f);
+  int i = i0;
+  for (; i + n <= i1; i += n) {
+    // LoadInterleaved4 splits 4n consecutive pixels into the 4 columns of n blocks.
+    auto csum = zero, cmax = zero;
+    decltype(csum) wsum[4] = {zero, zero, zero, zero}, psum[4] = {zero, zero, zero, zero};
+    for (int k = 0; k < 4; ++k) {
+      decltype(csum) c0, c1, c2, c3;
+      hn::LoadInterleaved4(d, rows[k][4] + 4 * static_cast<std::ptrdiff_t>(i), c0, c1, c2, c3);
+      csum = hn::Add(csum, hn::Add(hn::Add(c0, c1), hn::Add(c2, c3)));
+      cmax = hn::Max(cmax, hn::Max(hn::Max(c0, c1), hn::Max(c2, c3)));
+      for (int ch = 0; ch < 4; ++ch) {
+        decltype(csum) s0, s1, s2, s3;
+        hn::LoadInterleaved4(d, rows[k][ch] + 4 * static_cast<std::ptrdiff_t>(i), s0, s1, s2, s3);
+        wsum[ch] = hn::Add(wsum[ch], hn::Add(hn::Add(hn::Mul(c0, s0), hn::Mul(c1, s1)),
+                                             hn::Add(hn::Mul(c2, s2), hn::Mul(c3, s3))));
+        psum[ch] = hn::Add(psum[ch], hn::Add(hn::Add(s0, s1), hn::Add(s2, s3)));
+      }
+    }
+    const auto cb = reduce_max ? cmax : hn::Mul(csum, inv16);
+    const auto has = hn::Gt(csum, zero);
+    const auto den = hn::IfThenElse(has, csum, hn::Set(d, 1.0f));
+    for (int ch = 0; ch < 4; ++ch) {
+      const auto col = hn::IfThenElse(has, hn::Div(wsum[ch], den), hn::Mul(psum[ch], inv16));
+      hn::StoreU(hn::Mul(cb, col), d, out[ch] + i);
+    }
+    hn::StoreU(cb, d, out[4] + i);
+  }
+  return i;
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::starcraft
 HWY_AFTER_NAMESPACE();
@@ -139,6 +173,7 @@ HWY_EXPORT(FinalMix);
 HWY_EXPORT(FinalHlerp);
 HWY_EXPORT(MediumWeigh);
 HWY_EXPORT(MediumNormalise);
+HWY_EXPORT(LargeReduce);
 
 int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any) {
   return HWY_DYNAMIC_DISPATCH(FinalWeights)(r, x0, x1, any);
@@ -152,6 +187,9 @@ int medium_weigh_simd(const float* c, const float* src, float* dst, int x0, int 
 }
 int medium_normalise_simd(const float* wt, const float* src, float* d, int x0, int x1) {
   return HWY_DYNAMIC_DISPATCH(MediumNormalise)(wt, src, d, x0, x1);
+}
+int large_reduce_simd(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1) {
+  return HWY_DYNAMIC_DISPATCH(LargeReduce)(rows, reduce_max, out, i0, i1);
 }
 
 }  // namespace dofkit::detail::starcraft

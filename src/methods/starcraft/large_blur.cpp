@@ -13,6 +13,7 @@
 
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
+#include "methods/starcraft/final_simd.hpp"
 #include "methods/starcraft/starcraft.hpp"
 
 namespace dofkit::detail::starcraft {
@@ -22,32 +23,46 @@ void large_blur(const Image& color, const Image& level, float sigma_total, bool 
   const int w = color.width(), h = color.height();
   const int lw = down_size(w), lh = down_size(h);
   large.resize(lw, lh, 5);
+  // One block in the plain form (double sums). The fast form uses it only for the partial
+  // blocks at the right and bottom borders.
+  auto block = [&](int i, int j) {
+    double wsum[4] = {0, 0, 0, 0}, psum[4] = {0, 0, 0, 0}, csum = 0;
+    float cmax = 0;
+    int n = 0;
+    for (int y = j * kDown; y < std::min(h, (j + 1) * kDown); ++y) {
+      const float* c = level.row(0, y);
+      for (int x = i * kDown; x < std::min(w, (i + 1) * kDown); ++x, ++n) {
+        csum += c[x];
+        cmax = std::max(cmax, c[x]);
+        for (int ch = 0; ch < 4; ++ch) {
+          const float v = color.row(ch, y)[x];
+          wsum[ch] += static_cast<double>(c[x]) * v;
+          psum[ch] += v;
+        }
+      }
+    }
+    const double cb = reduce_max ? cmax : csum / n;
+    for (int ch = 0; ch < 4; ++ch) {
+      // c_block · (c-weighted block colour); with the mean reduction this is Σ c·rgba / n.
+      const double col = csum > 0 ? wsum[ch] / csum : psum[ch] / n;
+      large.row(ch, j)[i] = static_cast<float>(cb * col);
+    }
+    large.row(4, j)[i] = static_cast<float>(cb);
+  };
+  const int full_cols = w / kDown;  // blocks with all 4 columns inside the image
   core::parallel_for(lh, [&](int j0, int j1) {
     for (int j = j0; j < j1; ++j) {
-      for (int i = 0; i < lw; ++i) {
-        double wsum[4] = {0, 0, 0, 0}, plain[4] = {0, 0, 0, 0}, csum = 0;
-        float cmax = 0;
-        int n = 0;
-        for (int y = j * kDown; y < std::min(h, (j + 1) * kDown); ++y) {
-          const float* c = level.row(0, y);
-          for (int x = i * kDown; x < std::min(w, (i + 1) * kDown); ++x, ++n) {
-            csum += c[x];
-            cmax = std::max(cmax, c[x]);
-            for (int ch = 0; ch < 4; ++ch) {
-              const float v = color.row(ch, y)[x];
-              wsum[ch] += static_cast<double>(c[x]) * v;
-              plain[ch] += v;
-            }
-          }
+      int i = 0;
+      if (!plain && (j + 1) * kDown <= h) {
+        const float* rows[4][5];
+        for (int k = 0; k < 4; ++k) {
+          for (int ch = 0; ch < 4; ++ch) rows[k][ch] = color.row(ch, j * kDown + k);
+          rows[k][4] = level.row(0, j * kDown + k);
         }
-        const double cb = reduce_max ? cmax : csum / n;
-        for (int ch = 0; ch < 4; ++ch) {
-          // c_block · (c-weighted block colour); with the mean reduction this is Σ c·rgba / n.
-          const double col = csum > 0 ? wsum[ch] / csum : plain[ch] / n;
-          large.row(ch, j)[i] = static_cast<float>(cb * col);
-        }
-        large.row(4, j)[i] = static_cast<float>(cb);
+        float* const out[5] = {large.row(0, j), large.row(1, j), large.row(2, j), large.row(3, j), large.row(4, j)};
+        i = large_reduce_simd(rows, reduce_max, out, 0, full_cols);
       }
+      for (; i < lw; ++i) block(i, j);
     }
   }, 4);
   const float s = quarter_res_sigma(sigma_total);

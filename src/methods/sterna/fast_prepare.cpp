@@ -97,8 +97,8 @@ __attribute__((always_inline)) inline V8 vabs(V8 v) {
 // Even (x0 = 2i) and odd (x1 = 2i + 1) columns of the 16 values at p.
 __attribute__((always_inline)) inline void deinterleave(const float* p, V8& even, V8& odd) {
   const V8 a = load8(p), b = load8(p + 8);
-  even = __builtin_shuffle(a, b, I8{0, 2, 4, 6, 8, 10, 12, 14});
-  odd = __builtin_shuffle(a, b, I8{1, 3, 5, 7, 9, 11, 13, 15});
+  even = __builtin_shufflevector(a, b, 0, 2, 4, 6, 8, 10, 12, 14);  // GCC >= 12 and clang
+  odd = __builtin_shufflevector(a, b, 1, 3, 5, 7, 9, 11, 13, 15);
 }
 
 // quad() for 8 texels at once, lane by lane the same operations in the same order (the

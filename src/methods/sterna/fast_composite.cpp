@@ -29,6 +29,7 @@
 
 #include "core/parallel.hpp"
 #include "methods/sterna/fast.hpp"
+#include "methods/sterna/v8.hpp"
 
 namespace dofkit::detail::sterna::fast {
 
@@ -37,32 +38,12 @@ namespace {
 constexpr int kChunk = 256;  // full-res pixels per chunk (even)
 constexpr int kPlanes = 10;  // far_fill ×4, far_h, near_fill ×4, near_blur
 
-typedef float V8 __attribute__((vector_size(32)));
 typedef float V4 __attribute__((vector_size(16)));
-typedef int I8 __attribute__((vector_size(32)));
 
-__attribute__((always_inline)) inline V8 load8(const float* p) {
-  V8 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
 __attribute__((always_inline)) inline V4 load4(const float* p) {
   V4 v;
   std::memcpy(&v, p, sizeof v);
   return v;
-}
-__attribute__((always_inline)) inline void store8(float* p, V8 v) { std::memcpy(p, &v, sizeof v); }
-__attribute__((always_inline)) inline V8 splat(float f) { return V8{f, f, f, f, f, f, f, f}; }
-__attribute__((always_inline)) inline I8 splat_i(int v) { return I8{v, v, v, v, v, v, v, v}; }
-// |v| by clearing the sign bit, exactly what std::abs does to a float.
-__attribute__((always_inline)) inline V8 vabs(V8 v) {
-  return reinterpret_cast<V8>(reinterpret_cast<I8>(v) & splat_i(0x7fffffff));
-}
-// Whether any lane of a comparison mask is set.
-__attribute__((always_inline)) inline bool any(I8 m) {
-  std::uint64_t q[4];
-  std::memcpy(q, &m, sizeof q);
-  return (q[0] | q[1] | q[2] | q[3]) != 0;
 }
 
 // The two x-taps of 8 pixels from x = 2m on half-res row P (w texels), see the top.

@@ -11,6 +11,7 @@
 
 #include "core/parallel.hpp"
 #include "methods/sterna/fast.hpp"
+#include "methods/sterna/v8.hpp"
 
 namespace dofkit::detail::sterna::fast {
 
@@ -30,20 +31,6 @@ __attribute__((always_inline)) inline float max9(const Rows& R, int xm, int x, i
   return m;
 }
 
-typedef float V8 __attribute__((vector_size(32)));
-typedef int I8 __attribute__((vector_size(32)));
-
-__attribute__((always_inline)) inline V8 load8(const float* p) {
-  V8 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-__attribute__((always_inline)) inline void store8(float* p, V8 v) { std::memcpy(p, &v, sizeof v); }
-__attribute__((always_inline)) inline bool any(I8 m) {
-  std::uint64_t q[4];
-  std::memcpy(q, &m, sizeof q);
-  return (q[0] | q[1] | q[2] | q[3]) != 0;
-}
 // std::max(m, v) lane by lane: (m < v) ? v : m.
 __attribute__((always_inline)) inline V8 vmax(V8 m, V8 v) { return m < v ? v : m; }
 

@@ -23,6 +23,7 @@
 
 #include "core/parallel.hpp"
 #include "methods/sterna/fast.hpp"
+#include "methods/sterna/v8.hpp"
 
 namespace dofkit::detail::sterna::fast {
 
@@ -32,16 +33,6 @@ constexpr std::uint8_t kNearBit = 1, kFarBit = 2;
 constexpr int kStripTiles = 4;  // tiles per column segment
 static_assert(kTile == 8, "one tile row is one 8-lane chunk");
 
-typedef float V8 __attribute__((vector_size(32)));
-typedef int I8 __attribute__((vector_size(32)));
-
-__attribute__((always_inline)) inline V8 load8(const float* p) {
-  V8 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-__attribute__((always_inline)) inline void store8(float* p, V8 v) { std::memcpy(p, &v, sizeof v); }
-__attribute__((always_inline)) inline V8 splat(float f) { return V8{f, f, f, f, f, f, f, f}; }
 
 struct Tap {
   std::ptrdiff_t off;        // dy·pitch + dx, floats

@@ -22,6 +22,7 @@
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
 #include "methods/sterna/fast.hpp"
+#include "methods/sterna/v8.hpp"
 
 namespace dofkit::detail::sterna::fast {
 
@@ -80,20 +81,6 @@ inline void quad(const float (&c)[4][4], const float (&far)[4], float near_tl, c
   o.nearh[i] = near_tl;
 }
 
-typedef float V8 __attribute__((vector_size(32)));
-typedef int I8 __attribute__((vector_size(32)));
-
-__attribute__((always_inline)) inline V8 load8(const float* p) {
-  V8 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-__attribute__((always_inline)) inline void store8(float* p, V8 v) { std::memcpy(p, &v, sizeof v); }
-__attribute__((always_inline)) inline V8 splat(float f) { return V8{f, f, f, f, f, f, f, f}; }
-__attribute__((always_inline)) inline V8 vabs(V8 v) {
-  return reinterpret_cast<V8>(reinterpret_cast<I8>(v) & I8{0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff,
-                                                           0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff});
-}
 // Even (x0 = 2i) and odd (x1 = 2i + 1) columns of the 16 values at p.
 __attribute__((always_inline)) inline void deinterleave(const float* p, V8& even, V8& odd) {
   const V8 a = load8(p), b = load8(p + 8);

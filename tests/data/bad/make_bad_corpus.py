@@ -25,17 +25,11 @@ def attr(name, typ, payload):
     return name.encode() + b"\0" + typ.encode() + b"\0" + struct.pack("<i", len(payload)) + payload
 
 
-def exr(width, height, channels, pixel, ptype=FLOAT, data_window=None, chlist_override=None):
-    """channels: names; pixel(name, x, y) -> float."""
-    names = sorted(channels)
-    if chlist_override is not None:
-        chl = chlist_override
-    else:
-        chl = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", ptype, 0, 1, 1) for n in names) + b"\0"
-    dw = data_window or (0, 0, width - 1, height - 1)
+def exr_head(chl, compression, dw):
+    """Magic, version 2 and a scanline header with the required attributes."""
     hdr = b"".join([
         attr("channels", "chlist", chl),
-        attr("compression", "compression", b"\0"),
+        attr("compression", "compression", bytes([compression])),
         attr("dataWindow", "box2i", struct.pack("<4i", *dw)),
         attr("displayWindow", "box2i", struct.pack("<4i", *dw)),
         attr("lineOrder", "lineOrder", b"\0"),
@@ -43,7 +37,17 @@ def exr(width, height, channels, pixel, ptype=FLOAT, data_window=None, chlist_ov
         attr("screenWindowCenter", "v2f", struct.pack("<2f", 0, 0)),
         attr("screenWindowWidth", "float", struct.pack("<f", 1.0)),
     ]) + b"\0"
-    head = b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + hdr
+    return b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + hdr
+
+
+def exr(width, height, channels, pixel, ptype=FLOAT, data_window=None, chlist_override=None):
+    """channels: names; pixel(name, x, y) -> float."""
+    names = sorted(channels)
+    if chlist_override is not None:
+        chl = chlist_override
+    else:
+        chl = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", ptype, 0, 1, 1) for n in names) + b"\0"
+    head = exr_head(chl, 0, data_window or (0, 0, width - 1, height - 1))
     fmt = "<e" if ptype == HALF else "<f"
     chunks = []
     for y in range(height):
@@ -60,18 +64,7 @@ def exr(width, height, channels, pixel, ptype=FLOAT, data_window=None, chlist_ov
 def huge_exr(width, height):
     """Header + offset table only, PIZ compression (32 scanlines per chunk)."""
     chl = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", HALF, 0, 1, 1) for n in "BGR") + b"\0"
-    dw = (0, 0, width - 1, height - 1)
-    hdr = b"".join([
-        attr("channels", "chlist", chl),
-        attr("compression", "compression", b"\4"),
-        attr("dataWindow", "box2i", struct.pack("<4i", *dw)),
-        attr("displayWindow", "box2i", struct.pack("<4i", *dw)),
-        attr("lineOrder", "lineOrder", b"\0"),
-        attr("pixelAspectRatio", "float", struct.pack("<f", 1.0)),
-        attr("screenWindowCenter", "v2f", struct.pack("<2f", 0, 0)),
-        attr("screenWindowWidth", "float", struct.pack("<f", 1.0)),
-    ]) + b"\0"
-    head = b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + hdr
+    head = exr_head(chl, 4, (0, 0, width - 1, height - 1))
     n = (height + 31) // 32
     end = len(head) + 8 * n
     return head + b"".join(struct.pack("<Q", end) for _ in range(n))

@@ -53,6 +53,23 @@ inline int reach_of(float den) { return static_cast<int>(1.2f * den) + 1; }
 
 constexpr int kBlock = 32;  // outputs per tap-bound block
 
+/// Far gather of outputs [i0, i1) of row `row` of `dst` (planes 0-3) from the first `nt`
+/// taps, which already point at output i0's sources; r_a and nearness are indexed by output
+/// from the row's start. Shared by the horizontal and vertical passes.
+void far_gather_outputs(const std::vector<GatherTap>& taps, int nt, const float* r_a, const float* nearness,
+                        const float* table, bool occlusion, Image& dst, int row, int i0, int i1) {
+  GatherJob job;
+  job.n = i1 - i0;
+  job.ntaps = nt;
+  job.taps = taps.data();
+  job.r_a = r_a + i0;
+  job.nearness = nearness + i0;
+  job.table = table;
+  job.occlusion = occlusion;
+  for (int c = 0; c < 4; ++c) job.out[c] = dst.row(c, row) + i0;
+  far_gather_simd(job);
+}
+
 }  // namespace
 
 bool fast_supported(const Constants& k) { return k.variant != Variant::g3d; }
@@ -186,16 +203,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
               t.absb = ph + 6 * plane + at;
               t.d5 = 5.0f * static_cast<float>(std::abs(d));
             }
-            GatherJob job;
-            job.n = i1 - i0;
-            job.ntaps = nt;
-            job.taps = taps.data();
-            job.r_a = r_a + i0;
-            job.nearness = nearness + i0;
-            job.table = table;
-            job.occlusion = k.far_occlusion;
-            for (int c = 0; c < 4; ++c) job.out[c] = t_blur.row(c, y) + i0;
-            far_gather_simd(job);
+            far_gather_outputs(taps, nt, r_a, nearness, table, k.far_occlusion, t_blur, y, i0, i1);
           }
           for (int i = i0; i < i1; ++i) {
             if (nearness[i] != 1.0f) continue;
@@ -389,16 +397,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
               t.absb = aux.row(2, b) + i0;
               t.d5 = 5.0f * static_cast<float>(std::abs(d));
             }
-            GatherJob job;
-            job.n = i1 - i0;
-            job.ntaps = nt;
-            job.taps = taps.data();
-            job.r_a = r_a + i0;
-            job.nearness = nearness + i0;
-            job.table = table;
-            job.occlusion = k.far_occlusion;
-            for (int c = 0; c < 4; ++c) job.out[c] = blur.row(c, j) + i0;
-            far_gather_simd(job);
+            far_gather_outputs(taps, nt, r_a, nearness, table, k.far_occlusion, blur, j, i0, i1);
           }
           for (int i = i0; i < i1; ++i) {
             if (nearness[i] != 1.0f) continue;

@@ -114,9 +114,7 @@ void blur_horizontal(const Image& packed, const Constants& k, int ox, int wo, Im
   const float reach_c = k.variant == Variant::book ? 0.5f : 0.8f;
   t_blur.resize(wo, H, 5);
   t_near.resize(wo, H, 5);
-  float near_norm = 0;
-  for (int d = -R; d <= R; ++d) near_norm += near_box(k, static_cast<float>(d));
-  const float near_inv = 1.0f / std::max(near_norm, 1e-5f);
+  const float near_inv = near_box_inverse_norm(k);
   constexpr int kTile = 8;
   core::parallel_for(H, [&](int y0, int y1) {
     const int P = W + 2 * R;
@@ -178,9 +176,7 @@ void blur_vertical(const Image& t_blur, const Image& t_near, const Constants& k,
   const float rmax = static_cast<float>(R);
   blur.resize(W, ho, 4);
   near.resize(W, ho, 5);
-  float near_norm = 0;
-  for (int d = -R; d <= R; ++d) near_norm += near_box(k, static_cast<float>(d));
-  const float near_inv = 1.0f / std::max(near_norm, 1e-5f);
+  const float near_inv = near_box_inverse_norm(k);
   core::parallel_for(ho, [&](int j0, int j1) {
     std::vector<float> r_a(W), nearness(W), acc(5 * W), nacc(5 * W);
     for (int j = j0; j < j1; ++j) {

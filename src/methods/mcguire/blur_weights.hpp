@@ -62,6 +62,14 @@ inline float near_box(const Constants& k, float d) {
   return std::fabs(d) < k.r_near ? 1.0f : 0.0f;
 }
 
+/// 1 / Σ near_box over the taps δ = −R … R (R = k.r_max), summed in that order (every pass,
+/// fast and plain, normalises its near box by this same value).
+inline float near_box_inverse_norm(const Constants& k) {
+  float norm = 0;
+  for (int d = -k.r_max; d <= k.r_max; ++d) norm += near_box(k, static_cast<float>(d));
+  return 1.0f / std::max(norm, 1e-5f);
+}
+
 /// g3d, end of the vertical pass: smoothstep boost of the near coverage,
 /// t = saturate(1 − 0.025 / (fov·α)), α' = t²(3 − 2t), colour ×= α'/α.
 /// n = (α·R, α·G, α·B, α·A, α). G3D clamps α' to >= 1e-6 only to keep a later division

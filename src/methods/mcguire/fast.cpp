@@ -80,9 +80,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   const float rmax = static_cast<float>(R);
   t_blur.resize(wo, H, 5);
   t_near.resize(wo, H, 5);
-  float near_norm = 0;
-  for (int d = -R; d <= R; ++d) near_norm += near_box(k, static_cast<float>(d));
-  const float near_inv = 1.0f / std::max(near_norm, 1e-5f);
+  const float near_inv = near_box_inverse_norm(k);
   // Near box: |δ| < R_near ⟺ |δ| <= ⌈R_near⌉ − 1, and taps only span [−R, R].
   const int hbox = k.r_near > 0 ? std::min(R, static_cast<int>(std::ceil(k.r_near)) - 1) : -1;
   float table[16];
@@ -276,9 +274,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
   const float rmax = static_cast<float>(R);
   blur.resize(W, ho, 4);
   near.resize(W, ho, 5);
-  float near_norm = 0;
-  for (int d = -R; d <= R; ++d) near_norm += near_box(k, static_cast<float>(d));
-  const float near_inv = 1.0f / std::max(near_norm, 1e-5f);
+  const float near_inv = near_box_inverse_norm(k);
   const int hbox = k.r_near > 0 ? std::min(R, static_cast<int>(std::ceil(k.r_near)) - 1) : -1;
   float table[16];
   load_table(k, table);

@@ -45,8 +45,13 @@ struct Part {
 
 class Walker {
  public:
-  Walker(const std::vector<unsigned char>& b, std::size_t file_size, const std::string& path, const char* role)
-      : b_(b), file_size_(file_size), path_(path), role_(role) {}
+  // Reads the header lazily from `f`: 64 KiB first (a real header is a few KiB), more only
+  // when an attribute runs past what was read, up to kMaxHeaderBytes.
+  Walker(std::ifstream& f, std::size_t file_size, const std::string& path, const char* role)
+      : f_(f), cap_(std::min(file_size, kMaxHeaderBytes)), file_size_(file_size), path_(path), role_(role) {}
+
+  /// Reads the first block; false if the file cannot be read (left to the decoder to report).
+  bool start() { return more(); }
 
   [[noreturn]] void fail(const std::string& why) const {
     throw_bad_input(path_ + ": cannot read " + role_ + " image: not a valid EXR: " + why);
@@ -134,24 +139,47 @@ class Walker {
 
   std::string read_string(std::size_t max_len, const char* what) {
     std::size_t end = pos_;
-    while (end < b_.size() && b_[end] != 0) {
-      if (end - pos_ >= max_len) fail(std::string(what) + " is too long");
-      ++end;
+    for (;;) {
+      while (end < b_.size() && b_[end] != 0) {
+        if (end - pos_ >= max_len) fail(std::string(what) + " is too long");
+        ++end;
+      }
+      if (end < b_.size()) break;
+      if (!more()) ran_out(what);
     }
-    if (end >= b_.size()) fail(std::string("header ends inside an ") + what);
     std::string s(reinterpret_cast<const char*>(b_.data() + pos_), end - pos_);
     pos_ = end + 1;
     return s;
   }
 
   void need(std::size_t n, const char* what) {
-    if (n > b_.size() - std::min(b_.size(), pos_)) {
-      if (b_.size() < file_size_) fail(std::string("header larger than ") + std::to_string(kMaxHeaderBytes) + " bytes");
-      fail(std::string("header ends inside an ") + what);
-    }
+    while (n > b_.size() - std::min(b_.size(), pos_))
+      if (!more()) ran_out(what);
   }
 
-  const std::vector<unsigned char>& b_;
+  [[noreturn]] void ran_out(const char* what) const {
+    if (b_.size() < file_size_) fail(std::string("header larger than ") + std::to_string(kMaxHeaderBytes) + " bytes");
+    fail(std::string("header ends inside an ") + what);
+  }
+
+  // Extends the buffer (doubling, at least 64 KiB, at most cap_); false once cap_ is read.
+  bool more() {
+    const std::size_t old = b_.size();
+    if (old >= cap_) return false;
+    const std::size_t grown = std::min(cap_, std::max<std::size_t>(2 * old, 64u << 10));
+    b_.resize(grown);
+    f_.clear();
+    f_.seekg(static_cast<std::streamoff>(old));
+    if (!f_.read(reinterpret_cast<char*>(b_.data() + old), static_cast<std::streamsize>(grown - old))) {
+      b_.resize(old);
+      return false;
+    }
+    return true;
+  }
+
+  std::ifstream& f_;
+  std::size_t cap_;
+  std::vector<unsigned char> b_;
   std::size_t file_size_;
   const std::string& path_;
   const char* role_;
@@ -277,10 +305,8 @@ void check_file_header(const std::string& path, const char* role) {
     return check_tiff(f, file_size, true, path, role);
   const bool exr = magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01;
   if (!exr) return;
-  std::vector<unsigned char> b(std::min(file_size, kMaxHeaderBytes));
-  f.seekg(0);
-  if (!f.read(reinterpret_cast<char*>(b.data()), static_cast<std::streamsize>(b.size()))) return;
-  Walker(b, file_size, path, role).run();
+  Walker walker(f, file_size, path, role);
+  if (walker.start()) walker.run();
 }
 
 }  // namespace dofkit::io

@@ -436,3 +436,24 @@ TEST(RoundTrip, TiffLayoutsPassTheHeaderCheck) {
     EXPECT_LT(m, 1e-6);
   }
 }
+
+// The EXR header walk reads the header in growing blocks (64 KiB first): a header far larger
+// than that (a 300 KB comment attribute) must still be walked to its end and load.
+TEST(RoundTrip, ExrWithAHeaderLargerThanTheFirstReadBlock) {
+  ScratchDir dir;
+  const Image img = test_rgba(21, 13, false, true);
+  const std::string path = dir / "big_header.exr";
+  OIIO::ImageSpec spec(21, 13, 4, OIIO::TypeDesc::FLOAT);
+  spec.attribute("ImageDescription", std::string(300000, 'x'));
+  auto out = OIIO::ImageOutput::create(path);
+  ASSERT_TRUE(out && out->open(path, spec)) << OIIO::geterror();
+  const std::vector<float> interleaved = interleave(img);
+  ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, interleaved.data())) << out->geterror();
+  ASSERT_TRUE(out->close());
+  ASSERT_GT(fs::file_size(path), 300000u);
+  Image back;
+  ASSERT_NO_THROW(back = io::read_color(path));
+  double m = 0;
+  for (std::size_t i = 0; i < img.data().size(); ++i) m = std::max(m, std::abs(double(img.data()[i]) - back.data()[i]));
+  EXPECT_EQ(m, 0.0);
+}

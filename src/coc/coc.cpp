@@ -160,21 +160,42 @@ float CocFunction::operator()(float zf) const noexcept {
   return static_cast<float>(r);
 }
 
+namespace {
+// The thin-lens branch of CocFunction::operator() over a row: the same double arithmetic in
+// the same order, so the results are identical. The divisor is made safe before the division
+// (z <= 0 and NaN divide 1 and are then replaced by `hi`), which lets the compiler turn the
+// branch into a blend and vectorise the division (a conditional division cannot be
+// if-converted: it could trap). Compiled for AVX-512F / AVX2 / baseline, picked at run time;
+// the sequence (divide, subtract, multiply) contains no multiply-add, so every target rounds
+// alike. GCC if-converts the selects only without -ftrapping-math (an ordered comparison of a
+// NaN may raise an exception flag, which dofkit never reads); that option changes no result.
+#if defined(__GNUC__) && !defined(__clang__)
+#define DOFKIT_NO_TRAPPING_MATH __attribute__((optimize("no-trapping-math")))
+#else
+#define DOFKIT_NO_TRAPPING_MATH
+#endif
+__attribute__((target_clones("avx512f", "avx2", "default"))) DOFKIT_NO_TRAPPING_MATH
+void thin_lens_row(const float* z, float* r, int n, double k, double focus, double hi) {
+  const double lo = -hi;
+  for (int i = 0; i < n; ++i) {
+    const double zd = z[i];
+    const bool ok = zd > 0;
+    const double q = focus / (ok ? zd : 1.0);
+    const double t = k * (q - 1.0);
+    double v = ok ? t : hi;
+    v = v > hi ? hi : v;
+    v = v < lo ? lo : v;
+    r[i] = static_cast<float>(v);
+  }
+}
+}  // namespace
+
 void CocFunction::evaluate(const float* z, float* r, int n) const noexcept {
   if (!thin_) {
     for (int i = 0; i < n; ++i) r[i] = (*this)(z[i]);
     return;
   }
-  // The thin-lens branch of operator(), without the per-pixel variant dispatch: the same
-  // double arithmetic in the same order, so the results are identical.
-  const double k = k_, focus = focus_, hi = max_coc_, lo = -max_coc_;
-  for (int i = 0; i < n; ++i) {
-    const double zd = z[i];
-    double v = zd > 0 ? k * (focus / zd - 1.0) : hi;
-    v = v > hi ? hi : v;
-    v = v < lo ? lo : v;
-    r[i] = static_cast<float>(v);
-  }
+  thin_lens_row(z, r, n, k_, focus_, max_coc_);
 }
 
 double focus_distance_m(const CocModelKind& model) {

@@ -77,6 +77,23 @@ std::string Params::get_choice(const std::string& key, const std::string& def,
 
 }  // namespace detail
 
+namespace {
+// Depth values that are NaN, zero or negative. The count is a branch-free sum so it
+// vectorises (the scan runs on every frame); the position of the first one is looked up
+// only when there is one, for the message.
+__attribute__((target_clones("avx512f", "avx2", "default")))
+std::size_t count_not_positive(const float* z, std::size_t n) {
+  std::size_t bad = 0;
+  for (std::size_t i = 0; i < n; ++i) bad += !(z[i] > 0);
+  return bad;
+}
+std::size_t first_not_positive(const float* z) {
+  std::size_t i = 0;
+  while (z[i] > 0) ++i;  // callers know that one exists
+  return i;
+}
+}  // namespace
+
 void validate_frame(const Frame& frame, const char* what) {
   const std::string src = what ? what : "frame";
   if (frame.color.empty() || frame.color.width() <= 0 || frame.color.height() <= 0)
@@ -87,12 +104,9 @@ void validate_frame(const Frame& frame, const char* what) {
     throw_bad_input(src + ": depth is " + std::to_string(frame.depth.width()) + "x" +
                     std::to_string(frame.depth.height()) + " but colour is " + std::to_string(frame.color.width()) +
                     "x" + std::to_string(frame.color.height()));
-  std::size_t bad = 0, first = 0;
   const float* z = frame.depth.plane(0);
-  for (std::size_t i = 0; i < frame.depth.plane_size(); ++i)
-    if (!(z[i] > 0)) {
-      if (bad++ == 0) first = i;
-    }
+  const std::size_t bad = count_not_positive(z, frame.depth.plane_size());
+  const std::size_t first = bad ? first_not_positive(z) : 0;
   if (bad)
     throw_bad_input(src + ": depth has " + std::to_string(bad) + " NaN, zero or negative value(s), first at pixel (" +
                     std::to_string(first % frame.depth.width()) + ", " + std::to_string(first / frame.depth.width()) +
@@ -105,11 +119,8 @@ void validate_frame(const Frame& frame, const char* what) {
       throw_bad_input(src + ": layer " + std::to_string(l) + " does not match the colour image size");
     // Same rule as the visible depth: a missing fragment is z = +inf, never NaN or <= 0.
     const float* lz = frame.layer_depth[l].plane(0);
-    std::size_t lbad = 0, lfirst = 0;
-    for (std::size_t i = 0; i < frame.layer_depth[l].plane_size(); ++i)
-      if (!(lz[i] > 0)) {
-        if (lbad++ == 0) lfirst = i;
-      }
+    const std::size_t lbad = count_not_positive(lz, frame.layer_depth[l].plane_size());
+    const std::size_t lfirst = lbad ? first_not_positive(lz) : 0;
     if (lbad)
       throw_bad_input(src + ": layer " + std::to_string(l) + " depth has " + std::to_string(lbad) +
                       " NaN, zero or negative value(s), first at pixel (" +

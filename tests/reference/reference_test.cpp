@@ -180,3 +180,23 @@ TEST(Reference, SimdLoopMatchesPlainLoop) {
     for (std::size_t i = 0; i < oa.data().size(); ++i) ASSERT_NEAR(oa.data()[i], ob.data()[i], 1e-4) << i;
   }
 }
+
+TEST(Reference, SimdLoopMatchesPlainLoopWhenDiscsExceedTheImage) {
+  // Discs (up to ~27 px) larger than the image and a width that is no multiple of the source
+  // block or the vector width: every span is clipped and blocks are partial.
+  for (int w : {37, 5}) {
+    const int h = 23;
+    Frame f = make_frame(w, h, 1.0f);
+    texture(f);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) f.depth.at(x, y) = ((x / 3 + y / 4) % 3 == 0) ? 0.35f : (x + y) % 7 == 0 ? 40.0f : 2.0f;
+    f.depth.at(w / 2, h / 2) = std::numeric_limits<float>::infinity();
+    const Image coc = compute_coc(f.depth, CameraModel{BlurAtInfinity{2.0, 6.0}});
+    detail::DiscScatterOptions a, b;
+    b.simd = false;
+    Image oa, ob;
+    detail::disc_scatter(f.color, f.depth, coc, a, oa);
+    detail::disc_scatter(f.color, f.depth, coc, b, ob);
+    for (std::size_t i = 0; i < oa.data().size(); ++i) ASSERT_NEAR(oa.data()[i], ob.data()[i], 1e-4) << w << ": " << i;
+  }
+}

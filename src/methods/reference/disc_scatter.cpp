@@ -38,7 +38,14 @@ double disc_area(double r) {
 
 namespace {
 
-inline float saturate(float t) { return t < 0.f ? 0.f : (t > 1.f ? 1.f : t); }
+// clamp(lround(v), 0, hi) without the libm call: below 0.5 the result clamps to 0; from 0.5
+// on, v + 0.5 is exact in float whenever rounding it could cross an integer, so truncating it
+// gives lround's result (halves away from zero) bit for bit.
+inline int round_clamp(float v, int hi) {
+  if (!(v >= 0.5f)) return 0;
+  const float t = v + 0.5f;
+  return t >= static_cast<float>(hi) ? hi : static_cast<int>(t);
+}
 
 // Table of disc_area at 1/32 px steps; A(r) is piecewise linear in r, so linear
 // interpolation between table points is nearly exact.
@@ -86,6 +93,33 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
   for (std::size_t i = 0; i < n; ++i) wscale[i] = 1.0f / area(rho[i]);
   const int reach = static_cast<int>(std::ceil(rmax + 0.5f));
 
+  // For the SIMD loop: how many rows each source reaches above and below itself, its maximum
+  // per block of kSourceBlock sources (whole blocks that cannot reach a band are skipped), and
+  // |(dx, dy)| for every integer offset it can meet, computed as the plain loop does
+  // (sqrtf of an exact integer), so the coverage is the same bit for bit.
+  std::vector<int> ext, block_ext;
+  std::vector<float> dist;
+  const int dist_half = reach + 16;
+  const std::size_t dist_stride = static_cast<std::size_t>(2 * dist_half + 16);
+  if (opt.simd) {
+    ext.resize(n);
+    const int nblk = (w + kSourceBlock - 1) / kSourceBlock;
+    block_ext.assign(static_cast<std::size_t>(h) * nblk, 0);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * w + x;
+        ext[i] = static_cast<int>(std::ceil(rho[i] + 0.5f)) - 1;
+        int& be = block_ext[static_cast<std::size_t>(y) * nblk + x / kSourceBlock];
+        be = std::max(be, ext[i]);
+      }
+    dist.resize(static_cast<std::size_t>(reach + 1) * dist_stride);
+    for (int dy = 0; dy <= reach; ++dy)
+      for (std::size_t i = 0; i < dist_stride; ++i) {
+        const float dx = static_cast<float>(static_cast<int>(i) - dist_half), fdy = static_cast<float>(dy);
+        dist[dy * dist_stride + i] = std::sqrt(dx * dx + fdy * fdy);
+      }
+  }
+
   // Receivers are processed in fixed bands of rows; each band gathers the discs of every
   // source that can reach it, in a fixed order, so the result is the same for any thread count.
   constexpr int kBand = 8;
@@ -118,8 +152,8 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
           float sum[4] = {0, 0, 0, 0};
           int count = 0;
           for (std::size_t k = 0; k < ox.size(); ++k) {
-            const int qx = std::clamp(static_cast<int>(std::lround(x + ox[k] * rho[p])), 0, w - 1);
-            const int qy = std::clamp(static_cast<int>(std::lround(y + oy[k] * rho[p])), 0, h - 1);
+            const int qx = round_clamp(x + ox[k] * rho[p], w - 1);
+            const int qy = round_clamp(y + oy[k] * rho[p], h - 1);
             const std::size_t q = static_cast<std::size_t>(qy) * w + qx;
             if (!(inv_z[q] < limit)) continue;
             for (int c = 0; c < 4; ++c) sum[c] += colour.plane(c)[q];
@@ -146,6 +180,8 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
       job.w = w; job.h = h; job.y0 = y0; job.y1 = y1; job.reach = reach; job.depth_order = opt.depth_order;
       job.rho = rho.data(); job.sharp = sharpness.data(); job.inv_z = inv_z.data(); job.isu = isu.data();
       job.wscale = wscale.data();
+      job.ext = ext.data(); job.block_ext = block_ext.data();
+      job.dist = dist.data(); job.dist_half = dist_half; job.dist_stride = dist_stride;
       for (int c = 0; c < 4; ++c) job.colour[c] = colour.plane(c);
       job.acc = acc.data(); job.band = kBand; job.stride = stride;
       if (opt.simd)

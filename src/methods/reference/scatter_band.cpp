@@ -19,60 +19,109 @@ namespace dofkit::detail {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
+// Receiver-major inside a block: the sources of one block (kSourceBlock consecutive pixels
+// of a row) that reach receiver row py are collected first; then every receiver vector of
+// their joint span loads its ten accumulators once, adds the block's sources in order and
+// stores them once. Per (source, receiver vector) pair that leaves ~26 vector operations and
+// one table load (|p − q| comes from a table: the offsets are integers), instead of ten
+// accumulator loads and stores per pair. Each receiver still adds its sources in the order of
+// the plain loop (row by row, left to right), so the sums differ from it only by rounding.
 void ScatterBand(const BandJob& job) {
   const hn::ScalableTag<float> d;
   const int lanes = static_cast<int>(hn::Lanes(d));
+  constexpr int S = kSourceBlock;
   const int w = job.w;
-  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
-  const auto iota = hn::Iota(d, 0.0f);
+  const int nblk = (w + S - 1) / S;
+  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), neg_one = hn::Set(d, -1.0f);
   const int sy0 = std::max(0, job.y0 - job.reach), sy1 = std::min(job.h, job.y1 + job.reach);
+  // The active sources of the block for the current receiver row.
+  float s_lim[S], s_ws[S], s_uq[S], s_isq[S], s_c0[S], s_c1[S], s_c2[S], s_c3[S];
+  int s_off[S], s_lo[S], s_hi[S];
   for (int qy = sy0; qy < sy1; ++qy) {
-    for (int qx = 0; qx < w; ++qx) {
-      const std::size_t q = static_cast<std::size_t>(qy) * w + qx;
-      const float rq = job.rho[q];
-      const int ext = static_cast<int>(std::ceil(rq + 0.5f)) - 1;
-      const int py0 = std::max(job.y0, qy - ext), py1 = std::min(job.y1 - 1, qy + ext);
-      if (py0 > py1) continue;
-      const auto c0 = hn::Set(d, job.colour[0][q]), c1 = hn::Set(d, job.colour[1][q]);
-      const auto c2 = hn::Set(d, job.colour[2][q]), c3 = hn::Set(d, job.colour[3][q]);
-      const auto vrq = hn::Set(d, rq), vws = hn::Set(d, job.wscale[q]), vuq = hn::Set(d, job.inv_z[q]);
-      const float sq = job.sharp[q];
-      const auto vinv_sq = hn::Set(d, sq > 0 ? 1.0f / sq : 1e30f);
-      const float lim = rq + 0.5f;
-      for (int py = py0; py <= py1; ++py) {
-        const float dy = static_cast<float>(py - qy);
-        const int hw = static_cast<int>(std::sqrt(std::max(0.0f, lim * lim - dy * dy)));
-        const int px0 = std::max(0, qx - hw), px1 = std::min(w - 1, qx + hw);
-        const auto vdy2 = hn::Set(d, dy * dy);
+    const int* bext = job.block_ext + static_cast<std::size_t>(qy) * nblk;
+    for (int b = 0; b < nblk; ++b) {
+      const int e = bext[b];
+      const int pyA = std::max(job.y0, qy - e), pyB = std::min(job.y1 - 1, qy + e);
+      if (pyA > pyB) continue;  // no source of this block reaches the band
+      const int qx0 = b * S, qx1 = std::min(w, qx0 + S);
+      for (int py = pyA; py <= pyB; ++py) {
+        const int dy = py - qy, ady = dy < 0 ? -dy : dy;
+        const float fdy = static_cast<float>(dy);
+        int n = 0, lo = w, hi = -1;
+        for (int qx = qx0; qx < qx1; ++qx) {
+          const std::size_t q = static_cast<std::size_t>(qy) * w + qx;
+          if (job.ext[q] < ady) continue;
+          const float rq = job.rho[q];
+          const float lim = rq + 0.5f;
+          const int hw = static_cast<int>(std::sqrt(std::max(0.0f, lim * lim - fdy * fdy)));
+          s_lo[n] = std::max(0, qx - hw);
+          s_hi[n] = std::min(w - 1, qx + hw);
+          lo = std::min(lo, s_lo[n]);
+          hi = std::max(hi, s_hi[n]);
+          s_off[n] = job.dist_half - qx;
+          s_lim[n] = lim;
+          s_ws[n] = job.wscale[q];
+          s_uq[n] = job.inv_z[q];
+          const float sq = job.sharp[q];
+          s_isq[n] = sq > 0 ? 1.0f / sq : 1e30f;
+          s_c0[n] = job.colour[0][q];
+          s_c1[n] = job.colour[1][q];
+          s_c2[n] = job.colour[2][q];
+          s_c3[n] = job.colour[3][q];
+          ++n;
+        }
+        if (n == 0) continue;
+        const float* trow = job.dist + static_cast<std::size_t>(ady) * job.dist_stride;
         const std::size_t prow = static_cast<std::size_t>(py) * w;
         float* a[10];
         for (int k = 0; k < 10; ++k) a[k] = job.acc + (static_cast<std::size_t>(k) * job.band + (py - job.y0)) * job.stride;
-        // Lanes past px1 lie outside the disc (cov = 0) or past the row end (padding), so the
-        // loop needs no tail handling.
-        for (int px = px0; px <= px1; px += lanes) {
-          const auto dx = hn::Add(iota, hn::Set(d, static_cast<float>(px - qx)));
-          const auto dist = hn::Sqrt(hn::MulAdd(dx, dx, vdy2));
-          const auto cov = hn::Min(hn::Max(hn::Add(hn::Sub(vrq, dist), half), zero), one);
-          auto wt = hn::Mul(cov, vws);
-          auto front = zero;
-          if (job.depth_order) {
-            const auto rel = hn::Mul(hn::Sub(vuq, hn::LoadU(d, job.inv_z + prow + px)), hn::LoadU(d, job.isu + prow + px));
-            front = hn::Min(hn::Max(rel, zero), one);
-            const auto behind = hn::Min(hn::Max(hn::Neg(rel), zero), one);
-            const auto pass = hn::Min(hn::Mul(hn::LoadU(d, job.sharp + prow + px), vinv_sq), one);
-            wt = hn::Mul(wt, hn::Sub(one, hn::Mul(behind, hn::Sub(one, pass))));
+        // Lanes outside a source's disc get cov = 0; lanes past the row end land in the
+        // accumulators' padding, so no lane needs masking.
+        for (int px = lo; px <= hi; px += lanes) {
+          const int pxe = px + lanes - 1;
+          const auto up = hn::LoadU(d, job.inv_z + prow + px);
+          const auto isu = hn::LoadU(d, job.isu + prow + px);
+          const auto sp = hn::LoadU(d, job.sharp + prow + px);
+          auto f0 = hn::LoadU(d, a[0] + px), f1 = hn::LoadU(d, a[1] + px), f2 = hn::LoadU(d, a[2] + px);
+          auto f3 = hn::LoadU(d, a[3] + px), fw = hn::LoadU(d, a[4] + px);
+          auto b0 = hn::LoadU(d, a[5] + px), b1 = hn::LoadU(d, a[6] + px), b2 = hn::LoadU(d, a[7] + px);
+          auto b3 = hn::LoadU(d, a[8] + px), bw = hn::LoadU(d, a[9] + px);
+          for (int j = 0; j < n; ++j) {
+            if (s_hi[j] < px || s_lo[j] > pxe) continue;
+            const auto dist = hn::LoadU(d, trow + (px + s_off[j]));
+            const auto cov = hn::Min(hn::Max(hn::Sub(hn::Set(d, s_lim[j]), dist), zero), one);
+            auto wt = hn::Mul(cov, hn::Set(d, s_ws[j]));
+            auto front = zero;
+            if (job.depth_order) {
+              const auto rel = hn::Mul(hn::Sub(hn::Set(d, s_uq[j]), up), isu);
+              front = hn::Min(hn::Max(rel, zero), one);
+              const auto minus_behind = hn::Max(hn::Min(rel, zero), neg_one);
+              // 1 − pass = 1 − min(sharp_p / sharp_q, 1)
+              const auto blocked = hn::Max(hn::NegMulAdd(sp, hn::Set(d, s_isq[j]), one), zero);
+              wt = hn::Mul(wt, hn::MulAdd(minus_behind, blocked, one));
+            }
+            const auto wf = hn::Mul(wt, front), wb = hn::Sub(wt, wf);
+            f0 = hn::MulAdd(wf, hn::Set(d, s_c0[j]), f0);
+            f1 = hn::MulAdd(wf, hn::Set(d, s_c1[j]), f1);
+            f2 = hn::MulAdd(wf, hn::Set(d, s_c2[j]), f2);
+            f3 = hn::MulAdd(wf, hn::Set(d, s_c3[j]), f3);
+            fw = hn::Add(fw, wf);
+            b0 = hn::MulAdd(wb, hn::Set(d, s_c0[j]), b0);
+            b1 = hn::MulAdd(wb, hn::Set(d, s_c1[j]), b1);
+            b2 = hn::MulAdd(wb, hn::Set(d, s_c2[j]), b2);
+            b3 = hn::MulAdd(wb, hn::Set(d, s_c3[j]), b3);
+            bw = hn::Add(bw, wb);
           }
-          const auto wf = hn::Mul(wt, front), wb = hn::Sub(wt, wf);
-          hn::StoreU(hn::MulAdd(wf, c0, hn::LoadU(d, a[0] + px)), d, a[0] + px);
-          hn::StoreU(hn::MulAdd(wf, c1, hn::LoadU(d, a[1] + px)), d, a[1] + px);
-          hn::StoreU(hn::MulAdd(wf, c2, hn::LoadU(d, a[2] + px)), d, a[2] + px);
-          hn::StoreU(hn::MulAdd(wf, c3, hn::LoadU(d, a[3] + px)), d, a[3] + px);
-          hn::StoreU(hn::Add(wf, hn::LoadU(d, a[4] + px)), d, a[4] + px);
-          hn::StoreU(hn::MulAdd(wb, c0, hn::LoadU(d, a[5] + px)), d, a[5] + px);
-          hn::StoreU(hn::MulAdd(wb, c1, hn::LoadU(d, a[6] + px)), d, a[6] + px);
-          hn::StoreU(hn::MulAdd(wb, c2, hn::LoadU(d, a[7] + px)), d, a[7] + px);
-          hn::StoreU(hn::MulAdd(wb, c3, hn::LoadU(d, a[8] + px)), d, a[8] + px);
-          hn::StoreU(hn::Add(wb, hn::LoadU(d, a[9] + px)), d, a[9] + px);
+          hn::StoreU(f0, d, a[0] + px);
+          hn::StoreU(f1, d, a[1] + px);
+          hn::StoreU(f2, d, a[2] + px);
+          hn::StoreU(f3, d, a[3] + px);
+          hn::StoreU(fw, d, a[4] + px);
+          hn::StoreU(b0, d, a[5] + px);
+          hn::StoreU(b1, d, a[6] + px);
+          hn::StoreU(b2, d, a[7] + px);
+          hn::StoreU(b3, d, a[8] + px);
+          hn::StoreU(bw, d, a[9] + px);
         }
       }
     }

@@ -6,6 +6,9 @@
 
 namespace dofkit::detail {
 
+/// Sources are taken in blocks of this many consecutive pixels of one row (SIMD loop).
+constexpr int kSourceBlock = 16;
+
 struct BandJob {
   int w = 0, h = 0;      // image size
   int y0 = 0, y1 = 0;    // receiver rows [y0, y1)
@@ -20,6 +23,15 @@ struct BandJob {
   const float* isu = nullptr;
   const float* wscale = nullptr;
   const float* colour[4] = {};
+  // SIMD loop only. ext: rows a source reaches above/below itself, ceil(ρ + 0.5) − 1;
+  // block_ext: its maximum over each block of kSourceBlock sources of a row (row qy, block b at
+  // qy·ceil(w / kSourceBlock) + b); dist: |(dx, dy)| for integer offsets, row |dy| at
+  // dist + |dy|·dist_stride, column dx at index dx + dist_half (dist_half >= reach + 16).
+  const int* ext = nullptr;
+  const int* block_ext = nullptr;
+  const float* dist = nullptr;
+  int dist_half = 0;
+  std::size_t dist_stride = 0;
   // Accumulators: row r of stream k (F rgba, F w, B rgba, B w) at acc + (k·band + r)·stride;
   // stride >= w + 16 so vector stores may run past the last receiver.
   float* acc = nullptr;

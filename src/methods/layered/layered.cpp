@@ -30,6 +30,7 @@
 #include "methods/layered/anchors.hpp"
 #include "methods/layered/composite.hpp"
 #include "methods/layered/disc_blur.hpp"
+#include "methods/layered/fast.hpp"
 #include "methods/layered/inpaint.hpp"
 #include "methods/layered/matting.hpp"
 #include "methods/method.hpp"
@@ -39,6 +40,8 @@ namespace dofkit::detail {
 namespace {
 
 constexpr int kMaxLayers = 16;
+
+std::size_t plane_bytes(int w, int h) { return static_cast<std::size_t>(w) * static_cast<std::size_t>(h); }
 
 std::vector<DebugViewInfo> debug_views() {
   std::vector<DebugViewInfo> v;
@@ -61,6 +64,9 @@ void render_layered(const MethodContext& ctx, Image& out) {
   const bool half_res = ctx.params.get_bool("half_res", true);
   const std::string fill = ctx.params.get_choice("fill", "auto", {"auto", "on", "off", "under"});
   const std::string psf = ctx.params.get_choice("psf", "auto", {"auto", "gaussian", "disc"});
+  // fast: the same arithmetic as plain in the same order (bit-identical, tests/layered/
+  // fast_test.cpp) with fused passes and workspace buffers (fast.hpp); plain is the oracle.
+  const bool fast = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
   const Frame& frame = ctx.frame;
   const bool multi = frame.has_layers();
   // auto: the disc for multi-layer input (it beats every single-layer method there, see
@@ -100,8 +106,16 @@ void render_layered(const MethodContext& ctx, Image& out) {
   // count thin near objects up to 1 + u times).
   plan.band = ctx.params.get_double("matte_band", disc ? 0.25 : 1.0, 0.0, 1.0);
 
-  Image layer, focus_layer;
-  std::vector<std::uint8_t> hole;
+  const int w = frame.width(), h = frame.height();
+  Image plain_layer, plain_focus;
+  std::vector<std::uint8_t> plain_hole;
+  Image& layer = fast ? ctx.workspace.image("layered.layer", w, h, 4) : plain_layer;
+  Image& focus_layer = fast ? ctx.workspace.image("layered.focus", w, h, 4) : plain_focus;
+  // The fast hole mask: w·h bytes in a workspace float plane.
+  std::uint8_t* fast_hole =
+      fast && do_fill ? reinterpret_cast<std::uint8_t*>(
+                            ctx.workspace.image("layered.hole", static_cast<int>((plane_bytes(w, h) + 3) / 4), 1, 1).plane(0))
+                      : nullptr;
   auto offer_layer = [&](int k, const Image& img) {
     const std::string m = "layer_" + std::to_string(k) + "_matted";
     const std::string b = "layer_" + std::to_string(k) + "_blurred";
@@ -117,56 +131,81 @@ void render_layered(const MethodContext& ctx, Image& out) {
   };
   // Mattes layer k into `dst` and fills its disocclusions; returns false if it is empty.
   auto make_layer = [&](int k, Image& dst, bool opaque_fill) {
-    const MatteStats s = matte_layer(frags, plan, k, dst, do_fill ? &hole : nullptr);
-    if (do_fill && !s.empty && s.holes) push_pull_fill(dst, hole, opaque_fill, fill_under);
+    if (fast) {
+      const MatteStats s = matte_layer_fast(frags, plan, k, dst, fast_hole);
+      if (do_fill && !s.empty && s.holes) push_pull_fill_fast(dst, fast_hole, opaque_fill, fill_under, ctx.workspace);
+      offer_layer(k, dst);
+      return !s.empty;
+    }
+    const MatteStats s = matte_layer(frags, plan, k, dst, do_fill ? &plain_hole : nullptr);
+    if (do_fill && !s.empty && s.holes) push_pull_fill(dst, plain_hole, opaque_fill, fill_under);
     offer_layer(k, dst);
     return !s.empty;
   };
 
-  Accumulator back(half_res), front(half_res);
-  bool focus_full;
-  if (!disc) {
-    // Back: B = H(σ_{K−1}) L_{K−1}; B = H(σ_k)(L_k over B) for k = K−2 … k_focus+1.
-    for (int k = plan.count - 1; k > plan.focus; --k) {
-      if (make_layer(k, layer, !back.has_content())) back.composite_front(layer);
-      back.blur(plan.step_sigma[k]);
+  // The stack, for either accumulator type (plain Accumulator or FastAccumulator).
+  auto run_stack = [&](auto& back, auto& front) {
+    bool focus_full;
+    if (!disc) {
+      // Back: B = H(σ_{K−1}) L_{K−1}; B = H(σ_k)(L_k over B) for k = K−2 … k_focus+1.
+      for (int k = plan.count - 1; k > plan.focus; --k) {
+        if (make_layer(k, layer, !back.has_content())) back.composite_front(layer);
+        back.blur(plan.step_sigma[k]);
+      }
+      // Focus layer, unblurred; the opaque backstop if nothing lies behind it.
+      focus_full = make_layer(plan.focus, focus_layer, !back.has_content());
+      // Front: F = H(σ_0) L_0; F = H(σ_k)(F over L_k) for k = 1 … k_focus−1.
+      for (int k = 0; k < plan.focus; ++k) {
+        if (make_layer(k, layer, false)) front.composite_back(layer);
+        front.blur(plan.step_sigma[k]);
+      }
+    } else {
+      // psf=disc, the non-recursive form: every layer is blurred once, by the disc of its own
+      // anchor radius |a_k| (a disc blurred by a disc is no disc, so there is no semigroup to
+      // recurse with), and composited with "over": B = D_{K−1} L_{K−1}, B = D_k L_k over B;
+      // F = D_0 L_0, F = F over D_k L_k. A fragment between two anchors is still split by the
+      // matte (u in the nearer layer over 1 in the farther), so its blur is the u-weighted
+      // mix of the two discs.
+      for (int k = plan.count - 1; k > plan.focus; --k) {
+        if (!make_layer(k, layer, !back.has_content())) continue;
+        disc_blur(layer, std::fabs(plan.anchor[k]));
+        back.composite_front(layer);
+      }
+      focus_full = make_layer(plan.focus, focus_layer, !back.has_content());
+      for (int k = 0; k < plan.focus; ++k) {
+        if (!make_layer(k, layer, false)) continue;
+        disc_blur(layer, std::fabs(plan.anchor[k]));
+        front.composite_back(layer);
+      }
     }
-    // Focus layer, unblurred; the opaque backstop if nothing lies behind it.
-    focus_full = make_layer(plan.focus, focus_layer, !back.has_content());
-    // Front: F = H(σ_0) L_0; F = H(σ_k)(F over L_k) for k = 1 … k_focus−1.
-    for (int k = 0; k < plan.focus; ++k) {
-      if (make_layer(k, layer, false)) front.composite_back(layer);
-      front.blur(plan.step_sigma[k]);
-    }
-  } else {
-    // psf=disc, the non-recursive form: every layer is blurred once, by the disc of its own
-    // anchor radius |a_k| (a disc blurred by a disc is no disc, so there is no semigroup to
-    // recurse with), and composited with "over": B = D_{K−1} L_{K−1}, B = D_k L_k over B;
-    // F = D_0 L_0, F = F over D_k L_k. A fragment between two anchors is still split by the
-    // matte (u in the nearer layer over 1 in the farther), so its blur is the u-weighted
-    // mix of the two discs.
-    for (int k = plan.count - 1; k > plan.focus; --k) {
-      if (!make_layer(k, layer, !back.has_content())) continue;
-      disc_blur(layer, std::fabs(plan.anchor[k]));
-      back.composite_front(layer);
-    }
-    focus_full = make_layer(plan.focus, focus_layer, !back.has_content());
-    for (int k = 0; k < plan.focus; ++k) {
-      if (!make_layer(k, layer, false)) continue;
-      disc_blur(layer, std::fabs(plan.anchor[k]));
-      front.composite_back(layer);
-    }
-  }
+    return focus_full;
+  };
 
   // Views of layers the plan does not use (k >= K) and of empty accumulators are transparent.
-  const int w = frame.width(), h = frame.height();
   const std::function<Image()> transparent = [&] { return Image(w, h, 4, 0.0f); };
-  for (int k = plan.count; k < kMaxLayers; ++k) {
-    ctx.debug.offer(("layer_" + std::to_string(k) + "_matted").c_str(), transparent);
-    ctx.debug.offer(("layer_" + std::to_string(k) + "_blurred").c_str(), transparent);
+  auto offer_rest = [&](auto& back, auto& front) {
+    for (int k = plan.count; k < kMaxLayers; ++k) {
+      ctx.debug.offer(("layer_" + std::to_string(k) + "_matted").c_str(), transparent);
+      ctx.debug.offer(("layer_" + std::to_string(k) + "_blurred").c_str(), transparent);
+    }
+    if (!back.has_content()) ctx.debug.offer("back", transparent);
+    if (!front.has_content()) ctx.debug.offer("front", transparent);
+  };
+
+  if (fast) {
+    FastAccumulator back(ctx.workspace, "layered.back", half_res), front(ctx.workspace, "layered.front", half_res);
+    const bool focus_full = run_stack(back, front);
+    offer_rest(back, front);
+    if (back.has_content() && ctx.debug.wants("back")) ctx.debug.offer("back", back.resolved());
+    if (front.has_content() && ctx.debug.wants("front")) ctx.debug.offer("front", front.resolved());
+    // I = F over L_focus over B (S4 Eq. 2.7), one pass.
+    final_composite(front, focus_full ? &focus_layer : nullptr, back, w, h, out);
+    return;
   }
-  if (!back.has_content()) ctx.debug.offer("back", transparent);
-  if (!front.has_content()) ctx.debug.offer("front", transparent);
+
+  Accumulator back(half_res), front(half_res);
+  const bool focus_full = run_stack(back, front);
+  offer_rest(back, front);
 
   // I = F over L_focus over B (S4 Eq. 2.7).
   if (focus_full) out = focus_layer; else out = Image(w, h, 4, 0.0f);
@@ -194,6 +233,7 @@ const MethodDef& layered_method() {
        {"half_res", "on", "blur steps of sigma >= 4 px at half resolution (same variance, about 4x less blur work): on/off"},
        {"fill", "auto", "inpaint disoccluded layer pixels by push-pull: auto (single-layer input only), on, off, under (the fill goes behind what the layer holds there: hidden fragments of multi-layer input stay in front)"},
        {"psf", "auto", "layer blur: auto (disc for multi-layer input, gaussian for one RGB-D frame), gaussian (S&W's recursive Gaussians, O(1) per pixel) or disc (each layer blurred once by the anti-aliased disc of its anchor CoC radius and composited with over, O(R) per pixel)"},
+       {"impl", "fast", "fast (fused passes, workspace buffers; same arithmetic) or plain (the straightforward form, the test oracle)"},
        {"matte_band", "1 (gaussian) / 0.25 (disc)", "width of the matte ramp between two anchors as a fraction of the gap (0-1): 1 = S&W (u in the nearer layer over 1 in the farther, blur interpolated), 0 = each fragment wholly in its nearest anchor's layer (counted once)"}},
       debug_views(),
       render_layered};

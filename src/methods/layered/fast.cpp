@@ -1,0 +1,475 @@
+#include "methods/layered/fast.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <utility>
+
+#include "core/filters.hpp"
+#include "core/parallel.hpp"
+#include "methods/layered/composite.hpp"
+
+namespace dofkit::detail::layered {
+
+namespace {
+
+constexpr int kBlock = 256;  // columns per block of the row passes (stack buffers)
+
+// ---------------------------------------------------------------------------------------
+// 2× bilinear up-sampling (composite.cpp's half-resolution blur and inpaint.cpp's push).
+// Fine pixel centre x + 0.5 lies at (x + 0.5)/2 in coarse units, so with the coarse sample
+// i at i + 0.5: fine x = 2i sits a quarter-pixel *before* coarse i (between i − 1 and i, weight
+// 0.75 on i) and x = 2i + 1 a quarter after it (between i and i + 1, weight 0.25 on i + 1),
+// indices clamped to the edge. These are exactly the footprints core::bilinear_footprint
+// computes ((x + 0.5)·0.5 − 0.5 and its fraction are exact in float), and the lerps below
+// are core::sample_bilinear's, in its order (horizontal, then vertical), so the result is
+// bit-identical to one sample_bilinear call per pixel.
+
+// dst[j] = horizontal lerp of coarse row src (cw samples) at fine column x0 + j.
+inline void up_h(const float* src, int cw, int x0, int n, float* dst) {
+  auto one = [&](int x) {
+    const int i = x >> 1;
+    int a, b;
+    float t;
+    if (x & 1) {
+      a = i;
+      b = i + 1 < cw ? i + 1 : cw - 1;
+      t = 0.25f;
+    } else {
+      a = i > 0 ? i - 1 : 0;
+      b = i;
+      t = 0.75f;
+    }
+    return src[a] + (src[b] - src[a]) * t;
+  };
+  // Interior pairs (x = 2i, 2i + 1 with 1 <= i <= cw − 2) need no clamp: a branch-free loop
+  // the compiler vectorises; the few edge columns take the general form.
+  const int x1 = x0 + n;
+  int x = x0;
+  for (; x < x1 && (x < 2 || (x & 1)); ++x) dst[x - x0] = one(x);
+  const int i_end = std::min((x1 >> 1), cw - 1);  // pairs with 2i + 1 < x1 and i + 1 <= cw − 1
+  int i = x >> 1;
+  float* d = dst + (x - x0);
+  for (; i < i_end; ++i, d += 2) {
+    const float lo = src[i - 1], mid = src[i], hi = src[i + 1];
+    d[0] = lo + (mid - lo) * 0.75f;
+    d[1] = mid + (hi - mid) * 0.25f;
+  }
+  for (x = 2 * i; x < x1; ++x) dst[x - x0] = one(x);
+}
+
+// Vertical footprint of fine row y on a coarse axis of ch rows.
+struct RowFoot {
+  const float* a;
+  const float* b;
+  float t;
+};
+inline RowFoot row_foot(const float* plane, int cw, int ch, int y) {
+  int ya, yb;
+  float ty;
+  core::bilinear_footprint((y + 0.5f) * 0.5f, ch, ya, yb, ty);
+  return {plane + static_cast<std::size_t>(ya) * cw, plane + static_cast<std::size_t>(yb) * cw, ty};
+}
+
+// dst[j] = the 2× up-sampling of `plane` (cw × ch) at fine (x0 + j, y).
+inline void up_block(const float* plane, int cw, int ch, int y, int x0, int n, float* dst) {
+  const RowFoot f = row_foot(plane, cw, ch, y);
+  float top[kBlock], bot[kBlock];
+  up_h(f.a, cw, x0, n, top);
+  up_h(f.b, cw, x0, n, bot);
+  for (int j = 0; j < n; ++j) dst[j] = top[j] + (bot[j] - top[j]) * f.t;
+}
+
+// The banded ramp of anchors.cpp (same double arithmetic).
+inline double banded(double u, double band) {
+  if (band <= 0) return u >= 0.5 ? 1.0 : 0.0;
+  const double v = (u - 0.5) / band + 0.5;
+  return v <= 0 ? 0.0 : (v >= 1 ? 1.0 : v);
+}
+
+// LayerPlan::weight(k, ·) with the plan's numbers hoisted out of the pixel loop; same
+// comparisons and the same double arithmetic, so the same float result.
+struct Matte {
+  bool first, last;
+  double a_prev, a_k, a_next, band;
+  Matte(const LayerPlan& p, int k)
+      : first(k == 0), last(k == p.count - 1), a_prev(k > 0 ? p.anchor[k - 1] : 0.0), a_k(p.anchor[k]),
+        a_next(k + 1 < p.count ? p.anchor[k + 1] : 0.0), band(p.band) {}
+  float operator()(float r) const {
+    if (!first && r > a_k) {
+      const double u = (r - a_k) / (a_prev - a_k);
+      if (u > 1) return 0.0f;
+      return banded(u, band) < 1.0 ? 1.0f : 0.0f;
+    }
+    if (r >= a_k || last) return 1.0f;
+    const double u = (r - a_next) / (a_k - a_next);
+    if (u <= 0) return 0.0f;
+    return static_cast<float>(banded(u, band));
+  }
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+MatteStats matte_layer_fast(const Fragments& frags, const LayerPlan& plan, int k, Image& layer,
+                            std::uint8_t* hole) {
+  const int w = frags.width(), h = frags.height();
+  layer.resize(w, h, 4);
+  const int nf = static_cast<int>(frags.color.size());
+  const double near_limit = plan.near_limit(k);
+  const Matte matte(plan, k);
+  // OR-reductions: the result does not depend on the order.
+  std::atomic<bool> any_full{false}, any_hole{false};
+  core::parallel_for(h, [&](int y0, int y1) {
+    bool full = false, holes = false;
+    for (int y = y0; y < y1; ++y) {
+      float* out[4];
+      for (int c = 0; c < 4; ++c) out[c] = layer.row(c, y);
+      std::uint8_t* hr = hole ? hole + static_cast<std::size_t>(y) * w : nullptr;
+      if (nf == 1) {
+        // One fragment per pixel (RGB-D input): acc = 0 + (1 − 0)·w_k·I, as below.
+        const float* in[4];
+        for (int c = 0; c < 4; ++c) in[c] = frags.color[0]->row(c, y);
+        const float* rr = frags.coc[0]->row(0, y);
+        for (int x = 0; x < w; ++x) {
+          const float a = in[3][x];
+          float wk = 0.0f;
+          std::uint8_t hv = 0;
+          if (a > 0) {
+            const float r = rr[x];
+            wk = matte(r);
+            hv = r > near_limit;
+          }
+          const float t = (1.0f - 0.0f) * wk;
+          for (int c = 0; c < 4; ++c) out[c][x] = wk > 0 ? 0.0f + t * in[c][x] : 0.0f;
+          full |= out[3][x] > 0;
+          if (hr) {
+            hr[x] = hv;
+            holes |= hv != 0;
+          }
+        }
+        continue;
+      }
+      for (int x = 0; x < w; ++x) {
+        float acc[4] = {0, 0, 0, 0};
+        std::uint8_t hv = 0;
+        for (int f = 0; f < nf; ++f) {
+          const Image& col = *frags.color[f];
+          const float a = col.row(3, y)[x];
+          if (!(a > 0)) continue;
+          const float r = frags.coc[f]->row(0, y)[x];
+          const float wk = matte(r);
+          if (wk > 0) {
+            const float t = (1.0f - acc[3]) * wk;
+            for (int c = 0; c < 4; ++c) acc[c] += t * col.row(c, y)[x];
+          }
+          if (f == 0 && r > near_limit) hv = 1;
+        }
+        for (int c = 0; c < 4; ++c) out[c][x] = acc[c];
+        full |= acc[3] > 0;
+        if (hr) {
+          hr[x] = hv;
+          holes |= hv != 0;
+        }
+      }
+    }
+    if (full) any_full.store(true, std::memory_order_relaxed);
+    if (holes) any_hole.store(true, std::memory_order_relaxed);
+  }, 4);
+  MatteStats s;
+  s.empty = !any_full.load();
+  s.holes = any_hole.load();
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------
+namespace {
+
+// Pull of inpaint.cpp for one coarse level: value = Σ w v / Σ w over the 2×2 children (double
+// sums, children in the same order), confidence = min(1, Σ w / 4). `weight_of(fx, fy)` is
+// the child's confidence.
+template <class WeightOf>
+void pull_level(const Image& fine, const WeightOf& weight_of, Image& cv, Image& cwt) {
+  const int fw = fine.width(), fh = fine.height();
+  const int cw = cv.width(), ch = cv.height();
+  core::parallel_for(ch, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < cw; ++x) {
+        double sw = 0, sv[4] = {0, 0, 0, 0};
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx) {
+            const int fx = 2 * x + dx, fy = 2 * y + dy;
+            if (fx >= fw || fy >= fh) continue;
+            const float wt = weight_of(fx, fy);
+            if (wt <= 0) continue;
+            sw += wt;
+            for (int k = 0; k < 4; ++k) sv[k] += wt * fine.row(k, fy)[fx];
+          }
+        cwt.row(0, y)[x] = static_cast<float>(std::min(1.0, sw / 4.0));
+        for (int k = 0; k < 4; ++k) cv.row(k, y)[x] = sw > 0 ? static_cast<float>(sv[k] / sw) : 0.0f;
+      }
+  }, 8);
+}
+
+}  // namespace
+
+void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bool under, Workspace& ws) {
+  const int w = layer.width(), h = layer.height();
+  // Levels 1 … L (level 0 is the layer itself with the hole mask as its 0/1 confidence).
+  std::vector<Image*> val{nullptr}, wgt{nullptr};
+  {
+    int cw = w, ch = h;
+    int l = 0;
+    while (cw > 1 || ch > 1) {
+      cw = (cw + 1) / 2;
+      ch = (ch + 1) / 2;
+      ++l;
+      val.push_back(&ws.image("layered.ppv" + std::to_string(l), cw, ch, 4));
+      wgt.push_back(&ws.image("layered.ppw" + std::to_string(l), cw, ch, 1));
+    }
+  }
+  const int levels = static_cast<int>(val.size());  // including level 0
+  // Applies inpaint.cpp's final rules to hole pixel j of row pointers d with fill value v.
+  auto finish = [opaque, under](float* const* d, int j, float* v) {
+    if (opaque && v[3] > 1e-6f) {
+      for (int k = 0; k < 3; ++k) v[k] /= v[3];
+      v[3] = 1.0f;
+    }
+    if (under) {
+      const float t = 1.0f - d[3][j];
+      for (int k = 0; k < 4; ++k) d[k][j] += t * v[k];
+    } else {
+      for (int k = 0; k < 4; ++k) d[k][j] = v[k];
+    }
+  };
+  if (levels == 1) {  // 1×1: no pyramid, the fill is the pixel itself
+    if (hole[0]) {
+      float* d[4];
+      for (int k = 0; k < 4; ++k) d[k] = layer.plane(k);
+      float v[4];
+      for (int k = 0; k < 4; ++k) v[k] = d[k][0];
+      finish(d, 0, v);
+    }
+    return;
+  }
+  // Pull.
+  pull_level(layer, [&](int fx, int fy) { return hole[static_cast<std::size_t>(fy) * w + fx] ? 0.0f : 1.0f; },
+             *val[1], *wgt[1]);
+  for (int l = 2; l < levels; ++l) {
+    const Image& fw = *wgt[l - 1];
+    pull_level(*val[l - 1], [&](int fx, int fy) { return fw.row(0, fy)[fx]; }, *val[l], *wgt[l]);
+  }
+  // Push, coarse to fine, down to level 1: v ← w v + (1 − w) up(v_{l+1}) where w < 1.
+  for (int l = levels - 2; l >= 1; --l) {
+    Image& fv = *val[l];
+    const Image& fwt = *wgt[l];
+    const Image& cv = *val[l + 1];
+    const int fw = fv.width(), fh = fv.height(), cw = cv.width(), ch = cv.height();
+    core::parallel_for(fh, [&](int y0, int y1) {
+      float up[kBlock];
+      for (int y = y0; y < y1; ++y) {
+        const float* wr = fwt.row(0, y);
+        for (int x0 = 0; x0 < fw; x0 += kBlock) {
+          const int n = std::min(kBlock, fw - x0);
+          bool any = false;
+          for (int j = 0; j < n; ++j) any |= wr[x0 + j] < 1.0f;
+          if (!any) continue;
+          for (int k = 0; k < 4; ++k) {
+            up_block(cv.plane(k), cw, ch, y, x0, n, up);
+            float* v = fv.row(k, y) + x0;
+            for (int j = 0; j < n; ++j) {
+              const float wt = wr[x0 + j];
+              if (wt >= 1.0f) continue;
+              v[j] = wt * v[j] + (1.0f - wt) * up[j];
+            }
+          }
+        }
+      }
+    }, 8);
+  }
+  // Level 0: the hole pixels (confidence 0) take the up-sampled level 1, then the opaque /
+  // under rules of inpaint.cpp, written straight into the layer.
+  const Image& cv = *val[1];
+  const int cw = cv.width(), ch = cv.height();
+  core::parallel_for(h, [&](int y0, int y1) {
+    float up[4][kBlock];
+    for (int y = y0; y < y1; ++y) {
+      const std::uint8_t* hr = hole + static_cast<std::size_t>(y) * w;
+      for (int x0 = 0; x0 < w; x0 += kBlock) {
+        const int n = std::min(kBlock, w - x0);
+        bool any = false;
+        for (int j = 0; j < n; ++j) any |= hr[x0 + j] != 0;
+        if (!any) continue;
+        for (int k = 0; k < 4; ++k) up_block(cv.plane(k), cw, ch, y, x0, n, up[k]);
+        float* d[4];
+        for (int k = 0; k < 4; ++k) d[k] = layer.row(k, y) + x0;
+        for (int j = 0; j < n; ++j) {
+          if (!hr[x0 + j]) continue;
+          const float wt = 0.0f;
+          float v[4];
+          for (int k = 0; k < 4; ++k) v[k] = wt * d[k][j] + (1.0f - wt) * up[k][j];
+          finish(d, j, v);
+        }
+      }
+    }
+  }, 4);
+}
+
+// ---------------------------------------------------------------------------------------
+namespace {
+
+// A read-only view of an accumulator's content by row blocks: the full image, or the
+// up-sampling of its half-resolution image computed on the fly.
+struct AccRows {
+  const Image* full = nullptr;
+  const Image* half = nullptr;
+  explicit AccRows(const FastAccumulator& a) {
+    if (!a.has_content()) return;
+    if (a.half_pending()) half = &a.half(); else full = &a.full();
+  }
+  bool present() const { return full || half; }
+  // Pointers to the 4 channels of row y, columns [x0, x0 + n); `buf` receives up-sampled rows.
+  void get(int y, int x0, int n, float (*buf)[kBlock], const float* p[4]) const {
+    if (full) {
+      for (int c = 0; c < 4; ++c) p[c] = full->row(c, y) + x0;
+    } else {
+      for (int c = 0; c < 4; ++c) {
+        up_block(half->plane(c), half->width(), half->height(), y, x0, n, buf[c]);
+        p[c] = buf[c];
+      }
+    }
+  }
+};
+
+}  // namespace
+
+void FastAccumulator::settle() {
+  if (has_ && pending_var_ > 0) {
+    const double sigma = std::sqrt(pending_var_);
+    if (half_res_ && sigma >= 4.0) {
+      if (lazy_up_) resolved();
+      // composite.cpp blur_half_res: 2×2 box down, blur of the remaining variance, bilinear
+      // up (deferred: the next composite or read up-samples on the fly).
+      const Image& img = *full_;
+      const int w = img.width(), h = img.height();
+      const int hw = (w + 1) / 2, hh = (h + 1) / 2;
+      Image& half = ws_.image(name_ + ".half", hw, hh, 4);
+      core::parallel_for(hh, [&](int y0, int y1) {
+        for (int c = 0; c < 4; ++c)
+          for (int y = y0; y < y1; ++y) {
+            const float* a = img.row(c, 2 * y);
+            const float* b = img.row(c, std::min(2 * y + 1, h - 1));
+            float* d = half.row(c, y);
+            for (int x = 0; x < hw; ++x) {
+              const int x1 = std::min(2 * x + 1, w - 1);
+              d[x] = 0.25f * (a[2 * x] + a[x1] + b[2 * x] + b[x1]);
+            }
+          }
+      }, 4);
+      const double var = (sigma * sigma - 0.25 - 2.0 / 3.0) / 4.0;
+      if (var > 0) core::gaussian_blur(half, static_cast<float>(std::sqrt(var)));
+      half_ = &half;
+      lazy_up_ = true;
+    } else {
+      if (lazy_up_) resolved();
+      core::gaussian_blur(*full_, static_cast<float>(sigma));
+    }
+  }
+  pending_var_ = 0;
+}
+
+const Image& FastAccumulator::resolved() {
+  if (pending_var_ > 0) settle();
+  if (lazy_up_) {
+    Image& img = *full_;
+    const Image& half = *half_;
+    const int w = img.width(), h = img.height();
+    core::parallel_for(h, [&](int y0, int y1) {
+      for (int c = 0; c < 4; ++c)
+        for (int y = y0; y < y1; ++y)
+          for (int x0 = 0; x0 < w; x0 += kBlock)
+            up_block(half.plane(c), half.width(), half.height(), y, x0, std::min(kBlock, w - x0), img.row(c, y) + x0);
+    }, 4);
+    lazy_up_ = false;
+  }
+  return *full_;
+}
+
+void FastAccumulator::combine(Image& layer, bool layer_in_front) {
+  settle();
+  if (!has_) {
+    full_ = &ws_.image(name_ + ".full", layer.width(), layer.height(), 4);
+    std::swap(*full_, layer);
+    has_ = true;
+    return;
+  }
+  if (!lazy_up_) {
+    if (layer_in_front) over(layer, *full_, *full_); else over(*full_, layer, *full_);
+    return;
+  }
+  // composite.cpp's over() with the accumulator's up-sampled rows read from the half image.
+  Image& img = *full_;
+  const AccRows acc(*this);
+  const int w = img.width(), h = img.height();
+  core::parallel_for(h, [&](int y0, int y1) {
+    float buf[4][kBlock];
+    float t[kBlock];
+    for (int y = y0; y < y1; ++y)
+      for (int x0 = 0; x0 < w; x0 += kBlock) {
+        const int n = std::min(kBlock, w - x0);
+        const float* a[4];
+        acc.get(y, x0, n, buf, a);
+        const float* l[4];
+        for (int c = 0; c < 4; ++c) l[c] = layer.row(c, y) + x0;
+        const float* const* f = layer_in_front ? l : a;
+        const float* const* b = layer_in_front ? a : l;
+        for (int i = 0; i < n; ++i) t[i] = 1.0f - f[3][i];
+        float out[4][kBlock];
+        for (int c = 0; c < 4; ++c)
+          for (int i = 0; i < n; ++i) out[c][i] = f[c][i] + t[i] * b[c][i];
+        for (int c = 0; c < 4; ++c) std::copy(out[c], out[c] + n, img.row(c, y) + x0);
+      }
+  }, 4);
+  lazy_up_ = false;
+}
+
+void FastAccumulator::composite_front(Image& layer) { combine(layer, true); }
+void FastAccumulator::composite_back(Image& layer) { combine(layer, false); }
+
+void final_composite(FastAccumulator& front, const Image* focus, FastAccumulator& back, int w, int h, Image& out) {
+  front.settle();
+  back.settle();
+  out.resize(w, h, 4);
+  const AccRows F(front), B(back);
+  core::parallel_for(h, [&](int y0, int y1) {
+    float fb[4][kBlock], bb[4][kBlock];
+    float cur[4][kBlock];
+    for (int y = y0; y < y1; ++y)
+      for (int x0 = 0; x0 < w; x0 += kBlock) {
+        const int n = std::min(kBlock, w - x0);
+        for (int c = 0; c < 4; ++c) {
+          if (focus) std::copy(focus->row(c, y) + x0, focus->row(c, y) + x0 + n, cur[c]);
+          else std::fill(cur[c], cur[c] + n, 0.0f);
+        }
+        if (B.present()) {  // out = out over B
+          const float* b[4];
+          B.get(y, x0, n, bb, b);
+          float t[kBlock];
+          for (int i = 0; i < n; ++i) t[i] = 1.0f - cur[3][i];
+          for (int c = 0; c < 4; ++c)
+            for (int i = 0; i < n; ++i) cur[c][i] = cur[c][i] + t[i] * b[c][i];
+        }
+        if (F.present()) {  // out = F over out
+          const float* f[4];
+          F.get(y, x0, n, fb, f);
+          float t[kBlock];
+          for (int i = 0; i < n; ++i) t[i] = 1.0f - f[3][i];
+          for (int c = 0; c < 4; ++c)
+            for (int i = 0; i < n; ++i) cur[c][i] = f[c][i] + t[i] * cur[c][i];
+        }
+        for (int c = 0; c < 4; ++c) std::copy(cur[c], cur[c] + n, out.row(c, y) + x0);
+      }
+  }, 4);
+}
+
+}  // namespace dofkit::detail::layered

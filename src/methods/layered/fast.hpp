@@ -1,0 +1,69 @@
+// Fast forms of the layered method's per-layer passes (issue 8). Same arithmetic as the plain
+// forms in matting.cpp, inpaint.cpp and composite.cpp, in the same order, so the output is
+// bit-identical to impl=plain (tests/layered/fast_test.cpp); what changes is the data flow:
+//  * matting evaluates the matte inline (no call per fragment) and reduces its flags without
+//    per-row vectors;
+//  * push-pull keeps its pyramid in the workspace, builds level 1 straight from the layer and
+//    its hole mask (no copy of level 0, no weight plane at full resolution), pushes with the
+//    fixed 2× bilinear weights row by row, and fills level 0 in the same pass that applies
+//    the opaque / under rules, writing into the layer;
+//  * the accumulator takes the first layer by swap (no copy), keeps a half-resolution blur
+//    at half resolution until the next composite or read, and up-samples it inside that
+//    composite (one pass instead of an up-sampling pass plus an "over" pass);
+//  * the final F over focus over B is one pass.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "dofkit/image.hpp"
+#include "methods/layered/anchors.hpp"
+#include "methods/layered/matting.hpp"
+#include "methods/method.hpp"
+
+namespace dofkit::detail::layered {
+
+/// matte_layer with the same result; `hole` points to width·height bytes (or is null).
+MatteStats matte_layer_fast(const Fragments& frags, const LayerPlan& plan, int k, Image& layer,
+                            std::uint8_t* hole);
+
+/// push_pull_fill with the same result; the pyramid levels come from `ws` (keys "layered.pp*").
+void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bool under, Workspace& ws);
+
+/// Accumulator with the same result (see composite.hpp); buffers come from the workspace
+/// under keys prefixed by `name`.
+class FastAccumulator {
+ public:
+  FastAccumulator(Workspace& ws, std::string name, bool half_res) : ws_(ws), name_(std::move(name)), half_res_(half_res) {}
+  bool has_content() const { return has_; }
+  /// acc = layer over acc. `layer` may be swapped with the accumulator's buffer (its
+  /// contents are unspecified afterwards).
+  void composite_front(Image& layer);
+  /// acc = acc over layer.
+  void composite_back(Image& layer);
+  void blur(double sigma) { if (has_) pending_var_ += sigma * sigma; }
+  /// Applies the pending blur; afterwards the content is either full() or, if
+  /// half_pending(), the bilinear 2× up-sampling of half().
+  void settle();
+  bool half_pending() const { return lazy_up_; }
+  const Image& full() const { return *full_; }
+  const Image& half() const { return *half_; }
+  /// The full-resolution image (up-sampled if needed); for debug views.
+  const Image& resolved();
+
+ private:
+  void combine(Image& layer, bool layer_in_front);
+  Workspace& ws_;
+  std::string name_;
+  bool half_res_;
+  bool has_ = false;
+  bool lazy_up_ = false;
+  double pending_var_ = 0;
+  Image* full_ = nullptr;
+  Image* half_ = nullptr;
+};
+
+/// out = F over L_focus over B (the same as copying L_focus, or zeros if `focus` is null, and
+/// applying the two "over"s of composite.cpp). F, B may be without content.
+void final_composite(FastAccumulator& front, const Image* focus, FastAccumulator& back, int w, int h, Image& out);
+
+}  // namespace dofkit::detail::layered

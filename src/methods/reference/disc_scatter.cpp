@@ -141,6 +141,7 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
         ox.push_back(static_cast<float>(dx));
         oy.push_back(static_cast<float>(dy));
       }
+    const float min_inv_z = *std::min_element(inv_z.begin(), inv_z.begin() + static_cast<std::ptrdiff_t>(n));
     core::parallel_for(h, [&](int y0, int y1) {
       for (int y = y0; y < y1; ++y)
         for (int x = 0; x < w; ++x) {
@@ -149,6 +150,7 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
           hp[3] = -1.0f;
           if (sharpness[p] <= 0.0f) continue;  // sharp receivers are opaque
           const float limit = inv_z[p] * (1.0f - soft);  // "clearly behind": inverse depth below this
+          if (!(limit > min_inv_z)) continue;  // nothing in the image lies behind (e.g. the sky)
           float sum[4] = {0, 0, 0, 0};
           int count = 0;
           for (std::size_t k = 0; k < ox.size(); ++k) {

@@ -34,9 +34,10 @@ void ScatterBand(const BandJob& job) {
   const int nblk = (w + S - 1) / S;
   const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), neg_one = hn::Set(d, -1.0f);
   const int sy0 = std::max(0, job.y0 - job.reach), sy1 = std::min(job.h, job.y1 + job.reach);
-  // The active sources of the block for the current receiver row.
+  // The sources of the current block that reach the band, and their spans on the current
+  // receiver row (lo > hi: not on this row).
   float s_lim[S], s_ws[S], s_uq[S], s_isq[S], s_c0[S], s_c1[S], s_c2[S], s_c3[S];
-  int s_off[S], s_lo[S], s_hi[S];
+  int s_qx[S], s_ext[S], s_off[S], s_lo[S], s_hi[S];
   for (int qy = sy0; qy < sy1; ++qy) {
     const int* bext = job.block_ext + static_cast<std::size_t>(qy) * nblk;
     for (int b = 0; b < nblk; ++b) {
@@ -44,33 +45,44 @@ void ScatterBand(const BandJob& job) {
       const int pyA = std::max(job.y0, qy - e), pyB = std::min(job.y1 - 1, qy + e);
       if (pyA > pyB) continue;  // no source of this block reaches the band
       const int qx0 = b * S, qx1 = std::min(w, qx0 + S);
+      int m = 0;
+      for (int qx = qx0; qx < qx1; ++qx) {
+        const std::size_t q = static_cast<std::size_t>(qy) * w + qx;
+        const int ex = job.ext[q];
+        if (qy + ex < job.y0 || qy - ex >= job.y1) continue;
+        s_qx[m] = qx;
+        s_ext[m] = ex;
+        s_off[m] = job.dist_half - qx;
+        s_lim[m] = job.rho[q] + 0.5f;
+        s_ws[m] = job.wscale[q];
+        s_uq[m] = job.inv_z[q];
+        const float sq = job.sharp[q];
+        s_isq[m] = sq > 0 ? 1.0f / sq : 1e30f;
+        s_c0[m] = job.colour[0][q];
+        s_c1[m] = job.colour[1][q];
+        s_c2[m] = job.colour[2][q];
+        s_c3[m] = job.colour[3][q];
+        ++m;
+      }
       for (int py = pyA; py <= pyB; ++py) {
         const int dy = py - qy, ady = dy < 0 ? -dy : dy;
         const float fdy = static_cast<float>(dy);
-        int n = 0, lo = w, hi = -1;
-        for (int qx = qx0; qx < qx1; ++qx) {
-          const std::size_t q = static_cast<std::size_t>(qy) * w + qx;
-          if (job.ext[q] < ady) continue;
-          const float rq = job.rho[q];
-          const float lim = rq + 0.5f;
+        int lo = w, hi = -1;
+        for (int i = 0; i < m; ++i) {
+          if (s_ext[i] < ady) {
+            s_lo[i] = w + 1024;
+            s_hi[i] = -1024;
+            continue;
+          }
+          const float lim = s_lim[i];
           const int hw = static_cast<int>(std::sqrt(std::max(0.0f, lim * lim - fdy * fdy)));
-          s_lo[n] = std::max(0, qx - hw);
-          s_hi[n] = std::min(w - 1, qx + hw);
-          lo = std::min(lo, s_lo[n]);
-          hi = std::max(hi, s_hi[n]);
-          s_off[n] = job.dist_half - qx;
-          s_lim[n] = lim;
-          s_ws[n] = job.wscale[q];
-          s_uq[n] = job.inv_z[q];
-          const float sq = job.sharp[q];
-          s_isq[n] = sq > 0 ? 1.0f / sq : 1e30f;
-          s_c0[n] = job.colour[0][q];
-          s_c1[n] = job.colour[1][q];
-          s_c2[n] = job.colour[2][q];
-          s_c3[n] = job.colour[3][q];
-          ++n;
+          s_lo[i] = std::max(0, s_qx[i] - hw);
+          s_hi[i] = std::min(w - 1, s_qx[i] + hw);
+          lo = std::min(lo, s_lo[i]);
+          hi = std::max(hi, s_hi[i]);
         }
-        if (n == 0) continue;
+        if (lo > hi) continue;
+        const int n = m;
         const float* trow = job.dist + static_cast<std::size_t>(ady) * job.dist_stride;
         const std::size_t prow = static_cast<std::size_t>(py) * w;
         float* a[10];
@@ -86,20 +98,48 @@ void ScatterBand(const BandJob& job) {
           auto f3 = hn::LoadU(d, a[3] + px), fw = hn::LoadU(d, a[4] + px);
           auto b0 = hn::LoadU(d, a[5] + px), b1 = hn::LoadU(d, a[6] + px), b2 = hn::LoadU(d, a[7] + px);
           auto b3 = hn::LoadU(d, a[8] + px), bw = hn::LoadU(d, a[9] + px);
+          // The depth relation of a source to the whole vector is often uniform (a surface
+          // of one depth per row, a sky at infinity, a near bar in front of everything):
+          //   u_q ≤ min u_p and (u_q ≥ max u_p or sharp_p ≥ sharp_q everywhere): rel ≤ 0
+          //     and nothing is blocked (or rel = 0), so the whole weight goes to B;
+          //   u_q > max (u_p + 1/isu_p) (slightly raised): rel ≥ 1, the whole weight goes to F.
+          // Those pairs skip the depth terms and the other sum (which they would add 0 to).
+          // Lanes past the row end only make the bounds tighter.
+          float up_min = 0, up_max = 0, sp_min = 0, front_above = 0;
+          if (job.depth_order) {
+            up_min = hn::GetLane(hn::MinOfLanes(d, up));
+            up_max = hn::GetLane(hn::MaxOfLanes(d, up));
+            sp_min = hn::GetLane(hn::MinOfLanes(d, sp));
+            front_above = hn::GetLane(hn::MaxOfLanes(d, hn::Add(up, hn::Div(one, isu)))) * (1.0f + 4e-6f);
+          }
           for (int j = 0; j < n; ++j) {
             if (s_hi[j] < px || s_lo[j] > pxe) continue;
             const auto dist = hn::LoadU(d, trow + (px + s_off[j]));
             const auto cov = hn::Min(hn::Max(hn::Sub(hn::Set(d, s_lim[j]), dist), zero), one);
             auto wt = hn::Mul(cov, hn::Set(d, s_ws[j]));
-            auto front = zero;
-            if (job.depth_order) {
-              const auto rel = hn::Mul(hn::Sub(hn::Set(d, s_uq[j]), up), isu);
-              front = hn::Min(hn::Max(rel, zero), one);
-              const auto minus_behind = hn::Max(hn::Min(rel, zero), neg_one);
-              // 1 − pass = 1 − min(sharp_p / sharp_q, 1)
-              const auto blocked = hn::Max(hn::NegMulAdd(sp, hn::Set(d, s_isq[j]), one), zero);
-              wt = hn::Mul(wt, hn::MulAdd(minus_behind, blocked, one));
+            const float uq = s_uq[j];
+            if (!job.depth_order || (uq <= up_min && (uq >= up_max || sp_min * s_isq[j] >= 1.0f))) {
+              b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
+              b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
+              b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
+              b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
+              bw = hn::Add(bw, wt);
+              continue;
             }
+            if (uq > front_above) {
+              f0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), f0);
+              f1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), f1);
+              f2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), f2);
+              f3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), f3);
+              fw = hn::Add(fw, wt);
+              continue;
+            }
+            const auto rel = hn::Mul(hn::Sub(hn::Set(d, uq), up), isu);
+            const auto front = hn::Min(hn::Max(rel, zero), one);
+            const auto minus_behind = hn::Max(hn::Min(rel, zero), neg_one);
+            // 1 − pass = 1 − min(sharp_p / sharp_q, 1)
+            const auto blocked = hn::Max(hn::NegMulAdd(sp, hn::Set(d, s_isq[j]), one), zero);
+            wt = hn::Mul(wt, hn::MulAdd(minus_behind, blocked, one));
             const auto wf = hn::Mul(wt, front), wb = hn::Sub(wt, wf);
             f0 = hn::MulAdd(wf, hn::Set(d, s_c0[j]), f0);
             f1 = hn::MulAdd(wf, hn::Set(d, s_c1[j]), f1);

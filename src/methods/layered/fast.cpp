@@ -213,57 +213,38 @@ void pull_level(const Image& fine, const WeightOf& weight_of, Image& cv, Image& 
 
 }  // namespace
 
-void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bool under, Workspace& ws) {
-  const int w = layer.width(), h = layer.height();
-  // Levels 1 … L (level 0 is the layer itself with the hole mask as its 0/1 confidence).
-  std::vector<Image*> val{nullptr}, wgt{nullptr};
-  {
-    int cw = w, ch = h;
-    int l = 0;
-    while (cw > 1 || ch > 1) {
-      cw = (cw + 1) / 2;
-      ch = (ch + 1) / 2;
-      ++l;
-      val.push_back(&ws.image("layered.ppv" + std::to_string(l), cw, ch, 4));
-      wgt.push_back(&ws.image("layered.ppw" + std::to_string(l), cw, ch, 1));
-    }
+namespace {
+
+// The push-pull pyramid above level 0 (levels 1 … L, down to 1×1), from the workspace.
+struct Pyramid {
+  std::vector<Image*> val{nullptr}, wgt{nullptr};  // index 0 unused (level 0 = the layer)
+  int levels = 1;                                    // including level 0
+};
+Pyramid make_pyramid(Workspace& ws, int w, int h) {
+  Pyramid p;
+  int cw = w, ch = h, l = 0;
+  while (cw > 1 || ch > 1) {
+    cw = (cw + 1) / 2;
+    ch = (ch + 1) / 2;
+    ++l;
+    p.val.push_back(&ws.image("layered.ppv" + std::to_string(l), cw, ch, 4));
+    p.wgt.push_back(&ws.image("layered.ppw" + std::to_string(l), cw, ch, 1));
   }
-  const int levels = static_cast<int>(val.size());  // including level 0
-  // Applies inpaint.cpp's final rules to hole pixel j of row pointers d with fill value v.
-  auto finish = [opaque, under](float* const* d, int j, float* v) {
-    if (opaque && v[3] > 1e-6f) {
-      for (int k = 0; k < 3; ++k) v[k] /= v[3];
-      v[3] = 1.0f;
-    }
-    if (under) {
-      const float t = 1.0f - d[3][j];
-      for (int k = 0; k < 4; ++k) d[k][j] += t * v[k];
-    } else {
-      for (int k = 0; k < 4; ++k) d[k][j] = v[k];
-    }
-  };
-  if (levels == 1) {  // 1×1: no pyramid, the fill is the pixel itself
-    if (hole[0]) {
-      float* d[4];
-      for (int k = 0; k < 4; ++k) d[k] = layer.plane(k);
-      float v[4];
-      for (int k = 0; k < 4; ++k) v[k] = d[k][0];
-      finish(d, 0, v);
-    }
-    return;
+  p.levels = static_cast<int>(p.val.size());
+  return p;
+}
+
+// Pull of levels 2 … L from level 1, then the push from the top down to level 1:
+// v ← w v + (1 − w) up(v_{l+1}) where w < 1.
+void pull_push_upper(const Pyramid& p) {
+  for (int l = 2; l < p.levels; ++l) {
+    const Image& fw = *p.wgt[l - 1];
+    pull_level(*p.val[l - 1], [&](int fx, int fy) { return fw.row(0, fy)[fx]; }, *p.val[l], *p.wgt[l]);
   }
-  // Pull.
-  pull_level(layer, [&](int fx, int fy) { return hole[static_cast<std::size_t>(fy) * w + fx] ? 0.0f : 1.0f; },
-             *val[1], *wgt[1]);
-  for (int l = 2; l < levels; ++l) {
-    const Image& fw = *wgt[l - 1];
-    pull_level(*val[l - 1], [&](int fx, int fy) { return fw.row(0, fy)[fx]; }, *val[l], *wgt[l]);
-  }
-  // Push, coarse to fine, down to level 1: v ← w v + (1 − w) up(v_{l+1}) where w < 1.
-  for (int l = levels - 2; l >= 1; --l) {
-    Image& fv = *val[l];
-    const Image& fwt = *wgt[l];
-    const Image& cv = *val[l + 1];
+  for (int l = p.levels - 2; l >= 1; --l) {
+    Image& fv = *p.val[l];
+    const Image& fwt = *p.wgt[l];
+    const Image& cv = *p.val[l + 1];
     const int fw = fv.width(), fh = fv.height(), cw = cv.width(), ch = cv.height();
     core::parallel_for(fh, [&](int y0, int y1) {
       float up[kBlock];
@@ -287,9 +268,45 @@ void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bo
       }
     }, 8);
   }
+}
+
+// inpaint.cpp's final rules for a hole pixel j of the layer rows d, fill value v.
+inline void finish_fill(bool opaque, bool under, float* const* d, int j, float* v) {
+  if (opaque && v[3] > 1e-6f) {
+    for (int k = 0; k < 3; ++k) v[k] /= v[3];
+    v[3] = 1.0f;
+  }
+  if (under) {
+    const float t = 1.0f - d[3][j];
+    for (int k = 0; k < 4; ++k) d[k][j] += t * v[k];
+  } else {
+    for (int k = 0; k < 4; ++k) d[k][j] = v[k];
+  }
+}
+
+}  // namespace
+
+void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bool under, Workspace& ws) {
+  const int w = layer.width(), h = layer.height();
+  const Pyramid pyr = make_pyramid(ws, w, h);
+  const int levels = pyr.levels;
+  auto finish = [opaque, under](float* const* d, int j, float* v) { finish_fill(opaque, under, d, j, v); };
+  if (levels == 1) {  // 1×1: no pyramid, the fill is the pixel itself
+    if (hole[0]) {
+      float* d[4];
+      for (int k = 0; k < 4; ++k) d[k] = layer.plane(k);
+      float v[4];
+      for (int k = 0; k < 4; ++k) v[k] = d[k][0];
+      finish(d, 0, v);
+    }
+    return;
+  }
+  pull_level(layer, [&](int fx, int fy) { return hole[static_cast<std::size_t>(fy) * w + fx] ? 0.0f : 1.0f; },
+             *pyr.val[1], *pyr.wgt[1]);
+  pull_push_upper(pyr);
   // Level 0: the hole pixels (confidence 0) take the up-sampled level 1, then the opaque /
   // under rules of inpaint.cpp, written straight into the layer.
-  const Image& cv = *val[1];
+  const Image& cv = *pyr.val[1];
   const int cw = cv.width(), ch = cv.height();
   core::parallel_for(h, [&](int y0, int y1) {
     float up[4][kBlock];
@@ -323,6 +340,7 @@ namespace {
 struct AccRows {
   const Image* full = nullptr;
   const Image* half = nullptr;
+  AccRows(const Image* f, const Image* hf) : full(f), half(hf) {}
   explicit AccRows(const FastAccumulator& a) {
     if (!a.has_content()) return;
     if (a.half_pending()) half = &a.half(); else full = &a.full();
@@ -470,6 +488,367 @@ void final_composite(FastAccumulator& front, const Image* focus, FastAccumulator
         for (int c = 0; c < 4; ++c) std::copy(cur[c], cur[c] + n, out.row(c, y) + x0);
       }
   }, 4);
+}
+
+// ---------------------------------------------------------------------------------------
+// The fused Gaussian stack for one fragment per pixel (render_gaussian_fused).
+namespace {
+
+constexpr unsigned kNoLayer = 31;
+
+// Layer k of the single-fragment input, produced row block by row block from the per-pixel
+// codes (the only layers with a non-zero matte, see render_gaussian_fused) instead of being
+// stored: the matte of matting.cpp and, at hole pixels, the push-pull fill of inpaint.cpp.
+struct FusedLayer {
+  const Image* color = nullptr;
+  const float* w0 = nullptr;             // matte in the pixel's first layer j0
+  const std::uint16_t* code = nullptr;   // j0 | (second layer j0 + 1 at weight 1) << 5 | hk << 6
+  int w = 0, h = 0, k = 0;
+  bool fill = false;                     // fill the holes (k >= hk)
+  const Image* l1 = nullptr;             // pushed pyramid level 1 (null: 1×1 image, fill = self)
+  bool opaque = false, under = false;
+
+  // matting.cpp's values of row y, columns [x0, x0 + n); hole flags into hb if non-null.
+  void matte(int y, int x0, int n, float (*o)[kBlock], std::uint8_t* hb) const {
+    const std::size_t base = static_cast<std::size_t>(y) * w + x0;
+    const float* in[4];
+    for (int c = 0; c < 4; ++c) in[c] = color->row(c, y) + x0;
+    for (int j = 0; j < n; ++j) {
+      const unsigned cd = code[base + j];
+      const int j0 = static_cast<int>(cd & 31u);
+      const float wk = j0 == k ? w0[base + j] : ((j0 + 1 == k && (cd & 32u)) ? 1.0f : 0.0f);
+      const float t = (1.0f - 0.0f) * wk;  // (1 − acc.a)·w_k with acc = 0, as matting.cpp
+      for (int c = 0; c < 4; ++c) o[c][j] = wk > 0 ? 0.0f + t * in[c][j] : 0.0f;
+      if (hb) hb[j] = k >= static_cast<int>(cd >> 6);
+    }
+  }
+  // The layer with its holes filled.
+  void get(int y, int x0, int n, float (*o)[kBlock]) const {
+    std::uint8_t hb[kBlock];
+    matte(y, x0, n, o, fill ? hb : nullptr);
+    if (!fill) return;
+    bool any = false;
+    for (int j = 0; j < n; ++j) any |= hb[j] != 0;
+    if (!any) return;
+    float up[4][kBlock];
+    for (int c = 0; c < 4; ++c) {
+      if (l1) up_block(l1->plane(c), l1->width(), l1->height(), y, x0, n, up[c]);
+      else std::copy(o[c], o[c] + n, up[c]);  // 1×1: the fill is the pixel itself
+    }
+    float* d[4] = {o[0], o[1], o[2], o[3]};
+    for (int j = 0; j < n; ++j) {
+      if (!hb[j]) continue;
+      float v[4];
+      if (l1) {
+        const float wt = 0.0f;  // level-0 confidence of a hole
+        for (int c = 0; c < 4; ++c) v[c] = wt * o[c][j] + (1.0f - wt) * up[c][j];
+      } else {
+        for (int c = 0; c < 4; ++c) v[c] = up[c][j];
+      }
+      finish_fill(opaque, under, d, j, v);
+    }
+  }
+};
+
+// Pyramid level 1 of the layer (pull_level's arithmetic, children from the generator).
+void pull_from_layer(const FusedLayer& L, Image& cv, Image& cwt) {
+  const int w = L.w, h = L.h, ch = cv.height();
+  core::parallel_for(ch, [&](int y0, int y1) {
+    float r[2][4][kBlock];
+    std::uint8_t hb[2][kBlock];
+    for (int yc = y0; yc < y1; ++yc) {
+      const int rows = 2 * yc + 1 < h ? 2 : 1;
+      for (int x0 = 0; x0 < w; x0 += kBlock) {
+        const int n = std::min(kBlock, w - x0);
+        for (int dy = 0; dy < rows; ++dy) L.matte(2 * yc + dy, x0, n, r[dy], hb[dy]);
+        for (int xc = x0 / 2; xc < (x0 + n + 1) / 2; ++xc) {
+          double sw = 0, sv[4] = {0, 0, 0, 0};
+          for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) {
+              const int fx = 2 * xc + dx, fy = 2 * yc + dy;
+              if (fx >= w || fy >= h) continue;
+              const float wt = hb[dy][fx - x0] ? 0.0f : 1.0f;
+              if (wt <= 0) continue;
+              sw += wt;
+              for (int k = 0; k < 4; ++k) sv[k] += wt * r[dy][k][fx - x0];
+            }
+          cwt.row(0, yc)[xc] = static_cast<float>(std::min(1.0, sw / 4.0));
+          for (int k = 0; k < 4; ++k) cv.row(k, yc)[xc] = sw > 0 ? static_cast<float>(sv[k] / sw) : 0.0f;
+        }
+      }
+    }
+  }, 4);
+}
+
+// One composite step of an accumulator: C = L over A (layer_in_front) or A over L (A absent:
+// C = L), written at full resolution into dst_full (which may be A's own full image) or
+// reduced by composite.cpp's 2×2 box into dst_half.
+void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, Image* dst_full, Image* dst_half) {
+  const int w = L.w, h = L.h;
+  auto crow = [&](int y, int x0, int n, float (*c)[kBlock], float (*tmp)[kBlock]) {
+    L.get(y, x0, n, c);
+    if (!A.present()) return;
+    const float* a[4];
+    A.get(y, x0, n, tmp, a);
+    float t[kBlock];
+    if (layer_in_front) {
+      for (int i = 0; i < n; ++i) t[i] = 1.0f - c[3][i];
+      for (int ch = 0; ch < 4; ++ch)
+        for (int i = 0; i < n; ++i) c[ch][i] = c[ch][i] + t[i] * a[ch][i];
+    } else {
+      for (int i = 0; i < n; ++i) t[i] = 1.0f - a[3][i];
+      for (int ch = 0; ch < 4; ++ch)
+        for (int i = 0; i < n; ++i) c[ch][i] = a[ch][i] + t[i] * c[ch][i];
+    }
+  };
+  if (dst_full) {
+    core::parallel_for(h, [&](int y0, int y1) {
+      float c[4][kBlock], tmp[4][kBlock];
+      for (int y = y0; y < y1; ++y)
+        for (int x0 = 0; x0 < w; x0 += kBlock) {
+          const int n = std::min(kBlock, w - x0);
+          crow(y, x0, n, c, tmp);
+          for (int ch = 0; ch < 4; ++ch) std::copy(c[ch], c[ch] + n, dst_full->row(ch, y) + x0);
+        }
+    }, 4);
+    return;
+  }
+  Image& half = *dst_half;
+  core::parallel_for(half.height(), [&](int y0, int y1) {
+    float ca[4][kBlock], cb[4][kBlock], tmp[4][kBlock];
+    for (int yh = y0; yh < y1; ++yh) {
+      const int ya = 2 * yh, yb = std::min(2 * yh + 1, h - 1);
+      for (int x0 = 0; x0 < w; x0 += kBlock) {
+        const int n = std::min(kBlock, w - x0);
+        crow(ya, x0, n, ca, tmp);
+        float (*b)[kBlock] = ca;
+        if (yb != ya) {
+          crow(yb, x0, n, cb, tmp);
+          b = cb;
+        }
+        for (int ch = 0; ch < 4; ++ch) {
+          const float* pa = ca[ch];
+          const float* pb = b[ch];
+          float* d = half.row(ch, yh);
+          for (int xh = x0 / 2; xh < (x0 + n + 1) / 2; ++xh) {
+            const int xa = 2 * xh - x0, xb = std::min(2 * xh + 1, w - 1) - x0;
+            d[xh] = 0.25f * (pa[xa] + pa[xb] + pb[xa] + pb[xb]);
+          }
+        }
+      }
+    }
+  }, 4);
+}
+
+}  // namespace
+
+bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, const LayerPlan& plan, bool half_res,
+                           bool do_fill, bool fill_under, Image& out) {
+  if (frags.color.size() != 1 || plan.count > 16) return false;
+  // Debug views need the stored layers and accumulators: the per-layer path provides them.
+  for (const char* v : {"front", "back"})
+    if (ctx.debug.wants(v)) return false;
+  for (int k = 0; k < 16; ++k)
+    for (const char* suffix : {"_matted", "_blurred"})
+      if (ctx.debug.wants(("layer_" + std::to_string(k) + suffix).c_str())) return false;
+
+  const Image& color = *frags.color[0];
+  const Image& coc = *frags.coc[0];
+  const int w = color.width(), h = color.height(), K = plan.count;
+  Workspace& ws = ctx.workspace;
+  const std::size_t npix = static_cast<std::size_t>(w) * h;
+  float* w0 = ws.image("layered.w0", w, h, 1).plane(0);
+  std::uint16_t* code =
+      reinterpret_cast<std::uint16_t*>(ws.image("layered.code", static_cast<int>((npix + 1) / 2), 1, 1).plane(0));
+
+  // Code pass. A fragment of CoC r has a non-zero matte in at most two adjacent layers (its
+  // plateau layer at weight 1 and the nearer one on the ramp; anchors.cpp). With j the first
+  // layer whose anchor a_j <= r, only j − 1, j, j + 1 can be non-zero: for k <= j − 2,
+  // r < a_{k+1} makes u <= 0 in the ramp branch, and for k >= j + 2, r >= a_{k−1} makes
+  // u >= 1 (rounding is monotonic) in the farther branch, both exactly 0. Those three are
+  // evaluated with the plan's own arithmetic (Matte) and stored as (j0, w_{j0}, w_{j0+1} = 1?).
+  // The holes of the visible fragment, r > near_limit(k), are an up-set k >= hk because
+  // near_limit decreases with k. Anything unexpected sends the frame down the per-layer path.
+  std::vector<Matte> mattes;
+  std::vector<double> nl(K);
+  for (int k = 0; k < K; ++k) {
+    mattes.emplace_back(plan, k);
+    nl[k] = plan.near_limit(k);
+  }
+  std::atomic<std::uint32_t> nonempty{0}, holes{0};
+  std::atomic<bool> bail{false};
+  core::parallel_for(h, [&](int y0, int y1) {
+    std::uint32_t ne = 0, ho = 0;
+    bool bad = false;
+    for (int y = y0; y < y1; ++y) {
+      const float* al = color.row(3, y);
+      const float* rr = coc.row(0, y);
+      const std::size_t base = static_cast<std::size_t>(y) * w;
+      for (int x = 0; x < w; ++x) {
+        const float a = al[x];
+        if (!(a > 0)) {
+          code[base + x] = static_cast<std::uint16_t>(kNoLayer | (31u << 6));
+          w0[base + x] = 0.0f;
+          continue;
+        }
+        const float r = rr[x];
+        int j = 0;
+        while (j < K && !(plan.anchor[j] <= r)) ++j;
+        unsigned j0 = kNoLayer;
+        float wv = 0.0f;
+        bool second = false;
+        for (int k = std::max(j - 1, 0); k <= std::min(j + 1, K - 1); ++k) {
+          const float wk = mattes[k](r);
+          if (!(wk > 0)) continue;
+          if (j0 == kNoLayer) {
+            j0 = static_cast<unsigned>(k);
+            wv = wk;
+          } else if (k == static_cast<int>(j0) + 1 && wk == 1.0f && !second) {
+            second = true;
+          } else {
+            bad = true;
+          }
+        }
+        unsigned hk = static_cast<unsigned>(K);
+        std::uint32_t hm = 0;
+        if (do_fill) {
+          for (int k = 0; k < K; ++k)
+            if (r > nl[k]) hm |= 1u << k;
+          hk = 0;
+          while (hk < static_cast<unsigned>(K) && !((hm >> hk) & 1u)) ++hk;
+          if (hm != (((1u << K) - 1u) & ~((1u << hk) - 1u))) bad = true;
+          ho |= hm;
+        }
+        if (j0 != kNoLayer) {
+          const float t = (1.0f - 0.0f) * wv;
+          if (0.0f + t * a > 0) ne |= 1u << j0;
+          if (second && 0.0f + 1.0f * a > 0) ne |= 1u << (j0 + 1);
+        }
+        code[base + x] = static_cast<std::uint16_t>(j0 | (second ? 32u : 0u) | (hk << 6));
+        w0[base + x] = wv;
+      }
+    }
+    if (ne) nonempty.fetch_or(ne, std::memory_order_relaxed);
+    if (ho) holes.fetch_or(ho, std::memory_order_relaxed);
+    if (bad) bail.store(true, std::memory_order_relaxed);
+  }, 4);
+  if (bail.load()) return false;
+  const std::uint32_t ne = nonempty.load(), ho = holes.load();
+  auto is_full = [&](int k) { return ((ne >> k) & 1u) != 0; };
+
+  const Pyramid pyr = make_pyramid(ws, w, h);
+  auto layer_gen = [&](int k, bool opaque) {
+    FusedLayer L;
+    L.color = &color;
+    L.w0 = w0;
+    L.code = code;
+    L.w = w;
+    L.h = h;
+    L.k = k;
+    L.fill = do_fill && is_full(k) && ((ho >> k) & 1u);
+    L.opaque = opaque;
+    L.under = fill_under;
+    if (L.fill && pyr.levels > 1) {
+      pull_from_layer(L, *pyr.val[1], *pyr.wgt[1]);
+      pull_push_upper(pyr);
+      L.l1 = pyr.val[1];
+    }
+    return L;
+  };
+
+  // One side's recursion (composite.cpp Accumulator): layers in `order`, each non-empty one
+  // composited, then the blur that plain would apply at its next flush — the variance of
+  // the steps up to the next non-empty layer, summed in plain's order — so the composite can
+  // be written straight at half resolution when that blur runs there.
+  struct Side {
+    const Image* full = nullptr;
+    const Image* half = nullptr;
+    bool has = false;
+  };
+  auto run_side = [&](const std::vector<int>& order, bool back_side, const std::string& name) {
+    std::vector<double> var_after(K, 0.0);
+    {
+      double pend = 0;
+      int last = -1;
+      for (int k : order) {
+        if (is_full(k)) {
+          if (last >= 0) var_after[last] = pend;
+          pend = 0;
+          last = k;
+        }
+        if (last >= 0) pend += plan.step_sigma[k] * plan.step_sigma[k];
+      }
+      if (last >= 0) var_after[last] = pend;
+    }
+    Side s;
+    int flip = 0;
+    for (int k : order) {
+      if (!is_full(k)) continue;
+      const FusedLayer L = layer_gen(k, back_side && !s.has);
+      const AccRows A(s.has ? s.full : nullptr, s.has ? s.half : nullptr);
+      const double var = var_after[k];
+      const double sigma = std::sqrt(var);
+      if (var > 0 && half_res && sigma >= 4.0) {
+        const int hw = (w + 1) / 2, hh = (h + 1) / 2;
+        Image& dst = ws.image(name + ".half" + std::to_string(flip), hw, hh, 4);
+        flip ^= 1;
+        composite_pass(L, A, back_side, nullptr, &dst);
+        const double v = (sigma * sigma - 0.25 - 2.0 / 3.0) / 4.0;
+        if (v > 0) core::gaussian_blur(dst, static_cast<float>(std::sqrt(v)));
+        s.full = nullptr;
+        s.half = &dst;
+      } else {
+        Image& dst = ws.image(name + ".full", w, h, 4);
+        composite_pass(L, A, back_side, &dst, nullptr);
+        if (var > 0) core::gaussian_blur(dst, static_cast<float>(sigma));
+        s.full = &dst;
+        s.half = nullptr;
+      }
+      s.has = true;
+    }
+    return s;
+  };
+  std::vector<int> back_order, front_order;
+  for (int k = K - 1; k > plan.focus; --k) back_order.push_back(k);
+  for (int k = 0; k < plan.focus; ++k) front_order.push_back(k);
+  const Side B = run_side(back_order, true, "layered.fb");
+  const Side F = run_side(front_order, false, "layered.ff");
+
+  // I = F over L_focus over B (final_composite's arithmetic; the focus layer on the fly).
+  const bool focus_full = is_full(plan.focus);
+  FusedLayer Lf;
+  if (focus_full) Lf = layer_gen(plan.focus, !B.has);
+  const AccRows BR(B.full, B.half), FR(F.full, F.half);
+  out.resize(w, h, 4);
+  core::parallel_for(h, [&](int y0, int y1) {
+    float fb[4][kBlock], bb[4][kBlock];
+    float cur[4][kBlock];
+    for (int y = y0; y < y1; ++y)
+      for (int x0 = 0; x0 < w; x0 += kBlock) {
+        const int n = std::min(kBlock, w - x0);
+        if (focus_full) Lf.get(y, x0, n, cur);
+        else
+          for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
+        if (BR.present()) {
+          const float* b[4];
+          BR.get(y, x0, n, bb, b);
+          float t[kBlock];
+          for (int i = 0; i < n; ++i) t[i] = 1.0f - cur[3][i];
+          for (int c = 0; c < 4; ++c)
+            for (int i = 0; i < n; ++i) cur[c][i] = cur[c][i] + t[i] * b[c][i];
+        }
+        if (FR.present()) {
+          const float* f[4];
+          FR.get(y, x0, n, fb, f);
+          float t[kBlock];
+          for (int i = 0; i < n; ++i) t[i] = 1.0f - f[3][i];
+          for (int c = 0; c < 4; ++c)
+            for (int i = 0; i < n; ++i) cur[c][i] = f[c][i] + t[i] * cur[c][i];
+        }
+        for (int c = 0; c < 4; ++c) std::copy(cur[c], cur[c] + n, out.row(c, y) + x0);
+      }
+  }, 4);
+  return true;
 }
 
 }  // namespace dofkit::detail::layered

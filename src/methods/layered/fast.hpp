@@ -66,4 +66,18 @@ class FastAccumulator {
 /// applying the two "over"s of composite.cpp). F, B may be without content.
 void final_composite(FastAccumulator& front, const Image* focus, FastAccumulator& back, int w, int h, Image& out);
 
+/// The whole psf=gaussian stack for one fragment per pixel (RGB-D input) in fused passes,
+/// bit-identical to the plain form: one code pass stores, per pixel, the (at most two
+/// adjacent) layers with a non-zero matte and from which layer on the pixel is a hole;
+/// then per non-empty layer one pass builds push-pull level 1 from the matte computed on the
+/// fly and one pass computes L_k (matte or fill) over/under the accumulator (up-sampled on
+/// the fly) and writes the composite at the resolution of the blur that follows (2×2 box
+/// straight into the half-resolution buffer); no full-resolution layer is ever stored.
+/// The final F over L_focus over B computes the focus layer on the fly. Returns false,
+/// having written nothing, where it does not apply (several fragments per pixel, a debug
+/// view requested, a pixel whose mattes do not have the expected form); the caller then
+/// uses the per-layer fast path.
+bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, const LayerPlan& plan, bool half_res,
+                           bool do_fill, bool fill_under, Image& out);
+
 }  // namespace dofkit::detail::layered

@@ -192,6 +192,7 @@ void render_layered(const MethodContext& ctx, Image& out) {
     if (!front.has_content()) ctx.debug.offer("front", transparent);
   };
 
+  if (fast && !disc && render_gaussian_fused(ctx, frags, plan, half_res, do_fill, fill_under, out)) return;
   if (fast) {
     FastAccumulator back(ctx.workspace, "layered.back", half_res), front(ctx.workspace, "layered.front", half_res);
     const bool focus_full = run_stack(back, front);

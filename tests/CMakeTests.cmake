@@ -9,6 +9,9 @@ if(TARGET test_cli)
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cmd_render.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cli_common.cpp)
   target_include_directories(test_cli PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit)
+  # bench_cli_test.cpp parses `dofkit bench --json`.
+  find_package(nlohmann_json REQUIRED)
+  target_link_libraries(test_cli PRIVATE nlohmann_json::nlohmann_json)
   if(TARGET dofkit_cli)
     add_dependencies(test_cli dofkit_cli)
   endif()

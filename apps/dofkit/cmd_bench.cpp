@@ -50,6 +50,13 @@ RenderSettings bench_settings(const std::string& method_spec, int w, int threads
   return s;
 }
 
+// CPU time of this process so far (user + system, all threads), ms.
+double cpu_ms() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return (ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) * 1e3 + (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec) / 1e3;
+}
+
 double peak_rss_mb() {
   rusage ru{};
   getrusage(RUSAGE_SELF, &ru);
@@ -59,28 +66,39 @@ double peak_rss_mb() {
 // Runs one measurement in this process and prints one JSON object.
 void run_child(const std::string& method, Size size, int threads, int iterations) {
   const Frame frame = scene::bench_frame(size.w, size.h);
-  std::vector<double> ms;
+  std::vector<double> ms, cpu;
   using clock = std::chrono::steady_clock;
   if (method == "copy") {
     // The memory floor: read the RGBA float frame once and write it once.
     Image out(size.w, size.h, 4);
     for (int i = 0; i < iterations + 1; ++i) {
+      const double c0 = cpu_ms();
       const auto t0 = clock::now();
       std::memcpy(out.data().data(), frame.color.data().data(), frame.color.data().size() * sizeof(float));
       const auto t1 = clock::now();
-      if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      const double c1 = cpu_ms();
+      if (i > 0) {
+        ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+        cpu.push_back(c1 - c0);
+      }
     }
   } else {
     // A Renderer, as a game loop would use it: buffers are kept between frames.
     Renderer renderer(bench_settings(method, size.w, threads));
     for (int i = 0; i < iterations + 1; ++i) {
+      const double c0 = cpu_ms();
       const auto t0 = clock::now();
       renderer.render(frame);
       const auto t1 = clock::now();
-      if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      const double c1 = cpu_ms();
+      if (i > 0) {
+        ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+        cpu.push_back(c1 - c0);
+      }
     }
   }
   std::sort(ms.begin(), ms.end());
+  std::sort(cpu.begin(), cpu.end());
   nlohmann::json j;
   j["method"] = method;
   j["width"] = size.w;
@@ -88,6 +106,10 @@ void run_child(const std::string& method, Size size, int threads, int iterations
   j["threads"] = threads;
   j["median_ms"] = ms[ms.size() / 2];
   j["min_ms"] = ms.front();
+  // CPU time per frame, all threads together (getrusage resolution: ~1 ms, so only
+  // meaningful for frames of several ms). Less sensitive to other load than the wall time:
+  // wall ≈ cpu / threads when the threads scale and the cores are free.
+  j["cpu_ms"] = cpu[cpu.size() / 2];
   j["mpix_per_s"] = size.w * double(size.h) / 1e6 / (ms[ms.size() / 2] / 1000.0);
   j["peak_rss_mb"] = peak_rss_mb();
   std::cout << j.dump() << std::endl;
@@ -194,14 +216,14 @@ void add_bench_command(CLI::App& app) {
       std::cout << rows.dump(2) << "\n";
       return;
     }
-    std::cout << fmt::format("| method | size | threads | median ms | min ms | Mpix/s | peak RSS MB | × copy |\n");
-    std::cout << "|---|---|---|---:|---:|---:|---:|---:|\n";
+    std::cout << fmt::format("| method | size | threads | median ms | min ms | CPU ms | Mpix/s | peak RSS MB | × copy |\n");
+    std::cout << "|---|---|---|---:|---:|---:|---:|---:|---:|\n";
     for (const auto& r : rows)
-      std::cout << fmt::format("| {} | {}x{} | {} | {:.2f} | {:.2f} | {:.1f} | {:.0f} | {:.1f} |\n",
+      std::cout << fmt::format("| {} | {}x{} | {} | {:.2f} | {:.2f} | {:.1f} | {:.1f} | {:.0f} | {:.1f} |\n",
                                r["method"].get<std::string>(), r["width"].get<int>(), r["height"].get<int>(),
                                r["threads"].get<int>(), r["median_ms"].get<double>(), r["min_ms"].get<double>(),
-                               r["mpix_per_s"].get<double>(), r["peak_rss_mb"].get<double>(),
-                               r["ratio_to_copy"].get<double>());
+                               r["cpu_ms"].get<double>(), r["mpix_per_s"].get<double>(),
+                               r["peak_rss_mb"].get<double>(), r["ratio_to_copy"].get<double>());
   });
 }
 

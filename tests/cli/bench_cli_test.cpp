@@ -1,0 +1,69 @@
+// `dofkit bench --json`: the keys issue 8 names, the copy baseline row, and the ratio.
+// (Spawns the binary: bench re-invokes itself for every measurement. No timing is asserted.)
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "io/io_test_util.hpp"
+
+using dofkit::test::ScratchDir;
+
+TEST(BenchCli, JsonListsOneRowPerMethodAndSizeWithTheCopyBaseline) {
+  ScratchDir dir;
+  const std::string out = (dir.path() / "bench.json").string();
+  const std::string cmd = std::string(DOFKIT_BINARY_DIR) +
+                          "/dofkit bench --size 48x32 --size 40x24 --methods sterna,mcguire:variant=book --threads 1 "
+                          "--iterations 1 --json >" + out + " 2>/dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream f(out);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const nlohmann::json rows = nlohmann::json::parse(ss.str());
+  ASSERT_TRUE(rows.is_array());
+  ASSERT_EQ(rows.size(), 6u);  // per size: copy, sterna, mcguire:variant=book
+  const char* sizes[2][2] = {{"48", "32"}, {"40", "24"}};
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const nlohmann::json& r = rows[i];
+    for (const char* key : {"method", "width", "height", "threads", "median_ms", "min_ms", "mpix_per_s",
+                            "peak_rss_mb", "ratio_to_copy", "cpu_ms"})
+      ASSERT_TRUE(r.contains(key)) << "row " << i << " lacks " << key;
+    EXPECT_EQ(std::to_string(r["width"].get<int>()), sizes[i / 3][0]);
+    EXPECT_EQ(std::to_string(r["height"].get<int>()), sizes[i / 3][1]);
+    EXPECT_EQ(r["threads"].get<int>(), 1);
+    EXPECT_LE(r["min_ms"].get<double>(), r["median_ms"].get<double>());
+    EXPECT_GT(r["median_ms"].get<double>(), 0.0);
+    EXPECT_GT(r["peak_rss_mb"].get<double>(), 0.0);
+    EXPECT_GE(r["cpu_ms"].get<double>(), 0.0);
+  }
+  for (int s = 0; s < 2; ++s) {
+    const nlohmann::json& copy = rows[3 * s];
+    EXPECT_EQ(copy["method"], "copy");
+    EXPECT_EQ(copy["ratio_to_copy"].get<double>(), 1.0);
+    EXPECT_EQ(rows[3 * s + 1]["method"], "sterna");
+    EXPECT_EQ(rows[3 * s + 2]["method"], "mcguire:variant=book");
+    for (int k = 1; k <= 2; ++k) {
+      const nlohmann::json& r = rows[3 * s + k];
+      EXPECT_NEAR(r["ratio_to_copy"].get<double>(), r["median_ms"].get<double>() / copy["median_ms"].get<double>(),
+                  1e-9 * r["ratio_to_copy"].get<double>());
+    }
+  }
+}
+
+TEST(BenchCli, RejectsAnUnknownMethodWithOneLine) {
+  ScratchDir dir;
+  const std::string err = (dir.path() / "err.txt").string();
+  const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit bench --size 16x16 --methods nosuch --iterations 1 2>" +
+                          err + " >/dev/null";
+  const int status = std::system(cmd.c_str());
+  EXPECT_NE(status, 0);
+  std::ifstream f(err);
+  std::string line;
+  std::getline(f, line);
+  EXPECT_NE(line.find("nosuch"), std::string::npos) << line;
+}

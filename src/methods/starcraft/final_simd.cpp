@@ -105,28 +105,6 @@ int FinalHlerp(const float* v, float* out, int i0, int i1) {
   return i;
 }
 
-int MediumWeigh(const float* c, const float* src, float* dst, int x0, int x1) {
-  const hn::ScalableTag<float> d;
-  const int n = static_cast<int>(hn::Lanes(d));
-  int x = x0;
-  for (; x + n <= x1; x += n) hn::StoreU(hn::Mul(hn::LoadU(d, c + x), hn::LoadU(d, src + x)), d, dst + x);
-  return x;
-}
-
-int MediumNormalise(const float* wt, const float* src, float* dst, int x0, int x1) {
-  const hn::ScalableTag<float> d;
-  const int n = static_cast<int>(hn::Lanes(d));
-  const auto one = hn::Set(d, 1.0f), tiny = hn::Set(d, 1e-6f);
-  int x = x0;
-  for (; x + n <= x1; x += n) {
-    const auto w = hn::LoadU(d, wt + x);
-    const auto ok = hn::Gt(w, tiny);
-    const auto q = hn::Div(hn::LoadU(d, dst + x), hn::IfThenElse(ok, w, one));  // no 0/0 lane
-    hn::StoreU(hn::IfThenElse(ok, q, hn::LoadU(d, src + x)), d, dst + x);
-  }
-  return x;
-}
-
 int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1) {
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
@@ -171,8 +149,6 @@ namespace dofkit::detail::starcraft {
 HWY_EXPORT(FinalWeights);
 HWY_EXPORT(FinalMix);
 HWY_EXPORT(FinalHlerp);
-HWY_EXPORT(MediumWeigh);
-HWY_EXPORT(MediumNormalise);
 HWY_EXPORT(LargeReduce);
 
 int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any) {
@@ -181,12 +157,6 @@ int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any) {
 int final_mix_simd(const MixRow& r, int x0, int x1) { return HWY_DYNAMIC_DISPATCH(FinalMix)(r, x0, x1); }
 int final_hlerp_simd(const float* v, float* out, int i0, int i1) {
   return HWY_DYNAMIC_DISPATCH(FinalHlerp)(v, out, i0, i1);
-}
-int medium_weigh_simd(const float* c, const float* src, float* dst, int x0, int x1) {
-  return HWY_DYNAMIC_DISPATCH(MediumWeigh)(c, src, dst, x0, x1);
-}
-int medium_normalise_simd(const float* wt, const float* src, float* d, int x0, int x1) {
-  return HWY_DYNAMIC_DISPATCH(MediumNormalise)(wt, src, d, x0, x1);
 }
 int large_reduce_simd(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1) {
   return HWY_DYNAMIC_DISPATCH(LargeReduce)(rows, reduce_max, out, i0, i1);

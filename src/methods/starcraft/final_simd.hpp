@@ -1,5 +1,4 @@
-// SIMD kernels of the final pass (final.cpp) and of the medium level's per-pixel passes
-// (medium_blur.cpp) and the large level's 4×4 reduction (large_blur.cpp), Highway with run-time dispatch (final_simd.cpp).
+// SIMD kernels of the final pass (final.cpp) and the large level's 4×4 reduction (large_blur.cpp), Highway with run-time dispatch (final_simd.cpp).
 // Each processes whole vectors from `x0` and returns the first column it did not process;
 // the caller finishes the row with the scalar form of the same arithmetic.
 #pragma once
@@ -42,11 +41,6 @@ int final_mix_simd(const MixRow& r, int x0, int x1);
 /// Horizontal up-sampling of one quarter-res row `v` to full res: cell i writes columns
 /// 4i … 4i + 3 (see final.cpp). Reads v[i − 1 … i + 1]: valid for 1 <= i < lw − 1.
 int final_hlerp_simd(const float* v, float* out, int i0, int i1);
-
-/// Medium level, before the blur: dst[x] = c[x] · src[x] for x in [x0, x1).
-int medium_weigh_simd(const float* c, const float* src, float* dst, int x0, int x1);
-/// Medium level, after the blur: d[x] = wt[x] > 1e-6 ? d[x] / wt[x] : src[x].
-int medium_normalise_simd(const float* wt, const float* src, float* d, int x0, int x1);
 
 /// Large level, 4×4 reduction of the full blocks i in [i0, i1) of block row j (4 source rows
 /// rows[k][ch], ch 0-3 colour, 4 the level c, all inside the image): planes out[0..3] get

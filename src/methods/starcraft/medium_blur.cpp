@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "core/filters.hpp"
+#include "core/weighted_gaussian.hpp"
 #include "core/parallel.hpp"
-#include "methods/starcraft/final_simd.hpp"
 #include "methods/starcraft/starcraft.hpp"
 
 namespace dofkit::detail::starcraft {
@@ -17,35 +17,39 @@ void medium_blur(const Image& color, const Image& level, float sigma, Image& med
   const int w = color.width(), h = color.height();
   medium.resize(w, h, 4);
   weight.resize(w, h, 1);
-  // fast: the weight plane is filled row by row with the weighting (one pass over the rows
-  // instead of a separate copy), the multiply and the normalisation below run in the SIMD
-  // kernels of final_simd.cpp; same arithmetic, bit for bit.
-  if (plain) std::copy(level.data().begin(), level.data().end(), weight.data().begin());
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const float* c = level.row(0, y);
-      if (!plain) std::copy(c, c + w, weight.row(0, y));
-      for (int ch = 0; ch < 4; ++ch) {
-        const float* s = color.row(ch, y);
-        float* d = medium.row(ch, y);
-        for (int x = plain ? 0 : medium_weigh_simd(c, s, d, 0, w); x < w; ++x) d[x] = c[x] * s[x];
-      }
-    }
-  }, 16);
-  for (int ch = 0; ch < 4; ++ch) (plain ? core::gaussian_blur_plane_plain : core::gaussian_blur_plane)(medium.plane(ch), w, h, sigma, sigma, 3);
-  (plain ? core::gaussian_blur_plane_plain : core::gaussian_blur_plane)(weight.plane(0), w, h, sigma, sigma, 3);
   // Where the weight vanishes no tap was blurry: the level is unused there (its weight in
   // the final mix is 0 unless the pixel's own c > 0.5, and then its own tap counts), so any
   // finite value will do; the source keeps the result free of 0/0.
   constexpr float kTiny = 1e-6f;
+  if (!plain) {
+    // Fast: the multiply rides on the horizontal strip load and the division on the vertical
+    // strip store (core/weighted_gaussian), one read and write per plane and axis; the same
+    // arithmetic as the plain steps below with the fast Gaussian, bit for bit.
+    const float* src[4] = {color.plane(0), color.plane(1), color.plane(2), color.plane(3)};
+    float* dst[4] = {medium.plane(0), medium.plane(1), medium.plane(2), medium.plane(3)};
+    core::weighted_gaussian(src, 4, level.plane(0), w, h, sigma, 3, kTiny, dst, weight.plane(0));
+    return;
+  }
+  std::copy(level.data().begin(), level.data().end(), weight.data().begin());
+  core::parallel_for(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* c = level.row(0, y);
+      for (int ch = 0; ch < 4; ++ch) {
+        const float* s = color.row(ch, y);
+        float* d = medium.row(ch, y);
+        for (int x = 0; x < w; ++x) d[x] = c[x] * s[x];
+      }
+    }
+  }, 16);
+  for (int ch = 0; ch < 4; ++ch) core::gaussian_blur_plane_plain(medium.plane(ch), w, h, sigma, sigma, 3);
+  core::gaussian_blur_plane_plain(weight.plane(0), w, h, sigma, sigma, 3);
   core::parallel_for(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* wt = weight.row(0, y);
       for (int ch = 0; ch < 4; ++ch) {
         const float* s = color.row(ch, y);
         float* d = medium.row(ch, y);
-        for (int x = plain ? 0 : medium_normalise_simd(wt, s, d, 0, w); x < w; ++x)
-          d[x] = wt[x] > kTiny ? d[x] / wt[x] : s[x];
+        for (int x = 0; x < w; ++x) d[x] = wt[x] > kTiny ? d[x] / wt[x] : s[x];
       }
     }
   }, 16);

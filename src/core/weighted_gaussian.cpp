@@ -1,0 +1,288 @@
+#include "core/weighted_gaussian.hpp"
+
+#include <algorithm>
+#include <cstddef>
+#include <vector>
+
+#include <immintrin.h>
+
+#include "core/filters.hpp"
+#include "core/parallel.hpp"
+
+namespace dofkit::core {
+
+// Strip layout (as in core/filters.cpp): kLanes independent 1-D signals interleaved,
+// buf[(i + pad) · kLanes + j] = sample i of signal j, i in [−pad, n + pad). Horizontal sweep:
+// the signals are kLanes rows (transposed in with SSE 4×4 transposes); vertical sweep: kLanes
+// adjacent columns (plain copies). The pad holds the replicated edge sample (clamp-to-edge).
+//
+// Precision: the running window sum is float and is recomputed from scratch every kResync
+// outputs, so the drift of the updates S += v_in − v_out stays below ~kResync·2⁻²⁴ of the
+// local window magnitude; the same constants and operation order as core/filters.cpp make the
+// output identical to gaussian_blur_plane's.
+
+namespace {
+
+constexpr int kLanes = 16;
+constexpr int kResync = 32;
+constexpr int kBlock = 128;
+constexpr int kAhead = 4;    // rows prefetched ahead by the vertical sweep  // columns per block of the vertical sweep
+
+/// `passes` extended-box passes (radius r, end weight alpha) over a strip of n samples in a,
+/// b is a second strip buffer; both have `pad` >= r + 1 border samples. Returns the buffer
+/// holding the result (a after an even number of passes, b after an odd one: no copy back).
+__attribute__((target_clones("avx512f", "avx2", "default")))
+float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
+  const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
+  for (int p = 0; p < passes; ++p) {
+    float* src = a + static_cast<std::size_t>(pad) * kLanes;
+    float* dst = b + static_cast<std::size_t>(pad) * kLanes;
+    for (int i = 1; i <= r + 1; ++i)
+      for (int j = 0; j < kLanes; ++j) {
+        src[-i * kLanes + j] = src[j];
+        src[(n - 1 + i) * kLanes + j] = src[(n - 1) * kLanes + j];
+      }
+    float sum[kLanes];
+    for (int i0 = 0; i0 < n; i0 += kResync) {
+      for (int j = 0; j < kLanes; ++j) sum[j] = 0.0f;
+      for (int k = -r; k <= r; ++k) {
+        const float* q = src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes;
+        for (int j = 0; j < kLanes; ++j) sum[j] += q[j];
+      }
+      const int i1 = std::min(n, i0 + kResync);
+      for (int i = i0; i < i1; ++i) {
+        const float* lo = src + static_cast<std::ptrdiff_t>(i - r - 1) * kLanes;  // sample i − r − 1
+        const float* hi = src + static_cast<std::ptrdiff_t>(i + r + 1) * kLanes;  // sample i + r + 1
+        const float* out_lo = lo + kLanes;                                       // sample i − r
+        float* d = dst + static_cast<std::ptrdiff_t>(i) * kLanes;
+        for (int j = 0; j < kLanes; ++j) {
+          d[j] = (sum[j] + alpha * (lo[j] + hi[j])) * norm;
+          sum[j] += hi[j] - out_lo[j];
+        }
+      }
+    }
+    std::swap(a, b);
+  }
+  return a;
+}
+
+/// Per-thread strip scratch, grown on demand and kept (no allocation per frame).
+float* scratch(std::size_t floats) {
+  thread_local std::vector<float> buf;
+  if (buf.size() < floats) buf.resize(floats);
+  return buf.data();
+}
+
+/// dst[x · kLanes + j] = rows[j][x] · (mul ? mul[x · kLanes + j] : 1) for x in [0, n).
+inline void load_rows_transposed(const float* const* rows, int n, const float* mul, float* dst) {
+  int x = 0;
+  for (; x + 4 <= n; x += 4)
+    for (int j = 0; j < kLanes; j += 4) {
+      __m128 r0 = _mm_loadu_ps(rows[j] + x), r1 = _mm_loadu_ps(rows[j + 1] + x);
+      __m128 r2 = _mm_loadu_ps(rows[j + 2] + x), r3 = _mm_loadu_ps(rows[j + 3] + x);
+      _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
+      if (mul) {
+        r0 = _mm_mul_ps(r0, _mm_loadu_ps(mul + (x + 0) * kLanes + j));
+        r1 = _mm_mul_ps(r1, _mm_loadu_ps(mul + (x + 1) * kLanes + j));
+        r2 = _mm_mul_ps(r2, _mm_loadu_ps(mul + (x + 2) * kLanes + j));
+        r3 = _mm_mul_ps(r3, _mm_loadu_ps(mul + (x + 3) * kLanes + j));
+      }
+      _mm_storeu_ps(dst + (x + 0) * kLanes + j, r0);
+      _mm_storeu_ps(dst + (x + 1) * kLanes + j, r1);
+      _mm_storeu_ps(dst + (x + 2) * kLanes + j, r2);
+      _mm_storeu_ps(dst + (x + 3) * kLanes + j, r3);
+    }
+  for (; x < n; ++x)
+    for (int j = 0; j < kLanes; ++j)
+      dst[x * kLanes + j] = mul ? rows[j][x] * mul[x * kLanes + j] : rows[j][x];
+}
+
+/// rows[j][x] = src[x · kLanes + j] for the first nrows lanes.
+inline void store_rows_transposed(const float* src, int n, float* const* rows, int nrows) {
+  int x = 0;
+  if (nrows == kLanes) {
+    for (; x + 4 <= n; x += 4)
+      for (int j = 0; j < kLanes; j += 4) {
+        __m128 r0 = _mm_loadu_ps(src + (x + 0) * kLanes + j), r1 = _mm_loadu_ps(src + (x + 1) * kLanes + j);
+        __m128 r2 = _mm_loadu_ps(src + (x + 2) * kLanes + j), r3 = _mm_loadu_ps(src + (x + 3) * kLanes + j);
+        _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
+        _mm_storeu_ps(rows[j] + x, r0);
+        _mm_storeu_ps(rows[j + 1] + x, r1);
+        _mm_storeu_ps(rows[j + 2] + x, r2);
+        _mm_storeu_ps(rows[j + 3] + x, r3);
+      }
+  }
+  for (; x < n; ++x)
+    for (int j = 0; j < nrows; ++j) rows[j][x] = src[x * kLanes + j];
+}
+
+/// One output row of one extended-box pass over nx lanes (same expression as strip_passes):
+/// out = (sum + alpha·(lo + hi))·norm, then the window slides: sum += hi − out_lo.
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void box_row(float* __restrict sum, const float* lo, const float* hi, const float* out_lo, float* __restrict out,
+             int nx, float alpha, float norm) {
+  for (int j = 0; j < nx; ++j) {
+    out[j] = (sum[j] + alpha * (lo[j] + hi[j])) * norm;
+    sum[j] += hi[j] - out_lo[j];
+  }
+}
+
+/// sum = Σ rows[k] for k = 0 … n − 1, in that order (the re-synchronisation of the window).
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void sum_rows(float* __restrict sum, const float* const* rows, int n, int nx) {
+  for (int j = 0; j < nx; ++j) sum[j] = 0.0f;
+  for (int k = 0; k < n; ++k) {
+    const float* q = rows[k];
+    for (int j = 0; j < nx; ++j) sum[j] += q[j];
+  }
+}
+
+/// The division of the normalised convolution for one row segment: out = num / wt where
+/// wt > tiny, else the source (no tap carried weight; read only when some pixel needs it).
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void normalise_row(const float* __restrict num, const float* __restrict wt, const float* __restrict src,
+                   float* __restrict out, int nx, float tiny) {
+  int ok = 0;
+  for (int j = 0; j < nx; ++j) ok += wt[j] > tiny ? 1 : 0;
+  if (ok == nx) {
+    for (int j = 0; j < nx; ++j) out[j] = num[j] / wt[j];
+  } else {  // without a branch per lane: both values, then a select (vectorises)
+    for (int j = 0; j < nx; ++j) {
+      const float q = num[j] / std::max(wt[j], tiny);  // = num / wt wherever it is used
+      const float s = src[j];
+      out[j] = wt[j] > tiny ? q : s;
+    }
+  }
+}
+
+}  // namespace
+
+void weighted_gaussian(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
+                       int passes, float tiny, float* const* dst, float* weight, bool normalise) {
+  if (w <= 0 || h <= 0 || nplanes <= 0) return;
+  int r = 0;
+  float alpha = 0.0f;
+  if (sigma > 0 && passes > 0) extended_box_params(sigma, passes, r, alpha);
+  else passes = 0;
+  const int pad = r + 1;
+
+  // Horizontal sweep: strips of kLanes rows. The weights' strip is loaded once and used to
+  // weight every plane as it is transposed in; it is blurred last.
+  {
+    const std::size_t strip = static_cast<std::size_t>(w + 2 * pad) * kLanes;
+    const int strips = (h + kLanes - 1) / kLanes;
+    parallel_for(strips, [&](int s0, int s1) {
+      float* cb = scratch(3 * strip);
+      float* a = cb + strip;
+      float* b = a + strip;
+      const std::size_t off = static_cast<std::size_t>(pad) * kLanes;
+      for (int s = s0; s < s1; ++s) {
+        const int y0 = s * kLanes, ny = std::min(kLanes, h - y0);
+        const float* in[kLanes];
+        float* out[kLanes];
+        auto rowoff = [&](int j) { return static_cast<std::size_t>(y0 + std::min(j, ny - 1)) * w; };
+        for (int j = 0; j < kLanes; ++j) in[j] = c + rowoff(j);
+        load_rows_transposed(in, w, nullptr, cb + off);
+        for (int k = 0; k < nplanes; ++k) {
+          for (int j = 0; j < kLanes; ++j) in[j] = src[k] + rowoff(j), out[j] = dst[k] + rowoff(j);
+          load_rows_transposed(in, w, cb + off, a + off);
+          const float* res = passes > 0 ? strip_passes(a, b, w, pad, r, alpha, passes) : a;
+          store_rows_transposed(res + off, w, out, ny);
+        }
+        for (int j = 0; j < kLanes; ++j) out[j] = weight + rowoff(j);
+        const float* res = passes > 0 ? strip_passes(cb, a, w, pad, r, alpha, passes) : cb;
+        store_rows_transposed(res + off, w, out, ny);
+      }
+    });
+  }
+
+  // Vertical sweep, streamed down the rows of blocks of kBlock columns so that every memory
+  // access is a contiguous row segment. Pass k of the cascade produces its row i once its
+  // input rows up to i + r + 1 exist, i.e. (k + 1)(r + 1) rows behind the rows read from the
+  // planes; the intermediate passes keep their last 2r + 3 rows in small rings (rows past the
+  // image edges are the clamped edge rows, which the ring still holds when they are needed).
+  // Each output row is divided by the blurred weight as it leaves the last pass. The planes
+  // are read by the first pass (in place: a row is overwritten only after its last use) and
+  // written by the division. Per lane the arithmetic is strip_passes' (same sums, same
+  // re-synchronisation every kResync rows), so the result equals the column-strip form.
+  {
+    const int np = nplanes + 1;  // the weights are plane np − 1 of the sweep
+    const int ring = 2 * r + 3;
+    const int delay = r + 1;
+    const int blocks = (w + kBlock - 1) / kBlock;
+    const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
+    const std::size_t ring_floats = static_cast<std::size_t>(std::max(0, passes - 1)) * np * ring * kBlock;
+    const std::size_t floats = ring_floats + static_cast<std::size_t>(passes + 1) * np * kBlock;
+    parallel_for(blocks, [&](int b0, int b1) {
+      float* rings = scratch(floats);
+      float* sums = rings + ring_floats;                                   // [passes][np][kBlock]
+      float* last = sums + static_cast<std::size_t>(passes) * np * kBlock;  // [np][kBlock]
+      thread_local std::vector<const float*> rows;
+      rows.resize(2 * static_cast<std::size_t>(r) + 1);
+      auto clamp_row = [&](int y) { return y < 0 ? 0 : (y >= h ? h - 1 : y); };
+      for (int bk = b0; bk < b1; ++bk) {
+        const int x0 = bk * kBlock, nx = std::min(kBlock, w - x0);
+        auto plane_of = [&](int p) -> float* { return p == nplanes ? weight : dst[p]; };
+        // Where row y (clamped) of the input of pass k lies for sweep plane p: a plane row for
+        // k = 0, else a ring slot; `at` turns that into a pointer.
+        auto where = [&](int k, int y) -> std::size_t {
+          y = clamp_row(y);
+          return k == 0 ? static_cast<std::size_t>(y) * w + x0 : static_cast<std::size_t>(y % ring) * kBlock;
+        };
+        auto at = [&](int k, int p, std::size_t pos) -> const float* {
+          if (k == 0) return plane_of(p) + pos;
+          return rings + (static_cast<std::size_t>(k - 1) * np + p) * ring * kBlock + pos;
+        };
+        auto output = [&](int k, int p, int y) -> float* {
+          if (k == passes - 1) return last + static_cast<std::size_t>(p) * kBlock;
+          return rings + ((static_cast<std::size_t>(k) * np + p) * ring + y % ring) * kBlock;
+        };
+        for (int t = 0; t < h + passes * delay; ++t) {
+          // The first pass reads a new row of every plane per step, at a stride the hardware
+          // prefetchers do not follow: ask for it a few rows ahead.
+          if (t + kAhead < h)
+            for (int p = 0; p < np; ++p) {
+              const float* row = plane_of(p) + static_cast<std::size_t>(t + kAhead) * w + x0;
+              for (int j = 0; j < nx; j += 16) __builtin_prefetch(row + j);
+            }
+          // Likewise the source rows the division may fall back to.
+          if (const int ys = t - passes * delay + kAhead; normalise && ys >= 0 && ys < h)
+            for (int p = 0; p < nplanes; ++p) {
+              const float* row = src[p] + static_cast<std::size_t>(ys) * w + x0;
+              for (int j = 0; j < nx; j += 16) __builtin_prefetch(row + j);
+            }
+          for (int k = 0; k < passes; ++k) {
+            const int i = t - (k + 1) * delay;
+            if (i < 0 || i >= h) continue;
+            const std::size_t lo = where(k, i - r - 1), hi = where(k, i + r + 1), out_lo = where(k, i - r);
+            for (int p = 0; p < np; ++p) {
+              float* sum = sums + (static_cast<std::size_t>(k) * np + p) * kBlock;
+              if (i % kResync == 0) {
+                for (int q = -r; q <= r; ++q) rows[q + r] = at(k, p, where(k, i + q));
+                sum_rows(sum, rows.data(), 2 * r + 1, nx);
+              }
+              box_row(sum, at(k, p, lo), at(k, p, hi), at(k, p, out_lo), output(k, p, i), nx, alpha, norm);
+            }
+          }
+          const int i = t - passes * delay;
+          if (i < 0 || i >= h) continue;
+          const std::size_t o = static_cast<std::size_t>(i) * w + x0;
+          if (passes == 0)  // no blur: the weighted planes themselves, copied so none aliases
+            for (int p = 0; p < np; ++p) {
+              const float* in = plane_of(p) + o;
+              std::copy(in, in + nx, last + static_cast<std::size_t>(p) * kBlock);
+            }
+          const float* wt = last + static_cast<std::size_t>(nplanes) * kBlock;
+          for (int p = 0; p < nplanes; ++p) {
+            const float* num = last + static_cast<std::size_t>(p) * kBlock;
+            if (normalise) normalise_row(num, wt, src[p] + o, dst[p] + o, nx, tiny);
+            else std::copy(num, num + nx, dst[p] + o);
+          }
+          if (!normalise) std::copy(wt, wt + nx, weight + o);
+        }
+      }
+    });
+  }
+}
+
+}  // namespace dofkit::core

@@ -135,10 +135,33 @@ void ScatterBand(const BandJob& job) {
               continue;
             }
             const auto rel = hn::Mul(hn::Sub(hn::Set(d, uq), up), isu);
-            const auto front = hn::Min(hn::Max(rel, zero), one);
-            const auto minus_behind = hn::Max(hn::Min(rel, zero), neg_one);
+            if (uq >= up_max) {  // rel ≥ 0: nothing behind, so no blocking (same values as below)
+              const auto wf = hn::Mul(wt, hn::Min(rel, one)), wb = hn::Sub(wt, wf);
+              f0 = hn::MulAdd(wf, hn::Set(d, s_c0[j]), f0);
+              f1 = hn::MulAdd(wf, hn::Set(d, s_c1[j]), f1);
+              f2 = hn::MulAdd(wf, hn::Set(d, s_c2[j]), f2);
+              f3 = hn::MulAdd(wf, hn::Set(d, s_c3[j]), f3);
+              fw = hn::Add(fw, wf);
+              b0 = hn::MulAdd(wb, hn::Set(d, s_c0[j]), b0);
+              b1 = hn::MulAdd(wb, hn::Set(d, s_c1[j]), b1);
+              b2 = hn::MulAdd(wb, hn::Set(d, s_c2[j]), b2);
+              b3 = hn::MulAdd(wb, hn::Set(d, s_c3[j]), b3);
+              bw = hn::Add(bw, wb);
+              continue;
+            }
             // 1 − pass = 1 − min(sharp_p / sharp_q, 1)
             const auto blocked = hn::Max(hn::NegMulAdd(sp, hn::Set(d, s_isq[j]), one), zero);
+            if (uq <= up_min) {  // rel ≤ 0: nothing in front, all of it goes to B
+              wt = hn::Mul(wt, hn::MulAdd(hn::Max(rel, neg_one), blocked, one));
+              b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
+              b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
+              b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
+              b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
+              bw = hn::Add(bw, wt);
+              continue;
+            }
+            const auto front = hn::Min(hn::Max(rel, zero), one);
+            const auto minus_behind = hn::Max(hn::Min(rel, zero), neg_one);
             wt = hn::Mul(wt, hn::MulAdd(minus_behind, blocked, one));
             const auto wf = hn::Mul(wt, front), wb = hn::Sub(wt, wf);
             f0 = hn::MulAdd(wf, hn::Set(d, s_c0[j]), f0);

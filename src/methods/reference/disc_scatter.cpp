@@ -180,6 +180,7 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
       std::fill(acc.begin(), acc.end(), 0.0f);
       BandJob job;
       job.w = w; job.h = h; job.y0 = y0; job.y1 = y1; job.reach = reach; job.depth_order = opt.depth_order;
+      job.softness = soft;
       job.rho = rho.data(); job.sharp = sharpness.data(); job.inv_z = inv_z.data(); job.isu = isu.data();
       job.wscale = wscale.data();
       job.ext = ext.data(); job.block_ext = block_ext.data();

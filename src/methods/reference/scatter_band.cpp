@@ -33,11 +33,14 @@ void ScatterBand(const BandJob& job) {
   const int w = job.w;
   const int nblk = (w + S - 1) / S;
   const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), neg_one = hn::Set(d, -1.0f);
+  const float front_scale = (1.0f + job.softness) * (1.0f + 4e-6f);
   const int sy0 = std::max(0, job.y0 - job.reach), sy1 = std::min(job.h, job.y1 + job.reach);
   // The sources of the current block that reach the band, and their spans on the current
   // receiver row (lo > hi: not on this row).
-  float s_lim[S], s_ws[S], s_uq[S], s_isq[S], s_c0[S], s_c1[S], s_c2[S], s_c3[S];
-  int s_qx[S], s_ext[S], s_off[S], s_lo[S], s_hi[S];
+  constexpr int kNever = 1 << 29;  // an empty span: lo = kNever, hi = −kNever
+  const hn::RebindToSigned<decltype(d)> di;
+  HWY_ALIGN float s_lim[S], s_ws[S], s_uq[S], s_isq[S], s_c0[S], s_c1[S], s_c2[S], s_c3[S];
+  HWY_ALIGN int32_t s_qx[S], s_ext[S], s_off[S], s_lo[S], s_hi[S];
   for (int qy = sy0; qy < sy1; ++qy) {
     const int* bext = job.block_ext + static_cast<std::size_t>(qy) * nblk;
     for (int b = 0; b < nblk; ++b) {
@@ -64,23 +67,32 @@ void ScatterBand(const BandJob& job) {
         s_c3[m] = job.colour[3][q];
         ++m;
       }
+      for (int i = m; i < S; ++i) {  // unused slots: never active
+        s_ext[i] = -1;
+        s_qx[i] = 0;
+        s_lim[i] = 0.0f;
+      }
       for (int py = pyA; py <= pyB; ++py) {
         const int dy = py - qy, ady = dy < 0 ? -dy : dy;
-        const float fdy = static_cast<float>(dy);
-        int lo = w, hi = -1;
-        for (int i = 0; i < m; ++i) {
-          if (s_ext[i] < ady) {
-            s_lo[i] = w + 1024;
-            s_hi[i] = -1024;
-            continue;
-          }
-          const float lim = s_lim[i];
-          const int hw = static_cast<int>(std::sqrt(std::max(0.0f, lim * lim - fdy * fdy)));
-          s_lo[i] = std::max(0, s_qx[i] - hw);
-          s_hi[i] = std::min(w - 1, s_qx[i] + hw);
-          lo = std::min(lo, s_lo[i]);
-          hi = std::max(hi, s_hi[i]);
+        // Spans of all slots on this row, a vector of slots at a time (as the plain loop:
+        // half-width floor(sqrt(max(0, lim² − dy²)))).
+        const auto vady = hn::Set(di, ady);
+        const auto vdy2 = hn::Set(d, static_cast<float>(dy * dy));
+        const auto never = hn::Set(di, kNever), neg_never = hn::Set(di, -kNever), wlast = hn::Set(di, w - 1);
+        auto vlo = never, vhi = neg_never;
+        for (int i = 0; i < m; i += lanes) {
+          const auto lim = hn::Load(d, s_lim + i);
+          const auto hw = hn::ConvertTo(di, hn::Sqrt(hn::Max(hn::Sub(hn::Mul(lim, lim), vdy2), zero)));
+          const auto qx = hn::Load(di, s_qx + i);
+          const auto active = hn::Not(hn::Lt(hn::Load(di, s_ext + i), vady));
+          const auto slo = hn::IfThenElse(active, hn::Max(hn::Sub(qx, hw), hn::Zero(di)), never);
+          const auto shi = hn::IfThenElse(active, hn::Min(hn::Add(qx, hw), wlast), neg_never);
+          hn::Store(slo, di, s_lo + i);
+          hn::Store(shi, di, s_hi + i);
+          vlo = hn::Min(vlo, slo);
+          vhi = hn::Max(vhi, shi);
         }
+        const int lo = hn::GetLane(hn::MinOfLanes(di, vlo)), hi = hn::GetLane(hn::MaxOfLanes(di, vhi));
         if (lo > hi) continue;
         const int n = m;
         const float* trow = job.dist + static_cast<std::size_t>(ady) * job.dist_stride;
@@ -102,7 +114,7 @@ void ScatterBand(const BandJob& job) {
           // of one depth per row, a sky at infinity, a near bar in front of everything):
           //   u_q ≤ min u_p and (u_q ≥ max u_p or sharp_p ≥ sharp_q everywhere): rel ≤ 0
           //     and nothing is blocked (or rel = 0), so the whole weight goes to B;
-          //   u_q > max (u_p + 1/isu_p) (slightly raised): rel ≥ 1, the whole weight goes to F.
+          //   u_q > max u_p·(1 + softness) (slightly raised): rel ≥ 1, all of it goes to F.
           // Those pairs skip the depth terms and the other sum (which they would add 0 to).
           // Lanes past the row end only make the bounds tighter.
           float up_min = 0, up_max = 0, sp_min = 0, front_above = 0;
@@ -110,7 +122,8 @@ void ScatterBand(const BandJob& job) {
             up_min = hn::GetLane(hn::MinOfLanes(d, up));
             up_max = hn::GetLane(hn::MaxOfLanes(d, up));
             sp_min = hn::GetLane(hn::MinOfLanes(d, sp));
-            front_above = hn::GetLane(hn::MaxOfLanes(d, hn::Add(up, hn::Div(one, isu)))) * (1.0f + 4e-6f);
+            // 1/isu_p = softness·u_p; receivers at infinity (u_p = 0, isu_p = 1e30) need u_q ≥ 1e-30.
+            front_above = std::max(up_max * front_scale, 1e-29f);
           }
           for (int j = 0; j < n; ++j) {
             if (s_hi[j] < px || s_lo[j] > pxe) continue;

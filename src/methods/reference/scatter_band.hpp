@@ -14,6 +14,7 @@ struct BandJob {
   int y0 = 0, y1 = 0;    // receiver rows [y0, y1)
   int reach = 0;         // largest disc extent (px)
   bool depth_order = true;
+  float softness = 0.05f;  // relative inverse-depth softness (isu = 1/(softness·inv_z))
   // Per pixel (row-major, padded by at least 16 floats at the end so vector loads may run past
   // the last pixel): disc radius, sharpness max(|r|−0.5,0), inverse depth, 1/(softness·inv_z),
   // weight per unit coverage, colour planes.

@@ -285,4 +285,146 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
   }
 }
 
+// Streamed form. Every pass is a sequence of full-width rows; the horizontal passes produce
+// the first sequence kLanes rows at a time (the strip technique above, written into a ring),
+// each vertical pass k produces its row i once rows i + r + 1 of its input exist and keeps its
+// last 2r + 3 rows in a ring (enough for the window and for the clamped edge rows, which are
+// the oldest or the newest rows whenever they are referenced). A band's passes start at rows
+// that are multiples of kResync, where the window sums are recomputed from scratch, so every
+// row's arithmetic is that of the whole-image sweep.
+void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
+                            int passes, float tiny, int y0, int y1,
+                            const std::function<void(int y, const float* const* rows)>& row_out) {
+  y0 = std::max(y0, 0);
+  y1 = std::min(y1, h);
+  if (w <= 0 || h <= 0 || nplanes <= 0 || y0 >= y1) return;
+  int r = 0;
+  float alpha = 0.0f;
+  if (sigma > 0 && passes > 0) extended_box_params(sigma, passes, r, alpha);
+  else passes = 0;
+  const int pad = r + 1;
+  const int np = nplanes + 1;  // sweep plane np − 1 = the weights
+  const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
+  const int ring0 = 2 * r + 3 + kLanes;  // horizontal output: window + one strip of new rows
+  const int ring = 2 * r + 3;
+  const std::size_t row = static_cast<std::size_t>(w);
+  const std::size_t strip = static_cast<std::size_t>(w + 2 * pad) * kLanes;
+  const std::size_t n_ring0 = static_cast<std::size_t>(np) * ring0 * row;
+  const std::size_t n_rings = static_cast<std::size_t>(std::max(0, passes - 1)) * np * ring * row;
+  const std::size_t n_sums = static_cast<std::size_t>(passes) * np * row;
+  const std::size_t n_last = static_cast<std::size_t>(np) * row;
+  float* base = scratch(n_ring0 + n_rings + n_sums + 2 * n_last + 3 * strip);
+  float* r0 = base;              // [np][ring0][w]
+  float* rings = r0 + n_ring0;   // [passes − 1][np][ring][w]
+  float* sums = rings + n_rings; // [passes][np][w]
+  float* last = sums + n_sums;   // [np][w]: the last pass's current row
+  float* outs = last + n_last;   // [nplanes][w]: the normalised row
+  float* cb = outs + n_last;     // three strip buffers of the horizontal passes
+  float* sa = cb + strip;
+  float* sb = sa + strip;
+  thread_local std::vector<const float*> win;
+  win.resize(2 * static_cast<std::size_t>(r) + 1);
+  auto clamp_row = [&](int y) { return y < 0 ? 0 : (y >= h ? h - 1 : y); };
+  auto align = [](int y) { return y - y % kResync; };
+
+  // Row y (clamped) of the input of pass k, plane p.
+  auto input = [&](int k, int p, int y) -> const float* {
+    y = clamp_row(y);
+    if (k == 0) return r0 + (static_cast<std::size_t>(p) * ring0 + y % ring0) * row;
+    return rings + ((static_cast<std::size_t>(k - 1) * np + p) * ring + y % ring) * row;
+  };
+  auto output = [&](int k, int p, int y) -> float* {
+    if (k == passes - 1) return last + static_cast<std::size_t>(p) * row;
+    return rings + ((static_cast<std::size_t>(k) * np + p) * ring + y % ring) * row;
+  };
+
+  // First row each pass computes, walking back from the band: pass k must start at a
+  // re-synchronisation row and cover the rows pass k + 1 reads.
+  std::vector<int> produced(static_cast<std::size_t>(passes) + 1);  // last row done, per pass; [passes] = horizontal
+  {
+    int need_from = y0;
+    for (int k = passes - 1; k >= 0; --k) {
+      const int start = align(need_from);
+      produced[k] = start - 1;
+      need_from = std::max(0, start - r - 1);
+    }
+    produced[passes] = need_from - 1;
+  }
+  int& h_done = produced[passes];
+
+  // Horizontal passes for the rows after h_done, one strip of kLanes rows.
+  auto horizontal_strip = [&]() {
+    const int ys = h_done + 1, ny = std::min(kLanes, h - ys);
+    const std::size_t off = static_cast<std::size_t>(pad) * kLanes;
+    const float* in[kLanes];
+    float* out[kLanes];
+    auto rowoff = [&](int j) { return static_cast<std::size_t>(ys + std::min(j, ny - 1)) * w; };
+    auto ring_row = [&](int p, int j) { return r0 + (static_cast<std::size_t>(p) * ring0 + (ys + j) % ring0) * row; };
+    for (int j = 0; j < kLanes; ++j) in[j] = c + rowoff(j);
+    load_rows_transposed(in, w, nullptr, cb + off);
+    for (int p = 0; p < nplanes; ++p) {
+      for (int j = 0; j < kLanes; ++j) in[j] = src[p] + rowoff(j), out[j] = ring_row(p, std::min(j, ny - 1));
+      load_rows_transposed(in, w, cb + off, sa + off);
+      const float* res = passes > 0 ? strip_passes(sa, sb, w, pad, r, alpha, passes) : sa;
+      store_rows_transposed(res + off, w, out, ny);
+    }
+    for (int j = 0; j < kLanes; ++j) out[j] = ring_row(nplanes, std::min(j, ny - 1));
+    const float* res = passes > 0 ? strip_passes(cb, sa, w, pad, r, alpha, passes) : cb;
+    store_rows_transposed(res + off, w, out, ny);
+    h_done = ys + ny - 1;
+  };
+
+  // Makes pass k (k = passes: the horizontal passes) produce rows up to j (clamped).
+  std::function<void(int, int)> need = [&](int k, int j) {
+    j = std::min(j, h - 1);
+    if (k == passes) {
+      while (h_done < j) horizontal_strip();
+      return;
+    }
+    while (produced[k] < j) {
+      const int i = produced[k] + 1;
+      need(k == 0 ? passes : k - 1, i + r + 1);
+      for (int p = 0; p < np; ++p) {
+        float* sum = sums + (static_cast<std::size_t>(k) * np + p) * row;
+        if (i % kResync == 0) {
+          for (int q = -r; q <= r; ++q) win[q + r] = input(k, p, i + q);
+          sum_rows(sum, win.data(), 2 * r + 1, w);
+        }
+        box_row(sum, input(k, p, i - r - 1), input(k, p, i + r + 1), input(k, p, i - r), output(k, p, i), w, alpha,
+                norm);
+      }
+      produced[k] = i;
+    }
+  };
+
+  const float* rows[64];
+  std::vector<const float*> rows_big;
+  const float** out_rows = rows;
+  if (nplanes > 64) {
+    rows_big.resize(nplanes);
+    out_rows = rows_big.data();
+  }
+  for (int p = 0; p < nplanes; ++p) out_rows[p] = outs + static_cast<std::size_t>(p) * row;
+  for (int y = passes > 0 ? produced[passes - 1] + 1 : y0; y < y1; ++y) {
+    const float* res_base;
+    if (passes > 0) {
+      need(passes - 1, y);
+      res_base = last;
+    } else {
+      need(0, y);  // no vertical pass: the weighted rows themselves
+      for (int p = 0; p < np; ++p) {
+        const float* in = input(0, p, y);
+        std::copy(in, in + w, last + static_cast<std::size_t>(p) * row);
+      }
+      res_base = last;
+    }
+    if (y < y0) continue;  // warm-up row of the band
+    const float* wt = res_base + static_cast<std::size_t>(nplanes) * row;
+    for (int p = 0; p < nplanes; ++p)
+      normalise_row(res_base + static_cast<std::size_t>(p) * row, wt, src[p] + static_cast<std::size_t>(y) * w,
+                    outs + static_cast<std::size_t>(p) * row, w, tiny);
+    row_out(y, out_rows);
+  }
+}
+
 }  // namespace dofkit::core

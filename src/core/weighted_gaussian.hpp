@@ -14,6 +14,7 @@
 // is bit for bit that of: multiply, gaussian_blur_plane on every plane and on c, divide.
 // Output does not depend on the thread count.
 #pragma once
+#include <functional>
 
 namespace dofkit::core {
 
@@ -24,5 +25,16 @@ namespace dofkit::core {
 /// smallest blurred weight that is divided by (below it the source is kept).
 void weighted_gaussian(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
                        int passes, float tiny, float* const* dst, float* weight, bool normalise = true);
+
+/// The same normalised Gaussian, streamed: computes the output rows y0 … y1 − 1 in order,
+/// full width, without intermediate planes, and hands each to `row_out(y, rows)` (rows[k] =
+/// plane k's normalised row, valid during the call). Serial; call it for disjoint bands from
+/// parallel workers. Each band warms its passes up from rows above it (about
+/// passes · (r + 1) + 32 rows per pass), so the result is bit for bit that of
+/// weighted_gaussian whatever the banding. Working memory per call (kept per thread): about
+/// (passes + 1) · (2r + 19) rows of (nplanes + 1) · w floats, r ≈ sigma · sqrt(3 / passes).
+void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
+                            int passes, float tiny, int y0, int y1,
+                            const std::function<void(int y, const float* const* rows)>& row_out);
 
 }  // namespace dofkit::core

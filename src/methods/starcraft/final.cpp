@@ -154,7 +154,7 @@ inline void mix_scalar(const MixRow& r, int x, int w) {
   r.out[x] = r.ws[x] * small + r.wm[x] * med + r.wl[x] * lg + r.wsrc[x] * r.src[x];
 }
 
-void final_row(const Image& color, const Image& depth, const Image& level, const Image& medium,
+void final_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
                const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
                const FinalGeometry& g, RowScratch& sc, int y) {
   const int w = g.w, h = g.h, lw = g.lw, lh = g.lh;
@@ -199,7 +199,7 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
       std::copy(src, src + w, o);
       continue;
     }
-    MixRow mr{{}, medium.row(ch, y), sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm, wr.wl,
+    MixRow mr{{}, med[ch], sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm, wr.wl,
               wr.wsrc, src, o};
     for (int k = 0; k < 5; ++k) mr.rows[k] = color.row(ch, clampi(y + k - 2, 0, h - 1));
     // Columns 2 … w − 3 read x − 2 … x + 2 without clamping.
@@ -219,17 +219,24 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
     return;
   }
   const int w = color.width(), h = color.height();
-  const int lw = large.width(), lh = large.height();
   out.resize(w, h, 4);
-  const FinalGeometry g{w, h, lw, lh};
   core::parallel_for(h, [&](int y0, int y1) {
-    thread_local RowScratch sc;  // per worker, kept between frames
-    sc.vrow.resize(static_cast<std::size_t>(lw) * 6);
-    sc.hrow.resize(static_cast<std::size_t>(w) * 6);
-    for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
-    for (int y = y0; y < y1; ++y)
-      final_row(color, depth, level, medium, large, inv_depth, keep_own_blur, out, g, sc, y);
+    for (int y = y0; y < y1; ++y) {
+      const float* med[4] = {medium.row(0, y), medium.row(1, y), medium.row(2, y), medium.row(3, y)};
+      final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y);
+    }
   }, 8);
+}
+
+void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
+                    const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y) {
+  const int w = color.width(), h = color.height();
+  const FinalGeometry g{w, h, large.width(), large.height()};
+  thread_local RowScratch sc;  // per worker, kept between frames
+  sc.vrow.resize(static_cast<std::size_t>(g.lw) * 6);
+  sc.hrow.resize(static_cast<std::size_t>(w) * 6);
+  for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
+  final_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, g, sc, y);
 }
 
 }  // namespace dofkit::detail::starcraft

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <vector>
 
+#include <tbb/task_arena.h>
+
 #include "core/filters.hpp"
 #include "core/weighted_gaussian.hpp"
 #include "core/parallel.hpp"
@@ -53,6 +55,28 @@ void medium_blur(const Image& color, const Image& level, float sigma, Image& med
       }
     }
   }, 16);
+}
+
+void medium_and_final(const Image& color, const Image& depth, const Image& level, float sigma_medium,
+                      const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out) {
+  const int w = color.width(), h = color.height();
+  out.resize(w, h, 4);
+  constexpr float kTiny = 1e-6f;  // as in medium_blur
+  const float* src[4] = {color.plane(0), color.plane(1), color.plane(2), color.plane(3)};
+  // One horizontal band per worker: each band re-computes a few dozen rows above it to warm
+  // its vertical passes up (the output does not depend on the banding), so more bands than
+  // workers would only add that overhead.
+  const int bands = std::max(1, std::min(tbb::this_task_arena::max_concurrency(), h / 64));
+  core::parallel_for(bands, [&](int b0, int b1) {
+    for (int b = b0; b < b1; ++b) {
+      const int y0 = static_cast<int>(static_cast<long long>(h) * b / bands);
+      const int y1 = static_cast<int>(static_cast<long long>(h) * (b + 1) / bands);
+      core::weighted_gaussian_rows(src, 4, level.plane(0), w, h, sigma_medium, 3, kTiny, y0, y1,
+                                   [&](int y, const float* const* med) {
+                                     final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y);
+                                   });
+    }
+  });
 }
 
 }  // namespace dofkit::detail::starcraft

@@ -40,11 +40,6 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   compute_levels(ctx, g, level);
   ctx.debug.offer("coc", level);
 
-  Image& medium = ctx.workspace.image("starcraft.medium", w, h, 4);
-  Image& medium_weight = ctx.workspace.image("starcraft.medium_weight", w, h, 1);
-  medium_blur(color, level, g.sigma_medium, medium, medium_weight, s.plain);
-  ctx.debug.offer("medium", medium);
-
   Image& large = ctx.workspace.image("starcraft.large", lw, lh, 5);
   large_blur(color, level, g.sigma_large, s.coc_reduce_max, large, s.plain);
   ctx.debug.offer("blurred_coc", [&] { return quarter_plane(large, 4); });
@@ -67,6 +62,19 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
     }
     return img;
   });
+
+  // Fast form without intermediate debug views: the medium level is streamed straight into
+  // the final pass (no full-resolution medium planes).
+  const bool fused = !s.plain && !ctx.debug.wants("medium") && !ctx.debug.wants("used_coc") &&
+                     !ctx.debug.wants("small") && !ctx.debug.wants("weights");
+  if (fused) {
+    medium_and_final(color, ctx.frame.depth, level, g.sigma_medium, large, inv_depth, s.keep_own_blur, out);
+    return;
+  }
+  Image& medium = ctx.workspace.image("starcraft.medium", w, h, 4);
+  Image& medium_weight = ctx.workspace.image("starcraft.medium_weight", w, h, 1);
+  medium_blur(color, level, g.sigma_medium, medium, medium_weight, s.plain);
+  ctx.debug.offer("medium", medium);
 
   Image used, small, weights;
   FinalDebug dbg;

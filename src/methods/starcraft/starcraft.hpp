@@ -124,6 +124,17 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
                 const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
                 const FinalDebug& dbg = {});
 
+/// One row y of final_pass with the medium level's row given as 4 plane pointers (w floats
+/// each); `out` must already have the frame's size. Same result as final_pass's row y.
+void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
+                    const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y);
+
+/// C2 and C5 fused (fast form, no debug output): the medium level is streamed row by row
+/// (core::weighted_gaussian_rows) into the final pass, so it never exists as full planes.
+/// Same result as medium_blur followed by final_pass, bit for bit.
+void medium_and_final(const Image& color, const Image& depth, const Image& level, float sigma_medium,
+                      const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out);
+
 /// The chapter's level weights for a level c: {source, small, medium, large}; they sum to 1.
 /// x = sat(1 − c/d0), y = sat((1 − d2)/d1 − c/d1), z = sat(1/d2 − c/d2),
 /// w = sat((d2 − 1)/d2 + c/d2); y' = min(y, 1 − x), z' = min(z, 1 − y); the source weight is

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "dofkit/render.hpp"
+#include "methods/layered/fast.hpp"
 
 namespace {
 
@@ -84,15 +85,22 @@ void expect_same(const Frame& f, RenderSettings rs, const std::string& what) {
 
 TEST(LayeredFast, BitIdenticalToPlainSingleInput) {
   // Sizes: tiny, odd, and one large enough for σ >= 4 px steps (half resolution).
-  for (auto [w, h] : {std::pair{1, 1}, {1, 3}, {3, 1}, {2, 2}, {5, 7}, {37, 19}, {67, 21}, {160, 90}})
+  const std::uint64_t fused_before = detail::layered::fused_render_count();
+  int gaussian_cases = 0;
+  for (auto [w, h] : {std::pair{1, 1}, {1, 3}, {3, 1}, {2, 2}, {5, 7}, {37, 19}, {67, 21}, {160, 90}, {257, 33}})
     for (const char* psf : {"gaussian", "disc"})
-      for (const char* half : {"on", "off"}) {
-        RenderSettings rs = settings("fast", 1);
-        rs.params["psf"] = psf;
-        rs.params["half_res"] = half;
-        expect_same(test_frame(w, h, 1, 7), rs,
-                    std::to_string(w) + "x" + std::to_string(h) + " " + psf + " half_res " + half);
-      }
+      for (const char* half : {"on", "off"})
+        for (const char* fill : {"auto", "under", "off"}) {
+          RenderSettings rs = settings("fast", 1);
+          rs.params["psf"] = psf;
+          rs.params["half_res"] = half;
+          rs.params["fill"] = fill;
+          expect_same(test_frame(w, h, 1, 7), rs,
+                      std::to_string(w) + "x" + std::to_string(h) + " " + psf + " half_res " + half + " fill " + fill);
+          gaussian_cases += std::string(psf) == "gaussian";
+        }
+  // Every Gaussian case (two fast renders each) went through the fused path, none fell back.
+  EXPECT_EQ(detail::layered::fused_render_count() - fused_before, 2u * gaussian_cases);
 }
 
 TEST(LayeredFast, BitIdenticalToPlainMultiLayerInput) {

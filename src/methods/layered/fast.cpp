@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <utility>
 
@@ -14,6 +15,153 @@ namespace dofkit::detail::layered {
 namespace {
 
 constexpr int kBlock = 256;  // columns per block of the row passes (stack buffers)
+
+}  // namespace
+
+// Hot row kernels, compiled for AVX-512 / AVX2 / baseline x86-64 and chosen at run time
+// (GCC target_clones). Contraction into FMAs is off so every target rounds like the plain
+// form (bit-identical); no-trapping-math lets the compiler evaluate both sides of a select.
+#if defined(__clang__)
+// clang (the fuzz build only) has no optimize() attribute: one build for the build's target.
+#define LAYERED_SIMD
+#else
+#define LAYERED_SIMD \
+  __attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off", "no-trapping-math")))
+#endif
+
+namespace kern {
+
+// dst[j] = lerp(src[i−1], src[i], 0.75) for fine x = 2i and lerp(src[i], src[i+1], 0.25) for
+// x = 2i + 1, for the pairs i in [i0, i1) (all neighbours in range); dst points at x = 2·i0.
+LAYERED_SIMD void up_pairs(const float* __restrict src, int i0, int i1, float* __restrict dst) {
+  const int m = i1 - i0;
+  const float* s = src + i0;
+  for (int i = 0; i < m; ++i) {
+    const float lo = s[i - 1], mid = s[i], hi = s[i + 1];
+    dst[2 * i] = lo + (mid - lo) * 0.75f;
+    dst[2 * i + 1] = mid + (hi - mid) * 0.25f;
+  }
+}
+
+// dst = top + (bot − top)·t.
+LAYERED_SIMD void lerp_rows(const float* __restrict top, const float* __restrict bot, float t, int n,
+                            float* __restrict dst) {
+  for (int j = 0; j < n; ++j) dst[j] = top[j] + (bot[j] - top[j]) * t;
+}
+
+// matting.cpp for one fragment per pixel from the per-pixel codes (see FusedLayer).
+LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* __restrict w0,
+                            const float* const* in, int k, int n, float (*o)[256], std::uint8_t* __restrict hb) {
+  float wk[256];
+  for (int j = 0; j < n; ++j) {
+    const int cd = code[j];
+    const int j0 = cd & 31;
+    wk[j] = j0 == k ? w0[j] : ((j0 + 1 == k && (cd & 32)) ? 1.0f : 0.0f);
+  }
+  for (int c = 0; c < 4; ++c) {
+    const float* __restrict src = in[c];
+    float* __restrict dst = o[c];
+    for (int j = 0; j < n; ++j) {
+      const float t = (1.0f - 0.0f) * wk[j];
+      dst[j] = wk[j] > 0 ? 0.0f + t * src[j] : 0.0f;
+    }
+  }
+  if (hb)
+    for (int j = 0; j < n; ++j) hb[j] = k >= (code[j] >> 6) ? 1 : 0;
+}
+
+// inpaint.cpp's level-0 fill (confidence 0: v = 0·v + 1·up) and final rules at hole pixels.
+LAYERED_SIMD void fill_row(const std::uint8_t* __restrict hb, float (*up)[256], bool opaque, bool under, int n,
+                           float (*o)[256]) {
+  const float wt = 0.0f;
+  if (!opaque && !under) {  // the common case: the fill replaces the hole pixel
+    for (int c = 0; c < 4; ++c) {
+      float* __restrict d = o[c];
+      const float* __restrict u = up[c];
+      for (int j = 0; j < n; ++j) {
+        const float v = wt * d[j] + (1.0f - wt) * u[j];
+        d[j] = hb[j] ? v : d[j];
+      }
+    }
+    return;
+  }
+  for (int j = 0; j < n; ++j) {
+    float v[4];
+    for (int c = 0; c < 4; ++c) v[c] = wt * o[c][j] + (1.0f - wt) * up[c][j];
+    const bool norm = opaque && v[3] > 1e-6f;
+    const float a = v[3];
+    for (int c = 0; c < 3; ++c) v[c] = norm ? v[c] / a : v[c];
+    v[3] = norm ? 1.0f : v[3];
+    const float t = 1.0f - o[3][j];
+    for (int c = 0; c < 4; ++c) {
+      const float r = under ? o[c][j] + t * v[c] : v[c];
+      o[c][j] = hb[j] ? r : o[c][j];
+    }
+  }
+}
+
+// c = c + (1 − c.a)·a (layer in front) or c = a + (1 − a.a)·c.
+LAYERED_SIMD void over_rows(float (*c)[256], const float* const* a, bool layer_in_front, int n) {
+  if (layer_in_front) {
+    for (int i = 0; i < n; ++i) {
+      const float t = 1.0f - c[3][i];
+      for (int ch = 0; ch < 4; ++ch) c[ch][i] = c[ch][i] + t * a[ch][i];
+    }
+  } else {
+    for (int i = 0; i < n; ++i) {
+      const float t = 1.0f - a[3][i];
+      for (int ch = 0; ch < 4; ++ch) c[ch][i] = a[ch][i] + t * c[ch][i];
+    }
+  }
+}
+
+// 2×2 box: d[xh] = 0.25·(a[2xh] + a[2xh+1] + b[2xh] + b[2xh+1]) for xh in [0, m) (all in range).
+LAYERED_SIMD void down_pairs(const float* __restrict a, const float* __restrict b, int m, float* __restrict d) {
+  for (int xh = 0; xh < m; ++xh) d[xh] = 0.25f * (a[2 * xh] + a[2 * xh + 1] + b[2 * xh] + b[2 * xh + 1]);
+}
+
+// Pull of level 1 from two level-0 rows for coarse pixels [0, m) whose 2×2 children all lie
+// in the image: children (0,0), (1,0), (0,1), (1,1) in pull_level's order; a hole child is
+// skipped there, here it adds +0 (exact: the sums start at +0 and never become −0).
+LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint8_t* __restrict h0,
+                             const std::uint8_t* __restrict h1, int m, float* const* cv, float* __restrict cw) {
+  // De-interleave the children into contiguous arrays, a hole child as +0 (float), then sum
+  // in double in pull_level's order.
+  float e0[128], o0[128], e1[128], o1[128];
+  double sw[128];
+  for (int x = 0; x < m; ++x) {
+    double s = 0;
+    s += h0[2 * x] ? 0.0 : 1.0;
+    s += h0[2 * x + 1] ? 0.0 : 1.0;
+    s += h1[2 * x] ? 0.0 : 1.0;
+    s += h1[2 * x + 1] ? 0.0 : 1.0;
+    sw[x] = s;
+    cw[x] = static_cast<float>(std::min(1.0, s / 4.0));
+  }
+  for (int c = 0; c < 4; ++c) {
+    const float* __restrict a = r0[c];
+    const float* __restrict b = r1[c];
+    for (int x = 0; x < m; ++x) {
+      e0[x] = h0[2 * x] ? 0.0f : a[2 * x];
+      o0[x] = h0[2 * x + 1] ? 0.0f : a[2 * x + 1];
+      e1[x] = h1[2 * x] ? 0.0f : b[2 * x];
+      o1[x] = h1[2 * x + 1] ? 0.0f : b[2 * x + 1];
+    }
+    float* __restrict d = cv[c];
+    for (int x = 0; x < m; ++x) {
+      double sv = 0;
+      sv += static_cast<double>(e0[x]);
+      sv += static_cast<double>(o0[x]);
+      sv += static_cast<double>(e1[x]);
+      sv += static_cast<double>(o1[x]);
+      d[x] = sw[x] > 0 ? static_cast<float>(sv / sw[x]) : 0.0f;
+    }
+  }
+}
+
+}  // namespace kern
+
+namespace {
 
 // ---------------------------------------------------------------------------------------
 // 2× bilinear up-sampling (composite.cpp's half-resolution blur and inpaint.cpp's push).
@@ -49,11 +197,9 @@ inline void up_h(const float* src, int cw, int x0, int n, float* dst) {
   for (; x < x1 && (x < 2 || (x & 1)); ++x) dst[x - x0] = one(x);
   const int i_end = std::min((x1 >> 1), cw - 1);  // pairs with 2i + 1 < x1 and i + 1 <= cw − 1
   int i = x >> 1;
-  float* d = dst + (x - x0);
-  for (; i < i_end; ++i, d += 2) {
-    const float lo = src[i - 1], mid = src[i], hi = src[i + 1];
-    d[0] = lo + (mid - lo) * 0.75f;
-    d[1] = mid + (hi - mid) * 0.25f;
+  if (i < i_end) {
+    kern::up_pairs(src, i, i_end, dst + (x - x0));
+    i = i_end;
   }
   for (x = 2 * i; x < x1; ++x) dst[x - x0] = one(x);
 }
@@ -77,7 +223,7 @@ inline void up_block(const float* plane, int cw, int ch, int y, int x0, int n, f
   float top[kBlock], bot[kBlock];
   up_h(f.a, cw, x0, n, top);
   up_h(f.b, cw, x0, n, bot);
-  for (int j = 0; j < n; ++j) dst[j] = top[j] + (bot[j] - top[j]) * f.t;
+  kern::lerp_rows(top, bot, f.t, n, dst);
 }
 
 // The banded ramp of anchors.cpp (same double arithmetic).
@@ -513,14 +659,7 @@ struct FusedLayer {
     const std::size_t base = static_cast<std::size_t>(y) * w + x0;
     const float* in[4];
     for (int c = 0; c < 4; ++c) in[c] = color->row(c, y) + x0;
-    for (int j = 0; j < n; ++j) {
-      const unsigned cd = code[base + j];
-      const int j0 = static_cast<int>(cd & 31u);
-      const float wk = j0 == k ? w0[base + j] : ((j0 + 1 == k && (cd & 32u)) ? 1.0f : 0.0f);
-      const float t = (1.0f - 0.0f) * wk;  // (1 − acc.a)·w_k with acc = 0, as matting.cpp
-      for (int c = 0; c < 4; ++c) o[c][j] = wk > 0 ? 0.0f + t * in[c][j] : 0.0f;
-      if (hb) hb[j] = k >= static_cast<int>(cd >> 6);
-    }
+    kern::matte_row(code + base, w0 + base, in, k, n, o, hb);
   }
   // The layer with its holes filled.
   void get(int y, int x0, int n, float (*o)[kBlock]) const {
@@ -535,16 +674,15 @@ struct FusedLayer {
       if (l1) up_block(l1->plane(c), l1->width(), l1->height(), y, x0, n, up[c]);
       else std::copy(o[c], o[c] + n, up[c]);  // 1×1: the fill is the pixel itself
     }
+    if (l1) {
+      kern::fill_row(hb, up, opaque, under, n, o);
+      return;
+    }
     float* d[4] = {o[0], o[1], o[2], o[3]};
     for (int j = 0; j < n; ++j) {
       if (!hb[j]) continue;
       float v[4];
-      if (l1) {
-        const float wt = 0.0f;  // level-0 confidence of a hole
-        for (int c = 0; c < 4; ++c) v[c] = wt * o[c][j] + (1.0f - wt) * up[c][j];
-      } else {
-        for (int c = 0; c < 4; ++c) v[c] = up[c][j];
-      }
+      for (int c = 0; c < 4; ++c) v[c] = up[c][j];
       finish_fill(opaque, under, d, j, v);
     }
   }
@@ -561,7 +699,15 @@ void pull_from_layer(const FusedLayer& L, Image& cv, Image& cwt) {
       for (int x0 = 0; x0 < w; x0 += kBlock) {
         const int n = std::min(kBlock, w - x0);
         for (int dy = 0; dy < rows; ++dy) L.matte(2 * yc + dy, x0, n, r[dy], hb[dy]);
-        for (int xc = x0 / 2; xc < (x0 + n + 1) / 2; ++xc) {
+        int xc = x0 / 2;
+        if (rows == 2) {  // full 2×2 blocks
+          float* cvp[4];
+          for (int k = 0; k < 4; ++k) cvp[k] = cv.row(k, yc) + xc;
+          const int m = n / 2;
+          kern::pull_pairs(r[0], r[1], hb[0], hb[1], m, cvp, cwt.row(0, yc) + xc);
+          xc += m;
+        }
+        for (; xc < (x0 + n + 1) / 2; ++xc) {
           double sw = 0, sv[4] = {0, 0, 0, 0};
           for (int dy = 0; dy < 2; ++dy)
             for (int dx = 0; dx < 2; ++dx) {
@@ -590,16 +736,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     if (!A.present()) return;
     const float* a[4];
     A.get(y, x0, n, tmp, a);
-    float t[kBlock];
-    if (layer_in_front) {
-      for (int i = 0; i < n; ++i) t[i] = 1.0f - c[3][i];
-      for (int ch = 0; ch < 4; ++ch)
-        for (int i = 0; i < n; ++i) c[ch][i] = c[ch][i] + t[i] * a[ch][i];
-    } else {
-      for (int i = 0; i < n; ++i) t[i] = 1.0f - a[3][i];
-      for (int ch = 0; ch < 4; ++ch)
-        for (int i = 0; i < n; ++i) c[ch][i] = a[ch][i] + t[i] * c[ch][i];
-    }
+    kern::over_rows(c, a, layer_in_front, n);
   };
   if (dst_full) {
     core::parallel_for(h, [&](int y0, int y1) {
@@ -630,7 +767,9 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
           const float* pa = ca[ch];
           const float* pb = b[ch];
           float* d = half.row(ch, yh);
-          for (int xh = x0 / 2; xh < (x0 + n + 1) / 2; ++xh) {
+          const int m = n / 2;  // pairs inside the block (x0 is even)
+          kern::down_pairs(pa, pb, m, d + x0 / 2);
+          for (int xh = x0 / 2 + m; xh < (x0 + n + 1) / 2; ++xh) {
             const int xa = 2 * xh - x0, xb = std::min(2 * xh + 1, w - 1) - x0;
             d[xh] = 0.25f * (pa[xa] + pa[xb] + pb[xa] + pb[xb]);
           }
@@ -641,6 +780,12 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
 }
 
 }  // namespace
+
+namespace {
+std::atomic<std::uint64_t> g_fused_renders{0};
+}  // namespace
+
+std::uint64_t fused_render_count() { return g_fused_renders.load(); }
 
 bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, const LayerPlan& plan, bool half_res,
                            bool do_fill, bool fill_under, Image& out) {
@@ -663,9 +808,10 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
 
   // Code pass. A fragment of CoC r has a non-zero matte in at most two adjacent layers (its
   // plateau layer at weight 1 and the nearer one on the ramp; anchors.cpp). With j the first
-  // layer whose anchor a_j <= r, only j − 1, j, j + 1 can be non-zero: for k <= j − 2,
-  // r < a_{k+1} makes u <= 0 in the ramp branch, and for k >= j + 2, r >= a_{k−1} makes
-  // u >= 1 (rounding is monotonic) in the farther branch, both exactly 0. Those three are
+  // layer whose anchor a_j <= r, only j − 1 and j can be non-zero: for k <= j − 2,
+  // r < a_{k+1} makes u <= 0 in the ramp branch, and for k >= j + 1, r >= a_{k−1} makes
+  // u >= 1 (rounding is monotonic) in the farther branch, both exactly 0 (the tests compare
+  // every layer against the plain matte). Those three are
   // evaluated with the plan's own arithmetic (Matte) and stored as (j0, w_{j0}, w_{j0+1} = 1?).
   // The holes of the visible fragment, r > near_limit(k), are an up-set k >= hk because
   // near_limit decreases with k. Anything unexpected sends the frame down the per-layer path.
@@ -680,6 +826,13 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   core::parallel_for(h, [&](int y0, int y1) {
     std::uint32_t ne = 0, ho = 0;
     bool bad = false;
+    double anchor[16];
+    for (int k = 0; k < K; ++k) anchor[k] = plan.anchor[k];
+    bool have = false;
+    std::uint32_t last_bits = 0;
+    unsigned j0 = kNoLayer, hk = 0;
+    float wv = 0.0f;
+    bool second = false;
     for (int y = y0; y < y1; ++y) {
       const float* al = color.row(3, y);
       const float* rr = coc.row(0, y);
@@ -692,32 +845,37 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
           continue;
         }
         const float r = rr[x];
-        int j = 0;
-        while (j < K && !(plan.anchor[j] <= r)) ++j;
-        unsigned j0 = kNoLayer;
-        float wv = 0.0f;
-        bool second = false;
-        for (int k = std::max(j - 1, 0); k <= std::min(j + 1, K - 1); ++k) {
-          const float wk = mattes[k](r);
-          if (!(wk > 0)) continue;
-          if (j0 == kNoLayer) {
-            j0 = static_cast<unsigned>(k);
-            wv = wk;
-          } else if (k == static_cast<int>(j0) + 1 && wk == 1.0f && !second) {
-            second = true;
-          } else {
-            bad = true;
+        const std::uint32_t rbits = std::bit_cast<std::uint32_t>(r);
+        if (!have || rbits != last_bits) {  // the codes depend on r only: reuse along flat runs
+          have = true;
+          last_bits = rbits;
+          int j = 0;
+          while (j < K && !(anchor[j] <= r)) ++j;
+          j0 = kNoLayer;
+          wv = 0.0f;
+          second = false;
+          for (int k = std::max(j - 1, 0); k <= std::min(j, K - 1); ++k) {
+            const float wk = mattes[k](r);
+            if (!(wk > 0)) continue;
+            if (j0 == kNoLayer) {
+              j0 = static_cast<unsigned>(k);
+              wv = wk;
+            } else if (k == static_cast<int>(j0) + 1 && wk == 1.0f && !second) {
+              second = true;
+            } else {
+              bad = true;
+            }
           }
-        }
-        unsigned hk = static_cast<unsigned>(K);
-        std::uint32_t hm = 0;
-        if (do_fill) {
-          for (int k = 0; k < K; ++k)
-            if (r > nl[k]) hm |= 1u << k;
-          hk = 0;
-          while (hk < static_cast<unsigned>(K) && !((hm >> hk) & 1u)) ++hk;
-          if (hm != (((1u << K) - 1u) & ~((1u << hk) - 1u))) bad = true;
-          ho |= hm;
+          hk = static_cast<unsigned>(K);
+          if (do_fill) {
+            // Only near_limit(j), near_limit(j + 1) can lie on either side of r: for k <= j − 1
+            // near_limit(k) >= a_k > r, for k >= j + 2 near_limit(k) <= a_{k−1} < a_j <= r.
+            const bool hj = j < K && r > nl[j];
+            const bool hj1 = j + 1 < K && r > nl[j + 1];
+            if (hj && !hj1 && j + 1 < K) bad = true;
+            hk = static_cast<unsigned>(std::min(K, hj ? j : (hj1 ? j + 1 : j + 2)));
+            ho |= ((1u << K) - 1u) & ~((1u << hk) - 1u);
+          }
         }
         if (j0 != kNoLayer) {
           const float t = (1.0f - 0.0f) * wv;
@@ -848,6 +1006,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
         for (int c = 0; c < 4; ++c) std::copy(cur[c], cur[c] + n, out.row(c, y) + x0);
       }
   }, 4);
+  g_fused_renders.fetch_add(1);
   return true;
 }
 

@@ -80,4 +80,8 @@ void final_composite(FastAccumulator& front, const Image* focus, FastAccumulator
 bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, const LayerPlan& plan, bool half_res,
                            bool do_fill, bool fill_under, Image& out);
 
+/// How many frames render_gaussian_fused has rendered in this process (lets the tests check
+/// that the fused path, not the fallback, produced what they compare).
+std::uint64_t fused_render_count();
+
 }  // namespace dofkit::detail::layered

@@ -26,7 +26,8 @@ namespace hn = hwy::HWY_NAMESPACE;
 // one table load (|p − q| comes from a table: the offsets are integers), instead of ten
 // accumulator loads and stores per pair. Each receiver still adds its sources in the order of
 // the plain loop (row by row, left to right), so the sums differ from it only by rounding.
-void ScatterBand(const BandJob& job) {
+template <bool kDepthOrder>
+void ScatterBandT(const BandJob& job) {
   const hn::ScalableTag<float> d;
   const int lanes = static_cast<int>(hn::Lanes(d));
   constexpr int S = kSourceBlock;
@@ -118,7 +119,7 @@ void ScatterBand(const BandJob& job) {
           // Those pairs skip the depth terms and the other sum (which they would add 0 to).
           // Lanes past the row end only make the bounds tighter.
           float up_min = 0, up_max = 0, sp_min = 0, front_above = 0;
-          if (job.depth_order) {
+          if (kDepthOrder) {
             up_min = hn::GetLane(hn::MinOfLanes(d, up));
             up_max = hn::GetLane(hn::MaxOfLanes(d, up));
             sp_min = hn::GetLane(hn::MinOfLanes(d, sp));
@@ -131,7 +132,7 @@ void ScatterBand(const BandJob& job) {
             const auto cov = hn::Min(hn::Max(hn::Sub(hn::Set(d, s_lim[j]), dist), zero), one);
             auto wt = hn::Mul(cov, hn::Set(d, s_ws[j]));
             const float uq = s_uq[j];
-            if (!job.depth_order || (uq <= up_min && (uq >= up_max || sp_min * s_isq[j] >= 1.0f))) {
+            if (!kDepthOrder || (uq <= up_min && (uq >= up_max || sp_min * s_isq[j] >= 1.0f))) {
               b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
               b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
               b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
@@ -202,6 +203,13 @@ void ScatterBand(const BandJob& job) {
       }
     }
   }
+}
+
+void ScatterBand(const BandJob& job) {
+  if (job.depth_order)
+    ScatterBandT<true>(job);
+  else
+    ScatterBandT<false>(job);
 }
 
 }  // namespace HWY_NAMESPACE

@@ -159,6 +159,42 @@ LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint
   }
 }
 
+// pull_level with confidences: coarse pixels [0, m) whose 2×2 children lie in the image; a
+// child of confidence <= 0 is skipped there and adds +0 here.
+LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, const float* __restrict w0,
+                               const float* __restrict w1, int m, float* const* cv, float* __restrict cw) {
+  double sw[128];
+  float e0[128], o0[128], e1[128], o1[128];
+  for (int x = 0; x < m; ++x) {
+    double s = 0;
+    s += w0[2 * x] > 0 ? static_cast<double>(w0[2 * x]) : 0.0;
+    s += w0[2 * x + 1] > 0 ? static_cast<double>(w0[2 * x + 1]) : 0.0;
+    s += w1[2 * x] > 0 ? static_cast<double>(w1[2 * x]) : 0.0;
+    s += w1[2 * x + 1] > 0 ? static_cast<double>(w1[2 * x + 1]) : 0.0;
+    sw[x] = s;
+    cw[x] = static_cast<float>(std::min(1.0, s / 4.0));
+  }
+  for (int c = 0; c < 4; ++c) {
+    const float* __restrict a = f0[c];
+    const float* __restrict b = f1[c];
+    for (int x = 0; x < m; ++x) {
+      e0[x] = w0[2 * x] > 0 ? w0[2 * x] * a[2 * x] : 0.0f;
+      o0[x] = w0[2 * x + 1] > 0 ? w0[2 * x + 1] * a[2 * x + 1] : 0.0f;
+      e1[x] = w1[2 * x] > 0 ? w1[2 * x] * b[2 * x] : 0.0f;
+      o1[x] = w1[2 * x + 1] > 0 ? w1[2 * x + 1] * b[2 * x + 1] : 0.0f;
+    }
+    float* __restrict d = cv[c];
+    for (int x = 0; x < m; ++x) {
+      double sv = 0;
+      sv += static_cast<double>(e0[x]);
+      sv += static_cast<double>(o0[x]);
+      sv += static_cast<double>(e1[x]);
+      sv += static_cast<double>(o1[x]);
+      d[x] = sw[x] > 0 ? static_cast<float>(sv / sw[x]) : 0.0f;
+    }
+  }
+}
+
 }  // namespace kern
 
 namespace {
@@ -384,8 +420,47 @@ Pyramid make_pyramid(Workspace& ws, int w, int h) {
 // v ← w v + (1 − w) up(v_{l+1}) where w < 1.
 void pull_push_upper(const Pyramid& p) {
   for (int l = 2; l < p.levels; ++l) {
-    const Image& fw = *p.wgt[l - 1];
-    pull_level(*p.val[l - 1], [&](int fx, int fy) { return fw.row(0, fy)[fx]; }, *p.val[l], *p.wgt[l]);
+    const Image& fine = *p.val[l - 1];
+    const Image& fwt = *p.wgt[l - 1];
+    Image& cv = *p.val[l];
+    Image& cwt = *p.wgt[l];
+    const int fw = fine.width(), fh = fine.height(), cw = cv.width();
+    core::parallel_for(cv.height(), [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y) {
+        int x = 0;
+        if (2 * y + 1 < fh) {  // interior blocks of full 2×2 children, 128 at a time
+          const int full = fw / 2;
+          for (; x < full; x += 128) {
+            const int m = std::min(128, full - x);
+            const float* f0[4];
+            const float* f1[4];
+            float* o[4];
+            for (int k = 0; k < 4; ++k) {
+              f0[k] = fine.row(k, 2 * y) + 2 * x;
+              f1[k] = fine.row(k, 2 * y + 1) + 2 * x;
+              o[k] = cv.row(k, y) + x;
+            }
+            kern::pull_pairs_w(f0, f1, fwt.row(0, 2 * y) + 2 * x, fwt.row(0, 2 * y + 1) + 2 * x, m, o,
+                               cwt.row(0, y) + x);
+          }
+          x = full;
+        }
+        for (; x < cw; ++x) {  // the rest: pull_level's loop
+          double sw = 0, sv[4] = {0, 0, 0, 0};
+          for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) {
+              const int fx = 2 * x + dx, fy = 2 * y + dy;
+              if (fx >= fw || fy >= fh) continue;
+              const float wt = fwt.row(0, fy)[fx];
+              if (wt <= 0) continue;
+              sw += wt;
+              for (int k = 0; k < 4; ++k) sv[k] += wt * fine.row(k, fy)[fx];
+            }
+          cwt.row(0, y)[x] = static_cast<float>(std::min(1.0, sw / 4.0));
+          for (int k = 0; k < 4; ++k) cv.row(k, y)[x] = sw > 0 ? static_cast<float>(sv[k] / sw) : 0.0f;
+        }
+      }
+    }, 8);
   }
   for (int l = p.levels - 2; l >= 1; --l) {
     Image& fv = *p.val[l];

@@ -9,6 +9,7 @@
 #include <variant>
 
 #include "core/parallel.hpp"
+#include "methods/starcraft/final_simd.hpp"
 #include "methods/starcraft/starcraft.hpp"
 
 namespace dofkit::detail::starcraft {
@@ -53,7 +54,7 @@ LevelGeometry make_geometry(const MethodContext& ctx, const Settings& s) {
   return g;
 }
 
-void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& level) {
+void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& level, bool plain) {
   const int w = ctx.frame.width(), h = ctx.frame.height();
   level.resize(w, h, 1);
   const StarCraft* sc = std::get_if<StarCraft>(&ctx.camera.model);
@@ -72,7 +73,13 @@ void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& lev
         }
       } else {
         const float* r = ctx.coc.row(0, y);
-        for (int x = 0; x < w; ++x) c[x] = g.level_of_radius(r[x]);
+        if (plain) {
+          for (int x = 0; x < w; ++x) c[x] = g.level_of_radius(r[x]);
+        } else {
+          int x = levels_row_simd(r, c, 0, w, g.r_small * g.r_small - 0.25f, g.r_medium * g.r_medium - 0.25f,
+                                  g.r_large * g.r_large - 0.25f);
+          for (; x < w; ++x) c[x] = g.level_of_radius(r[x]);
+        }
       }
     }
   }, 16);

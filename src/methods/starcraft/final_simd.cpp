@@ -105,6 +105,26 @@ int FinalHlerp(const float* v, float* out, int i0, int i1) {
   return i;
 }
 
+int LevelsRow(const float* r, float* c, int x0, int x1, float vs, float vm, float vl) {
+  const hn::ScalableTag<float> d;
+  const int n = static_cast<int>(hn::Lanes(d));
+  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), q = hn::Set(d, 0.25f), h = hn::Set(d, 0.5f);
+  const auto k75 = hn::Set(d, 0.75f);
+  const auto vsv = hn::Set(d, vs), vmv = hn::Set(d, vm), vlv = hn::Set(d, vl);
+  const auto ds = hn::Set(d, vm - vs), dl = hn::Set(d, vl - vm);
+  int x = x0;
+  for (; x + n <= x1; x += n) {
+    const auto rv = hn::LoadU(d, r + x);
+    const auto v = hn::Max(zero, hn::Sub(hn::Mul(rv, rv), q));
+    const auto a = hn::Div(hn::Mul(h, v), vsv);
+    const auto b = hn::Add(h, hn::Div(hn::Mul(q, hn::Sub(v, vsv)), ds));
+    const auto e = hn::Add(k75, hn::Div(hn::Mul(q, hn::Sub(v, vmv)), dl));
+    const auto out = hn::IfThenElse(hn::Le(v, vsv), a, hn::IfThenElse(hn::Le(v, vmv), b, hn::IfThenElse(hn::Le(v, vlv), e, one)));
+    hn::StoreU(out, d, c + x);
+  }
+  return x;
+}
+
 int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1) {
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
@@ -150,6 +170,7 @@ HWY_EXPORT(FinalWeights);
 HWY_EXPORT(FinalMix);
 HWY_EXPORT(FinalHlerp);
 HWY_EXPORT(LargeReduce);
+HWY_EXPORT(LevelsRow);
 
 int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any) {
   return HWY_DYNAMIC_DISPATCH(FinalWeights)(r, x0, x1, any);
@@ -157,6 +178,9 @@ int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any) {
 int final_mix_simd(const MixRow& r, int x0, int x1) { return HWY_DYNAMIC_DISPATCH(FinalMix)(r, x0, x1); }
 int final_hlerp_simd(const float* v, float* out, int i0, int i1) {
   return HWY_DYNAMIC_DISPATCH(FinalHlerp)(v, out, i0, i1);
+}
+int levels_row_simd(const float* r, float* c, int x0, int x1, float vs, float vm, float vl) {
+  return HWY_DYNAMIC_DISPATCH(LevelsRow)(r, c, x0, x1, vs, vm, vl);
 }
 int large_reduce_simd(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1) {
   return HWY_DYNAMIC_DISPATCH(LargeReduce)(rows, reduce_max, out, i0, i1);

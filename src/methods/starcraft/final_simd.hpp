@@ -1,4 +1,4 @@
-// SIMD kernels of the final pass (final.cpp) and the large level's 4×4 reduction (large_blur.cpp), Highway with run-time dispatch (final_simd.cpp).
+// SIMD kernels of the final pass (final.cpp), the C1 levels (coc.cpp) and the large level's 4×4 reduction (large_blur.cpp), Highway with run-time dispatch (final_simd.cpp).
 // Each processes whole vectors from `x0` and returns the first column it did not process;
 // the caller finishes the row with the scalar form of the same arithmetic.
 #pragma once
@@ -41,6 +41,11 @@ int final_mix_simd(const MixRow& r, int x0, int x1);
 /// Horizontal up-sampling of one quarter-res row `v` to full res: cell i writes columns
 /// 4i … 4i + 3 (see final.cpp). Reads v[i − 1 … i + 1]: valid for 1 <= i < lw − 1.
 int final_hlerp_simd(const float* v, float* out, int i0, int i1);
+
+/// C1 levels of one row: c[x] = LevelGeometry::level_of_radius(r[x]) (the same formulas, every
+/// branch computed and selected; measured: equal to the scalar form or 1 ulp apart);
+/// vs, vm, vl = r_small² − 0.25, r_medium² − 0.25, r_large² − 0.25.
+int levels_row_simd(const float* r, float* c, int x0, int x1, float vs, float vm, float vl);
 
 /// Large level, 4×4 reduction of the full blocks i in [i0, i1) of block row j (4 source rows
 /// rows[k][ch], ch 0-3 colour, 4 the level c, all inside the image): planes out[0..3] get

@@ -63,14 +63,23 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
   out.resize(w, h, 4);
   constexpr float kTiny = 1e-6f;  // as in medium_blur
   const float* src[4] = {color.plane(0), color.plane(1), color.plane(2), color.plane(3)};
-  // One horizontal band per worker: each band re-computes a few dozen rows above it to warm
-  // its vertical passes up (the output does not depend on the banding), so more bands than
-  // workers would only add that overhead.
+  // One horizontal band per worker: each band re-computes rows above it to warm its vertical
+  // passes up (the output does not depend on the banding), so more bands than workers would
+  // only add that overhead. Cuts sit on multiples of 32 rows (the passes' re-synchronisation
+  // rows, so the last pass needs no warm-up) and are moved down by about half a band's warm-up
+  // (~ 3 passes × (r + 1) + 32 rows, r ≈ σ) so that the bands below the first one, which pay
+  // for it, get fewer rows of their own.
   const int bands = std::max(1, std::min(tbb::this_task_arena::max_concurrency(), h / 64));
+  const int warm = static_cast<int>(3.0f * (sigma_medium + 1.0f) + 32.0f);
+  auto cut = [&](int b) {
+    if (b == 0) return 0;
+    if (b == bands) return h;
+    const int y = static_cast<int>(static_cast<long long>(h) * b / bands) + warm / 2;
+    return std::min(h, y - y % 32);
+  };
   core::parallel_for(bands, [&](int b0, int b1) {
     for (int b = b0; b < b1; ++b) {
-      const int y0 = static_cast<int>(static_cast<long long>(h) * b / bands);
-      const int y1 = static_cast<int>(static_cast<long long>(h) * (b + 1) / bands);
+      const int y0 = cut(b), y1 = cut(b + 1);
       core::weighted_gaussian_rows(src, 4, level.plane(0), w, h, sigma_medium, 3, kTiny, y0, y1,
                                    [&](int y, const float* const* med) {
                                      final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y);

@@ -37,7 +37,7 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   const int lw = down_size(w), lh = down_size(h);
   // Intermediate buffers live in the renderer's workspace: no allocation per frame.
   Image& level = ctx.workspace.image("starcraft.level", w, h, 1);
-  compute_levels(ctx, g, level);
+  compute_levels(ctx, g, level, s.plain);
   ctx.debug.offer("coc", level);
 
   Image& large = ctx.workspace.image("starcraft.large", lw, lh, 5);

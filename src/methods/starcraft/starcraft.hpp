@@ -85,8 +85,9 @@ LevelGeometry make_geometry(const MethodContext& ctx, const Settings& s);
 /// Quarter-resolution size of a full-resolution extent.
 inline int down_size(int n) { return (n + kDown - 1) / kDown; }
 
-/// C1: full-resolution level c per pixel (1 plane).
-void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& level);
+/// C1: full-resolution level c per pixel (1 plane). plain: level_of_radius per pixel (the
+/// oracle); fast: the same formulas as selects, vectorised (within 1 ulp of plain).
+void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& level, bool plain = false);
 
 /// C2: medium level, full resolution, RGBA: CoC-weighted Gaussian of σ = sigma_medium,
 /// normalised; where no tap carries weight the source colour is kept. `weight` is scratch.

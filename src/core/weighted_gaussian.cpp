@@ -42,15 +42,25 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
         src[-i * kLanes + j] = src[j];
         src[(n - 1 + i) * kLanes + j] = src[(n - 1) * kLanes + j];
       }
-    float sum[kLanes];
+    // The window sums are recomputed from scratch at every kResync-th output. When the
+    // window is no longer than kResync, the samples of the next fresh sum all enter the window
+    // as `hi` during the last 2r + 1 outputs of the current block, so the fresh sum is built
+    // there (from 0, in the same order) instead of re-reading them: same value, bit for bit.
+    const bool carry = 2 * r + 1 <= kResync;
+    float sum[kLanes], fresh[kLanes];
     for (int i0 = 0; i0 < n; i0 += kResync) {
-      for (int j = 0; j < kLanes; ++j) sum[j] = 0.0f;
-      for (int k = -r; k <= r; ++k) {
-        const float* q = src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes;
-        for (int j = 0; j < kLanes; ++j) sum[j] += q[j];
+      if (i0 == 0 || !carry) {
+        for (int j = 0; j < kLanes; ++j) sum[j] = 0.0f;
+        for (int k = -r; k <= r; ++k) {
+          const float* q = src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes;
+          for (int j = 0; j < kLanes; ++j) sum[j] += q[j];
+        }
+      } else {
+        for (int j = 0; j < kLanes; ++j) sum[j] = fresh[j];
       }
       const int i1 = std::min(n, i0 + kResync);
-      for (int i = i0; i < i1; ++i) {
+      const int acc_from = carry ? std::min(i1, i0 + kResync - 2 * r - 1) : i1;
+      for (int i = i0; i < acc_from; ++i) {
         const float* lo = src + static_cast<std::ptrdiff_t>(i - r - 1) * kLanes;  // sample i − r − 1
         const float* hi = src + static_cast<std::ptrdiff_t>(i + r + 1) * kLanes;  // sample i + r + 1
         const float* out_lo = lo + kLanes;                                       // sample i − r
@@ -58,6 +68,18 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
         for (int j = 0; j < kLanes; ++j) {
           d[j] = (sum[j] + alpha * (lo[j] + hi[j])) * norm;
           sum[j] += hi[j] - out_lo[j];
+        }
+      }
+      for (int j = 0; j < kLanes; ++j) fresh[j] = 0.0f;
+      for (int i = acc_from; i < i1; ++i) {
+        const float* lo = src + static_cast<std::ptrdiff_t>(i - r - 1) * kLanes;
+        const float* hi = src + static_cast<std::ptrdiff_t>(i + r + 1) * kLanes;
+        const float* out_lo = lo + kLanes;
+        float* d = dst + static_cast<std::ptrdiff_t>(i) * kLanes;
+        for (int j = 0; j < kLanes; ++j) {
+          d[j] = (sum[j] + alpha * (lo[j] + hi[j])) * norm;
+          sum[j] += hi[j] - out_lo[j];
+          fresh[j] += hi[j];
         }
       }
     }
@@ -124,6 +146,17 @@ void box_row(float* __restrict sum, const float* lo, const float* hi, const floa
   for (int j = 0; j < nx; ++j) {
     out[j] = (sum[j] + alpha * (lo[j] + hi[j])) * norm;
     sum[j] += hi[j] - out_lo[j];
+  }
+}
+
+/// box_row that also adds hi to `fresh` (the next re-synchronised window sum, see strip_passes).
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void box_row_acc(float* __restrict sum, float* __restrict fresh, const float* lo, const float* hi, const float* out_lo,
+                 float* __restrict out, int nx, float alpha, float norm) {
+  for (int j = 0; j < nx; ++j) {
+    out[j] = (sum[j] + alpha * (lo[j] + hi[j])) * norm;
+    sum[j] += hi[j] - out_lo[j];
+    fresh[j] += hi[j];
   }
 }
 
@@ -313,13 +346,14 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   const std::size_t n_rings = static_cast<std::size_t>(std::max(0, passes - 1)) * np * ring * row;
   const std::size_t n_sums = static_cast<std::size_t>(passes) * np * row;
   const std::size_t n_last = static_cast<std::size_t>(np) * row;
-  float* base = scratch(n_ring0 + n_rings + n_sums + 2 * n_last + 3 * strip);
+  float* base = scratch(n_ring0 + n_rings + 2 * n_sums + 2 * n_last + 3 * strip);
   float* r0 = base;              // [np][ring0][w]
   float* rings = r0 + n_ring0;   // [passes − 1][np][ring][w]
   float* sums = rings + n_rings; // [passes][np][w]
   float* last = sums + n_sums;   // [np][w]: the last pass's current row
   float* outs = last + n_last;   // [nplanes][w]: the normalised row
-  float* cb = outs + n_last;     // three strip buffers of the horizontal passes
+  float* fresh = outs + n_last;  // [passes][np][w]: next window sums being built (see strip_passes)
+  float* cb = fresh + n_sums;    // three strip buffers of the horizontal passes
   float* sa = cb + strip;
   float* sb = sa + strip;
   thread_local std::vector<const float*> win;
@@ -341,11 +375,15 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   // First row each pass computes, walking back from the band: pass k must start at a
   // re-synchronisation row and cover the rows pass k + 1 reads.
   std::vector<int> produced(static_cast<std::size_t>(passes) + 1);  // last row done, per pass; [passes] = horizontal
+  std::vector<int> first(static_cast<std::size_t>(passes) + 1);     // first row of each pass in this band
+  const bool carry = 2 * r + 1 <= kResync;
+  const int acc_from = kResync - 2 * r - 1;  // block offset from which hi rows belong to the next window
   {
     int need_from = y0;
     for (int k = passes - 1; k >= 0; --k) {
       const int start = align(need_from);
       produced[k] = start - 1;
+      first[k] = start;
       need_from = std::max(0, start - r - 1);
     }
     produced[passes] = need_from - 1;
@@ -384,14 +422,26 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
     while (produced[k] < j) {
       const int i = produced[k] + 1;
       need(k == 0 ? passes : k - 1, i + r + 1);
+      const int m = i % kResync;
       for (int p = 0; p < np; ++p) {
-        float* sum = sums + (static_cast<std::size_t>(k) * np + p) * row;
-        if (i % kResync == 0) {
-          for (int q = -r; q <= r; ++q) win[q + r] = input(k, p, i + q);
-          sum_rows(sum, win.data(), 2 * r + 1, w);
+        const std::size_t sp = (static_cast<std::size_t>(k) * np + p) * row;
+        float* sum = sums + sp;
+        if (m == 0) {
+          if (carry && i != first[k]) {
+            std::copy(fresh + sp, fresh + sp + row, sum);
+          } else {
+            for (int q = -r; q <= r; ++q) win[q + r] = input(k, p, i + q);
+            sum_rows(sum, win.data(), 2 * r + 1, w);
+          }
         }
-        box_row(sum, input(k, p, i - r - 1), input(k, p, i + r + 1), input(k, p, i - r), output(k, p, i), w, alpha,
-                norm);
+        if (carry && m >= acc_from) {
+          if (m == acc_from) std::fill(fresh + sp, fresh + sp + row, 0.0f);
+          box_row_acc(sum, fresh + sp, input(k, p, i - r - 1), input(k, p, i + r + 1), input(k, p, i - r),
+                      output(k, p, i), w, alpha, norm);
+        } else {
+          box_row(sum, input(k, p, i - r - 1), input(k, p, i + r + 1), input(k, p, i - r), output(k, p, i), w,
+                  alpha, norm);
+        }
       }
       produced[k] = i;
     }

@@ -6,6 +6,7 @@
 // blurred 1/z < own 1/z ⇔ the neighbourhood lies behind the pixel.
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
@@ -17,17 +18,34 @@ void depth_blur(const Image& depth, float sigma_total, Image& inv_depth, bool pl
   const int w = depth.width(), h = depth.height();
   const int lw = down_size(w), lh = down_size(h);
   inv_depth.resize(lw, lh, 1);
+  const int full = plain ? 0 : w / kDown;  // fast form: blocks with all 4 columns inside
   core::parallel_for(lh, [&](int j0, int j1) {
+    thread_local std::vector<double> inv, sum;
+    inv.resize(static_cast<std::size_t>(full) * kDown);
+    sum.resize(full);
     for (int j = j0; j < j1; ++j) {
       float* o = inv_depth.row(0, j);
-      for (int i = 0; i < lw; ++i) {
-        double sum = 0;
-        int n = 0;
-        for (int y = j * kDown; y < std::min(h, (j + 1) * kDown); ++y) {
+      const int ya = j * kDown, yb = std::min(h, (j + 1) * kDown);
+      // Fast form: 1/z of each row first (a loop that vectorises), then the block sums in
+      // the plain form's order (row by row, left to right), so the sums are identical.
+      if (full > 0) {
+        std::fill(sum.begin(), sum.end(), 0.0);
+        for (int y = ya; y < yb; ++y) {
           const float* z = depth.row(0, y);
-          for (int x = i * kDown; x < std::min(w, (i + 1) * kDown); ++x, ++n) sum += 1.0 / z[x];
+          for (int x = 0; x < full * kDown; ++x) inv[x] = 1.0 / z[x];
+          for (int i = 0; i < full; ++i)
+            for (int k = 0; k < kDown; ++k) sum[i] += inv[i * kDown + k];
         }
-        o[i] = static_cast<float>(sum / n);
+        for (int i = 0; i < full; ++i) o[i] = static_cast<float>(sum[i] / ((yb - ya) * kDown));
+      }
+      for (int i = full; i < lw; ++i) {
+        double s = 0;
+        int n = 0;
+        for (int y = ya; y < yb; ++y) {
+          const float* z = depth.row(0, y);
+          for (int x = i * kDown; x < std::min(w, (i + 1) * kDown); ++x, ++n) s += 1.0 / z[x];
+        }
+        o[i] = static_cast<float>(s / n);
       }
     }
   }, 4);

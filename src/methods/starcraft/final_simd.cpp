@@ -22,15 +22,25 @@ int FinalWeights(const WeightRow& r, int x0, int x1, bool& any) {
   const auto tie = hn::Set(d, 1.0f + 1e-5f);
   const auto k2 = hn::Set(d, 2.0f), k3 = hn::Set(d, 3.0f), k4 = hn::Set(d, 4.0f);
   const auto k16_17 = hn::Set(d, 16.0f / 17.0f);
+  // Row pointers as locals (the stores could otherwise alias the struct).
+  const float* const cown_row = r.cown;
+  const float* const z_row = r.z;
+  const float* const inv_blur_row = r.inv_blur;
+  const float* const cb_row = r.cb;
+  float* const ws_row = r.ws;
+  float* const wm_row = r.wm;
+  float* const wl_row = r.wl;
+  float* const wsrc_row = r.wsrc;
+  const bool keep_own_blur = r.keep_own_blur;
   auto alpha_max = zero;  // alpha >= 0, so "some alpha != 0" is "max alpha > 0"
   int x = x0;
   for (; x + n <= x1; x += n) {
-    const auto cown = hn::LoadU(d, r.cown + x);
-    const auto inv_own = hn::Div(one, hn::LoadU(d, r.z + x));
+    const auto cown = hn::LoadU(d, cown_row + x);
+    const auto inv_own = hn::Div(one, hn::LoadU(d, z_row + x));
     // Rule 3: the blurred neighbourhood lies behind (or level with) the pixel → own level.
-    const auto behind = hn::Le(hn::LoadU(d, r.inv_blur + x), hn::Mul(inv_own, tie));
-    auto c = hn::IfThenElse(behind, cown, hn::LoadU(d, r.cb + x));
-    if (r.keep_own_blur) c = hn::Max(c, cown);
+    const auto behind = hn::Le(hn::LoadU(d, inv_blur_row + x), hn::Mul(inv_own, tie));
+    auto c = hn::IfThenElse(behind, cown, hn::LoadU(d, cb_row + x));
+    if (keep_own_blur) c = hn::Max(c, cown);
     // level_weights with d0 = 0.5, d1 = d2 = 0.25: the divisions by powers of two are the
     // exact multiplications by 2 and 4 used here.
     auto sat = [&](auto v) { return hn::Min(hn::Max(v, zero), one); };
@@ -42,10 +52,10 @@ int FinalWeights(const WeightRow& r, int x0, int x1, bool& any) {
     const auto ys = hn::Min(yw, hn::Sub(one, xw));
     const auto zs = hn::Min(zw, hn::Sub(one, yw));
     const auto alpha = hn::Add(hn::Add(hn::Mul(k16_17, ys), zs), ww);
-    hn::StoreU(ys, d, r.ws + x);
-    hn::StoreU(zs, d, r.wm + x);
-    hn::StoreU(ww, d, r.wl + x);
-    hn::StoreU(hn::Sub(one, alpha), d, r.wsrc + x);
+    hn::StoreU(ys, d, ws_row + x);
+    hn::StoreU(zs, d, wm_row + x);
+    hn::StoreU(ww, d, wl_row + x);
+    hn::StoreU(hn::Sub(one, alpha), d, wsrc_row + x);
     alpha_max = hn::Max(alpha_max, alpha);
   }
   if (!hn::AllTrue(d, hn::Eq(alpha_max, zero))) any = true;
@@ -61,13 +71,24 @@ int FinalMix(const MixRow& r, int x0, int x1) {
   const float* r0 = r.rows[2];
   const float* p1 = r.rows[3];
   const float* p2 = r.rows[4];
+  // The row pointers as locals: the stores to `out` could otherwise alias the struct and
+  // force a reload of every pointer per vector.
+  const float* const src = r.src;
+  const float* const wsrc_row = r.wsrc;
+  const float* const med_row = r.med;
+  const float* const cb_row = r.cb;
+  const float* const num_row = r.num;
+  const float* const ws_row = r.ws;
+  const float* const wm_row = r.wm;
+  const float* const wl_row = r.wl;
+  float* const out = r.out;
   int x = x0;
   for (; x + n <= x1; x += n) {
-    const auto s = hn::LoadU(d, r.src + x);
-    const auto wsrc = hn::LoadU(d, r.wsrc + x);
+    const auto s = hn::LoadU(d, src + x);
+    const auto wsrc = hn::LoadU(d, wsrc_row + x);
     const auto focus = hn::Eq(wsrc, one);
     if (hn::AllTrue(d, focus)) {  // every lane in focus: the source, bit for bit
-      hn::StoreU(s, d, r.out + x);
+      hn::StoreU(s, d, out + x);
       continue;
     }
     auto L = [&](const float* p, int o) { return hn::LoadU(d, p + x + o); };
@@ -77,16 +98,16 @@ int FinalMix(const MixRow& r, int x0, int x1) {
     const auto t2 = hn::Add(hn::Add(hn::Add(L(p1, -1), L(p1, 0)), L(p2, -1)), L(p2, 0));
     const auto t3 = hn::Add(hn::Add(hn::Add(L(r0, 1), L(r0, 2)), L(p1, 1)), L(p1, 2));
     const auto small = hn::Mul(hn::Add(hn::Add(hn::Add(t0, t1), t2), t3), k17);
-    const auto med = hn::LoadU(d, r.med + x);
-    const auto cb = hn::LoadU(d, r.cb + x);
+    const auto med = hn::LoadU(d, med_row + x);
+    const auto cb = hn::LoadU(d, cb_row + x);
     const auto has_large = hn::Gt(cb, tiny);
-    const auto q = hn::Div(hn::LoadU(d, r.num + x), hn::IfThenElse(has_large, cb, one));
+    const auto q = hn::Div(hn::LoadU(d, num_row + x), hn::IfThenElse(has_large, cb, one));
     const auto lg = hn::IfThenElse(has_large, q, med);
-    const auto mixed = hn::Add(hn::Add(hn::Add(hn::Mul(hn::LoadU(d, r.ws + x), small),
-                                               hn::Mul(hn::LoadU(d, r.wm + x), med)),
-                                       hn::Mul(hn::LoadU(d, r.wl + x), lg)),
+    const auto mixed = hn::Add(hn::Add(hn::Add(hn::Mul(hn::LoadU(d, ws_row + x), small),
+                                               hn::Mul(hn::LoadU(d, wm_row + x), med)),
+                                       hn::Mul(hn::LoadU(d, wl_row + x), lg)),
                                hn::Mul(wsrc, s));
-    hn::StoreU(hn::IfThenElse(focus, s, mixed), d, r.out + x);
+    hn::StoreU(hn::IfThenElse(focus, s, mixed), d, out + x);
   }
   return x;
 }

@@ -47,6 +47,20 @@ Frame mixed_frame(int w, int h) {
   return f;
 }
 
+// Near sources of both kinds in the same rows: a wide band at the largest near radius (one
+// box half-width: the fast pass sums it per level) next to near pixels whose radius changes
+// from pixel to pixel (the fast pass scatters them), over a far background.
+Frame near_mix_frame(int w, int h) {
+  Frame f = textured_frame(w, h, depth_for(4.0, 10.0, -5.0));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (x >= w / 20 && x < 2 * w / 5) f.depth.at(x, y) = depth_for(4.0, 10.0, 9.0);
+      if (x >= w / 2 && x < 19 * w / 20 && y < 2 * h / 3)
+        f.depth.at(x, y) = depth_for(4.0, 10.0, 0.5 + static_cast<double>((x * 7 + y) % 8));
+    }
+  return f;
+}
+
 }  // namespace
 
 TEST(Mcguire, InFocusIsIdentity) {
@@ -266,6 +280,7 @@ TEST(Mcguire, FastPathMatchesPlain) {
     const char* variant;
     std::map<std::string, std::string> extra;
     int w, h;
+    bool near_mix = false;  // near_mix_frame instead of mixed_frame
   };
   const std::vector<Case> cases = {
       {"demo", {}, 150, 90},
@@ -286,9 +301,14 @@ TEST(Mcguire, FastPathMatchesPlain) {
       {"book", {{"reduction", "3"}}, 119, 83},
       {"g3d", {{"reduction", "3"}}, 101, 59},
       {"demo", {{"near_radius_px", "3"}}, 150, 90},  // near box narrower than R_max
+      // Per-level box sums and the per-source scatter in the same rows (every reduction).
+      {"demo", {}, 160, 60, true},
+      {"demo", {{"reduction", "1"}}, 97, 40, true},
+      {"book", {{"reduction", "3"}}, 131, 50, true},
+      {"demo", {{"reduction", "2"}, {"guard_band_px", "6"}}, 140, 48, true},
   };
   for (const Case& cs : cases) {
-    const Frame f = mixed_frame(cs.w, cs.h);
+    const Frame f = cs.near_mix ? near_mix_frame(cs.w, cs.h) : mixed_frame(cs.w, cs.h);
     RenderSettings s = settings(cs.variant);
     for (const auto& [key, v] : cs.extra) s.params[key] = v;
     s.params["impl"] = "plain";

@@ -51,6 +51,10 @@ inline float den_of(const Constants& k, float r) {
 /// Largest |δ| + 1 at which a far tap of this radius can still have weight: 5|δ|/den < 6.
 inline int reach_of(float den) { return static_cast<int>(1.2f * den) + 1; }
 
+/// ⌊a / b⌋ and ⌈a / b⌉ for b > 0 and any sign of a.
+inline int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+inline int ceil_div(int a, int b) { return a <= 0 ? -((-a) / b) : (a + b - 1) / b; }
+
 constexpr int kBlock = 32;  // outputs per tap-bound block
 
 /// Far gather of outputs [i0, i1) of row `row` of `dst` (planes 0-3) from the first `nt`
@@ -94,9 +98,11 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   // then doubles: block prefix + partial sums 4·PST (PST = 2P + 4 >= 2·nb + 1), near bins 5·(wo+2).
   auto up16 = [](std::size_t n) { return (n + 15) & ~std::size_t(15); };
   const std::size_t n_ph = up16(7 * static_cast<std::size_t>(f) * M), n_pad = up16(PS), n_wo = up16(wo + 32);
-  const std::size_t n_float = n_ph + 8 * n_pad + 2 * n_wo;
+  const std::size_t n_lvl = up16(static_cast<std::size_t>(std::max(hbox, 0)) + 1);
+  const std::size_t n_float = n_ph + 10 * n_pad + 2 * n_wo + 3 * n_lvl;
   const std::size_t PST = 2 * static_cast<std::size_t>(P) + 4;
-  const std::size_t n_double = 4 * PST + 5 * static_cast<std::size_t>(wo + 2);
+  const std::size_t n_double =
+      4 * PST + 5 * static_cast<std::size_t>(wo + 2) + 5 * static_cast<std::size_t>(P + 1) + 5 * static_cast<std::size_t>(wo);
   const std::size_t per_chunk = n_float + 2 * n_double + 32;
   const int nchunk = std::min(H, 64);
   Image& scratch = ws.image("mcguire.fast.h_scratch", static_cast<int>(per_chunk), nchunk, 1);
@@ -116,8 +122,15 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
       int* reach = reinterpret_cast<int*>(rb_pad + n_pad);
       float* r_a = rb_pad + 2 * n_pad;
       float* nearness = r_a + n_wo;
-      double* prefix = reinterpret_cast<double*>(nearness + n_wo);  // 4 × PST
+      int* near_h = reinterpret_cast<int*>(nearness + n_wo);  // P (+ slack)
+      float* near_a = nearness + n_wo + n_pad;                  // P (+ slack)
+      int* lvl_n = reinterpret_cast<int*>(near_a + n_pad);      // per box half-width h <= hbox:
+      int* lvl_lo = lvl_n + n_lvl;                              //   source count, first and
+      int* lvl_hi = lvl_lo + n_lvl;                             //   last padded x
+      double* prefix = reinterpret_cast<double*>(lvl_hi + n_lvl);  // 4 × PST
       double* bins = prefix + 4 * PST;                             // 5 × (wo+2)
+      double* lsum = bins + 5 * static_cast<std::size_t>(wo + 2);  // 5 × (P+1)
+      double* acc = lsum + 5 * static_cast<std::size_t>(P + 1);    // 5 × wo
 
       PrepRowJob prep;
       for (int c = 0; c < 5; ++c) prep.pad[c] = pad[c];
@@ -132,6 +145,13 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
       prep.rmax = rmax;
       prep.focus_px = k.focus_px;
       prep.dc = k.variant == Variant::book ? 0.5f : 0.8f;
+      if (hbox >= 0) {
+        prep.near_h = near_h;
+        prep.near_a = near_a;
+        prep.hbox = hbox;
+        prep.inv_near = k.inv_near;
+        prep.alpha_code = k.near_alpha_code;
+      }
 
       for (int y = chunk_begin(H, nchunk, chunk); y < chunk_begin(H, nchunk, chunk + 1); ++y) {
         // Padded source row: R copies of the first pixel, the row, R + slack copies of the last.
@@ -219,16 +239,66 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
           for (int c = 0; c < 5; ++c) std::fill_n(t_near.row(c, y), wo, 0.0f);
           continue;
         }
-        std::fill_n(bins, 5 * static_cast<std::size_t>(wo + 2), 0.0);
+        // Sources by box half-width h: a source of half-width h adds v = α·(colour, 1) to
+        // the outputs with |cx0 + f·i − x| <= h. For all sources of one h in [lo, hi] the
+        // sum over output i's reach is S(min(hi, x_i + h) + 1) − S(max(lo, x_i − h)) with S
+        // the prefix sum of the level's v (others count 0): O(extent + outputs) per level
+        // instead of ten bin updates per source. Levels with few sources for their extent
+        // keep the difference-array scatter. Both sums are double.
+        std::fill_n(lvl_n, hbox + 1, 0);
+        for (int x = 0; x < P; ++x) {
+          const int h = near_h[x];
+          if (h < 0) continue;
+          if (lvl_n[h]++ == 0) lvl_lo[h] = x;
+          lvl_hi[h] = x;
+        }
+        const std::size_t st = wo + 2;
+        bool any_scatter = false, any_level = false;
+        for (int h = 0; h <= hbox; ++h) {
+          const int n = lvl_n[h];
+          if (n == 0) continue;
+          const int ext = lvl_hi[h] - lvl_lo[h] + 1;
+          // Cost model (instructions, measured order of magnitude): scatter ≈ 40 per source;
+          // level ≈ 12 per pixel of the extent + 20 per output reached.
+          const bool level = 12 * ext + 20 * ((ext + 2 * h) / f + 1) < 40 * n;
+          if (!level) {
+            any_scatter = true;
+            continue;
+          }
+          lvl_n[h] = -n;  // marks "done by level"
+          if (!any_level) std::fill_n(acc, 5 * static_cast<std::size_t>(wo), 0.0);
+          any_level = true;
+          const int lo = lvl_lo[h], hi = lvl_hi[h];
+          const std::size_t ls = ext + 1;
+          double s[5] = {0, 0, 0, 0, 0};
+          for (int c = 0; c < 5; ++c) lsum[c * ls] = 0.0;
+          for (int x = lo; x <= hi; ++x) {
+            const std::size_t at = x - lo + 1;
+            if (near_h[x] == h) {
+              const float a = near_a[x];
+              for (int c = 0; c < 4; ++c) s[c] += static_cast<double>(a * col[c][x]);
+              s[4] += a;
+            }
+            for (int c = 0; c < 5; ++c) lsum[c * ls + at] = s[c];
+          }
+          // Outputs i with lo − h <= cx0 + f·i <= hi + h.
+          const int ilo = std::max(0, ceil_div(lo - h - cx0, f));
+          const int ihi = std::min(wo - 1, floor_div(hi + h - cx0, f));
+          for (int i = ilo; i <= ihi; ++i) {
+            const int xi = cx0 + f * i;
+            const int b = std::max(lo, xi - h) - lo, e = std::min(hi, xi + h) - lo + 1;
+            for (int c = 0; c < 5; ++c) acc[c * static_cast<std::size_t>(wo) + i] += lsum[c * ls + e] - lsum[c * ls + b];
+          }
+        }
+        if (any_scatter) std::fill_n(bins, 5 * st, 0.0);
         // The divisions by f below are by a compile-time constant (shifts / multiplies).
         auto scatter = [&](auto fc) {
           constexpr int F = decltype(fc)::value;
           for (int x = 0; x < P; ++x) {
-            const float r_b = rb_pad[x];
-            if (!(r_b > 0.0f)) continue;  // α = 0 for r_B <= 0
-            const float alpha = near_alpha_horizontal(k, 0.0f, r_b);
+            const int h = near_h[x];
+            if (h < 0 || lvl_n[h] < 0) continue;  // not near, or done by its level
+            const float alpha = near_a[x];
             if (alpha == 0.0f) continue;
-            const int h = std::min(static_cast<int>(r_b), hbox);  // r_B > 0: truncation = floor
             // Outputs i with |cx0 + F·i − x| <= h.
             const int lo_num = x - h - cx0, hi_num = x + h - cx0;
             int ilo = lo_num <= 0 ? -((-lo_num) / F) : (lo_num + F - 1) / F;
@@ -238,30 +308,39 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             if (ilo > ihi) continue;
             for (int c = 0; c < 4; ++c) {
               const double v = static_cast<double>(alpha * col[c][x]);
-              bins[c * (wo + 2) + ilo] += v;
-              bins[c * (wo + 2) + ihi + 1] -= v;
+              bins[c * st + ilo] += v;
+              bins[c * st + ihi + 1] -= v;
             }
-            bins[4 * (wo + 2) + ilo] += alpha;
-            bins[4 * (wo + 2) + ihi + 1] -= alpha;
+            bins[4 * st + ilo] += alpha;
+            bins[4 * st + ihi + 1] -= alpha;
           }
         };
-        switch (f) {
-          case 1: scatter(std::integral_constant<int, 1>{}); break;
-          case 2: scatter(std::integral_constant<int, 2>{}); break;
-          case 3: scatter(std::integral_constant<int, 3>{}); break;
-          default: scatter(std::integral_constant<int, 4>{}); break;
+        if (any_scatter) {
+          switch (f) {
+            case 1: scatter(std::integral_constant<int, 1>{}); break;
+            case 2: scatter(std::integral_constant<int, 2>{}); break;
+            case 3: scatter(std::integral_constant<int, 3>{}); break;
+            default: scatter(std::integral_constant<int, 4>{}); break;
+          }
         }
         {
-          // Five independent running sums in one loop.
-          const std::size_t st = wo + 2;
           float* o[5];
           for (int c = 0; c < 5; ++c) o[c] = t_near.row(c, y);
-          double q[5] = {0, 0, 0, 0, 0};
-          for (int i = 0; i < wo; ++i)
-            for (int c = 0; c < 5; ++c) {
-              q[c] += bins[c * st + i];
-              o[c][i] = static_cast<float>(q[c]) * near_inv;
-            }
+          if (any_scatter) {
+            // Five independent running sums in one loop.
+            double q[5] = {0, 0, 0, 0, 0};
+            for (int i = 0; i < wo; ++i)
+              for (int c = 0; c < 5; ++c) {
+                q[c] += bins[c * st + i];
+                const double lv = any_level ? acc[c * static_cast<std::size_t>(wo) + i] : 0.0;
+                o[c][i] = static_cast<float>(q[c] + lv) * near_inv;
+              }
+          } else if (any_level) {
+            for (int c = 0; c < 5; ++c)
+              for (int i = 0; i < wo; ++i) o[c][i] = static_cast<float>(acc[c * static_cast<std::size_t>(wo) + i]) * near_inv;
+          } else {
+            for (int c = 0; c < 5; ++c) std::fill_n(o[c], wo, 0.0f);
+          }
         }
       }
     }

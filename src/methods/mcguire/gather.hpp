@@ -79,6 +79,14 @@ struct PrepRowJob {
   int* reach = nullptr;
   float inv_rmax = 0, rmax = 0, focus_px = 0, dc = 0.8f;
   bool any_near = false;     ///< out: some r_B > 0 in [0, P)
+  // Near-field source data (written only if near_h != nullptr), contiguous, x < P:
+  //   near_h[x] = r_B > 0 ? min(⌊r_B⌋, hbox) : −1   (box half-width of source x)
+  //   near_a[x] = near_alpha_horizontal(k, 0, r_B) where r_B > 0 (same float operations)
+  int* near_h = nullptr;
+  float* near_a = nullptr;
+  int hbox = 0;
+  float inv_near = 0;
+  bool alpha_code = true;  ///< saturate(4 r·inv_near)^4 (code) vs min(1, r·inv_near)^4 (prose)
 };
 constexpr int kPrepSlack = 80;
 

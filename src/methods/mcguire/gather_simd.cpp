@@ -265,6 +265,25 @@ void PrepRow(PrepRowJob& job) {
     hn::StoreU(hn::IfThenElseZero(hn::RebindMask(di, hn::Le(rb, q)), reach), di, job.reach + x);
   }
   job.any_near = !hn::AllTrue(df, hn::Le(any, zero));
+  if (job.near_h != nullptr && job.any_near) {
+    // α as near_alpha_horizontal (d = 0): code a = saturate((4·r)·inv_near), prose
+    // a = min(1, r·inv_near); then (a²)². Only multiplies: nothing to contract.
+    const auto inv_near = hn::Set(df, job.inv_near), four = hn::Set(df, 4.0f);
+    const auto hbox = hn::Set(di, job.hbox), im1 = hn::Set(di, -1);
+    for (int x = 0; x < job.P; x += lanes) {
+      const auto rb = hn::LoadU(df, job.rb_pad + x);
+      const auto pos = hn::Gt(rb, zero);
+      auto a = job.alpha_code ? hn::Min(hn::Max(hn::Mul(hn::Mul(four, rb), inv_near), zero), one)
+                              : hn::Min(one, hn::Mul(rb, inv_near));
+      a = hn::Mul(a, a);
+      a = hn::Mul(a, a);
+      hn::StoreU(hn::IfThenElseZero(pos, a), df, job.near_a + x);
+      // r_B > 0: truncation = floor; r_B <= 0 lanes are replaced by −1 (their conversion
+      // result is not used).
+      const auto h = hn::Min(hn::ConvertTo(di, hn::IfThenElseZero(pos, rb)), hbox);
+      hn::StoreU(hn::IfThenElse(hn::RebindMask(di, pos), h, im1), di, job.near_h + x);
+    }
+  }
   const int f = job.f, M = job.M, mcount = (job.P + f - 1) / f;
   const std::size_t plane = static_cast<std::size_t>(f) * M;
   for (int c = 0; c < 4; ++c) SplitPhases(df, f, M, mcount, job.pad[c], job.ph + c * plane);

@@ -58,10 +58,12 @@ Frame test_frame(int w, int h, int fragments, unsigned seed) {
   return f;
 }
 
-RenderSettings settings(const std::string& impl, int threads) {
+RenderSettings settings(const std::string& impl, int threads, double k_px = 8.0) {
   RenderSettings rs;
   rs.method = "layered";
-  rs.camera.model = BlurAtInfinity{4.0, 8.0};  // near CoC ≈ 19 px: steps of σ >= 4 px (half res)
+  // K = 8: near CoC ≈ 19 px, steps of σ >= 4 px (half res); K = 20: steps of σ >= 8 px too
+  // (quarter res).
+  rs.camera.model = BlurAtInfinity{4.0, k_px};
   rs.params["impl"] = impl;
   rs.threads = threads;
   return rs;
@@ -99,6 +101,16 @@ TEST(LayeredFast, BitIdenticalToPlainSingleInput) {
                       std::to_string(w) + "x" + std::to_string(h) + " " + psf + " half_res " + half + " fill " + fill);
           gaussian_cases += std::string(psf) == "gaussian";
         }
+  for (auto [w, h] : {std::pair{5, 3}, {37, 19}, {161, 91}, {300, 40}})
+    for (const char* psf : {"gaussian", "disc"})
+      for (const char* quarter : {"on", "off"}) {
+        RenderSettings rs = settings("fast", 1, 20.0);
+        rs.params["psf"] = psf;
+        rs.params["quarter_res"] = quarter;
+        expect_same(test_frame(w, h, 1, 9), rs,
+                    std::to_string(w) + "x" + std::to_string(h) + " K 20 " + psf + " quarter_res " + quarter);
+        gaussian_cases += std::string(psf) == "gaussian";
+      }
   // Every Gaussian case (two fast renders each) went through the fused path, none fell back.
   EXPECT_EQ(detail::layered::fused_render_count() - fused_before, 2u * gaussian_cases);
 }
@@ -107,7 +119,7 @@ TEST(LayeredFast, BitIdenticalToPlainMultiLayerInput) {
   for (auto [w, h] : {std::pair{1, 1}, {3, 2}, {37, 19}, {160, 90}})
     for (const char* psf : {"gaussian", "disc"})
       for (const char* fill : {"auto", "on", "under", "off"}) {
-        RenderSettings rs = settings("fast", 1);
+        RenderSettings rs = settings("fast", 1, w == 160 ? 20.0 : 8.0);
         rs.params["psf"] = psf;
         rs.params["fill"] = fill;
         expect_same(test_frame(w, h, 3, 11), rs,

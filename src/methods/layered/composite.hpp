@@ -13,8 +13,9 @@ void over(const Image& front, const Image& back, Image& dst);
 /// nothing composited in between (empty layers) cost one blur, not several.
 class Accumulator {
  public:
-  /// half_res: blurs of σ >= 4 px run at half resolution (same variance, a quarter the work).
-  explicit Accumulator(bool half_res = true) : half_res_(half_res) {}
+  /// half_res: blurs of σ >= 4 px run at half resolution (same variance, a quarter the work);
+  /// with quarter_res as well, those of σ >= 8 px at quarter resolution (a sixteenth).
+  explicit Accumulator(bool half_res = true, bool quarter_res = false) : half_res_(half_res), quarter_res_(quarter_res) {}
   bool has_content() const { return has_; }
   /// img = layer over img (layer in front); first call takes the layer as is.
   void composite_front(const Image& layer);
@@ -31,6 +32,7 @@ class Accumulator {
   Image img_;
   bool has_ = false;
   bool half_res_ = true;
+  bool quarter_res_ = false;
   double pending_var_ = 0;
 };
 

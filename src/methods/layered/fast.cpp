@@ -43,6 +43,46 @@ LAYERED_SIMD void up_pairs(const float* __restrict src, int i0, int i1, float* _
   }
 }
 
+// The 4× form: fine x = 4i + q sits at i + (q − 1.5)/4 in coarse units, so q = 0, 1 lerp
+// (i − 1, i) with weights 0.625, 0.875 on i and q = 2, 3 lerp (i, i + 1) with 0.125, 0.375.
+LAYERED_SIMD void up_quads(const float* __restrict src, int i0, int i1, float* __restrict dst) {
+  const int m = i1 - i0;
+  const float* s = src + i0;
+  for (int i = 0; i < m; ++i) {
+    const float lo = s[i - 1], mid = s[i], hi = s[i + 1];
+    dst[4 * i] = lo + (mid - lo) * 0.625f;
+    dst[4 * i + 1] = lo + (mid - lo) * 0.875f;
+    dst[4 * i + 2] = mid + (hi - mid) * 0.125f;
+    dst[4 * i + 3] = mid + (hi - mid) * 0.375f;
+  }
+}
+
+// 4×4 box of composite.cpp's blur_quarter_res for xq in [0, m) (all 16 taps in range):
+// s = 0 + Σ_dy Σ_dx r_dy[4xq + dx] in that order, d = s / 16.
+LAYERED_SIMD void down_quads(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2,
+                             const float* __restrict r3, int m, float* __restrict d) {
+  for (int x = 0; x < m; ++x) {
+    float s = 0.0f;
+    s += r0[4 * x];
+    s += r0[4 * x + 1];
+    s += r0[4 * x + 2];
+    s += r0[4 * x + 3];
+    s += r1[4 * x];
+    s += r1[4 * x + 1];
+    s += r1[4 * x + 2];
+    s += r1[4 * x + 3];
+    s += r2[4 * x];
+    s += r2[4 * x + 1];
+    s += r2[4 * x + 2];
+    s += r2[4 * x + 3];
+    s += r3[4 * x];
+    s += r3[4 * x + 1];
+    s += r3[4 * x + 2];
+    s += r3[4 * x + 3];
+    d[x] = 0.0625f * s;
+  }
+}
+
 // dst = top + (bot − top)·t.
 LAYERED_SIMD void lerp_rows(const float* __restrict top, const float* __restrict bot, float t, int n,
                             float* __restrict dst) {
@@ -240,25 +280,59 @@ inline void up_h(const float* src, int cw, int x0, int n, float* dst) {
   for (x = 2 * i; x < x1; ++x) dst[x - x0] = one(x);
 }
 
-// Vertical footprint of fine row y on a coarse axis of ch rows.
+// The same for 4× (composite.cpp blur_quarter_res); x0 is a multiple of 4.
+inline void up_h4(const float* src, int cw, int x0, int n, float* dst) {
+  auto one = [&](int x) {
+    const int i = x >> 2, q = x & 3;
+    int a, b;
+    float t;
+    if (q < 2) {
+      a = i > 0 ? i - 1 : 0;
+      b = i;
+      t = q == 0 ? 0.625f : 0.875f;
+    } else {
+      a = i;
+      b = i + 1 < cw ? i + 1 : cw - 1;
+      t = q == 2 ? 0.125f : 0.375f;
+    }
+    return src[a] + (src[b] - src[a]) * t;
+  };
+  const int x1 = x0 + n;
+  int x = x0;
+  for (; x < x1 && (x < 4 || (x & 3)); ++x) dst[x - x0] = one(x);
+  const int i_end = std::min(x1 >> 2, cw - 1);  // quads with 4i + 3 < x1 and i + 1 <= cw − 1
+  int i = x >> 2;
+  if (i < i_end) {
+    kern::up_quads(src, i, i_end, dst + (x - x0));
+    i = i_end;
+  }
+  for (x = std::max(x, 4 * i); x < x1; ++x) dst[x - x0] = one(x);
+}
+
+// Vertical footprint of fine row y on a coarse axis of ch rows (factor 2 or 4).
 struct RowFoot {
   const float* a;
   const float* b;
   float t;
 };
-inline RowFoot row_foot(const float* plane, int cw, int ch, int y) {
+inline RowFoot row_foot(const float* plane, int cw, int ch, int y, int factor) {
   int ya, yb;
   float ty;
-  core::bilinear_footprint((y + 0.5f) * 0.5f, ch, ya, yb, ty);
+  core::bilinear_footprint((y + 0.5f) * (factor == 4 ? 0.25f : 0.5f), ch, ya, yb, ty);
   return {plane + static_cast<std::size_t>(ya) * cw, plane + static_cast<std::size_t>(yb) * cw, ty};
 }
 
-// dst[j] = the 2× up-sampling of `plane` (cw × ch) at fine (x0 + j, y).
-inline void up_block(const float* plane, int cw, int ch, int y, int x0, int n, float* dst) {
-  const RowFoot f = row_foot(plane, cw, ch, y);
+// dst[j] = the 2× (or 4×) up-sampling of `plane` (cw × ch) at fine (x0 + j, y).
+inline void up_block(const float* plane, int cw, int ch, int y, int x0, int n, float* dst, int factor = 2) {
+  const RowFoot f = row_foot(plane, cw, ch, y, factor);
   float top[kBlock], bot[kBlock];
-  up_h(f.a, cw, x0, n, top);
-  up_h(f.b, cw, x0, n, bot);
+  if (factor == 4) {
+    up_h4(f.a, cw, x0, n, top);
+    up_h4(f.b, cw, x0, n, bot);
+  } else {
+    up_h(f.a, cw, x0, n, top);
+    up_h(f.b, cw, x0, n, bot);
+  }
   kern::lerp_rows(top, bot, f.t, n, dst);
 }
 
@@ -560,11 +634,17 @@ namespace {
 // up-sampling of its half-resolution image computed on the fly.
 struct AccRows {
   const Image* full = nullptr;
-  const Image* half = nullptr;
-  AccRows(const Image* f, const Image* hf) : full(f), half(hf) {}
+  const Image* half = nullptr;  // reduced by `factor` (2 or 4)
+  int factor = 2;
+  AccRows(const Image* f, const Image* hf, int fac) : full(f), half(hf), factor(fac) {}
   explicit AccRows(const FastAccumulator& a) {
     if (!a.has_content()) return;
-    if (a.half_pending()) half = &a.half(); else full = &a.full();
+    if (a.half_pending()) {
+      half = &a.half();
+      factor = a.factor();
+    } else {
+      full = &a.full();
+    }
   }
   bool present() const { return full || half; }
   // Pointers to the 4 channels of row y, columns [x0, x0 + n); `buf` receives up-sampled rows.
@@ -573,7 +653,7 @@ struct AccRows {
       for (int c = 0; c < 4; ++c) p[c] = full->row(c, y) + x0;
     } else {
       for (int c = 0; c < 4; ++c) {
-        up_block(half->plane(c), half->width(), half->height(), y, x0, n, buf[c]);
+        up_block(half->plane(c), half->width(), half->height(), y, x0, n, buf[c], factor);
         p[c] = buf[c];
       }
     }
@@ -585,7 +665,33 @@ struct AccRows {
 void FastAccumulator::settle() {
   if (has_ && pending_var_ > 0) {
     const double sigma = std::sqrt(pending_var_);
-    if (half_res_ && sigma >= 4.0) {
+    if (half_res_ && quarter_res_ && sigma >= 8.0) {
+      if (lazy_up_) resolved();
+      // composite.cpp blur_quarter_res (same arithmetic), up-sampling deferred as below.
+      const Image& img = *full_;
+      const int w = img.width(), h = img.height();
+      const int qw = (w + 3) / 4, qh = (h + 3) / 4;
+      Image& q = ws_.image(name_ + ".quarter", qw, qh, 4);
+      core::parallel_for(qh, [&](int y0, int y1) {
+        for (int c = 0; c < 4; ++c)
+          for (int y = y0; y < y1; ++y) {
+            float* d = q.row(c, y);
+            for (int x = 0; x < qw; ++x) {
+              float sum = 0.0f;
+              for (int dy = 0; dy < 4; ++dy) {
+                const float* r = img.row(c, std::min(4 * y + dy, h - 1));
+                for (int dx = 0; dx < 4; ++dx) sum += r[std::min(4 * x + dx, w - 1)];
+              }
+              d[x] = 0.0625f * sum;
+            }
+          }
+      }, 2);
+      const double var = (sigma * sigma - 1.25 - 8.0 / 3.0) / 16.0;
+      if (var > 0) core::gaussian_blur(q, static_cast<float>(std::sqrt(var)));
+      half_ = &q;
+      factor_ = 4;
+      lazy_up_ = true;
+    } else if (half_res_ && sigma >= 4.0) {
       if (lazy_up_) resolved();
       // composite.cpp blur_half_res: 2×2 box down, blur of the remaining variance, bilinear
       // up (deferred: the next composite or read up-samples on the fly).
@@ -608,6 +714,7 @@ void FastAccumulator::settle() {
       const double var = (sigma * sigma - 0.25 - 2.0 / 3.0) / 4.0;
       if (var > 0) core::gaussian_blur(half, static_cast<float>(std::sqrt(var)));
       half_ = &half;
+      factor_ = 2;
       lazy_up_ = true;
     } else {
       if (lazy_up_) resolved();
@@ -627,7 +734,8 @@ const Image& FastAccumulator::resolved() {
       for (int c = 0; c < 4; ++c)
         for (int y = y0; y < y1; ++y)
           for (int x0 = 0; x0 < w; x0 += kBlock)
-            up_block(half.plane(c), half.width(), half.height(), y, x0, std::min(kBlock, w - x0), img.row(c, y) + x0);
+            up_block(half.plane(c), half.width(), half.height(), y, x0, std::min(kBlock, w - x0), img.row(c, y) + x0,
+                     factor_);
     }, 4);
     lazy_up_ = false;
   }
@@ -804,7 +912,8 @@ void pull_from_layer(const FusedLayer& L, Image& cv, Image& cwt) {
 // One composite step of an accumulator: C = L over A (layer_in_front) or A over L (A absent:
 // C = L), written at full resolution into dst_full (which may be A's own full image) or
 // reduced by composite.cpp's 2×2 box into dst_half.
-void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, Image* dst_full, Image* dst_half) {
+void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, Image* dst_full, Image* dst_half,
+                    Image* dst_quarter = nullptr) {
   const int w = L.w, h = L.h;
   auto crow = [&](int y, int x0, int n, float (*c)[kBlock], float (*tmp)[kBlock]) {
     L.get(y, x0, n, c);
@@ -823,6 +932,39 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
           for (int ch = 0; ch < 4; ++ch) std::copy(c[ch], c[ch] + n, dst_full->row(ch, y) + x0);
         }
     }, 4);
+    return;
+  }
+  if (dst_quarter) {  // composite.cpp blur_quarter_res's 4×4 box
+    Image& q = *dst_quarter;
+    core::parallel_for(q.height(), [&](int y0, int y1) {
+      float rows[4][4][kBlock], tmp[4][kBlock];
+      for (int yq = y0; yq < y1; ++yq) {
+        int ys[4];
+        for (int dy = 0; dy < 4; ++dy) ys[dy] = std::min(4 * yq + dy, h - 1);
+        for (int x0 = 0; x0 < w; x0 += kBlock) {
+          const int n = std::min(kBlock, w - x0);
+          int src[4];  // which computed row holds fine row ys[dy]
+          for (int dy = 0; dy < 4; ++dy) {
+            src[dy] = dy;
+            if (dy > 0 && ys[dy] == ys[dy - 1]) src[dy] = src[dy - 1];
+            else crow(ys[dy], x0, n, rows[dy], tmp);
+          }
+          const int m = n / 4;  // quads inside the block (x0 is a multiple of 4)
+          for (int ch = 0; ch < 4; ++ch) {
+            const float* r[4];
+            for (int dy = 0; dy < 4; ++dy) r[dy] = rows[src[dy]][ch];
+            float* d = q.row(ch, yq);
+            kern::down_quads(r[0], r[1], r[2], r[3], m, d + x0 / 4);
+            for (int xq = x0 / 4 + m; xq < (x0 + n + 3) / 4; ++xq) {
+              float sum = 0.0f;
+              for (int dy = 0; dy < 4; ++dy)
+                for (int dx = 0; dx < 4; ++dx) sum += r[dy][std::min(4 * xq + dx, w - 1) - x0];
+              d[xq] = 0.0625f * sum;
+            }
+          }
+        }
+      }
+    }, 2);
     return;
   }
   Image& half = *dst_half;
@@ -863,7 +1005,7 @@ std::atomic<std::uint64_t> g_fused_renders{0};
 std::uint64_t fused_render_count() { return g_fused_renders.load(); }
 
 bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, const LayerPlan& plan, bool half_res,
-                           bool do_fill, bool fill_under, Image& out) {
+                           bool quarter_res, bool do_fill, bool fill_under, Image& out) {
   if (frags.color.size() != 1 || plan.count > 16) return false;
   // Debug views need the stored layers and accumulators: the per-layer path provides them.
   for (const char* v : {"front", "back"})
@@ -995,7 +1137,8 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   // be written straight at half resolution when that blur runs there.
   struct Side {
     const Image* full = nullptr;
-    const Image* half = nullptr;
+    const Image* half = nullptr;  // reduced by `factor`
+    int factor = 2;
     bool has = false;
   };
   auto run_side = [&](const std::vector<int>& order, bool back_side, const std::string& name) {
@@ -1014,14 +1157,24 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       if (last >= 0) var_after[last] = pend;
     }
     Side s;
-    int flip = 0;
+    int flip = 0, flip_q = 0;
     for (int k : order) {
       if (!is_full(k)) continue;
       const FusedLayer L = layer_gen(k, back_side && !s.has);
-      const AccRows A(s.has ? s.full : nullptr, s.has ? s.half : nullptr);
+      const AccRows A(s.has ? s.full : nullptr, s.has ? s.half : nullptr, s.factor);
       const double var = var_after[k];
       const double sigma = std::sqrt(var);
-      if (var > 0 && half_res && sigma >= 4.0) {
+      if (var > 0 && half_res && quarter_res && sigma >= 8.0) {
+        const int qw = (w + 3) / 4, qh = (h + 3) / 4;
+        Image& dst = ws.image(name + ".quarter" + std::to_string(flip_q), qw, qh, 4);
+        flip_q ^= 1;
+        composite_pass(L, A, back_side, nullptr, nullptr, &dst);
+        const double v = (sigma * sigma - 1.25 - 8.0 / 3.0) / 16.0;
+        if (v > 0) core::gaussian_blur(dst, static_cast<float>(std::sqrt(v)));
+        s.full = nullptr;
+        s.half = &dst;
+        s.factor = 4;
+      } else if (var > 0 && half_res && sigma >= 4.0) {
         const int hw = (w + 1) / 2, hh = (h + 1) / 2;
         Image& dst = ws.image(name + ".half" + std::to_string(flip), hw, hh, 4);
         flip ^= 1;
@@ -1030,6 +1183,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
         if (v > 0) core::gaussian_blur(dst, static_cast<float>(std::sqrt(v)));
         s.full = nullptr;
         s.half = &dst;
+        s.factor = 2;
       } else {
         Image& dst = ws.image(name + ".full", w, h, 4);
         composite_pass(L, A, back_side, &dst, nullptr);
@@ -1051,7 +1205,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   const bool focus_full = is_full(plan.focus);
   FusedLayer Lf;
   if (focus_full) Lf = layer_gen(plan.focus, !B.has);
-  const AccRows BR(B.full, B.half), FR(F.full, F.half);
+  const AccRows BR(B.full, B.half, B.factor), FR(F.full, F.half, F.factor);
   out.resize(w, h, 4);
   core::parallel_for(h, [&](int y0, int y1) {
     float fb[4][kBlock], bb[4][kBlock];

@@ -33,7 +33,8 @@ void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bo
 /// under keys prefixed by `name`.
 class FastAccumulator {
  public:
-  FastAccumulator(Workspace& ws, std::string name, bool half_res) : ws_(ws), name_(std::move(name)), half_res_(half_res) {}
+  FastAccumulator(Workspace& ws, std::string name, bool half_res, bool quarter_res = false)
+      : ws_(ws), name_(std::move(name)), half_res_(half_res), quarter_res_(quarter_res) {}
   bool has_content() const { return has_; }
   /// acc = layer over acc. `layer` may be swapped with the accumulator's buffer (its
   /// contents are unspecified afterwards).
@@ -42,11 +43,12 @@ class FastAccumulator {
   void composite_back(Image& layer);
   void blur(double sigma) { if (has_) pending_var_ += sigma * sigma; }
   /// Applies the pending blur; afterwards the content is either full() or, if
-  /// half_pending(), the bilinear 2× up-sampling of half().
+  /// half_pending(), the bilinear 2× (or 4×, factor()) up-sampling of half().
   void settle();
   bool half_pending() const { return lazy_up_; }
   const Image& full() const { return *full_; }
   const Image& half() const { return *half_; }
+  int factor() const { return factor_; }  ///< reduction of half(): 2 or 4
   /// The full-resolution image (up-sampled if needed); for debug views.
   const Image& resolved();
 
@@ -55,6 +57,8 @@ class FastAccumulator {
   Workspace& ws_;
   std::string name_;
   bool half_res_;
+  bool quarter_res_;
+  int factor_ = 2;
   bool has_ = false;
   bool lazy_up_ = false;
   double pending_var_ = 0;
@@ -78,7 +82,7 @@ void final_composite(FastAccumulator& front, const Image* focus, FastAccumulator
 /// view requested, a pixel whose mattes do not have the expected form); the caller then
 /// uses the per-layer fast path.
 bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, const LayerPlan& plan, bool half_res,
-                           bool do_fill, bool fill_under, Image& out);
+                           bool quarter_res, bool do_fill, bool fill_under, Image& out);
 
 /// How many frames render_gaussian_fused has rendered in this process (lets the tests check
 /// that the fused path, not the fallback, produced what they compare).

@@ -62,6 +62,7 @@ void render_layered(const MethodContext& ctx, Image& out) {
   const double c = ctx.params.get_double("sigma_per_radius", 0.6, 0.1, 2.0);
   const double unit = ctx.params.get_double("step_px", 1.0, 0.1, 8.0);
   const bool half_res = ctx.params.get_bool("half_res", true);
+  const bool quarter_res = half_res && ctx.params.get_bool("quarter_res", true);
   const std::string fill = ctx.params.get_choice("fill", "auto", {"auto", "on", "off", "under"});
   const std::string psf = ctx.params.get_choice("psf", "auto", {"auto", "gaussian", "disc"});
   // fast: the same arithmetic as plain in the same order (bit-identical, tests/layered/
@@ -192,9 +193,10 @@ void render_layered(const MethodContext& ctx, Image& out) {
     if (!front.has_content()) ctx.debug.offer("front", transparent);
   };
 
-  if (fast && !disc && render_gaussian_fused(ctx, frags, plan, half_res, do_fill, fill_under, out)) return;
+  if (fast && !disc && render_gaussian_fused(ctx, frags, plan, half_res, quarter_res, do_fill, fill_under, out)) return;
   if (fast) {
-    FastAccumulator back(ctx.workspace, "layered.back", half_res), front(ctx.workspace, "layered.front", half_res);
+    FastAccumulator back(ctx.workspace, "layered.back", half_res, quarter_res),
+        front(ctx.workspace, "layered.front", half_res, quarter_res);
     const bool focus_full = run_stack(back, front);
     offer_rest(back, front);
     if (back.has_content() && ctx.debug.wants("back")) ctx.debug.offer("back", back.resolved());
@@ -204,7 +206,7 @@ void render_layered(const MethodContext& ctx, Image& out) {
     return;
   }
 
-  Accumulator back(half_res), front(half_res);
+  Accumulator back(half_res, quarter_res), front(half_res, quarter_res);
   const bool focus_full = run_stack(back, front);
   offer_rest(back, front);
 
@@ -232,6 +234,7 @@ const MethodDef& layered_method() {
        {"sigma_per_radius", "0.6", "Gaussian sigma per px of CoC radius (0.1-2); S4 d_pix = 4 sigma gives 0.5, 0.6 measured best against the ground truth"},
        {"step_px", "1", "unit of the per-step sigma sigma_k = unit * |k - k_focus| before fitting the scene's CoC range, px (0.1-8); smaller = more, finer layers"},
        {"half_res", "on", "blur steps of sigma >= 4 px at half resolution (same variance, about 4x less blur work): on/off"},
+       {"quarter_res", "on", "with half_res, blur steps of sigma >= 8 px at quarter resolution (same variance, 4x less blur work again): on/off"},
        {"fill", "auto", "inpaint disoccluded layer pixels by push-pull: auto (single-layer input only), on, off, under (the fill goes behind what the layer holds there: hidden fragments of multi-layer input stay in front)"},
        {"psf", "auto", "layer blur: auto (disc for multi-layer input, gaussian for one RGB-D frame), gaussian (S&W's recursive Gaussians, O(1) per pixel) or disc (each layer blurred once by the anti-aliased disc of its anchor CoC radius and composited with over, O(R) per pixel)"},
        {"impl", "fast", "fast (fused passes, workspace buffers; same arithmetic) or plain (the straightforward form, the test oracle)"},

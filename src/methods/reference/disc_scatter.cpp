@@ -142,7 +142,16 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
         oy.push_back(static_cast<float>(dy));
       }
     const float min_inv_z = *std::min_element(inv_z.begin(), inv_z.begin() + static_cast<std::ptrdiff_t>(n));
+    HiddenJob hj;
+    hj.w = w; hj.h = h; hj.rho = rho.data(); hj.sharp = sharpness.data(); hj.inv_z = inv_z.data();
+    for (int c = 0; c < 4; ++c) hj.colour[c] = colour.plane(c);
+    hj.ox = ox.data(); hj.oy = oy.data(); hj.samples = static_cast<int>(ox.size());
+    hj.keep = 1.0f - soft; hj.min_inv_z = min_inv_z; hj.hidden = hidden.data();
     core::parallel_for(h, [&](int y0, int y1) {
+      if (opt.simd) {
+        hidden_rows_simd(hj, y0, y1);
+        return;
+      }
       for (int y = y0; y < y1; ++y)
         for (int x = 0; x < w; ++x) {
           const std::size_t p = static_cast<std::size_t>(y) * w + x;

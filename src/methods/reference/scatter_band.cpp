@@ -205,6 +205,65 @@ void ScatterBandT(const BandJob& job) {
   }
 }
 
+// Hidden-background samples of a vector of receivers at a time (gathers); per receiver the
+// same operations in the same order as the scalar loop in disc_scatter.cpp.
+void HiddenRows(const HiddenJob& job, int y0, int y1) {
+  const hn::ScalableTag<float> d;
+  const hn::RebindToSigned<decltype(d)> di;
+  const int lanes = static_cast<int>(hn::Lanes(d));
+  const int w = job.w;
+  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
+  const auto wlast = hn::Set(d, static_cast<float>(w - 1)), hlast = hn::Set(d, static_cast<float>(job.h - 1));
+  const auto keep = hn::Set(d, job.keep), zmin = hn::Set(d, job.min_inv_z);
+  const auto vw = hn::Set(di, w);
+  // clamp(lround(v), 0, last): 0 below 0.5, else trunc(v + 0.5) capped at last (see round_clamp).
+  const auto round_clamp = [&](decltype(zero) v, decltype(zero) last) {
+    const auto r = hn::ConvertTo(di, hn::Min(hn::Add(v, half), last));
+    return hn::IfThenElseZero(hn::RebindMask(di, hn::Ge(v, half)), r);
+  };
+  HWY_ALIGN float out[5][64];
+  for (int y = y0; y < y1; ++y) {
+    const auto fy = hn::Set(d, static_cast<float>(y));
+    for (int x0 = 0; x0 < w; x0 += lanes) {
+      const std::size_t p = static_cast<std::size_t>(y) * w + x0;
+      const int nl = std::min(lanes, w - x0);
+      const auto rho = hn::LoadU(d, job.rho + p);
+      const auto limit = hn::Mul(hn::LoadU(d, job.inv_z + p), keep);
+      const auto active = hn::And(hn::Gt(hn::LoadU(d, job.sharp + p), zero), hn::Gt(limit, zmin));
+      float* hp = job.hidden + p * 4;
+      if (hn::AllFalse(d, active)) {
+        for (int i = 0; i < nl; ++i) hp[i * 4 + 3] = -1.0f;
+        continue;
+      }
+      const auto fx = hn::Add(hn::Set(d, static_cast<float>(x0)), hn::Iota(d, 0.0f));
+      auto s0 = zero, s1 = zero, s2 = zero, s3 = zero, count = zero;
+      for (int k = 0; k < job.samples; ++k) {
+        const auto qx = round_clamp(hn::Add(fx, hn::Mul(hn::Set(d, job.ox[k]), rho)), wlast);
+        const auto qy = round_clamp(hn::Add(fy, hn::Mul(hn::Set(d, job.oy[k]), rho)), hlast);
+        const auto idx = hn::Add(hn::Mul(qy, vw), qx);
+        const auto behind = hn::And(hn::Lt(hn::GatherIndex(d, job.inv_z, idx), limit), active);
+        s0 = hn::Add(s0, hn::IfThenElseZero(behind, hn::GatherIndex(d, job.colour[0], idx)));
+        s1 = hn::Add(s1, hn::IfThenElseZero(behind, hn::GatherIndex(d, job.colour[1], idx)));
+        s2 = hn::Add(s2, hn::IfThenElseZero(behind, hn::GatherIndex(d, job.colour[2], idx)));
+        s3 = hn::Add(s3, hn::IfThenElseZero(behind, hn::GatherIndex(d, job.colour[3], idx)));
+        count = hn::Add(count, hn::IfThenElseZero(behind, one));
+      }
+      hn::Store(s0, d, out[0]);
+      hn::Store(s1, d, out[1]);
+      hn::Store(s2, d, out[2]);
+      hn::Store(s3, d, out[3]);
+      hn::Store(count, d, out[4]);
+      for (int i = 0; i < nl; ++i) {
+        if (out[4][i] == 0.0f) {
+          hp[i * 4 + 3] = -1.0f;
+          continue;
+        }
+        for (int c = 0; c < 4; ++c) hp[i * 4 + c] = out[c][i] / out[4][i];
+      }
+    }
+  }
+}
+
 void ScatterBand(const BandJob& job) {
   if (job.depth_order)
     ScatterBandT<true>(job);
@@ -220,6 +279,9 @@ HWY_AFTER_NAMESPACE();
 namespace dofkit::detail {
 
 HWY_EXPORT(ScatterBand);
+HWY_EXPORT(HiddenRows);
+
+void hidden_rows_simd(const HiddenJob& job, int y0, int y1) { HWY_DYNAMIC_DISPATCH(HiddenRows)(job, y0, y1); }
 
 void scatter_band_simd(const BandJob& job) { HWY_DYNAMIC_DISPATCH(ScatterBand)(job); }
 

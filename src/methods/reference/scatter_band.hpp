@@ -40,6 +40,23 @@ struct BandJob {
   std::size_t stride = 0;
 };
 
+/// The hidden-background estimate of disc_scatter.cpp for rows [y0, y1), SIMD form (the
+/// scalar loop there is its oracle; same arithmetic per receiver, so the same result).
+struct HiddenJob {
+  int w = 0, h = 0;
+  const float* rho = nullptr;    // per pixel, padded like BandJob's
+  const float* sharp = nullptr;
+  const float* inv_z = nullptr;
+  const float* colour[4] = {};
+  const float* ox = nullptr;     // unit-disc sample offsets
+  const float* oy = nullptr;
+  int samples = 0;
+  float keep = 0.95f;            // 1 − softness: "clearly behind" is inv_z below inv_z_p·keep
+  float min_inv_z = 0.0f;        // smallest inverse depth in the image
+  float* hidden = nullptr;       // out: 4 floats per pixel, alpha −1 = no estimate (rest 0)
+};
+void hidden_rows_simd(const HiddenJob& job, int y0, int y1);
+
 void scatter_band_plain(const BandJob& job);
 void scatter_band_simd(const BandJob& job);
 

@@ -836,9 +836,32 @@ struct FusedLayer {
   bool fill = false;                     // fill the holes (k >= hk)
   const Image* l1 = nullptr;             // pushed pyramid level 1 (null: 1×1 image, fill = self)
   bool opaque = false, under = false;
+  // Per row block of kBlock pixels (row y, block x0 / kBlock): the layers any pixel has a
+  // non-zero matte in, and the smallest / largest hk (hole from layer hk on) in the block.
+  const std::uint32_t* bpres = nullptr;
+  const std::uint32_t* bhk = nullptr;
+  int nb = 0;
+
+  enum Cls { kGeneral, kEmptyKnown, kEmptyHole };
+  // kEmptyKnown: the layer is 0 and no pixel is a hole in this block; kEmptyHole: 0 and every
+  // pixel is a hole. (Their values are exactly what the general code computes there.)
+  Cls cls(int y, int x0) const {
+    const std::size_t i = static_cast<std::size_t>(y) * nb + x0 / kBlock;
+    if ((bpres[i] >> k) & 1u) return kGeneral;
+    const int hmin = static_cast<int>(bhk[i] & 255u), hmax = static_cast<int>(bhk[i] >> 8);
+    if (k < hmin) return kEmptyKnown;
+    if (k >= hmax) return kEmptyHole;
+    return kGeneral;
+  }
 
   // matting.cpp's values of row y, columns [x0, x0 + n); hole flags into hb if non-null.
   void matte(int y, int x0, int n, float (*o)[kBlock], std::uint8_t* hb) const {
+    const Cls c = cls(y, x0);
+    if (c != kGeneral) {
+      for (int ch = 0; ch < 4; ++ch) std::fill(o[ch], o[ch] + n, 0.0f);
+      if (hb) std::fill(hb, hb + n, static_cast<std::uint8_t>(c == kEmptyHole ? 1 : 0));
+      return;
+    }
     const std::size_t base = static_cast<std::size_t>(y) * w + x0;
     const float* in[4];
     for (int c = 0; c < 4; ++c) in[c] = color->row(c, y) + x0;
@@ -887,7 +910,14 @@ void pull_from_layer(const FusedLayer& L, Image& cv, Image& cwt) {
           float* cvp[4];
           for (int k = 0; k < 4; ++k) cvp[k] = cv.row(k, yc) + xc;
           const int m = n / 2;
-          kern::pull_pairs(r[0], r[1], hb[0], hb[1], m, cvp, cwt.row(0, yc) + xc);
+          const FusedLayer::Cls c0 = L.cls(2 * yc, x0), c1 = L.cls(2 * yc + 1, x0);
+          if (c0 == c1 && c0 != FusedLayer::kGeneral) {
+            // Four known zeros: value 0 / 4 = 0, confidence 1; four holes: 0 and 0.
+            for (int k = 0; k < 4; ++k) std::fill(cvp[k], cvp[k] + m, 0.0f);
+            std::fill(cwt.row(0, yc) + xc, cwt.row(0, yc) + xc + m, c0 == FusedLayer::kEmptyKnown ? 1.0f : 0.0f);
+          } else {
+            kern::pull_pairs(r[0], r[1], hb[0], hb[1], m, cvp, cwt.row(0, yc) + xc);
+          }
           xc += m;
         }
         for (; xc < (x0 + n + 1) / 2; ++xc) {
@@ -916,6 +946,19 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
                     Image* dst_quarter = nullptr) {
   const int w = L.w, h = L.h;
   auto crow = [&](int y, int x0, int n, float (*c)[kBlock], float (*tmp)[kBlock]) {
+    const FusedLayer::Cls cl = L.cls(y, x0);
+    if (cl == FusedLayer::kEmptyKnown || (cl == FusedLayer::kEmptyHole && !L.fill)) {
+      // L = 0 here: 0 over A = A and A over 0 = A (exactly, up to the sign of a zero).
+      if (!A.present()) {
+        for (int ch = 0; ch < 4; ++ch) std::fill(c[ch], c[ch] + n, 0.0f);
+        return;
+      }
+      const float* a[4];
+      A.get(y, x0, n, c, a);
+      for (int ch = 0; ch < 4; ++ch)
+        if (a[ch] != c[ch]) std::copy(a[ch], a[ch] + n, c[ch]);
+      return;
+    }
     L.get(y, x0, n, c);
     if (!A.present()) return;
     const float* a[4];
@@ -1038,6 +1081,10 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     mattes.emplace_back(plan, k);
     nl[k] = plan.near_limit(k);
   }
+  const int nb = (w + kBlock - 1) / kBlock;
+  Image& binfo = ws.image("layered.blocks", nb, h, 2);
+  std::uint32_t* bpres = reinterpret_cast<std::uint32_t*>(binfo.plane(0));
+  std::uint32_t* bhk = reinterpret_cast<std::uint32_t*>(binfo.plane(1));
   std::atomic<std::uint32_t> nonempty{0}, holes{0};
   std::atomic<bool> bail{false};
   core::parallel_for(h, [&](int y0, int y1) {
@@ -1102,6 +1149,20 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
         code[base + x] = static_cast<std::uint16_t>(j0 | (second ? 32u : 0u) | (hk << 6));
         w0[base + x] = wv;
       }
+      // Block summaries of the row (from the codes just written).
+      for (int b = 0; b < nb; ++b) {
+        std::uint32_t pres = 0;
+        unsigned hmin = 255, hmax = 0;
+        for (int x = b * kBlock; x < std::min(w, (b + 1) * kBlock); ++x) {
+          const unsigned cd = code[base + x];
+          const unsigned j0c = cd & 31u, hkc = cd >> 6;
+          if (j0c != kNoLayer) pres |= (1u << j0c) | ((cd & 32u) ? 1u << (j0c + 1) : 0u);
+          hmin = std::min(hmin, hkc);
+          hmax = std::max(hmax, hkc);
+        }
+        bpres[static_cast<std::size_t>(y) * nb + b] = pres;
+        bhk[static_cast<std::size_t>(y) * nb + b] = hmin | (hmax << 8);
+      }
     }
     if (ne) nonempty.fetch_or(ne, std::memory_order_relaxed);
     if (ho) holes.fetch_or(ho, std::memory_order_relaxed);
@@ -1123,6 +1184,9 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     L.fill = do_fill && is_full(k) && ((ho >> k) & 1u);
     L.opaque = opaque;
     L.under = fill_under;
+    L.bpres = bpres;
+    L.bhk = bhk;
+    L.nb = nb;
     if (L.fill && pyr.levels > 1) {
       pull_from_layer(L, *pyr.val[1], *pyr.wgt[1]);
       pull_push_upper(pyr);

@@ -57,15 +57,17 @@ inline int ceil_div(int a, int b) { return a <= 0 ? -((-a) / b) : (a + b - 1) / 
 
 constexpr int kBlock = 32;  // outputs per tap-bound block
 
-/// Far gather of outputs [i0, i1) of row `row` of `dst` (planes 0-3) from the first `nt`
-/// taps, which already point at output i0's sources; r_a and nearness are indexed by output
-/// from the row's start. Shared by the horizontal and vertical passes.
-void far_gather_outputs(const std::vector<GatherTap>& taps, int nt, const float* r_a, const float* nearness,
+/// Far gather of outputs [i0, i1) of row `row` of `dst` (planes 0-3) from the taps
+/// δ = −L … L of `taps` (2R + 1 entries pointing at output 0's sources); r_a and nearness
+/// are indexed by output from the row's start. Shared by the horizontal and vertical passes.
+void far_gather_outputs(const std::vector<GatherTap>& taps, int L, const float* r_a, const float* nearness,
                         const float* table, bool occlusion, Image& dst, int row, int i0, int i1) {
+  // taps[R + d] is tap δ = d for output 0 (R = (taps.size() − 1) / 2); output i0 reads i0 on.
   GatherJob job;
   job.n = i1 - i0;
-  job.ntaps = nt;
-  job.taps = taps.data();
+  job.ntaps = 2 * L + 1;
+  job.taps = taps.data() + ((static_cast<int>(taps.size()) - 1) / 2 - L);
+  job.tap_offset = i0;
   job.r_a = r_a + i0;
   job.nearness = nearness + i0;
   job.table = table;
@@ -132,6 +134,17 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
       double* lsum = bins + 5 * static_cast<std::size_t>(wo + 2);  // 5 × (P+1)
       double* acc = lsum + 5 * static_cast<std::size_t>(P + 1);    // 5 × wo
 
+      // Taps of output 0 (padded x ox + R + δ), the same for every row of the chunk.
+      for (int d = -R; d <= R; ++d) {
+        const int q = ox + R + d;
+        const std::size_t at = static_cast<std::size_t>(q % f) * M + q / f;
+        GatherTap& t = taps[R + d];
+        for (int c = 0; c < 4; ++c) t.col[c] = ph + c * plane + at;
+        t.den = ph + 4 * plane + at;
+        t.flag = ph + 5 * plane + at;
+        t.absb = ph + 6 * plane + at;
+        t.d5 = 5.0f * static_cast<float>(std::abs(d));
+      }
       PrepRowJob prep;
       for (int c = 0; c < 5; ++c) prep.pad[c] = pad[c];
       prep.P = P;
@@ -210,18 +223,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
               for (int x = ox + f * i0; x <= ox + f * (i1 - 1) + 2 * R; ++x) m = std::max(m, reach[x]);
               L = std::min(R, m);
             }
-            int nt = 0;
-            for (int d = -L; d <= L; ++d) {
-              const int q = ox + R + d;  // padded x of output i0's tap, minus f·i0
-              const std::size_t at = static_cast<std::size_t>(q % f) * M + q / f + i0;
-              GatherTap& t = taps[nt++];
-              for (int c = 0; c < 4; ++c) t.col[c] = ph + c * plane + at;
-              t.den = ph + 4 * plane + at;
-              t.flag = ph + 5 * plane + at;
-              t.absb = ph + 6 * plane + at;
-              t.d5 = 5.0f * static_cast<float>(std::abs(d));
-            }
-            far_gather_outputs(taps, nt, r_a, nearness, table, k.far_occlusion, t_blur, y, i0, i1);
+            far_gather_outputs(taps, L, r_a, nearness, table, k.far_occlusion, t_blur, y, i0, i1);
           }
           for (int i = i0; i < i1; ++i) {
             if (nearness[i] != 1.0f) continue;
@@ -443,6 +445,16 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
           if (chunk_box) slide(sum_b, t_blur, 4, R);
           if (hbox >= 0) slide(sum_n, t_near, 5, hbox);
         }
+        // Taps of this output row: rows a + δ, clamped.
+        for (int d = -R; d <= R; ++d) {
+          const int b = std::clamp(a + d, 0, H - 1);
+          GatherTap& t = taps[R + d];
+          for (int c = 0; c < 4; ++c) t.col[c] = t_blur.row(c, b);
+          t.den = aux.row(0, b);
+          t.flag = aux.row(1, b);
+          t.absb = aux.row(2, b);
+          t.d5 = 5.0f * static_cast<float>(std::abs(d));
+        }
         const float* sa = t_blur.row(4, a);
         for (int i = 0; i < W; ++i) {
           r_a[i] = sa[i] * rmax;
@@ -462,17 +474,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
               for (int b = a - R; b <= a + R; ++b) m = std::max(m, reach.row(0, std::clamp(b, 0, H - 1))[blk]);
               L = std::min(R, static_cast<int>(m));
             }
-            int nt = 0;
-            for (int d = -L; d <= L; ++d) {
-              const int b = std::clamp(a + d, 0, H - 1);
-              GatherTap& t = taps[nt++];
-              for (int c = 0; c < 4; ++c) t.col[c] = t_blur.row(c, b) + i0;
-              t.den = aux.row(0, b) + i0;
-              t.flag = aux.row(1, b) + i0;
-              t.absb = aux.row(2, b) + i0;
-              t.d5 = 5.0f * static_cast<float>(std::abs(d));
-            }
-            far_gather_outputs(taps, nt, r_a, nearness, table, k.far_occlusion, blur, j, i0, i1);
+            far_gather_outputs(taps, L, r_a, nearness, table, k.far_occlusion, blur, j, i0, i1);
           }
           for (int i = i0; i < i1; ++i) {
             if (nearness[i] != 1.0f) continue;

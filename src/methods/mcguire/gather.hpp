@@ -20,6 +20,7 @@ struct GatherJob {
   int n = 0;                        ///< outputs (n >= 1)
   int ntaps = 0;
   const GatherTap* taps = nullptr;
+  int tap_offset = 0;               ///< added to every tap pointer (the first output's index)
   const float* r_a = nullptr;       ///< centre radius px, n values
   const float* nearness = nullptr;  ///< saturate(4 r_A), n values
   const float* table = nullptr;     ///< 16 floats: the 7-entry weight table, then zeros

@@ -27,25 +27,27 @@ void FarGather(const GatherJob& job) {
   const auto one = hn::Set(df, 1.0f), zero = hn::Zero(df), six = hn::Set(df, 6.0f), c15 = hn::Set(df, 1.5f);
   const bool permute = lanes >= 8 && lanes <= 16;
   const auto table = hn::LoadU(df, job.table);  // first `lanes` entries (16 are allocated)
+  const int off = job.tap_offset;
   auto compute = [&](int o) {
     const auto n = hn::LoadU(df, job.nearness + o);
     const auto abs_a = hn::Abs(hn::LoadU(df, job.r_a + o));
     auto a0 = zero, a1 = zero, a2 = zero, a3 = zero, aw = zero;
     for (int t = 0; t < job.ntaps; ++t) {
       const GatherTap& tp = job.taps[t];
-      const auto q = hn::Div(hn::Set(df, tp.d5), hn::LoadU(df, tp.den + o));
+      const int ot = o + off;
+      const auto q = hn::Div(hn::Set(df, tp.d5), hn::LoadU(df, tp.den + ot));
       const auto idx = hn::ConvertTo(di, hn::Min(q, six));
       auto wn = permute ? hn::TableLookupLanes(table, hn::IndicesFromVec(df, idx)) : hn::GatherIndex(df, job.table, idx);
-      wn = hn::Mul(wn, hn::LoadU(df, tp.flag + o));
+      wn = hn::Mul(wn, hn::LoadU(df, tp.flag + ot));
       if (job.occlusion) {
-        const auto occ = hn::Add(hn::Sub(abs_a, hn::LoadU(df, tp.absb + o)), c15);
+        const auto occ = hn::Add(hn::Sub(abs_a, hn::LoadU(df, tp.absb + ot)), c15);
         wn = hn::Mul(wn, hn::Min(hn::Max(occ, zero), one));
       }
       const auto w = hn::MulAdd(hn::Sub(one, wn), n, wn);
-      a0 = hn::MulAdd(w, hn::LoadU(df, tp.col[0] + o), a0);
-      a1 = hn::MulAdd(w, hn::LoadU(df, tp.col[1] + o), a1);
-      a2 = hn::MulAdd(w, hn::LoadU(df, tp.col[2] + o), a2);
-      a3 = hn::MulAdd(w, hn::LoadU(df, tp.col[3] + o), a3);
+      a0 = hn::MulAdd(w, hn::LoadU(df, tp.col[0] + ot), a0);
+      a1 = hn::MulAdd(w, hn::LoadU(df, tp.col[1] + ot), a1);
+      a2 = hn::MulAdd(w, hn::LoadU(df, tp.col[2] + ot), a2);
+      a3 = hn::MulAdd(w, hn::LoadU(df, tp.col[3] + ot), a3);
       aw = hn::Add(aw, w);
     }
     hn::StoreU(hn::Div(a0, aw), df, job.out[0] + o);
@@ -66,14 +68,14 @@ void FarGather(const GatherJob& job) {
     float a[4] = {0, 0, 0, 0}, aw = 0;
     for (int t = 0; t < job.ntaps; ++t) {
       const GatherTap& tp = job.taps[t];
-      const float q = tp.d5 / tp.den[o];
-      float wn = job.table[q >= 6.0f ? 6 : static_cast<int>(q)] * tp.flag[o];
+      const float q = tp.d5 / tp.den[o + off];
+      float wn = job.table[q >= 6.0f ? 6 : static_cast<int>(q)] * tp.flag[o + off];
       if (job.occlusion) {
-        const float occ = abs_a - tp.absb[o] + 1.5f;
+        const float occ = abs_a - tp.absb[o + off] + 1.5f;
         wn *= occ < 0 ? 0.0f : occ > 1 ? 1.0f : occ;
       }
       const float w = wn + (1.0f - wn) * job.nearness[o];
-      for (int c = 0; c < 4; ++c) a[c] += w * tp.col[c][o];
+      for (int c = 0; c < 4; ++c) a[c] += w * tp.col[c][o + off];
       aw += w;
     }
     for (int c = 0; c < 4; ++c) job.out[c][o] = a[c] / aw;

@@ -7,7 +7,9 @@
 #include "methods/reference/scatter_band.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "methods/reference/scatter_band.cpp"
@@ -40,8 +42,17 @@ void ScatterBandT(const BandJob& job) {
   // receiver row (lo > hi: not on this row).
   constexpr int kNever = 1 << 29;  // an empty span: lo = kNever, hi = −kNever
   const hn::RebindToSigned<decltype(d)> di;
-  HWY_ALIGN float s_lim[S], s_ws[S], s_uq[S], s_isq[S], s_c0[S], s_c1[S], s_c2[S], s_c3[S];
-  HWY_ALIGN int32_t s_qx[S], s_ext[S], s_off[S], s_lo[S], s_hi[S];
+  HWY_ALIGN float s_lim[S] = {}, s_ws[S] = {}, s_uq[S] = {}, s_isq[S] = {}, s_c0[S] = {}, s_c1[S] = {}, s_c2[S] = {},
+                 s_c3[S] = {};
+  HWY_ALIGN int32_t s_qx[S] = {}, s_ext[S] = {}, s_off[S] = {}, s_lo[S] = {}, s_hi[S] = {};
+  static_assert(S <= 64, "source bits are kept in 64-bit masks");
+  const auto mask_bits = [](auto tag, auto mask) {
+    std::uint8_t bytes[8] = {};
+    hn::StoreMaskBits(tag, mask, bytes);
+    std::uint64_t v = 0;
+    for (int k = 7; k >= 0; --k) v = (v << 8) | bytes[k];
+    return v;
+  };
   for (int qy = sy0; qy < sy1; ++qy) {
     const int* bext = job.block_ext + static_cast<std::size_t>(qy) * nblk;
     for (int b = 0; b < nblk; ++b) {
@@ -126,57 +137,91 @@ void ScatterBandT(const BandJob& job) {
             // 1/isu_p = softness·u_p; receivers at infinity (u_p = 0, isu_p = 1e30) need u_q ≥ 1e-30.
             front_above = std::max(up_max * front_scale, 1e-29f);
           }
-          for (int j = 0; j < n; ++j) {
-            if (s_hi[j] < px || s_lo[j] > pxe) continue;
+          // Bit j: block source j reaches this vector (act), and which of the shortcuts
+          // applies to it (tested a vector of sources at a time). Each class is then added in
+          // a loop of its own, which leaves the loops free of data-dependent branches; a
+          // receiver's sum thus takes its sources in class order (the plain loop: row order).
+          std::uint64_t act = 0, all_b = 0, all_f = 0, no_behind = 0, no_front = 0;
+          const auto vpx = hn::Set(di, px), vpxe = hn::Set(di, pxe);
+          for (int i = 0; i < n; i += lanes) {
+            const auto reach = hn::And(hn::Not(hn::Lt(hn::Load(di, s_hi + i), vpx)), hn::Not(hn::Gt(hn::Load(di, s_lo + i), vpxe)));
+            act |= mask_bits(di, reach) << i;
+            if (kDepthOrder) {
+              const auto uq = hn::Load(d, s_uq + i);
+              const auto le_min = hn::Le(uq, hn::Set(d, up_min)), ge_max = hn::Ge(uq, hn::Set(d, up_max));
+              const auto passes = hn::Ge(hn::Mul(hn::Set(d, sp_min), hn::Load(d, s_isq + i)), one);
+              all_b |= mask_bits(d, hn::And(le_min, hn::Or(ge_max, passes))) << i;
+              all_f |= mask_bits(d, hn::Gt(uq, hn::Set(d, front_above))) << i;
+              no_behind |= mask_bits(d, ge_max) << i;
+              no_front |= mask_bits(d, le_min) << i;
+            }
+          }
+          const auto weight = [&](int j) {
             const auto dist = hn::LoadU(d, trow + (px + s_off[j]));
             const auto cov = hn::Min(hn::Max(hn::Sub(hn::Set(d, s_lim[j]), dist), zero), one);
-            auto wt = hn::Mul(cov, hn::Set(d, s_ws[j]));
-            const float uq = s_uq[j];
-            if (!kDepthOrder || (uq <= up_min && (uq >= up_max || sp_min * s_isq[j] >= 1.0f))) {
-              b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
-              b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
-              b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
-              b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
-              bw = hn::Add(bw, wt);
-              continue;
-            }
-            if (uq > front_above) {
-              f0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), f0);
-              f1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), f1);
-              f2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), f2);
-              f3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), f3);
-              fw = hn::Add(fw, wt);
-              continue;
-            }
-            const auto rel = hn::Mul(hn::Sub(hn::Set(d, uq), up), isu);
-            if (uq >= up_max) {  // rel ≥ 0: nothing behind, so no blocking (same values as below)
-              const auto wf = hn::Mul(wt, hn::Min(rel, one)), wb = hn::Sub(wt, wf);
-              f0 = hn::MulAdd(wf, hn::Set(d, s_c0[j]), f0);
-              f1 = hn::MulAdd(wf, hn::Set(d, s_c1[j]), f1);
-              f2 = hn::MulAdd(wf, hn::Set(d, s_c2[j]), f2);
-              f3 = hn::MulAdd(wf, hn::Set(d, s_c3[j]), f3);
-              fw = hn::Add(fw, wf);
-              b0 = hn::MulAdd(wb, hn::Set(d, s_c0[j]), b0);
-              b1 = hn::MulAdd(wb, hn::Set(d, s_c1[j]), b1);
-              b2 = hn::MulAdd(wb, hn::Set(d, s_c2[j]), b2);
-              b3 = hn::MulAdd(wb, hn::Set(d, s_c3[j]), b3);
-              bw = hn::Add(bw, wb);
-              continue;
-            }
+            return hn::Mul(cov, hn::Set(d, s_ws[j]));
+          };
+          std::uint64_t bits = kDepthOrder ? act & all_b : act;
+          act &= ~bits;
+          for (; bits; bits &= bits - 1) {  // all to B
+            const int j = std::countr_zero(bits);
+            const auto wt = weight(j);
+            b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
+            b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
+            b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
+            b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
+            bw = hn::Add(bw, wt);
+          }
+          bits = act & all_f;
+          act &= ~bits;
+          for (; bits; bits &= bits - 1) {  // all to F
+            const int j = std::countr_zero(bits);
+            const auto wt = weight(j);
+            f0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), f0);
+            f1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), f1);
+            f2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), f2);
+            f3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), f3);
+            fw = hn::Add(fw, wt);
+          }
+          bits = act & no_behind;
+          act &= ~bits;
+          for (; bits; bits &= bits - 1) {  // rel ≥ 0: nothing blocked
+            const int j = std::countr_zero(bits);
+            const auto wt = weight(j);
+            const auto rel = hn::Mul(hn::Sub(hn::Set(d, s_uq[j]), up), isu);
+            const auto wf = hn::Mul(wt, hn::Min(rel, one)), wb = hn::Sub(wt, wf);
+            f0 = hn::MulAdd(wf, hn::Set(d, s_c0[j]), f0);
+            f1 = hn::MulAdd(wf, hn::Set(d, s_c1[j]), f1);
+            f2 = hn::MulAdd(wf, hn::Set(d, s_c2[j]), f2);
+            f3 = hn::MulAdd(wf, hn::Set(d, s_c3[j]), f3);
+            fw = hn::Add(fw, wf);
+            b0 = hn::MulAdd(wb, hn::Set(d, s_c0[j]), b0);
+            b1 = hn::MulAdd(wb, hn::Set(d, s_c1[j]), b1);
+            b2 = hn::MulAdd(wb, hn::Set(d, s_c2[j]), b2);
+            b3 = hn::MulAdd(wb, hn::Set(d, s_c3[j]), b3);
+            bw = hn::Add(bw, wb);
+          }
+          bits = act & no_front;
+          act &= ~bits;
+          for (; bits; bits &= bits - 1) {  // rel ≤ 0: nothing in front
+            const int j = std::countr_zero(bits);
+            const auto rel = hn::Mul(hn::Sub(hn::Set(d, s_uq[j]), up), isu);
             // 1 − pass = 1 − min(sharp_p / sharp_q, 1)
             const auto blocked = hn::Max(hn::NegMulAdd(sp, hn::Set(d, s_isq[j]), one), zero);
-            if (uq <= up_min) {  // rel ≤ 0: nothing in front, all of it goes to B
-              wt = hn::Mul(wt, hn::MulAdd(hn::Max(rel, neg_one), blocked, one));
-              b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
-              b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
-              b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
-              b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
-              bw = hn::Add(bw, wt);
-              continue;
-            }
+            const auto wt = hn::Mul(weight(j), hn::MulAdd(hn::Max(rel, neg_one), blocked, one));
+            b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
+            b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
+            b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
+            b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
+            bw = hn::Add(bw, wt);
+          }
+          for (bits = act; bits; bits &= bits - 1) {  // the general case
+            const int j = std::countr_zero(bits);
+            const auto rel = hn::Mul(hn::Sub(hn::Set(d, s_uq[j]), up), isu);
+            const auto blocked = hn::Max(hn::NegMulAdd(sp, hn::Set(d, s_isq[j]), one), zero);
             const auto front = hn::Min(hn::Max(rel, zero), one);
             const auto minus_behind = hn::Max(hn::Min(rel, zero), neg_one);
-            wt = hn::Mul(wt, hn::MulAdd(minus_behind, blocked, one));
+            const auto wt = hn::Mul(weight(j), hn::MulAdd(minus_behind, blocked, one));
             const auto wf = hn::Mul(wt, front), wb = hn::Sub(wt, wf);
             f0 = hn::MulAdd(wf, hn::Set(d, s_c0[j]), f0);
             f1 = hn::MulAdd(wf, hn::Set(d, s_c1[j]), f1);

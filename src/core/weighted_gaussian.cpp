@@ -21,7 +21,10 @@ namespace dofkit::core {
 // local window magnitude; the same constants and operation order as core/filters.cpp make the
 // output identical to gaussian_blur_plane's.
 
-namespace {
+// A named namespace, not an anonymous one: clang 14 gives the run-time dispatch resolvers of
+// target_clones functions external names, which would clash with core/filters.cpp's
+// strip_passes.
+namespace weighted_gaussian_detail {
 
 constexpr int kLanes = 16;
 constexpr int kResync = 32;
@@ -188,7 +191,9 @@ void normalise_row(const float* __restrict num, const float* __restrict wt, cons
   }
 }
 
-}  // namespace
+}  // namespace weighted_gaussian_detail
+
+using namespace weighted_gaussian_detail;
 
 void weighted_gaussian(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
                        int passes, float tiny, float* const* dst, float* weight, bool normalise) {

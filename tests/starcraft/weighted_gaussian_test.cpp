@@ -112,7 +112,8 @@ TEST(WeightedGaussian, StreamedRowsEqualThePlaneFormForAnyBanding) {
   // weighted_gaussian_rows streams bands of rows; each band warms its passes up from rows
   // above it, so any banding must give the plane form's output bit for bit. Bands start at,
   // just after and between the 32-row re-synchronisation points and at the image edges.
-  for (const auto& [w, h] : {std::pair{1, 1}, {6, 1}, {5, 3}, {17, 33}, {50, 119}, {203, 117}}) {
+  for (const auto& size : {std::pair{1, 1}, {6, 1}, {5, 3}, {17, 33}, {50, 119}, {203, 117}}) {
+    const int w = size.first, h = size.second;  // not a structured binding: the lambda below captures w
     const Planes p = make_planes(w, h);
     const std::size_t n = static_cast<std::size_t>(w) * h;
     for (float sigma : {0.0f, 0.7f, 3.3f, 9.0f, 40.0f}) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
+#include <memory>
 #include <cmath>
 #include <utility>
 
@@ -476,15 +477,15 @@ struct Pyramid {
   std::vector<Image*> val{nullptr}, wgt{nullptr};  // index 0 unused (level 0 = the layer)
   int levels = 1;                                    // including level 0
 };
-Pyramid make_pyramid(Workspace& ws, int w, int h) {
+Pyramid make_pyramid(Workspace& ws, int w, int h, const std::string& prefix = "layered.pp") {
   Pyramid p;
   int cw = w, ch = h, l = 0;
   while (cw > 1 || ch > 1) {
     cw = (cw + 1) / 2;
     ch = (ch + 1) / 2;
     ++l;
-    p.val.push_back(&ws.image("layered.ppv" + std::to_string(l), cw, ch, 4));
-    p.wgt.push_back(&ws.image("layered.ppw" + std::to_string(l), cw, ch, 1));
+    p.val.push_back(&ws.image(prefix + "v" + std::to_string(l), cw, ch, 4));
+    p.wgt.push_back(&ws.image(prefix + "w" + std::to_string(l), cw, ch, 1));
   }
   p.levels = static_cast<int>(p.val.size());
   return p;
@@ -894,56 +895,69 @@ struct FusedLayer {
   }
 };
 
-// Pyramid level 1 of the layer (pull_level's arithmetic, children from the generator).
+// Pyramid level 1 of the layer (pull_level's arithmetic, children from the generator): coarse
+// row yc. r / hb: scratch for two fine rows.
+void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][kBlock], std::uint8_t (*hb)[kBlock]) {
+  const int w = L.w, h = L.h;
+  const int rows = 2 * yc + 1 < h ? 2 : 1;
+  for (int x0 = 0; x0 < w; x0 += kBlock) {
+    const int n = std::min(kBlock, w - x0);
+    int xc = x0 / 2;
+    if (rows == 2) {  // full 2×2 blocks
+      float* cvp[4];
+      for (int k = 0; k < 4; ++k) cvp[k] = cv.row(k, yc) + xc;
+      const int m = n / 2;
+      const FusedLayer::Cls c0 = L.cls(2 * yc, x0), c1 = L.cls(2 * yc + 1, x0);
+      if (c0 == c1 && c0 != FusedLayer::kGeneral && 2 * m == n) {
+        // Four known zeros: value 0 / 4 = 0, confidence 1; four holes: 0 and 0.
+        for (int k = 0; k < 4; ++k) std::fill(cvp[k], cvp[k] + m, 0.0f);
+        std::fill(cwt.row(0, yc) + xc, cwt.row(0, yc) + xc + m, c0 == FusedLayer::kEmptyKnown ? 1.0f : 0.0f);
+        continue;
+      }
+      for (int dy = 0; dy < 2; ++dy) L.matte(2 * yc + dy, x0, n, r[dy], hb[dy]);
+      kern::pull_pairs(r[0], r[1], hb[0], hb[1], m, cvp, cwt.row(0, yc) + xc);
+      xc += m;
+    } else {
+      L.matte(2 * yc, x0, n, r[0], hb[0]);
+    }
+    for (; xc < (x0 + n + 1) / 2; ++xc) {
+      double sw = 0, sv[4] = {0, 0, 0, 0};
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const int fx = 2 * xc + dx, fy = 2 * yc + dy;
+          if (fx >= w || fy >= h) continue;
+          const float wt = hb[dy][fx - x0] ? 0.0f : 1.0f;
+          if (wt <= 0) continue;
+          sw += wt;
+          for (int k = 0; k < 4; ++k) sv[k] += wt * r[dy][k][fx - x0];
+        }
+      cwt.row(0, yc)[xc] = static_cast<float>(std::min(1.0, sw / 4.0));
+      for (int k = 0; k < 4; ++k) cv.row(k, yc)[xc] = sw > 0 ? static_cast<float>(sv[k] / sw) : 0.0f;
+    }
+  }
+}
+
 void pull_from_layer(const FusedLayer& L, Image& cv, Image& cwt) {
-  const int w = L.w, h = L.h, ch = cv.height();
-  core::parallel_for(ch, [&](int y0, int y1) {
+  core::parallel_for(cv.height(), [&](int y0, int y1) {
     float r[2][4][kBlock];
     std::uint8_t hb[2][kBlock];
-    for (int yc = y0; yc < y1; ++yc) {
-      const int rows = 2 * yc + 1 < h ? 2 : 1;
-      for (int x0 = 0; x0 < w; x0 += kBlock) {
-        const int n = std::min(kBlock, w - x0);
-        for (int dy = 0; dy < rows; ++dy) L.matte(2 * yc + dy, x0, n, r[dy], hb[dy]);
-        int xc = x0 / 2;
-        if (rows == 2) {  // full 2×2 blocks
-          float* cvp[4];
-          for (int k = 0; k < 4; ++k) cvp[k] = cv.row(k, yc) + xc;
-          const int m = n / 2;
-          const FusedLayer::Cls c0 = L.cls(2 * yc, x0), c1 = L.cls(2 * yc + 1, x0);
-          if (c0 == c1 && c0 != FusedLayer::kGeneral) {
-            // Four known zeros: value 0 / 4 = 0, confidence 1; four holes: 0 and 0.
-            for (int k = 0; k < 4; ++k) std::fill(cvp[k], cvp[k] + m, 0.0f);
-            std::fill(cwt.row(0, yc) + xc, cwt.row(0, yc) + xc + m, c0 == FusedLayer::kEmptyKnown ? 1.0f : 0.0f);
-          } else {
-            kern::pull_pairs(r[0], r[1], hb[0], hb[1], m, cvp, cwt.row(0, yc) + xc);
-          }
-          xc += m;
-        }
-        for (; xc < (x0 + n + 1) / 2; ++xc) {
-          double sw = 0, sv[4] = {0, 0, 0, 0};
-          for (int dy = 0; dy < 2; ++dy)
-            for (int dx = 0; dx < 2; ++dx) {
-              const int fx = 2 * xc + dx, fy = 2 * yc + dy;
-              if (fx >= w || fy >= h) continue;
-              const float wt = hb[dy][fx - x0] ? 0.0f : 1.0f;
-              if (wt <= 0) continue;
-              sw += wt;
-              for (int k = 0; k < 4; ++k) sv[k] += wt * r[dy][k][fx - x0];
-            }
-          cwt.row(0, yc)[xc] = static_cast<float>(std::min(1.0, sw / 4.0));
-          for (int k = 0; k < 4; ++k) cv.row(k, yc)[xc] = sw > 0 ? static_cast<float>(sv[k] / sw) : 0.0f;
-        }
-      }
-    }
+    for (int yc = y0; yc < y1; ++yc) pull_row(L, yc, cv, cwt, r, hb);
   }, 4);
 }
+
+// The pull of the next layer's pyramid level 1, done in the same pass as a composite (the
+// two read the same input rows, once from memory).
+struct NextPull {
+  const FusedLayer* L = nullptr;
+  Image* cv = nullptr;
+  Image* cwt = nullptr;
+};
 
 // One composite step of an accumulator: C = L over A (layer_in_front) or A over L (A absent:
 // C = L), written at full resolution into dst_full (which may be A's own full image) or
 // reduced by composite.cpp's 2×2 box into dst_half.
 void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, Image* dst_full, Image* dst_half,
-                    Image* dst_quarter = nullptr) {
+                    Image* dst_quarter, const NextPull& next) {
   const int w = L.w, h = L.h;
   auto crow = [&](int y, int x0, int n, float (*c)[kBlock], float (*tmp)[kBlock]) {
     const FusedLayer::Cls cl = L.cls(y, x0);
@@ -965,78 +979,88 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     A.get(y, x0, n, tmp, a);
     kern::over_rows(c, a, layer_in_front, n);
   };
-  if (dst_full) {
-    core::parallel_for(h, [&](int y0, int y1) {
-      float c[4][kBlock], tmp[4][kBlock];
-      for (int y = y0; y < y1; ++y)
-        for (int x0 = 0; x0 < w; x0 += kBlock) {
-          const int n = std::min(kBlock, w - x0);
-          crow(y, x0, n, c, tmp);
-          for (int ch = 0; ch < 4; ++ch) std::copy(c[ch], c[ch] + n, dst_full->row(ch, y) + x0);
-        }
-    }, 4);
-    return;
-  }
-  if (dst_quarter) {  // composite.cpp blur_quarter_res's 4×4 box
+  struct Scratch {
+    float rows[4][4][kBlock];
+    float tmp[4][kBlock];
+    float pr[2][4][kBlock];
+    std::uint8_t phb[2][kBlock];
+  };
+  auto full_row = [&](int y, Scratch& s) {
+    for (int x0 = 0; x0 < w; x0 += kBlock) {
+      const int n = std::min(kBlock, w - x0);
+      crow(y, x0, n, s.rows[0], s.tmp);
+      for (int ch = 0; ch < 4; ++ch) std::copy(s.rows[0][ch], s.rows[0][ch] + n, dst_full->row(ch, y) + x0);
+    }
+  };
+  auto quarter_row = [&](int yq, Scratch& s) {  // composite.cpp blur_quarter_res's 4×4 box
     Image& q = *dst_quarter;
-    core::parallel_for(q.height(), [&](int y0, int y1) {
-      float rows[4][4][kBlock], tmp[4][kBlock];
-      for (int yq = y0; yq < y1; ++yq) {
-        int ys[4];
-        for (int dy = 0; dy < 4; ++dy) ys[dy] = std::min(4 * yq + dy, h - 1);
-        for (int x0 = 0; x0 < w; x0 += kBlock) {
-          const int n = std::min(kBlock, w - x0);
-          int src[4];  // which computed row holds fine row ys[dy]
-          for (int dy = 0; dy < 4; ++dy) {
-            src[dy] = dy;
-            if (dy > 0 && ys[dy] == ys[dy - 1]) src[dy] = src[dy - 1];
-            else crow(ys[dy], x0, n, rows[dy], tmp);
-          }
-          const int m = n / 4;  // quads inside the block (x0 is a multiple of 4)
-          for (int ch = 0; ch < 4; ++ch) {
-            const float* r[4];
-            for (int dy = 0; dy < 4; ++dy) r[dy] = rows[src[dy]][ch];
-            float* d = q.row(ch, yq);
-            kern::down_quads(r[0], r[1], r[2], r[3], m, d + x0 / 4);
-            for (int xq = x0 / 4 + m; xq < (x0 + n + 3) / 4; ++xq) {
-              float sum = 0.0f;
-              for (int dy = 0; dy < 4; ++dy)
-                for (int dx = 0; dx < 4; ++dx) sum += r[dy][std::min(4 * xq + dx, w - 1) - x0];
-              d[xq] = 0.0625f * sum;
-            }
-          }
-        }
+    int ys[4];
+    for (int dy = 0; dy < 4; ++dy) ys[dy] = std::min(4 * yq + dy, h - 1);
+    for (int x0 = 0; x0 < w; x0 += kBlock) {
+      const int n = std::min(kBlock, w - x0);
+      int src[4];  // which computed row holds fine row ys[dy]
+      for (int dy = 0; dy < 4; ++dy) {
+        src[dy] = dy;
+        if (dy > 0 && ys[dy] == ys[dy - 1]) src[dy] = src[dy - 1];
+        else crow(ys[dy], x0, n, s.rows[dy], s.tmp);
       }
-    }, 2);
-    return;
-  }
-  Image& half = *dst_half;
-  core::parallel_for(half.height(), [&](int y0, int y1) {
-    float ca[4][kBlock], cb[4][kBlock], tmp[4][kBlock];
-    for (int yh = y0; yh < y1; ++yh) {
-      const int ya = 2 * yh, yb = std::min(2 * yh + 1, h - 1);
-      for (int x0 = 0; x0 < w; x0 += kBlock) {
-        const int n = std::min(kBlock, w - x0);
-        crow(ya, x0, n, ca, tmp);
-        float (*b)[kBlock] = ca;
-        if (yb != ya) {
-          crow(yb, x0, n, cb, tmp);
-          b = cb;
-        }
-        for (int ch = 0; ch < 4; ++ch) {
-          const float* pa = ca[ch];
-          const float* pb = b[ch];
-          float* d = half.row(ch, yh);
-          const int m = n / 2;  // pairs inside the block (x0 is even)
-          kern::down_pairs(pa, pb, m, d + x0 / 2);
-          for (int xh = x0 / 2 + m; xh < (x0 + n + 1) / 2; ++xh) {
-            const int xa = 2 * xh - x0, xb = std::min(2 * xh + 1, w - 1) - x0;
-            d[xh] = 0.25f * (pa[xa] + pa[xb] + pb[xa] + pb[xb]);
-          }
+      const int m = n / 4;  // quads inside the block (x0 is a multiple of 4)
+      for (int ch = 0; ch < 4; ++ch) {
+        const float* r[4];
+        for (int dy = 0; dy < 4; ++dy) r[dy] = s.rows[src[dy]][ch];
+        float* d = q.row(ch, yq);
+        kern::down_quads(r[0], r[1], r[2], r[3], m, d + x0 / 4);
+        for (int xq = x0 / 4 + m; xq < (x0 + n + 3) / 4; ++xq) {
+          float sum = 0.0f;
+          for (int dy = 0; dy < 4; ++dy)
+            for (int dx = 0; dx < 4; ++dx) sum += r[dy][std::min(4 * xq + dx, w - 1) - x0];
+          d[xq] = 0.0625f * sum;
         }
       }
     }
-  }, 4);
+  };
+  auto half_row = [&](int yh, Scratch& s) {  // composite.cpp blur_half_res's 2×2 box
+    Image& half = *dst_half;
+    const int ya = 2 * yh, yb = std::min(2 * yh + 1, h - 1);
+    for (int x0 = 0; x0 < w; x0 += kBlock) {
+      const int n = std::min(kBlock, w - x0);
+      crow(ya, x0, n, s.rows[0], s.tmp);
+      float (*b)[kBlock] = s.rows[0];
+      if (yb != ya) {
+        crow(yb, x0, n, s.rows[1], s.tmp);
+        b = s.rows[1];
+      }
+      for (int ch = 0; ch < 4; ++ch) {
+        const float* pa = s.rows[0][ch];
+        const float* pb = b[ch];
+        float* d = half.row(ch, yh);
+        const int m = n / 2;  // pairs inside the block (x0 is even)
+        kern::down_pairs(pa, pb, m, d + x0 / 2);
+        for (int xh = x0 / 2 + m; xh < (x0 + n + 1) / 2; ++xh) {
+          const int xa = 2 * xh - x0, xb = std::min(2 * xh + 1, w - 1) - x0;
+          d[xh] = 0.25f * (pa[xa] + pa[xb] + pb[xa] + pb[xb]);
+        }
+      }
+    }
+  };
+  // Bands of 4 full-resolution rows: 4 full rows, 2 half rows or 1 quarter row of output,
+  // and the next layer's coarse rows 2b, 2b + 1 from the same input rows.
+  const int bands = (h + 3) / 4;
+  const int hh = (h + 1) / 2;
+  core::parallel_for(bands, [&](int b0, int b1) {
+    auto s = std::make_unique<Scratch>();
+    for (int b = b0; b < b1; ++b) {
+      if (dst_full) {
+        for (int y = 4 * b; y < std::min(4 * b + 4, h); ++y) full_row(y, *s);
+      } else if (dst_quarter) {
+        quarter_row(b, *s);
+      } else {
+        for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) half_row(yh, *s);
+      }
+      if (next.L)
+        for (int yc = 2 * b; yc < std::min(2 * b + 2, hh); ++yc) pull_row(*next.L, yc, *next.cv, *next.cwt, s->pr, s->phb);
+    }
+  }, 1);
 }
 
 }  // namespace
@@ -1172,7 +1196,6 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   const std::uint32_t ne = nonempty.load(), ho = holes.load();
   auto is_full = [&](int k) { return ((ne >> k) & 1u) != 0; };
 
-  const Pyramid pyr = make_pyramid(ws, w, h);
   auto layer_gen = [&](int k, bool opaque) {
     FusedLayer L;
     L.color = &color;
@@ -1187,88 +1210,112 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     L.bpres = bpres;
     L.bhk = bhk;
     L.nb = nb;
-    if (L.fill && pyr.levels > 1) {
-      pull_from_layer(L, *pyr.val[1], *pyr.wgt[1]);
-      pull_push_upper(pyr);
-      L.l1 = pyr.val[1];
-    }
     return L;
   };
 
-  // One side's recursion (composite.cpp Accumulator): layers in `order`, each non-empty one
-  // composited, then the blur that plain would apply at its next flush — the variance of
-  // the steps up to the next non-empty layer, summed in plain's order — so the composite can
-  // be written straight at half resolution when that blur runs there.
+  // The recursion of composite.cpp's Accumulator, as a list of composite jobs: each non-empty
+  // layer is composited, then blurred by what plain applies at its next flush — the variance
+  // of the steps up to the next non-empty layer of that side, summed in plain's order — so
+  // the composite can be written straight at the resolution that blur runs at.
+  struct Job {
+    int k;
+    bool back;
+    double var;
+  };
+  std::vector<Job> jobs;
+  auto add_side = [&](const std::vector<int>& order, bool back_side) {
+    std::vector<double> var_after(K, 0.0);
+    double pend = 0;
+    int last = -1;
+    for (int k : order) {
+      if (is_full(k)) {
+        if (last >= 0) var_after[last] = pend;
+        pend = 0;
+        last = k;
+      }
+      if (last >= 0) pend += plan.step_sigma[k] * plan.step_sigma[k];
+    }
+    if (last >= 0) var_after[last] = pend;
+    for (int k : order)
+      if (is_full(k)) jobs.push_back({k, back_side, var_after[k]});
+  };
+  std::vector<int> back_order, front_order;
+  for (int k = K - 1; k > plan.focus; --k) back_order.push_back(k);
+  for (int k = 0; k < plan.focus; ++k) front_order.push_back(k);
+  add_side(back_order, true);
+  const std::size_t n_back = jobs.size();
+  add_side(front_order, false);
+  const bool focus_full = is_full(plan.focus);
+
+  // The layers in processing order (jobs, then the focus layer for the final pass). The
+  // first back layer and, without back layers, the focus layer are filled opaque.
+  std::vector<FusedLayer> units;
+  for (std::size_t i = 0; i < jobs.size(); ++i) units.push_back(layer_gen(jobs[i].k, jobs[i].back && i == 0));
+  if (focus_full) units.push_back(layer_gen(plan.focus, n_back == 0));
+  // Two push-pull pyramids: layer i + 1's level 1 is pulled during layer i's composite pass.
+  const Pyramid pyr[2] = {make_pyramid(ws, w, h, "layered.pp"), make_pyramid(ws, w, h, "layered.pq")};
+  const bool pyramid = pyr[0].levels > 1;
+  auto needs_pull = [&](std::size_t u) { return u < units.size() && units[u].fill && pyramid; };
+  auto finish_pull = [&](std::size_t u) {
+    pull_push_upper(pyr[u % 2]);
+    units[u].l1 = pyr[u % 2].val[1];
+  };
+  if (needs_pull(0)) {
+    pull_from_layer(units[0], *pyr[0].val[1], *pyr[0].wgt[1]);
+    finish_pull(0);
+  }
+
   struct Side {
     const Image* full = nullptr;
     const Image* half = nullptr;  // reduced by `factor`
     int factor = 2;
     bool has = false;
-  };
-  auto run_side = [&](const std::vector<int>& order, bool back_side, const std::string& name) {
-    std::vector<double> var_after(K, 0.0);
-    {
-      double pend = 0;
-      int last = -1;
-      for (int k : order) {
-        if (is_full(k)) {
-          if (last >= 0) var_after[last] = pend;
-          pend = 0;
-          last = k;
-        }
-        if (last >= 0) pend += plan.step_sigma[k] * plan.step_sigma[k];
-      }
-      if (last >= 0) var_after[last] = pend;
-    }
-    Side s;
     int flip = 0, flip_q = 0;
-    for (int k : order) {
-      if (!is_full(k)) continue;
-      const FusedLayer L = layer_gen(k, back_side && !s.has);
-      const AccRows A(s.has ? s.full : nullptr, s.has ? s.half : nullptr, s.factor);
-      const double var = var_after[k];
-      const double sigma = std::sqrt(var);
-      if (var > 0 && half_res && quarter_res && sigma >= 8.0) {
-        const int qw = (w + 3) / 4, qh = (h + 3) / 4;
-        Image& dst = ws.image(name + ".quarter" + std::to_string(flip_q), qw, qh, 4);
-        flip_q ^= 1;
-        composite_pass(L, A, back_side, nullptr, nullptr, &dst);
-        const double v = (sigma * sigma - 1.25 - 8.0 / 3.0) / 16.0;
-        if (v > 0) core::gaussian_blur(dst, static_cast<float>(std::sqrt(v)));
-        s.full = nullptr;
-        s.half = &dst;
-        s.factor = 4;
-      } else if (var > 0 && half_res && sigma >= 4.0) {
-        const int hw = (w + 1) / 2, hh = (h + 1) / 2;
-        Image& dst = ws.image(name + ".half" + std::to_string(flip), hw, hh, 4);
-        flip ^= 1;
-        composite_pass(L, A, back_side, nullptr, &dst);
-        const double v = (sigma * sigma - 0.25 - 2.0 / 3.0) / 4.0;
-        if (v > 0) core::gaussian_blur(dst, static_cast<float>(std::sqrt(v)));
-        s.full = nullptr;
-        s.half = &dst;
-        s.factor = 2;
-      } else {
-        Image& dst = ws.image(name + ".full", w, h, 4);
-        composite_pass(L, A, back_side, &dst, nullptr);
-        if (var > 0) core::gaussian_blur(dst, static_cast<float>(sigma));
-        s.full = &dst;
-        s.half = nullptr;
-      }
-      s.has = true;
-    }
-    return s;
   };
-  std::vector<int> back_order, front_order;
-  for (int k = K - 1; k > plan.focus; --k) back_order.push_back(k);
-  for (int k = 0; k < plan.focus; ++k) front_order.push_back(k);
-  const Side B = run_side(back_order, true, "layered.fb");
-  const Side F = run_side(front_order, false, "layered.ff");
+  Side B, F;
+  for (std::size_t i = 0; i < jobs.size(); ++i) {
+    const Job& job = jobs[i];
+    Side& s = job.back ? B : F;
+    const std::string name = job.back ? "layered.fb" : "layered.ff";
+    const FusedLayer& L = units[i];
+    NextPull next;
+    if (needs_pull(i + 1)) next = {&units[i + 1], pyr[(i + 1) % 2].val[1], pyr[(i + 1) % 2].wgt[1]};
+    const AccRows A(s.has ? s.full : nullptr, s.has ? s.half : nullptr, s.factor);
+    const double var = job.var;
+    const double sigma = std::sqrt(var);
+    if (var > 0 && half_res && quarter_res && sigma >= 8.0) {
+      const int qw = (w + 3) / 4, qh = (h + 3) / 4;
+      Image& dst = ws.image(name + ".quarter" + std::to_string(s.flip_q), qw, qh, 4);
+      s.flip_q ^= 1;
+      composite_pass(L, A, job.back, nullptr, nullptr, &dst, next);
+      const double v = (sigma * sigma - 1.25 - 8.0 / 3.0) / 16.0;
+      if (v > 0) core::gaussian_blur(dst, static_cast<float>(std::sqrt(v)));
+      s.full = nullptr;
+      s.half = &dst;
+      s.factor = 4;
+    } else if (var > 0 && half_res && sigma >= 4.0) {
+      const int hw = (w + 1) / 2, hh = (h + 1) / 2;
+      Image& dst = ws.image(name + ".half" + std::to_string(s.flip), hw, hh, 4);
+      s.flip ^= 1;
+      composite_pass(L, A, job.back, nullptr, &dst, nullptr, next);
+      const double v = (sigma * sigma - 0.25 - 2.0 / 3.0) / 4.0;
+      if (v > 0) core::gaussian_blur(dst, static_cast<float>(std::sqrt(v)));
+      s.full = nullptr;
+      s.half = &dst;
+      s.factor = 2;
+    } else {
+      Image& dst = ws.image(name + ".full", w, h, 4);
+      composite_pass(L, A, job.back, &dst, nullptr, nullptr, next);
+      if (var > 0) core::gaussian_blur(dst, static_cast<float>(sigma));
+      s.full = &dst;
+      s.half = nullptr;
+    }
+    s.has = true;
+    if (next.L) finish_pull(i + 1);
+  }
 
   // I = F over L_focus over B (final_composite's arithmetic; the focus layer on the fly).
-  const bool focus_full = is_full(plan.focus);
-  FusedLayer Lf;
-  if (focus_full) Lf = layer_gen(plan.focus, !B.has);
+  const FusedLayer* Lf = focus_full ? &units.back() : nullptr;
   const AccRows BR(B.full, B.half, B.factor), FR(F.full, F.half, F.factor);
   out.resize(w, h, 4);
   core::parallel_for(h, [&](int y0, int y1) {
@@ -1277,7 +1324,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     for (int y = y0; y < y1; ++y)
       for (int x0 = 0; x0 < w; x0 += kBlock) {
         const int n = std::min(kBlock, w - x0);
-        if (focus_full) Lf.get(y, x0, n, cur);
+        if (Lf) Lf->get(y, x0, n, cur);
         else
           for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
         if (BR.present()) {

@@ -331,8 +331,7 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
 // that are multiples of kResync, where the window sums are recomputed from scratch, so every
 // row's arithmetic is that of the whole-image sweep.
 void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                            int passes, float tiny, int y0, int y1,
-                            const std::function<void(int y, const float* const* rows)>& row_out) {
+                            int passes, float tiny, int y0, int y1, RowSink sink, void* ctx) {
   y0 = std::max(y0, 0);
   y1 = std::min(y1, h);
   if (w <= 0 || h <= 0 || nplanes <= 0 || y0 >= y1) return;
@@ -379,8 +378,9 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
 
   // First row each pass computes, walking back from the band: pass k must start at a
   // re-synchronisation row and cover the rows pass k + 1 reads.
-  std::vector<int> produced(static_cast<std::size_t>(passes) + 1);  // last row done, per pass; [passes] = horizontal
-  std::vector<int> first(static_cast<std::size_t>(passes) + 1);     // first row of each pass in this band
+  thread_local std::vector<int> produced, first;  // per pass: last row done, first row in this band
+  produced.assign(static_cast<std::size_t>(passes) + 1, 0);        // [passes] = the horizontal passes
+  first.assign(static_cast<std::size_t>(passes) + 1, 0);
   const bool carry = 2 * r + 1 <= kResync;
   const int acc_from = kResync - 2 * r - 1;  // block offset from which hi rows belong to the next window
   {
@@ -418,7 +418,7 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   };
 
   // Makes pass k (k = passes: the horizontal passes) produce rows up to j (clamped).
-  std::function<void(int, int)> need = [&](int k, int j) {
+  auto need = [&](auto&& self, int k, int j) -> void {
     j = std::min(j, h - 1);
     if (k == passes) {
       while (h_done < j) horizontal_strip();
@@ -426,7 +426,7 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
     }
     while (produced[k] < j) {
       const int i = produced[k] + 1;
-      need(k == 0 ? passes : k - 1, i + r + 1);
+      self(self, k == 0 ? passes : k - 1, i + r + 1);
       const int m = i % kResync;
       for (int p = 0; p < np; ++p) {
         const std::size_t sp = (static_cast<std::size_t>(k) * np + p) * row;
@@ -452,21 +452,16 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
     }
   };
 
-  const float* rows[64];
-  std::vector<const float*> rows_big;
-  const float** out_rows = rows;
-  if (nplanes > 64) {
-    rows_big.resize(nplanes);
-    out_rows = rows_big.data();
-  }
+  thread_local std::vector<const float*> out_rows;
+  out_rows.resize(nplanes);
   for (int p = 0; p < nplanes; ++p) out_rows[p] = outs + static_cast<std::size_t>(p) * row;
   for (int y = passes > 0 ? produced[passes - 1] + 1 : y0; y < y1; ++y) {
     const float* res_base;
     if (passes > 0) {
-      need(passes - 1, y);
+      need(need, passes - 1, y);
       res_base = last;
     } else {
-      need(0, y);  // no vertical pass: the weighted rows themselves
+      need(need, 0, y);  // no vertical pass: the weighted rows themselves
       for (int p = 0; p < np; ++p) {
         const float* in = input(0, p, y);
         std::copy(in, in + w, last + static_cast<std::size_t>(p) * row);
@@ -478,7 +473,7 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
     for (int p = 0; p < nplanes; ++p)
       normalise_row(res_base + static_cast<std::size_t>(p) * row, wt, src[p] + static_cast<std::size_t>(y) * w,
                     outs + static_cast<std::size_t>(p) * row, w, tiny);
-    row_out(y, out_rows);
+    sink(ctx, y, out_rows.data());
   }
 }
 

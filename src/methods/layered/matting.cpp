@@ -51,17 +51,30 @@ MatteStats matte_layer(const Fragments& frags, const LayerPlan& plan, int k, Ima
 }
 
 void coc_extremes(const Fragments& frags, double& near_px, double& far_px) {
+  // Row-parallel maxima, combined in row order (max is exact and order-free anyway).
+  const int w = frags.width(), h = frags.height();
+  std::vector<float> row_near(h, 0.0f), row_far(h, 0.0f);
+  core::parallel_for(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      float n = 0.0f, f = 0.0f;
+      for (std::size_t fr = 0; fr < frags.color.size(); ++fr) {
+        const float* a = frags.color[fr]->row(3, y);
+        const float* r = frags.coc[fr]->row(0, y);
+        for (int x = 0; x < w; ++x) {
+          if (!(a[x] > 0)) continue;
+          n = std::max(n, r[x]);
+          f = std::max(f, -r[x]);
+        }
+      }
+      row_near[y] = n;
+      row_far[y] = f;
+    }
+  }, 8);
   near_px = 0;
   far_px = 0;
-  const std::size_t n = frags.color.front()->plane_size();
-  for (std::size_t f = 0; f < frags.color.size(); ++f) {
-    const float* a = frags.color[f]->plane(3);
-    const float* r = frags.coc[f]->plane(0);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!(a[i] > 0)) continue;
-      near_px = std::max(near_px, static_cast<double>(r[i]));
-      far_px = std::max(far_px, -static_cast<double>(r[i]));
-    }
+  for (int y = 0; y < h; ++y) {
+    near_px = std::max(near_px, static_cast<double>(row_near[y]));
+    far_px = std::max(far_px, static_cast<double>(row_far[y]));
   }
 }
 

@@ -178,19 +178,26 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         const float* const* col = pad;
         const int cx0 = ox + R;  // padded x of output 0's centre
         const bool any_near_src = prep.any_near;
-        bool any_box = false;
+        int box_lo = wo, box_hi = -1;  // first and last output with a near centre
         for (int i = 0; i < wo; ++i) {
           r_a[i] = rb_pad[cx0 + f * i];
           nearness[i] = saturate(4.0f * r_a[i]);
-          any_box |= nearness[i] == 1.0f;
+          if (nearness[i] == 1.0f) {
+            box_lo = std::min(box_lo, i);
+            box_hi = i;
+          }
         }
+        const bool any_box = box_hi >= 0;
         // Near-centre box: output i's window is padded [ox + f·i, ox + f·i + 2R], i.e. with
         // 2R + 1 = f·qb + rem, the q whole f-blocks j = i .. i + qb − 1 of the grid starting at
         // ox plus the first rem pixels of block i + qb. So W(i) = PG[i + qb] − PG[i] +
         // Rm(i + qb) with G(j) the block sums, PG their prefix sums and Rm(j) the partial
         // block sums (all double): a running sum over ≈ P/f blocks instead of P pixels.
+        // Only the blocks j in [box_lo, box_hi + qb] are read (PG from box_lo on, relative to
+        // PG[box_lo] = 0: the differences are what counts).
         const int qb = (2 * R + 1) / f, rem = (2 * R + 1) % f, nb = wo + qb;
         if (any_box) {
+          const int j0 = box_lo, nj = box_hi - box_lo + qb + 1;
           for (int c = 0; c < 4; ++c) {
             double* PG = prefix + c * PST;
             double* RM = PG + (nb + 1);
@@ -198,14 +205,14 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             bs.ph_plane = ph + c * plane;
             bs.M = M;
             bs.f = f;
-            bs.x0 = ox;
+            bs.x0 = ox + f * j0;
             bs.rem = rem;
-            bs.nb = nb;
-            bs.G = PG + 1;  // block sums, turned into prefix sums in place
-            bs.Rm = RM;
+            bs.nb = nj;
+            bs.G = PG + j0 + 1;  // block sums, turned into prefix sums in place
+            bs.Rm = RM + j0;
             block_sums_simd(bs);
-            PG[0] = 0;
-            for (int j = 0; j < nb; ++j) PG[j + 1] += PG[j];
+            PG[j0] = 0;
+            for (int j = j0; j < j0 + nj; ++j) PG[j + 1] += PG[j];
           }
         }
         const float box_w = static_cast<float>(2 * R + 1);  // the plain pass's Σw (every w = 1)
@@ -248,11 +255,17 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         // instead of ten bin updates per source. Levels with few sources for their extent
         // keep the difference-array scatter. Both sums are double.
         std::fill_n(lvl_n, hbox + 1, 0);
-        for (int x = 0; x < P; ++x) {
-          const int h = near_h[x];
-          if (h < 0) continue;
-          if (lvl_n[h]++ == 0) lvl_lo[h] = x;
-          lvl_hi[h] = x;
+        if (prep.near_hmin == prep.near_hmax) {  // one level: the set-up's statistics
+          lvl_n[prep.near_hmin] = prep.near_count;
+          lvl_lo[prep.near_hmin] = prep.near_first;
+          lvl_hi[prep.near_hmin] = prep.near_last;
+        } else {
+          for (int x = prep.near_first; x <= prep.near_last; ++x) {
+            const int h = near_h[x];
+            if (h < 0) continue;
+            if (lvl_n[h]++ == 0) lvl_lo[h] = x;
+            lvl_hi[h] = x;
+          }
         }
         const std::size_t st = wo + 2;
         bool any_scatter = false, any_level = false;
@@ -296,7 +309,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         // The divisions by f below are by a compile-time constant (shifts / multiplies).
         auto scatter = [&](auto fc) {
           constexpr int F = decltype(fc)::value;
-          for (int x = 0; x < P; ++x) {
+          for (int x = prep.near_first; x <= prep.near_last; ++x) {
             const int h = near_h[x];
             if (h < 0 || lvl_n[h] < 0) continue;  // not near, or done by its level
             const float alpha = near_a[x];
@@ -338,8 +351,11 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
                 o[c][i] = static_cast<float>(q[c] + lv) * near_inv;
               }
           } else if (any_level) {
-            for (int c = 0; c < 5; ++c)
-              for (int i = 0; i < wo; ++i) o[c][i] = static_cast<float>(acc[c * static_cast<std::size_t>(wo) + i]) * near_inv;
+            for (int c = 0; c < 5; ++c) {
+              float* __restrict oc = o[c];
+              const double* __restrict ac = acc + c * static_cast<std::size_t>(wo);
+              for (int i = 0; i < wo; ++i) oc[i] = static_cast<float>(ac[i]) * near_inv;
+            }
           } else {
             for (int c = 0; c < 5; ++c) std::fill_n(o[c], wo, 0.0f);
           }
@@ -388,7 +404,9 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
 
   // Output rows in fixed chunks; each chunk keeps double sliding row sums of t_blur (radius R,
   // for near centres) and of t_near (radius hbox).
-  const int nchunk = std::min(ho, 32);
+  // Each chunk starts its sliding sums from scratch (2R+1 rows per channel), so fewer chunks
+  // read fewer rows; 16 still balances 2-4 threads.
+  const int nchunk = std::min(ho, 16);
   const std::size_t per_chunk = 2 * (9 * static_cast<std::size_t>(W) + 2 * (W + 64)) + 8;
   Image& scratch = ws.image("mcguire.fast.v_scratch", static_cast<int>(per_chunk), nchunk, 1);
   core::parallel_for(nchunk, [&](int c0, int c1) {

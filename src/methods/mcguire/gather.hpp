@@ -88,6 +88,8 @@ struct PrepRowJob {
   int hbox = 0;
   float inv_near = 0;
   bool alpha_code = true;  ///< saturate(4 r·inv_near)^4 (code) vs min(1, r·inv_near)^4 (prose)
+  // out (with near_h): sources with h >= 0: count, first and last x, smallest and largest h.
+  int near_count = 0, near_first = 0, near_last = -1, near_hmin = 0, near_hmax = -1;
 };
 constexpr int kPrepSlack = 80;
 

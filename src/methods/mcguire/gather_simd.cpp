@@ -271,7 +271,9 @@ void PrepRow(PrepRowJob& job) {
     // α as near_alpha_horizontal (d = 0): code a = saturate((4·r)·inv_near), prose
     // a = min(1, r·inv_near); then (a²)². Only multiplies: nothing to contract.
     const auto inv_near = hn::Set(df, job.inv_near), four = hn::Set(df, 4.0f);
-    const auto hbox = hn::Set(di, job.hbox), im1 = hn::Set(di, -1);
+    const auto hbox = hn::Set(di, job.hbox), im1 = hn::Set(di, -1), ibig = hn::Set(di, 1 << 30);
+    auto hmin = ibig, hmax = im1;
+    int count = 0, first_x = -1, last_x = -1;
     for (int x = 0; x < job.P; x += lanes) {
       const auto rb = hn::LoadU(df, job.rb_pad + x);
       const auto pos = hn::Gt(rb, zero);
@@ -284,6 +286,29 @@ void PrepRow(PrepRowJob& job) {
       // result is not used).
       const auto h = hn::Min(hn::ConvertTo(di, hn::IfThenElseZero(pos, rb)), hbox);
       hn::StoreU(hn::IfThenElse(hn::RebindMask(di, pos), h, im1), di, job.near_h + x);
+      // Statistics over x < P only (the last vector may run past P into the slack).
+      const auto in = hn::And(pos, hn::RebindMask(df, hn::Lt(hn::Iota(di, x), hn::Set(di, job.P))));
+      if (!hn::AllFalse(df, in)) {
+        const auto mi = hn::RebindMask(di, in);
+        hmin = hn::Min(hmin, hn::IfThenElse(mi, h, ibig));
+        hmax = hn::Max(hmax, hn::IfThenElse(mi, h, im1));
+        count += static_cast<int>(hn::CountTrue(df, in));
+        if (first_x < 0) first_x = x;
+        last_x = x;
+      }
+    }
+    job.near_count = count;
+    if (count > 0) {
+      alignas(64) int32_t lo[64], hi[64];
+      hn::Store(hmin, di, lo);
+      hn::Store(hmax, di, hi);
+      job.near_hmin = *std::min_element(lo, lo + lanes);
+      job.near_hmax = *std::max_element(hi, hi + lanes);
+      while (job.near_h[first_x] < 0) ++first_x;
+      last_x = std::min(last_x + lanes, job.P) - 1;
+      while (job.near_h[last_x] < 0) --last_x;
+      job.near_first = first_x;
+      job.near_last = last_x;
     }
   }
   const int f = job.f, M = job.M, mcount = (job.P + f - 1) / f;

@@ -337,6 +337,47 @@ inline void up_block(const float* plane, int cw, int ch, int y, int x0, int n, f
   kern::lerp_rows(top, bot, f.t, n, dst);
 }
 
+// Horizontally up-sampled coarse rows of one column block, kept while the rows of a band are
+// produced (a coarse row serves up to four fine rows): same values as up_block computes.
+struct HCache {
+  const Image* img = nullptr;
+  int x0 = -1, factor = 2;
+  int key[4] = {-1, -1, -1, -1};
+  int next = 0;
+  float v[4][4][kBlock];
+  void reset(const Image* im, int fac, int bx0) {
+    img = im;
+    factor = fac;
+    x0 = bx0;
+    key[0] = key[1] = key[2] = key[3] = -1;
+    next = 0;
+  }
+  // The 4 channels of coarse row cy, fine columns [x0, x0 + n).
+  float (*row(int cy, int n))[kBlock] {
+    for (int i = 0; i < 4; ++i)
+      if (key[i] == cy) return v[i];
+    const int i = next;
+    next = (next + 1) & 3;
+    key[i] = cy;
+    const int cw = img->width();
+    for (int c = 0; c < 4; ++c) {
+      const float* src = img->row(c, cy);
+      if (factor == 4) up_h4(src, cw, x0, n, v[i][c]);
+      else up_h(src, cw, x0, n, v[i][c]);
+    }
+    return v[i];
+  }
+  // The 2× / 4× up-sampling of all channels at fine row y (up_block's result).
+  void get(int y, int n, float (*dst)[kBlock]) {
+    int ya, yb;
+    float ty;
+    core::bilinear_footprint((y + 0.5f) * (factor == 4 ? 0.25f : 0.5f), img->height(), ya, yb, ty);
+    float (*a)[kBlock] = row(ya, n);
+    float (*b)[kBlock] = row(yb, n);
+    for (int c = 0; c < 4; ++c) kern::lerp_rows(a[c], b[c], ty, n, dst[c]);
+  }
+};
+
 // The banded ramp of anchors.cpp (same double arithmetic).
 inline double banded(double u, double band) {
   if (band <= 0) return u >= 0.5 ? 1.0 : 0.0;
@@ -649,9 +690,13 @@ struct AccRows {
   }
   bool present() const { return full || half; }
   // Pointers to the 4 channels of row y, columns [x0, x0 + n); `buf` receives up-sampled rows.
-  void get(int y, int x0, int n, float (*buf)[kBlock], const float* p[4]) const {
+  void get(int y, int x0, int n, float (*buf)[kBlock], const float* p[4], HCache* cache = nullptr) const {
     if (full) {
       for (int c = 0; c < 4; ++c) p[c] = full->row(c, y) + x0;
+    } else if (cache) {
+      if (cache->img != half || cache->x0 != x0) cache->reset(half, factor, x0);
+      cache->get(y, n, buf);
+      for (int c = 0; c < 4; ++c) p[c] = buf[c];
     } else {
       for (int c = 0; c < 4; ++c) {
         up_block(half->plane(c), half->width(), half->height(), y, x0, n, buf[c], factor);
@@ -869,7 +914,7 @@ struct FusedLayer {
     kern::matte_row(code + base, w0 + base, in, k, n, o, hb);
   }
   // The layer with its holes filled.
-  void get(int y, int x0, int n, float (*o)[kBlock]) const {
+  void get(int y, int x0, int n, float (*o)[kBlock], HCache* cache = nullptr) const {
     std::uint8_t hb[kBlock];
     matte(y, x0, n, o, fill ? hb : nullptr);
     if (!fill) return;
@@ -877,9 +922,14 @@ struct FusedLayer {
     for (int j = 0; j < n; ++j) any |= hb[j] != 0;
     if (!any) return;
     float up[4][kBlock];
-    for (int c = 0; c < 4; ++c) {
-      if (l1) up_block(l1->plane(c), l1->width(), l1->height(), y, x0, n, up[c]);
-      else std::copy(o[c], o[c] + n, up[c]);  // 1×1: the fill is the pixel itself
+    if (l1 && cache) {
+      if (cache->img != l1 || cache->x0 != x0) cache->reset(l1, 2, x0);
+      cache->get(y, n, up);
+    } else {
+      for (int c = 0; c < 4; ++c) {
+        if (l1) up_block(l1->plane(c), l1->width(), l1->height(), y, x0, n, up[c]);
+        else std::copy(o[c], o[c] + n, up[c]);  // 1×1: the fill is the pixel itself
+      }
     }
     if (l1) {
       kern::fill_row(hb, up, opaque, under, n, o);
@@ -959,7 +1009,14 @@ struct NextPull {
 void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, Image* dst_full, Image* dst_half,
                     Image* dst_quarter, const NextPull& next) {
   const int w = L.w, h = L.h;
-  auto crow = [&](int y, int x0, int n, float (*c)[kBlock], float (*tmp)[kBlock]) {
+  struct Scratch {
+    float rows[4][4][kBlock];
+    float tmp[4][kBlock];
+    float pr[2][4][kBlock];
+    std::uint8_t phb[2][kBlock];
+    HCache acc, fill;
+  };
+  auto crow = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s) {
     const FusedLayer::Cls cl = L.cls(y, x0);
     if (cl == FusedLayer::kEmptyKnown || (cl == FusedLayer::kEmptyHole && !L.fill)) {
       // L = 0 here: 0 over A = A and A over 0 = A (exactly, up to the sign of a zero).
@@ -968,97 +1025,75 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
         return;
       }
       const float* a[4];
-      A.get(y, x0, n, c, a);
+      A.get(y, x0, n, c, a, &s.acc);
       for (int ch = 0; ch < 4; ++ch)
         if (a[ch] != c[ch]) std::copy(a[ch], a[ch] + n, c[ch]);
       return;
     }
-    L.get(y, x0, n, c);
+    L.get(y, x0, n, c, &s.fill);
     if (!A.present()) return;
     const float* a[4];
-    A.get(y, x0, n, tmp, a);
+    A.get(y, x0, n, s.tmp, a, &s.acc);
     kern::over_rows(c, a, layer_in_front, n);
   };
-  struct Scratch {
-    float rows[4][4][kBlock];
-    float tmp[4][kBlock];
-    float pr[2][4][kBlock];
-    std::uint8_t phb[2][kBlock];
-  };
-  auto full_row = [&](int y, Scratch& s) {
-    for (int x0 = 0; x0 < w; x0 += kBlock) {
-      const int n = std::min(kBlock, w - x0);
-      crow(y, x0, n, s.rows[0], s.tmp);
-      for (int ch = 0; ch < 4; ++ch) std::copy(s.rows[0][ch], s.rows[0][ch] + n, dst_full->row(ch, y) + x0);
-    }
-  };
-  auto quarter_row = [&](int yq, Scratch& s) {  // composite.cpp blur_quarter_res's 4×4 box
-    Image& q = *dst_quarter;
-    int ys[4];
-    for (int dy = 0; dy < 4; ++dy) ys[dy] = std::min(4 * yq + dy, h - 1);
-    for (int x0 = 0; x0 < w; x0 += kBlock) {
-      const int n = std::min(kBlock, w - x0);
-      int src[4];  // which computed row holds fine row ys[dy]
-      for (int dy = 0; dy < 4; ++dy) {
-        src[dy] = dy;
-        if (dy > 0 && ys[dy] == ys[dy - 1]) src[dy] = src[dy - 1];
-        else crow(ys[dy], x0, n, s.rows[dy], s.tmp);
-      }
-      const int m = n / 4;  // quads inside the block (x0 is a multiple of 4)
-      for (int ch = 0; ch < 4; ++ch) {
-        const float* r[4];
-        for (int dy = 0; dy < 4; ++dy) r[dy] = s.rows[src[dy]][ch];
-        float* d = q.row(ch, yq);
-        kern::down_quads(r[0], r[1], r[2], r[3], m, d + x0 / 4);
-        for (int xq = x0 / 4 + m; xq < (x0 + n + 3) / 4; ++xq) {
-          float sum = 0.0f;
-          for (int dy = 0; dy < 4; ++dy)
-            for (int dx = 0; dx < 4; ++dx) sum += r[dy][std::min(4 * xq + dx, w - 1) - x0];
-          d[xq] = 0.0625f * sum;
-        }
-      }
-    }
-  };
-  auto half_row = [&](int yh, Scratch& s) {  // composite.cpp blur_half_res's 2×2 box
-    Image& half = *dst_half;
-    const int ya = 2 * yh, yb = std::min(2 * yh + 1, h - 1);
-    for (int x0 = 0; x0 < w; x0 += kBlock) {
-      const int n = std::min(kBlock, w - x0);
-      crow(ya, x0, n, s.rows[0], s.tmp);
-      float (*b)[kBlock] = s.rows[0];
-      if (yb != ya) {
-        crow(yb, x0, n, s.rows[1], s.tmp);
-        b = s.rows[1];
-      }
-      for (int ch = 0; ch < 4; ++ch) {
-        const float* pa = s.rows[0][ch];
-        const float* pb = b[ch];
-        float* d = half.row(ch, yh);
-        const int m = n / 2;  // pairs inside the block (x0 is even)
-        kern::down_pairs(pa, pb, m, d + x0 / 2);
-        for (int xh = x0 / 2 + m; xh < (x0 + n + 1) / 2; ++xh) {
-          const int xa = 2 * xh - x0, xb = std::min(2 * xh + 1, w - 1) - x0;
-          d[xh] = 0.25f * (pa[xa] + pa[xb] + pb[xa] + pb[xb]);
-        }
-      }
-    }
-  };
-  // Bands of 4 full-resolution rows: 4 full rows, 2 half rows or 1 quarter row of output,
-  // and the next layer's coarse rows 2b, 2b + 1 from the same input rows.
+  // Bands of 4 full-resolution rows, column block by column block: the composite of rows
+  // 4b … 4b + 3 (clamped to the image), then 4 full rows, 2 half rows (composite.cpp's 2×2
+  // box) or 1 quarter row (its 4×4 box) of output; then the next layer's coarse rows 2b,
+  // 2b + 1 from the same input rows.
   const int bands = (h + 3) / 4;
   const int hh = (h + 1) / 2;
   core::parallel_for(bands, [&](int b0, int b1) {
-    auto s = std::make_unique<Scratch>();
+    auto sp = std::make_unique<Scratch>();
+    Scratch& s = *sp;
     for (int b = b0; b < b1; ++b) {
-      if (dst_full) {
-        for (int y = 4 * b; y < std::min(4 * b + 4, h); ++y) full_row(y, *s);
-      } else if (dst_quarter) {
-        quarter_row(b, *s);
-      } else {
-        for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) half_row(yh, *s);
+      int ys[4], src[4];
+      for (int dy = 0; dy < 4; ++dy) ys[dy] = std::min(4 * b + dy, h - 1);
+      for (int x0 = 0; x0 < w; x0 += kBlock) {
+        const int n = std::min(kBlock, w - x0);
+        for (int dy = 0; dy < 4; ++dy) {
+          src[dy] = dy;
+          if (dy > 0 && ys[dy] == ys[dy - 1]) src[dy] = src[dy - 1];
+          else crow(ys[dy], x0, n, s.rows[dy], s);
+        }
+        if (dst_full) {
+          for (int dy = 0; dy < 4 && 4 * b + dy < h; ++dy)
+            for (int ch = 0; ch < 4; ++ch)
+              std::copy(s.rows[dy][ch], s.rows[dy][ch] + n, dst_full->row(ch, 4 * b + dy) + x0);
+        } else if (dst_quarter) {
+          Image& q = *dst_quarter;
+          const int m = n / 4;  // quads inside the block (x0 is a multiple of 4)
+          for (int ch = 0; ch < 4; ++ch) {
+            const float* r[4];
+            for (int dy = 0; dy < 4; ++dy) r[dy] = s.rows[src[dy]][ch];
+            float* d = q.row(ch, b);
+            kern::down_quads(r[0], r[1], r[2], r[3], m, d + x0 / 4);
+            for (int xq = x0 / 4 + m; xq < (x0 + n + 3) / 4; ++xq) {
+              float sum = 0.0f;
+              for (int dy = 0; dy < 4; ++dy)
+                for (int dx = 0; dx < 4; ++dx) sum += r[dy][std::min(4 * xq + dx, w - 1) - x0];
+              d[xq] = 0.0625f * sum;
+            }
+          }
+        } else {
+          Image& half = *dst_half;
+          for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
+            const int da = 2 * (yh - 2 * b);  // rows 2yh and min(2yh + 1, h − 1) of the band
+            for (int ch = 0; ch < 4; ++ch) {
+              const float* pa = s.rows[src[da]][ch];
+              const float* pb = s.rows[src[da + 1]][ch];
+              float* d = half.row(ch, yh);
+              const int m = n / 2;  // pairs inside the block (x0 is even)
+              kern::down_pairs(pa, pb, m, d + x0 / 2);
+              for (int xh = x0 / 2 + m; xh < (x0 + n + 1) / 2; ++xh) {
+                const int xa = 2 * xh - x0, xb = std::min(2 * xh + 1, w - 1) - x0;
+                d[xh] = 0.25f * (pa[xa] + pa[xb] + pb[xa] + pb[xb]);
+              }
+            }
+          }
+        }
       }
       if (next.L)
-        for (int yc = 2 * b; yc < std::min(2 * b + 2, hh); ++yc) pull_row(*next.L, yc, *next.cv, *next.cwt, s->pr, s->phb);
+        for (int yc = 2 * b; yc < std::min(2 * b + 2, hh); ++yc) pull_row(*next.L, yc, *next.cv, *next.cwt, s.pr, s.phb);
     }
   }, 1);
 }

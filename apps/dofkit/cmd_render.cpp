@@ -80,7 +80,10 @@ void check_method(const std::string& method, const std::map<std::string, std::st
     std::string keys, views;
     for (const auto& p : m.params) keys += (keys.empty() ? "" : ", ") + p.name;
     for (const auto& v : m.debug_views) views += (views.empty() ? "" : ", ") + v.name;
-    for (const auto& [key, value] : params) {
+    for (const auto& kv : params) {
+      // Not a structured binding: clang 14 cannot capture those in a lambda.
+      const std::string& key = kv.first;
+      const std::string& value = kv.second;
       const bool known = std::any_of(m.params.begin(), m.params.end(), [&](const ParamInfo& p) { return p.name == key; });
       if (!known)
         throw_usage("--set " + key + "=" + value + ": unknown parameter for method " + method +

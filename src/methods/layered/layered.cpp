@@ -107,6 +107,9 @@ void render_layered(const MethodContext& ctx, Image& out) {
   // count thin near objects up to 1 + u times).
   plan.band = ctx.params.get_double("matte_band", disc ? 0.25 : 1.0, 0.0, 1.0);
 
+  // The fused Gaussian stack (one fragment per pixel, no debug view): no layer is stored.
+  if (fast && !disc && render_gaussian_fused(ctx, frags, plan, half_res, quarter_res, do_fill, fill_under, out)) return;
+
   const int w = frame.width(), h = frame.height();
   Image plain_layer, plain_focus;
   std::vector<std::uint8_t> plain_hole;
@@ -193,7 +196,6 @@ void render_layered(const MethodContext& ctx, Image& out) {
     if (!front.has_content()) ctx.debug.offer("front", transparent);
   };
 
-  if (fast && !disc && render_gaussian_fused(ctx, frags, plan, half_res, quarter_res, do_fill, fill_under, out)) return;
   if (fast) {
     FastAccumulator back(ctx.workspace, "layered.back", half_res, quarter_res),
         front(ctx.workspace, "layered.front", half_res, quarter_res);

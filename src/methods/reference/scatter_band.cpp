@@ -44,7 +44,7 @@ void ScatterBandT(const BandJob& job) {
   const hn::RebindToSigned<decltype(d)> di;
   HWY_ALIGN float s_lim[S] = {}, s_ws[S] = {}, s_uq[S] = {}, s_isq[S] = {}, s_c0[S] = {}, s_c1[S] = {}, s_c2[S] = {},
                  s_c3[S] = {};
-  HWY_ALIGN int32_t s_qx[S] = {}, s_ext[S] = {}, s_off[S] = {}, s_lo[S] = {}, s_hi[S] = {};
+  HWY_ALIGN int32_t s_qx[S] = {}, s_ext[S] = {}, s_off[S] = {}, s_lo[S] = {}, s_hi[S] = {}, s_ilo[S] = {}, s_ihi[S] = {};
   static_assert(S <= 64, "source bits are kept in 64-bit masks");
   const auto mask_bits = [](auto tag, auto mask) {
     std::uint8_t bytes[8] = {};
@@ -101,6 +101,17 @@ void ScatterBandT(const BandJob& job) {
           const auto shi = hn::IfThenElse(active, hn::Min(hn::Add(qx, hw), wlast), neg_never);
           hn::Store(slo, di, s_lo + i);
           hn::Store(shi, di, s_hi + i);
+          // Interior [ilo, ihi], where the coverage is exactly 1: |dx| ≤ floor(sqrt(li² − dy²))
+          // with li = lim − 1.001. The float error of li² − dy² moves a lattice point's
+          // distance by at most ~li·1e-7 px, far inside the 1e-3 px margin, so lim − |p − q| ≥ 1
+          // holds in float there. ihi = kNever where the interior reaches the row end (the
+          // lanes past it are padding).
+          const auto li = hn::Sub(lim, hn::Set(d, 1.001f));
+          const auto inner = hn::And(active, hn::RebindMask(di, hn::Gt(li, hn::ConvertTo(d, vady))));
+          const auto hwi = hn::ConvertTo(di, hn::Sqrt(hn::Max(hn::Sub(hn::Mul(li, li), vdy2), zero)));
+          const auto ihi = hn::Add(qx, hwi);
+          hn::Store(hn::IfThenElse(inner, hn::Max(hn::Sub(qx, hwi), hn::Zero(di)), never), di, s_ilo + i);
+          hn::Store(hn::IfThenElse(inner, hn::IfThenElse(hn::Lt(ihi, wlast), ihi, never), neg_never), di, s_ihi + i);
           vlo = hn::Min(vlo, slo);
           vhi = hn::Max(vhi, shi);
         }
@@ -141,11 +152,13 @@ void ScatterBandT(const BandJob& job) {
           // applies to it (tested a vector of sources at a time). Each class is then added in
           // a loop of its own, which leaves the loops free of data-dependent branches; a
           // receiver's sum thus takes its sources in class order (the plain loop: row order).
-          std::uint64_t act = 0, all_b = 0, all_f = 0, no_behind = 0, no_front = 0;
+          std::uint64_t act = 0, inside = 0, all_b = 0, all_f = 0, no_behind = 0, no_front = 0;
           const auto vpx = hn::Set(di, px), vpxe = hn::Set(di, pxe);
           for (int i = 0; i < n; i += lanes) {
             const auto reach = hn::And(hn::Not(hn::Lt(hn::Load(di, s_hi + i), vpx)), hn::Not(hn::Gt(hn::Load(di, s_lo + i), vpxe)));
             act |= mask_bits(di, reach) << i;
+            inside |= mask_bits(di, hn::And(hn::Not(hn::Gt(hn::Load(di, s_ilo + i), vpx)),
+                                            hn::Not(hn::Lt(hn::Load(di, s_ihi + i), vpxe)))) << i;
             if (kDepthOrder) {
               const auto uq = hn::Load(d, s_uq + i);
               const auto le_min = hn::Le(uq, hn::Set(d, up_min)), ge_max = hn::Ge(uq, hn::Set(d, up_max));
@@ -163,7 +176,17 @@ void ScatterBandT(const BandJob& job) {
           };
           std::uint64_t bits = kDepthOrder ? act & all_b : act;
           act &= ~bits;
-          for (; bits; bits &= bits - 1) {  // all to B
+          const std::uint64_t b_rim = bits & ~inside;
+          for (bits &= inside; bits; bits &= bits - 1) {  // all to B, coverage 1
+            const int j = std::countr_zero(bits);
+            const auto wt = hn::Set(d, s_ws[j]);
+            b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
+            b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
+            b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
+            b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
+            bw = hn::Add(bw, wt);
+          }
+          for (bits = b_rim; bits; bits &= bits - 1) {  // all to B
             const int j = std::countr_zero(bits);
             const auto wt = weight(j);
             b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
@@ -174,7 +197,17 @@ void ScatterBandT(const BandJob& job) {
           }
           bits = act & all_f;
           act &= ~bits;
-          for (; bits; bits &= bits - 1) {  // all to F
+          const std::uint64_t f_rim = bits & ~inside;
+          for (bits &= inside; bits; bits &= bits - 1) {  // all to F, coverage 1
+            const int j = std::countr_zero(bits);
+            const auto wt = hn::Set(d, s_ws[j]);
+            f0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), f0);
+            f1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), f1);
+            f2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), f2);
+            f3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), f3);
+            fw = hn::Add(fw, wt);
+          }
+          for (bits = f_rim; bits; bits &= bits - 1) {  // all to F
             const int j = std::countr_zero(bits);
             const auto wt = weight(j);
             f0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), f0);

@@ -101,7 +101,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   auto up16 = [](std::size_t n) { return (n + 15) & ~std::size_t(15); };
   const std::size_t n_ph = up16(7 * static_cast<std::size_t>(f) * M), n_pad = up16(PS), n_wo = up16(wo + 32);
   const std::size_t n_lvl = up16(static_cast<std::size_t>(std::max(hbox, 0)) + 1);
-  const std::size_t n_float = n_ph + 10 * n_pad + 2 * n_wo + 3 * n_lvl;
+  const std::size_t n_float = n_ph + 10 * n_pad + 2 * n_wo + 3 * n_lvl + n_wo;
   const std::size_t PST = 2 * static_cast<std::size_t>(P) + 4;
   const std::size_t n_double =
       4 * PST + 5 * static_cast<std::size_t>(wo + 2) + 5 * static_cast<std::size_t>(P + 1) + 5 * static_cast<std::size_t>(wo);
@@ -129,7 +129,8 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
       int* lvl_n = reinterpret_cast<int*>(near_a + n_pad);      // per box half-width h <= hbox:
       int* lvl_lo = lvl_n + n_lvl;                              //   source count, first and
       int* lvl_hi = lvl_lo + n_lvl;                             //   last padded x
-      double* prefix = reinterpret_cast<double*>(lvl_hi + n_lvl);  // 4 × PST
+      int* blk_kind = lvl_hi + n_lvl;                           // per output block (n_wo / 32)
+      double* prefix = reinterpret_cast<double*>(blk_kind + n_wo);  // 4 × PST
       double* bins = prefix + 4 * PST;                             // 5 × (wo+2)
       double* lsum = bins + 5 * static_cast<std::size_t>(wo + 2);  // 5 × (P+1)
       double* acc = lsum + 5 * static_cast<std::size_t>(P + 1);    // 5 × wo
@@ -179,12 +180,18 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         const int cx0 = ox + R;  // padded x of output 0's centre
         const bool any_near_src = prep.any_near;
         int box_lo = wo, box_hi = -1;  // first and last output with a near centre
+        // Per block of kBlock outputs: bit 0 = some far/fractional centre (gather needed),
+        // bit 1 = some fractional nearness (no tap bound).
+        std::fill_n(blk_kind, (wo + kBlock - 1) / kBlock, 0);
         for (int i = 0; i < wo; ++i) {
           r_a[i] = rb_pad[cx0 + f * i];
-          nearness[i] = saturate(4.0f * r_a[i]);
-          if (nearness[i] == 1.0f) {
+          const float n = saturate(4.0f * r_a[i]);
+          nearness[i] = n;
+          if (n == 1.0f) {
             box_lo = std::min(box_lo, i);
             box_hi = i;
+          } else {
+            blk_kind[i / kBlock] |= n > 0.0f ? 3 : 1;
           }
         }
         const bool any_box = box_hi >= 0;
@@ -218,11 +225,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         const float box_w = static_cast<float>(2 * R + 1);  // the plain pass's Σw (every w = 1)
         for (int i0 = 0; i0 < wo; i0 += kBlock) {
           const int i1 = std::min(wo, i0 + kBlock);
-          bool gather = false, frac = false;
-          for (int i = i0; i < i1; ++i) {
-            gather |= nearness[i] < 1.0f;
-            frac |= nearness[i] > 0.0f && nearness[i] < 1.0f;
-          }
+          const bool gather = blk_kind[i0 / kBlock] != 0, frac = blk_kind[i0 / kBlock] > 1;
           if (gather) {
             int L = R;
             if (!frac) {
@@ -232,7 +235,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             }
             far_gather_outputs(taps, L, r_a, nearness, table, k.far_occlusion, t_blur, y, i0, i1);
           }
-          for (int i = i0; i < i1; ++i) {
+          for (int i = std::max(i0, box_lo); i < std::min(i1, box_hi + 1); ++i) {
             if (nearness[i] != 1.0f) continue;
             for (int c = 0; c < 4; ++c) {
               const double* PG = prefix + c * PST;
@@ -269,20 +272,31 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         }
         const std::size_t st = wo + 2;
         bool any_scatter = false, any_level = false;
+        int acc_lo = wo, acc_hi = -1;  // outputs reached by the levels
         for (int h = 0; h <= hbox; ++h) {
           const int n = lvl_n[h];
           if (n == 0) continue;
           const int ext = lvl_hi[h] - lvl_lo[h] + 1;
           // Cost model (instructions, measured order of magnitude): scatter ≈ 40 per source;
           // level ≈ 12 per pixel of the extent + 20 per output reached.
-          const bool level = 12 * ext + 20 * ((ext + 2 * h) / f + 1) < 40 * n;
-          if (!level) {
+          if (12 * ext + 20 * ((ext + 2 * h) / f + 1) < 40 * n) {
+            lvl_n[h] = -n;  // marks "done by level"
+            any_level = true;
+            acc_lo = std::min(acc_lo, std::max(0, ceil_div(lvl_lo[h] - h - cx0, f)));
+            acc_hi = std::max(acc_hi, std::min(wo - 1, floor_div(lvl_hi[h] + h - cx0, f)));
+          } else {
             any_scatter = true;
-            continue;
           }
-          lvl_n[h] = -n;  // marks "done by level"
-          if (!any_level) std::fill_n(acc, 5 * static_cast<std::size_t>(wo), 0.0);
-          any_level = true;
+        }
+        if (any_scatter) {  // the running sum below reads every output's level sum
+          acc_lo = 0;
+          acc_hi = wo - 1;
+        }
+        if (acc_hi >= acc_lo)
+          for (int c = 0; c < 5; ++c) std::fill_n(acc + c * static_cast<std::size_t>(wo) + acc_lo, acc_hi - acc_lo + 1, 0.0);
+        for (int h = 0; h <= hbox; ++h) {
+          if (lvl_n[h] >= 0) continue;
+          const int ext = lvl_hi[h] - lvl_lo[h] + 1;
           const int lo = lvl_lo[h], hi = lvl_hi[h];
           const std::size_t ls = ext + 1;
           double s[5] = {0, 0, 0, 0, 0};
@@ -354,7 +368,9 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             for (int c = 0; c < 5; ++c) {
               float* __restrict oc = o[c];
               const double* __restrict ac = acc + c * static_cast<std::size_t>(wo);
-              for (int i = 0; i < wo; ++i) oc[i] = static_cast<float>(ac[i]) * near_inv;
+              std::fill_n(oc, acc_lo, 0.0f);
+              for (int i = acc_lo; i <= acc_hi; ++i) oc[i] = static_cast<float>(ac[i]) * near_inv;
+              std::fill_n(oc + acc_hi + 1, wo - 1 - acc_hi, 0.0f);
             }
           } else {
             for (int c = 0; c < 5; ++c) std::fill_n(o[c], wo, 0.0f);
@@ -405,8 +421,8 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
   // Output rows in fixed chunks; each chunk keeps double sliding row sums of t_blur (radius R,
   // for near centres) and of t_near (radius hbox).
   // Each chunk starts its sliding sums from scratch (2R+1 rows per channel), so fewer chunks
-  // read fewer rows; 16 still balances 2-4 threads.
-  const int nchunk = std::min(ho, 16);
+  // read fewer rows; 8 still balances 2 threads (dynamic scheduling).
+  const int nchunk = std::min(ho, 8);
   const std::size_t per_chunk = 2 * (9 * static_cast<std::size_t>(W) + 2 * (W + 64)) + 8;
   Image& scratch = ws.image("mcguire.fast.v_scratch", static_cast<int>(per_chunk), nchunk, 1);
   core::parallel_for(nchunk, [&](int c0, int c1) {

@@ -32,6 +32,19 @@ void over(const Image& front, const Image& back, Image& dst) {
 
 namespace {
 
+// One row of core::sample_bilinear samples (its arithmetic and order: horizontal lerps, then
+// the vertical one). Deliberately not core::bilinear_row: that one is compiled per target,
+// and where a target has FMA the compiler may contract its lerps, which would make this
+// oracle's result depend on the machine (impl=fast must equal it bit for bit).
+void upsample_row(const float* ra, const float* rb, float ty, const int* xa, const int* xb, const float* tx, int n,
+                  float* dst) {
+  for (int x = 0; x < n; ++x) {
+    const float top = ra[xa[x]] + (ra[xb[x]] - ra[xa[x]]) * tx[x];
+    const float bot = rb[xa[x]] + (rb[xb[x]] - rb[xa[x]]) * tx[x];
+    dst[x] = top + (bot - top) * ty;
+  }
+}
+
 // Gaussian blur of σ >= 4 px at half resolution (algorithms.md §5.7 [our choice]): 2×2 box
 // down (per-axis variance (2² − 1)/12 = 1/4 px²), blur, bilinear up (a tent of half-width 2 px:
 // variance 2²/6 = 2/3 px²). The half-resolution σ' therefore satisfies
@@ -66,7 +79,7 @@ void blur_half_res(Image& img, double sigma) {
         int ya, yb;
         float ty;
         core::bilinear_footprint((y + 0.5f) * 0.5f, hh, ya, yb, ty);
-        core::bilinear_row(p + static_cast<std::size_t>(ya) * hw, p + static_cast<std::size_t>(yb) * hw, ty,
+        upsample_row(p + static_cast<std::size_t>(ya) * hw, p + static_cast<std::size_t>(yb) * hw, ty,
                            xa.data(), xb.data(), tx.data(), w, img.row(c, y));
       }
     }
@@ -110,7 +123,7 @@ void blur_quarter_res(Image& img, double sigma) {
         int ya, yb;
         float ty;
         core::bilinear_footprint((y + 0.5f) * 0.25f, qh, ya, yb, ty);
-        core::bilinear_row(p + static_cast<std::size_t>(ya) * qw, p + static_cast<std::size_t>(yb) * qw, ty,
+        upsample_row(p + static_cast<std::size_t>(ya) * qw, p + static_cast<std::size_t>(yb) * qw, ty,
                            xa.data(), xb.data(), tx.data(), w, img.row(c, y));
       }
     }

@@ -60,14 +60,17 @@ constexpr int kBlock = 32;  // outputs per tap-bound block
 /// Far gather of outputs [i0, i1) of row `row` of `dst` (planes 0-3) from the taps
 /// δ = −L … L of `taps` (2R + 1 entries pointing at output 0's sources); r_a and nearness
 /// are indexed by output from the row's start. Shared by the horizontal and vertical passes.
-void far_gather_outputs(const std::vector<GatherTap>& taps, int L, const float* r_a, const float* nearness,
-                        const float* table, bool occlusion, Image& dst, int row, int i0, int i1) {
+void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_stride, std::ptrdiff_t aux_stride,
+                        int L, const float* r_a, const float* nearness, const float* table, bool occlusion, Image& dst,
+                        int row, int i0, int i1) {
   // taps[R + d] is tap δ = d for output 0 (R = (taps.size() − 1) / 2); output i0 reads i0 on.
   GatherJob job;
   job.n = i1 - i0;
   job.ntaps = 2 * L + 1;
   job.taps = taps.data() + ((static_cast<int>(taps.size()) - 1) / 2 - L);
   job.tap_offset = i0;
+  job.col_stride = col_stride;
+  job.aux_stride = aux_stride;
   job.r_a = r_a + i0;
   job.nearness = nearness + i0;
   job.table = table;
@@ -140,10 +143,8 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         const int q = ox + R + d;
         const std::size_t at = static_cast<std::size_t>(q % f) * M + q / f;
         GatherTap& t = taps[R + d];
-        for (int c = 0; c < 4; ++c) t.col[c] = ph + c * plane + at;
-        t.den = ph + 4 * plane + at;
-        t.flag = ph + 5 * plane + at;
-        t.absb = ph + 6 * plane + at;
+        t.col = ph + at;             // planes 0-3, stride `plane`
+        t.aux = ph + 4 * plane + at;  // planes 4-6
         t.d5 = 5.0f * static_cast<float>(std::abs(d));
       }
       PrepRowJob prep;
@@ -233,7 +234,8 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
               for (int x = ox + f * i0; x <= ox + f * (i1 - 1) + 2 * R; ++x) m = std::max(m, reach[x]);
               L = std::min(R, m);
             }
-            far_gather_outputs(taps, L, r_a, nearness, table, k.far_occlusion, t_blur, y, i0, i1);
+            far_gather_outputs(taps, static_cast<std::ptrdiff_t>(plane), static_cast<std::ptrdiff_t>(plane), L, r_a,
+                               nearness, table, k.far_occlusion, t_blur, y, i0, i1);
           }
           for (int i = std::max(i0, box_lo); i < std::min(i1, box_hi + 1); ++i) {
             if (nearness[i] != 1.0f) continue;
@@ -483,10 +485,8 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
         for (int d = -R; d <= R; ++d) {
           const int b = std::clamp(a + d, 0, H - 1);
           GatherTap& t = taps[R + d];
-          for (int c = 0; c < 4; ++c) t.col[c] = t_blur.row(c, b);
-          t.den = aux.row(0, b);
-          t.flag = aux.row(1, b);
-          t.absb = aux.row(2, b);
+          t.col = t_blur.row(0, b);
+          t.aux = aux.row(0, b);
           t.d5 = 5.0f * static_cast<float>(std::abs(d));
         }
         const float* sa = t_blur.row(4, a);
@@ -508,7 +508,8 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
               for (int b = a - R; b <= a + R; ++b) m = std::max(m, reach.row(0, std::clamp(b, 0, H - 1))[blk]);
               L = std::min(R, static_cast<int>(m));
             }
-            far_gather_outputs(taps, L, r_a, nearness, table, k.far_occlusion, blur, j, i0, i1);
+            far_gather_outputs(taps, t_blur.row(1, 0) - t_blur.row(0, 0), aux.row(1, 0) - aux.row(0, 0), L, r_a,
+                               nearness, table, k.far_occlusion, blur, j, i0, i1);
           }
           for (int i = i0; i < i1; ++i) {
             if (nearness[i] != 1.0f) continue;

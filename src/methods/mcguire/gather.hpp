@@ -4,16 +4,20 @@
 // caller decides the geometry (phase-split rows for the horizontal pass, rows for the
 // vertical pass).
 #pragma once
+#include <cstddef>
 
 namespace dofkit::detail::mcguire {
 
-/// Per tap: pointers to the first output's source values; output o reads element o.
+/// Per tap: pointers to the first output's source values; output o reads element o. The
+/// planes of one tap lie at fixed strides (GatherJob), so a tap costs two pointer loads:
+///   col + c·col_stride   premultiplied RGBA of tap B, c = 0..3
+///   aux                  den = 0.001 + c·|r_B| (c = 0.5 book, 0.8 demo), computed exactly as blur_weights.hpp
+///   aux + aux_stride     flag: 1 if B is not near-field, 0 if it is (its far weight is 0)
+///   aux + 2·aux_stride   |r_B| px (read only with the far occlusion test)
 struct GatherTap {
-  const float* col[4];  ///< premultiplied RGBA of tap B
-  const float* den;     ///< 0.001 + c·|r_B| (c = 0.5 book, 0.8 demo), computed exactly as blur_weights.hpp
-  const float* flag;    ///< 1 if B is not near-field, 0 if it is (its far weight is 0)
-  const float* absb;    ///< |r_B| px (read only with the far occlusion test)
-  float d5;             ///< 5·|δ|
+  const float* col;
+  const float* aux;
+  float d5;  ///< 5·|δ|
 };
 
 struct GatherJob {
@@ -21,6 +25,7 @@ struct GatherJob {
   int ntaps = 0;
   const GatherTap* taps = nullptr;
   int tap_offset = 0;               ///< added to every tap pointer (the first output's index)
+  std::ptrdiff_t col_stride = 0, aux_stride = 0;
   const float* r_a = nullptr;       ///< centre radius px, n values
   const float* nearness = nullptr;  ///< saturate(4 r_A), n values
   const float* table = nullptr;     ///< 16 floats: the 7-entry weight table, then zeros

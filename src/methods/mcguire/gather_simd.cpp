@@ -20,34 +20,41 @@ namespace dofkit::detail::mcguire {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-void FarGather(const GatherJob& job) {
+template <bool kOcclusion>
+void FarGatherT(const GatherJob& job) {
   const hn::ScalableTag<float> df;
   const hn::RebindToSigned<decltype(df)> di;
   const int lanes = static_cast<int>(hn::Lanes(df));
   const auto one = hn::Set(df, 1.0f), zero = hn::Zero(df), six = hn::Set(df, 6.0f), c15 = hn::Set(df, 1.5f);
+  // ⌊q⌋ for q in [0, 6] without the range fix-ups of ConvertTo: ⌊q⌋ + 2^23 has the integer
+  // in its low mantissa bits, so subtracting the bits of 2^23 leaves it (exact).
+  const auto magic = hn::Set(df, 8388608.0f);
+  const auto magic_bits = hn::BitCast(di, magic);
   const bool permute = lanes >= 8 && lanes <= 16;
   const auto table = hn::LoadU(df, job.table);  // first `lanes` entries (16 are allocated)
   const int off = job.tap_offset;
+  const std::ptrdiff_t cs = job.col_stride, as = job.aux_stride;
   auto compute = [&](int o) {
     const auto n = hn::LoadU(df, job.nearness + o);
     const auto abs_a = hn::Abs(hn::LoadU(df, job.r_a + o));
     auto a0 = zero, a1 = zero, a2 = zero, a3 = zero, aw = zero;
     for (int t = 0; t < job.ntaps; ++t) {
       const GatherTap& tp = job.taps[t];
-      const int ot = o + off;
-      const auto q = hn::Div(hn::Set(df, tp.d5), hn::LoadU(df, tp.den + ot));
-      const auto idx = hn::ConvertTo(di, hn::Min(q, six));
+      const float* col = tp.col + o + off;
+      const float* aux = tp.aux + o + off;
+      const auto q = hn::Div(hn::Set(df, tp.d5), hn::LoadU(df, aux));
+      const auto idx = hn::Sub(hn::BitCast(di, hn::Add(hn::Floor(hn::Min(q, six)), magic)), magic_bits);
       auto wn = permute ? hn::TableLookupLanes(table, hn::IndicesFromVec(df, idx)) : hn::GatherIndex(df, job.table, idx);
-      wn = hn::Mul(wn, hn::LoadU(df, tp.flag + ot));
-      if (job.occlusion) {
-        const auto occ = hn::Add(hn::Sub(abs_a, hn::LoadU(df, tp.absb + ot)), c15);
+      wn = hn::Mul(wn, hn::LoadU(df, aux + as));
+      if (kOcclusion) {
+        const auto occ = hn::Add(hn::Sub(abs_a, hn::LoadU(df, aux + 2 * as)), c15);
         wn = hn::Mul(wn, hn::Min(hn::Max(occ, zero), one));
       }
       const auto w = hn::MulAdd(hn::Sub(one, wn), n, wn);
-      a0 = hn::MulAdd(w, hn::LoadU(df, tp.col[0] + ot), a0);
-      a1 = hn::MulAdd(w, hn::LoadU(df, tp.col[1] + ot), a1);
-      a2 = hn::MulAdd(w, hn::LoadU(df, tp.col[2] + ot), a2);
-      a3 = hn::MulAdd(w, hn::LoadU(df, tp.col[3] + ot), a3);
+      a0 = hn::MulAdd(w, hn::LoadU(df, col), a0);
+      a1 = hn::MulAdd(w, hn::LoadU(df, col + cs), a1);
+      a2 = hn::MulAdd(w, hn::LoadU(df, col + 2 * cs), a2);
+      a3 = hn::MulAdd(w, hn::LoadU(df, col + 3 * cs), a3);
       aw = hn::Add(aw, w);
     }
     hn::StoreU(hn::Div(a0, aw), df, job.out[0] + o);
@@ -68,18 +75,25 @@ void FarGather(const GatherJob& job) {
     float a[4] = {0, 0, 0, 0}, aw = 0;
     for (int t = 0; t < job.ntaps; ++t) {
       const GatherTap& tp = job.taps[t];
-      const float q = tp.d5 / tp.den[o + off];
-      float wn = job.table[q >= 6.0f ? 6 : static_cast<int>(q)] * tp.flag[o + off];
-      if (job.occlusion) {
-        const float occ = abs_a - tp.absb[o + off] + 1.5f;
+      const float* col = tp.col + o + off;
+      const float* aux = tp.aux + o + off;
+      const float q = tp.d5 / aux[0];
+      float wn = job.table[q >= 6.0f ? 6 : static_cast<int>(q)] * aux[as];
+      if (kOcclusion) {
+        const float occ = abs_a - aux[2 * as] + 1.5f;
         wn *= occ < 0 ? 0.0f : occ > 1 ? 1.0f : occ;
       }
       const float w = wn + (1.0f - wn) * job.nearness[o];
-      for (int c = 0; c < 4; ++c) a[c] += w * tp.col[c][o + off];
+      for (int c = 0; c < 4; ++c) a[c] += w * col[c * cs];
       aw += w;
     }
     for (int c = 0; c < 4; ++c) job.out[c][o] = a[c] / aw;
   }
+}
+
+void FarGather(const GatherJob& job) {
+  if (job.occlusion) FarGatherT<true>(job);
+  else FarGatherT<false>(job);
 }
 
 void CompositeRow(const CompositeRowJob& job) {
@@ -287,7 +301,7 @@ void PrepRow(PrepRowJob& job) {
       const auto h = hn::Min(hn::ConvertTo(di, hn::IfThenElseZero(pos, rb)), hbox);
       hn::StoreU(hn::IfThenElse(hn::RebindMask(di, pos), h, im1), di, job.near_h + x);
       // Statistics over x < P only (the last vector may run past P into the slack).
-      const auto in = hn::And(pos, hn::RebindMask(df, hn::Lt(hn::Iota(di, x), hn::Set(di, job.P))));
+      const auto in = x + lanes <= job.P ? pos : hn::And(pos, hn::FirstN(df, static_cast<std::size_t>(job.P - x)));
       if (!hn::AllFalse(df, in)) {
         const auto mi = hn::RebindMask(di, in);
         hmin = hn::Min(hmin, hn::IfThenElse(mi, h, ibig));

@@ -107,7 +107,8 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   const std::size_t n_float = n_ph + 10 * n_pad + 2 * n_wo + 3 * n_lvl + n_wo;
   const std::size_t PST = 2 * static_cast<std::size_t>(P) + 4;
   const std::size_t n_double =
-      4 * PST + 5 * static_cast<std::size_t>(wo + 2) + 5 * static_cast<std::size_t>(P + 1) + 5 * static_cast<std::size_t>(wo);
+      4 * PST + 5 * static_cast<std::size_t>(wo + 2) +
+      std::max(5 * static_cast<std::size_t>(P + 1), 10 * static_cast<std::size_t>(wo + R + 3)) + 5 * static_cast<std::size_t>(wo);
   const std::size_t per_chunk = n_float + 2 * n_double + 32;
   const int nchunk = std::min(H, 64);
   Image& scratch = ws.image("mcguire.fast.h_scratch", static_cast<int>(per_chunk), nchunk, 1);
@@ -136,7 +137,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
       double* prefix = reinterpret_cast<double*>(blk_kind + n_wo);  // 4 × PST
       double* bins = prefix + 4 * PST;                             // 5 × (wo+2)
       double* lsum = bins + 5 * static_cast<std::size_t>(wo + 2);  // 5 × (P+1)
-      double* acc = lsum + 5 * static_cast<std::size_t>(P + 1);    // 5 × wo
+      double* acc = lsum + std::max(5 * static_cast<std::size_t>(P + 1), 10 * static_cast<std::size_t>(wo + R + 3));  // 5 × wo
 
       // Taps of output 0 (padded x ox + R + δ), the same for every row of the chunk.
       for (int d = -R; d <= R; ++d) {
@@ -300,6 +301,40 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
           if (lvl_n[h] >= 0) continue;
           const int ext = lvl_hi[h] - lvl_lo[h] + 1;
           const int lo = lvl_lo[h], hi = lvl_hi[h];
+          const int ilo = std::max(0, ceil_div(lo - h - cx0, f));
+          const int ihi = std::min(wo - 1, floor_div(hi + h - cx0, f));
+          if (f == 2 || f == 4) {
+            // Blocks of f sources from x0 = x_ilo − h: output i's reach [x_i − h, x_i + h]
+            // (2h + 1 = f·qn + rn sources) is blocks i − ilo … i − ilo + qn − 1 plus rn
+            // sources of block i − ilo + qn; sources of other levels count 0 (masked), so no
+            // clamping to [lo, hi] is needed. The reach stays inside [0, P): x_i ± h with
+            // R <= x_i − ox < P − R.
+            const int qn = (2 * h + 1) / f, rn = (2 * h + 1) % f, nbl = ihi - ilo + qn + 1;
+            LevelBlocksJob lb;
+            for (int c = 0; c < 4; ++c) lb.col[c] = col[c];
+            lb.a = near_a;
+            lb.h = near_h;
+            lb.level = h;
+            lb.x0 = cx0 + f * ilo - h;
+            lb.f = f;
+            lb.rem = rn;
+            lb.nb = nbl;
+            const std::size_t ls = static_cast<std::size_t>(nbl) + 1;
+            for (int c = 0; c < 5; ++c) {
+              lb.G[c] = lsum + 2 * c * ls + 1;  // block sums, turned into prefix sums in place
+              lb.Rm[c] = lsum + (2 * c + 1) * ls;
+            }
+            level_blocks_simd(lb);
+            for (int c = 0; c < 5; ++c) {
+              double* PG = lsum + 2 * c * ls;
+              const double* RM = PG + ls;
+              PG[0] = 0;
+              for (int j = 0; j < nbl; ++j) PG[j + 1] += PG[j];
+              double* ac = acc + c * static_cast<std::size_t>(wo);
+              for (int i = ilo; i <= ihi; ++i) ac[i] += PG[i - ilo + qn] - PG[i - ilo] + RM[i - ilo + qn];
+            }
+            continue;
+          }
           const std::size_t ls = ext + 1;
           double s[5] = {0, 0, 0, 0, 0};
           for (int c = 0; c < 5; ++c) lsum[c * ls] = 0.0;
@@ -313,8 +348,6 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             for (int c = 0; c < 5; ++c) lsum[c * ls + at] = s[c];
           }
           // Outputs i with lo − h <= cx0 + f·i <= hi + h.
-          const int ilo = std::max(0, ceil_div(lo - h - cx0, f));
-          const int ihi = std::min(wo - 1, floor_div(hi + h - cx0, f));
           for (int i = ilo; i <= ihi; ++i) {
             const int xi = cx0 + f * i;
             const int b = std::max(lo, xi - h) - lo, e = std::min(hi, xi + h) - lo + 1;

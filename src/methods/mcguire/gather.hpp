@@ -122,4 +122,18 @@ struct BlockSumsJob {
 };
 void block_sums_simd(const BlockSumsJob& job);
 
+/// Block sums of one near-field level of the fast horizontal pass (f = 2 or 4): for the
+/// sources x with h[x] == level, v = (a[x]·col_c[x] (float product), a[x]), and for j < nb
+///   G[c][j] = Σ_{t<f} v_c(x0 + f·j + t),  Rm[c][j] = Σ_{t<rem} v_c(x0 + f·j + t)   (double).
+/// Reads up to x0 + f·nb (exclusive).
+struct LevelBlocksJob {
+  const float* col[4] = {};
+  const float* a = nullptr;
+  const int* h = nullptr;
+  int level = 0, x0 = 0, f = 4, rem = 0, nb = 0;
+  double* G[5] = {};
+  double* Rm[5] = {};
+};
+void level_blocks_simd(const LevelBlocksJob& job);
+
 }  // namespace dofkit::detail::mcguire

@@ -288,7 +288,9 @@ void PrepRow(PrepRowJob& job) {
     const auto hbox = hn::Set(di, job.hbox), im1 = hn::Set(di, -1), ibig = hn::Set(di, 1 << 30);
     auto hmin = ibig, hmax = im1;
     int count = 0, first_x = -1, last_x = -1;
-    for (int x = 0; x < job.P; x += lanes) {
+    // Up to 16 floats past P (inside the slack) so that block sums that run a few sources
+    // past the last output's reach read defined values.
+    for (int x = 0; x < job.P + 16; x += lanes) {
       const auto rb = hn::LoadU(df, job.rb_pad + x);
       const auto pos = hn::Gt(rb, zero);
       auto a = job.alpha_code ? hn::Min(hn::Max(hn::Mul(hn::Mul(four, rb), inv_near), zero), one)
@@ -301,6 +303,7 @@ void PrepRow(PrepRowJob& job) {
       const auto h = hn::Min(hn::ConvertTo(di, hn::IfThenElseZero(pos, rb)), hbox);
       hn::StoreU(hn::IfThenElse(hn::RebindMask(di, pos), h, im1), di, job.near_h + x);
       // Statistics over x < P only (the last vector may run past P into the slack).
+      if (x >= job.P) continue;
       const auto in = x + lanes <= job.P ? pos : hn::And(pos, hn::FirstN(df, static_cast<std::size_t>(job.P - x)));
       if (!hn::AllFalse(df, in)) {
         const auto mi = hn::RebindMask(di, in);
@@ -392,6 +395,77 @@ void BlockSums(const BlockSumsJob& job) {
   }
 }
 
+template <int F>
+void LevelBlocksF(const LevelBlocksJob& job) {
+  int j = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const hn::Repartition<double, decltype(df)> dd;  // half as many lanes
+  const hn::Half<decltype(df)> dh;
+  const int N = static_cast<int>(hn::Lanes(df)), Nd = static_cast<int>(hn::Lanes(dd));
+  const auto level = hn::Set(di, job.level);
+  using VF = hn::Vec<decltype(df)>;
+  for (; j + N <= job.nb; j += N) {
+    const std::size_t x = static_cast<std::size_t>(job.x0) + static_cast<std::size_t>(F) * j;
+    VF av[4], hv[4];
+    if (F == 4) {
+      hn::LoadInterleaved4(df, job.a + x, av[0], av[1], av[2], av[3]);
+      hn::LoadInterleaved4(df, reinterpret_cast<const float*>(job.h) + x, hv[0], hv[1], hv[2], hv[3]);
+    } else {
+      hn::LoadInterleaved2(df, job.a + x, av[0], av[1]);
+      hn::LoadInterleaved2(df, reinterpret_cast<const float*>(job.h) + x, hv[0], hv[1]);
+    }
+    for (int t = 0; t < F; ++t) av[t] = hn::IfThenElseZero(hn::RebindMask(df, hn::Eq(hn::BitCast(di, hv[t]), level)), av[t]);
+    for (int c = 0; c < 5; ++c) {
+      VF v[4];
+      if (c < 4) {
+        if (F == 4) hn::LoadInterleaved4(df, job.col[c] + x, v[0], v[1], v[2], v[3]);
+        else hn::LoadInterleaved2(df, job.col[c] + x, v[0], v[1]);
+        for (int t = 0; t < F; ++t) v[t] = hn::Mul(av[t], v[t]);
+      } else {
+        for (int t = 0; t < F; ++t) v[t] = av[t];
+      }
+      auto glo = hn::Zero(dd), ghi = hn::Zero(dd), plo = glo, phi = glo;
+      for (int t = 0; t < F; ++t) {
+        glo = hn::Add(glo, hn::PromoteTo(dd, hn::LowerHalf(dh, v[t])));
+        ghi = hn::Add(ghi, hn::PromoteTo(dd, hn::UpperHalf(dh, v[t])));
+        if (t + 1 == job.rem) {
+          plo = glo;
+          phi = ghi;
+        }
+      }
+      hn::StoreU(glo, dd, job.G[c] + j);
+      hn::StoreU(ghi, dd, job.G[c] + j + Nd);
+      hn::StoreU(plo, dd, job.Rm[c] + j);
+      hn::StoreU(phi, dd, job.Rm[c] + j + Nd);
+    }
+  }
+#endif
+  for (; j < job.nb; ++j) {
+    double g[5] = {0, 0, 0, 0, 0}, part[5] = {0, 0, 0, 0, 0};
+    for (int t = 0; t < F; ++t) {
+      const int x = job.x0 + F * j + t;
+      if (job.h[x] == job.level) {
+        const float a = job.a[x];
+        for (int c = 0; c < 4; ++c) g[c] += static_cast<double>(a * job.col[c][x]);
+        g[4] += a;
+      }
+      if (t + 1 == job.rem)
+        for (int c = 0; c < 5; ++c) part[c] = g[c];
+    }
+    for (int c = 0; c < 5; ++c) {
+      job.G[c][j] = g[c];
+      job.Rm[c][j] = part[c];
+    }
+  }
+}
+
+void LevelBlocks(const LevelBlocksJob& job) {
+  if (job.f == 4) LevelBlocksF<4>(job);
+  else LevelBlocksF<2>(job);
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::mcguire
 HWY_AFTER_NAMESPACE();
@@ -410,5 +484,7 @@ HWY_EXPORT(PrepRow);
 void prep_row_simd(PrepRowJob& job) { HWY_DYNAMIC_DISPATCH(PrepRow)(job); }
 HWY_EXPORT(BlockSums);
 void block_sums_simd(const BlockSumsJob& job) { HWY_DYNAMIC_DISPATCH(BlockSums)(job); }
+HWY_EXPORT(LevelBlocks);
+void level_blocks_simd(const LevelBlocksJob& job) { HWY_DYNAMIC_DISPATCH(LevelBlocks)(job); }
 }  // namespace dofkit::detail::mcguire
 #endif  // HWY_ONCE

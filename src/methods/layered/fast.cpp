@@ -556,8 +556,16 @@ void pull_push_upper(const Pyramid& p) {
               f1[k] = fine.row(k, 2 * y + 1) + 2 * x;
               o[k] = cv.row(k, y) + x;
             }
-            kern::pull_pairs_w(f0, f1, fwt.row(0, 2 * y) + 2 * x, fwt.row(0, 2 * y + 1) + 2 * x, m, o,
-                               cwt.row(0, y) + x);
+            const float* wa = fwt.row(0, 2 * y) + 2 * x;
+            const float* wb = fwt.row(0, 2 * y + 1) + 2 * x;
+            bool any = false;
+            for (int i = 0; i < 2 * m; ++i) any |= (wa[i] > 0) | (wb[i] > 0);
+            if (!any) {  // no child with confidence: Σ w = 0 gives value 0, confidence 0
+              for (int k = 0; k < 4; ++k) std::fill(o[k], o[k] + m, 0.0f);
+              std::fill(cwt.row(0, y) + x, cwt.row(0, y) + x + m, 0.0f);
+              continue;
+            }
+            kern::pull_pairs_w(f0, f1, wa, wb, m, o, cwt.row(0, y) + x);
           }
           x = full;
         }

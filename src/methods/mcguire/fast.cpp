@@ -456,8 +456,9 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
   // Output rows in fixed chunks; each chunk keeps double sliding row sums of t_blur (radius R,
   // for near centres) and of t_near (radius hbox).
   // Each chunk starts its sliding sums from scratch (2R+1 rows per channel), so fewer chunks
-  // read fewer rows; 8 still balances 2 threads (dynamic scheduling).
-  const int nchunk = std::min(ho, 8);
+  // read fewer rows; 16 keeps 2-4 threads balanced (8 read 6 M fewer instructions per 1080p
+  // frame but were no faster at 2 threads: the chunks differ in work).
+  const int nchunk = std::min(ho, 16);
   const std::size_t per_chunk = 2 * (9 * static_cast<std::size_t>(W) + 2 * (W + 64)) + 8;
   Image& scratch = ws.image("mcguire.fast.v_scratch", static_cast<int>(per_chunk), nchunk, 1);
   core::parallel_for(nchunk, [&](int c0, int c1) {

@@ -12,8 +12,11 @@
 //   double sliding row sums (vertical) in O(1) per output.
 // * Fractional nearness (only when focus_px < 0.25): the generic weight over all 2R+1 taps.
 // * Near field, horizontal: tap B adds α_B·(colour, 1) to every output within
-//   min(⌊r_B⌋, ⌈R_near⌉ − 1) px (the |δ| <= r_B test times the box |δ| < R_near) — a box
-//   scatter, done as a difference array over the output index + prefix sum (double).
+//   h_B = min(⌊r_B⌋, ⌈R_near⌉ − 1) px (the |δ| <= r_B test times the box |δ| < R_near) — a
+//   box scatter. Sources are grouped by h ("levels"): all sources of one level give every
+//   output the window sum of the level's (masked) sources, from block sums over f-pixel
+//   blocks + a prefix (SIMD for f = 2, 4), O(extent/f) per level. Levels with few sources for
+//   their extent keep the per-source difference array over the output index (double).
 //   Vertical: the box |δ| < R_near of the premultiplied rows, as a double sliding row sum.
 //
 // Box sums are exact in double up to the final rounding, so they differ from the plain

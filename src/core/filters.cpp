@@ -299,15 +299,4 @@ float sample_bilinear(const float* plane, int w, int h, float x, float y) {
   return top + (bot - top) * ty;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void bilinear_row(const float* ra, const float* rb, float ty, const int* xa, const int* xb, const float* tx,
-                  int n, float* dst) {
-  for (int x = 0; x < n; ++x) {
-    const float a0 = ra[xa[x]], a1 = ra[xb[x]], b0 = rb[xa[x]], b1 = rb[xb[x]];
-    const float top = a0 + (a1 - a0) * tx[x];
-    const float bot = b0 + (b1 - b0) * tx[x];
-    dst[x] = top + (bot - top) * ty;
-  }
-}
-
 }  // namespace dofkit::core

@@ -44,11 +44,6 @@ inline void bilinear_footprint(float x, int n, int& i0, int& i1, float& t) {
   i0 = k < 0 ? 0 : (k > n - 1 ? n - 1 : k);
   i1 = k + 1 < 0 ? 0 : (k + 1 > n - 1 ? n - 1 : k + 1);
 }
-/// One output row of bilinear samples between source rows ra (weight 1 − ty) and rb (ty),
-/// with per-column footprints (xa, xb, tx): bit-identical to sample_bilinear per pixel.
-void bilinear_row(const float* ra, const float* rb, float ty, const int* xa, const int* xb, const float* tx,
-                  int n, float* dst);
-
 /// Several passes of the same extended box along one axis, in place (fast form).
 void extended_box_passes_x(float* data, int w, int h, int r, float alpha, int passes);
 void extended_box_passes_y(float* data, int w, int h, int r, float alpha, int passes);

@@ -33,9 +33,9 @@ void over(const Image& front, const Image& back, Image& dst) {
 namespace {
 
 // One row of core::sample_bilinear samples (its arithmetic and order: horizontal lerps, then
-// the vertical one). Deliberately not core::bilinear_row: that one is compiled per target,
-// and where a target has FMA the compiler may contract its lerps, which would make this
-// oracle's result depend on the machine (impl=fast must equal it bit for bit).
+// the vertical one). Compiled for the baseline target only: where a target has FMA the
+// compiler may contract the lerps, which would make this oracle's result depend on the
+// machine (impl=fast must equal it bit for bit).
 void upsample_row(const float* ra, const float* rb, float ty, const int* xa, const int* xb, const float* tx, int n,
                   float* dst) {
   for (int x = 0; x < n; ++x) {

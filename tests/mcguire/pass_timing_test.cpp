@@ -3,7 +3,8 @@
 // renderer's own per-frame work (colour check, CoC from depth), which is what
 // docs/performance_mcguire.md splits. Run with
 //   test_mcguire --gtest_also_run_disabled_tests --gtest_filter=*PassTiming*
-// (MCGUIRE_TIMING_ITERS, default 12; MCGUIRE_TIMING_THREADS, default 1). Under
+// (MCGUIRE_TIMING_ITERS, default 12; MCGUIRE_TIMING_THREADS, default 1). It also prints a
+// checksum of the composite output (bit-identity checks between builds). Under
 // `valgrind --tool=callgrind` it gives the per-pass instruction counts quoted in the note.
 #include <gtest/gtest.h>
 
@@ -11,7 +12,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -65,6 +68,15 @@ TEST(McguirePassTiming, DISABLED_Demo1080p) {
       t[2].push_back(std::chrono::duration<double, std::milli>(t3 - t2).count());
     }
   });
+  // FNV-1a over the output's bits: changes that should keep the arithmetic can be checked
+  // for bit-identical output between builds.
+  std::uint64_t fnv = 1469598103934665603ull;
+  for (float v : out.data()) {
+    std::uint32_t b;
+    std::memcpy(&b, &v, 4);
+    fnv = (fnv ^ b) * 1099511628211ull;
+  }
+  std::printf("output checksum %016llx\n", static_cast<unsigned long long>(fnv));
   const char* names[3] = {"P2 horizontal", "P3 vertical", "P4 composite"};
   for (int i = 0; i < 3; ++i) {
     std::sort(t[i].begin(), t[i].end());

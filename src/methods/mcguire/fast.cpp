@@ -149,7 +149,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         GatherTap& t = taps[R + d];
         t.col = ph + at;             // planes 0-3, stride `plane`
         t.aux = ph + 4 * plane + at;  // planes 4-6
-        t.d5 = 5.0f * static_cast<float>(std::abs(d));
+        t.d5 = d == 0 ? kCentreD5 : 5.0f * static_cast<float>(std::abs(d));
       }
       PrepRowJob prep;
       for (int c = 0; c < 5; ++c) prep.pad[c] = pad[c];
@@ -443,7 +443,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
       float* absb = aux.row(2, y);
       for (int i = 0; i < W; ++i) {
         const float r_b = s[i] * rmax;
-        den[i] = den_of(k, r_b);
+        den[i] = in_near(r_b) ? 0.0f : den_of(k, r_b);  // 0: near, far weight 0 (gather.hpp)
         flag[i] = in_near(r_b) ? 0.0f : 1.0f;
         absb[i] = std::fabs(r_b);
       }
@@ -524,7 +524,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
           GatherTap& t = taps[R + d];
           t.col = t_blur.row(0, b);
           t.aux = aux.row(0, b);
-          t.d5 = 5.0f * static_cast<float>(std::abs(d));
+          t.d5 = d == 0 ? kCentreD5 : 5.0f * static_cast<float>(std::abs(d));
         }
         const float* sa = t_blur.row(4, a);
         for (int i = 0; i < W; ++i) {

@@ -11,13 +11,19 @@ namespace dofkit::detail::mcguire {
 /// Per tap: pointers to the first output's source values; output o reads element o. The
 /// planes of one tap lie at fixed strides (GatherJob), so a tap costs two pointer loads:
 ///   col + c·col_stride   premultiplied RGBA of tap B, c = 0..3
-///   aux                  den = 0.001 + c·|r_B| (c = 0.5 book, 0.8 demo), computed exactly as blur_weights.hpp
-///   aux + aux_stride     flag: 1 if B is not near-field, 0 if it is (its far weight is 0)
+///   aux                  den = 0.001 + c·|r_B| (c = 0.5 book, 0.8 demo), computed exactly as
+///                        blur_weights.hpp; 0 for a near-field B (its far weight is 0: with
+///                        d5 > 0, d5/0 = ∞ indexes the table's 0)
+///   aux + aux_stride     flag: 1 if B is not near-field, 0 if it is (not read by the gather)
 ///   aux + 2·aux_stride   |r_B| px (read only with the far occlusion test)
+/// d5 of the centre tap: positive so that a near source (den 0) gives ∞ → weight 0, and so
+/// small that a far source (den >= 0.001) still gives index ⌊1e-30 / den⌋ = 0, as δ = 0 does.
+constexpr float kCentreD5 = 1e-30f;
+
 struct GatherTap {
   const float* col;
   const float* aux;
-  float d5;  ///< 5·|δ|
+  float d5;  ///< 5·|δ|; the centre tap uses kCentreD5 instead of 0 (0/0 would be NaN)
 };
 
 struct GatherJob {

@@ -42,10 +42,10 @@ void FarGatherT(const GatherJob& job) {
       const GatherTap& tp = job.taps[t];
       const float* col = tp.col + o + off;
       const float* aux = tp.aux + o + off;
+      // Near sources store den = 0: q = d5/0 = ∞ → index 6 → weight 0, the far flag's job.
       const auto q = hn::Div(hn::Set(df, tp.d5), hn::LoadU(df, aux));
       const auto idx = hn::Sub(hn::BitCast(di, hn::Add(hn::Floor(hn::Min(q, six)), magic)), magic_bits);
       auto wn = permute ? hn::TableLookupLanes(table, hn::IndicesFromVec(df, idx)) : hn::GatherIndex(df, job.table, idx);
-      wn = hn::Mul(wn, hn::LoadU(df, aux + as));
       if (kOcclusion) {
         const auto occ = hn::Add(hn::Sub(abs_a, hn::LoadU(df, aux + 2 * as)), c15);
         wn = hn::Mul(wn, hn::Min(hn::Max(occ, zero), one));
@@ -78,7 +78,7 @@ void FarGatherT(const GatherJob& job) {
       const float* col = tp.col + o + off;
       const float* aux = tp.aux + o + off;
       const float q = tp.d5 / aux[0];
-      float wn = job.table[q >= 6.0f ? 6 : static_cast<int>(q)] * aux[as];
+      float wn = job.table[q >= 6.0f ? 6 : static_cast<int>(q)];
       if (kOcclusion) {
         const float occ = abs_a - aux[2 * as] + 1.5f;
         wn *= occ < 0 ? 0.0f : occ > 1 ? 1.0f : occ;
@@ -340,8 +340,9 @@ void PrepRow(PrepRowJob& job) {
       const std::size_t at = static_cast<std::size_t>(p) * M + m;
       const auto rb = hn::LoadU(df, abs_pl + at);
       const auto ab = hn::Abs(rb);
-      hn::StoreU(hn::Add(c0001, Opaque(hn::Mul(dc, ab))), df, den_pl + at);
-      hn::StoreU(hn::IfThenElse(hn::Gt(rb, q), zero, one), df, flag_pl + at);
+      const auto near = hn::Gt(rb, q);
+      hn::StoreU(hn::IfThenZeroElse(near, hn::Add(c0001, Opaque(hn::Mul(dc, ab)))), df, den_pl + at);
+      hn::StoreU(hn::IfThenElse(near, zero, one), df, flag_pl + at);
       hn::StoreU(ab, df, abs_pl + at);
     }
 }

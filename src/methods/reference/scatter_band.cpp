@@ -174,47 +174,42 @@ void ScatterBandT(const BandJob& job) {
             const auto cov = hn::Min(hn::Max(hn::Sub(hn::Set(d, s_lim[j]), dist), zero), one);
             return hn::Mul(cov, hn::Set(d, s_ws[j]));
           };
+          // wt·(colour, 1) into the B or the F sums.
+          const auto add_b = [&](auto wt, int j) {
+            b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
+            b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
+            b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
+            b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
+            bw = hn::Add(bw, wt);
+          };
+          const auto add_f = [&](auto wt, int j) {
+            f0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), f0);
+            f1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), f1);
+            f2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), f2);
+            f3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), f3);
+            fw = hn::Add(fw, wt);
+          };
           std::uint64_t bits = kDepthOrder ? act & all_b : act;
           act &= ~bits;
           const std::uint64_t b_rim = bits & ~inside;
           for (bits &= inside; bits; bits &= bits - 1) {  // all to B, coverage 1
             const int j = std::countr_zero(bits);
-            const auto wt = hn::Set(d, s_ws[j]);
-            b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
-            b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
-            b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
-            b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
-            bw = hn::Add(bw, wt);
+            add_b(hn::Set(d, s_ws[j]), j);
           }
           for (bits = b_rim; bits; bits &= bits - 1) {  // all to B
             const int j = std::countr_zero(bits);
-            const auto wt = weight(j);
-            b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
-            b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
-            b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
-            b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
-            bw = hn::Add(bw, wt);
+            add_b(weight(j), j);
           }
           bits = act & all_f;
           act &= ~bits;
           const std::uint64_t f_rim = bits & ~inside;
           for (bits &= inside; bits; bits &= bits - 1) {  // all to F, coverage 1
             const int j = std::countr_zero(bits);
-            const auto wt = hn::Set(d, s_ws[j]);
-            f0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), f0);
-            f1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), f1);
-            f2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), f2);
-            f3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), f3);
-            fw = hn::Add(fw, wt);
+            add_f(hn::Set(d, s_ws[j]), j);
           }
           for (bits = f_rim; bits; bits &= bits - 1) {  // all to F
             const int j = std::countr_zero(bits);
-            const auto wt = weight(j);
-            f0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), f0);
-            f1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), f1);
-            f2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), f2);
-            f3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), f3);
-            fw = hn::Add(fw, wt);
+            add_f(weight(j), j);
           }
           bits = act & no_behind;
           act &= ~bits;
@@ -223,16 +218,8 @@ void ScatterBandT(const BandJob& job) {
             const auto wt = weight(j);
             const auto rel = hn::Mul(hn::Sub(hn::Set(d, s_uq[j]), up), isu);
             const auto wf = hn::Mul(wt, hn::Min(rel, one)), wb = hn::Sub(wt, wf);
-            f0 = hn::MulAdd(wf, hn::Set(d, s_c0[j]), f0);
-            f1 = hn::MulAdd(wf, hn::Set(d, s_c1[j]), f1);
-            f2 = hn::MulAdd(wf, hn::Set(d, s_c2[j]), f2);
-            f3 = hn::MulAdd(wf, hn::Set(d, s_c3[j]), f3);
-            fw = hn::Add(fw, wf);
-            b0 = hn::MulAdd(wb, hn::Set(d, s_c0[j]), b0);
-            b1 = hn::MulAdd(wb, hn::Set(d, s_c1[j]), b1);
-            b2 = hn::MulAdd(wb, hn::Set(d, s_c2[j]), b2);
-            b3 = hn::MulAdd(wb, hn::Set(d, s_c3[j]), b3);
-            bw = hn::Add(bw, wb);
+            add_f(wf, j);
+            add_b(wb, j);
           }
           bits = act & no_front;
           act &= ~bits;
@@ -242,11 +229,7 @@ void ScatterBandT(const BandJob& job) {
             // 1 − pass = 1 − min(sharp_p / sharp_q, 1)
             const auto blocked = hn::Max(hn::NegMulAdd(sp, hn::Set(d, s_isq[j]), one), zero);
             const auto wt = hn::Mul(weight(j), hn::MulAdd(hn::Max(rel, neg_one), blocked, one));
-            b0 = hn::MulAdd(wt, hn::Set(d, s_c0[j]), b0);
-            b1 = hn::MulAdd(wt, hn::Set(d, s_c1[j]), b1);
-            b2 = hn::MulAdd(wt, hn::Set(d, s_c2[j]), b2);
-            b3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), b3);
-            bw = hn::Add(bw, wt);
+            add_b(wt, j);
           }
           for (bits = act; bits; bits &= bits - 1) {  // the general case
             const int j = std::countr_zero(bits);
@@ -256,16 +239,8 @@ void ScatterBandT(const BandJob& job) {
             const auto minus_behind = hn::Max(hn::Min(rel, zero), neg_one);
             const auto wt = hn::Mul(weight(j), hn::MulAdd(minus_behind, blocked, one));
             const auto wf = hn::Mul(wt, front), wb = hn::Sub(wt, wf);
-            f0 = hn::MulAdd(wf, hn::Set(d, s_c0[j]), f0);
-            f1 = hn::MulAdd(wf, hn::Set(d, s_c1[j]), f1);
-            f2 = hn::MulAdd(wf, hn::Set(d, s_c2[j]), f2);
-            f3 = hn::MulAdd(wf, hn::Set(d, s_c3[j]), f3);
-            fw = hn::Add(fw, wf);
-            b0 = hn::MulAdd(wb, hn::Set(d, s_c0[j]), b0);
-            b1 = hn::MulAdd(wb, hn::Set(d, s_c1[j]), b1);
-            b2 = hn::MulAdd(wb, hn::Set(d, s_c2[j]), b2);
-            b3 = hn::MulAdd(wb, hn::Set(d, s_c3[j]), b3);
-            bw = hn::Add(bw, wb);
+            add_f(wf, j);
+            add_b(wb, j);
           }
           hn::StoreU(f0, d, a[0] + px);
           hn::StoreU(f1, d, a[1] + px);

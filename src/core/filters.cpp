@@ -7,6 +7,7 @@
 #include <immintrin.h>
 
 #include "core/parallel.hpp"
+#include "core/strip_transpose.hpp"
 
 namespace dofkit::core {
 
@@ -121,7 +122,7 @@ void gaussian_blur_plain(Image& img, float sigma, int passes) {
 
 namespace {
 
-constexpr int kLanes = 16;
+constexpr int kLanes = strip::kStripLanes;
 constexpr int kResync = 32;
 
 /// Runs `passes` extended-box passes over a strip of n samples. a and b are strip buffers
@@ -190,23 +191,7 @@ inline void load_rows_transposed(const float* const* rows, int x0, int nx, float
     for (int j = 0; j < kLanes; ++j) dst[x * kLanes + j] = rows[j][x0 + x];
 }
 
-inline void store_rows_transposed(const float* src, int nx, float* const* rows, int nrows) {
-  int x = 0;
-  if (nrows == kLanes) {
-    for (; x + 4 <= nx; x += 4)
-      for (int j = 0; j < kLanes; j += 4) {
-        __m128 r0 = _mm_loadu_ps(src + (x + 0) * kLanes + j), r1 = _mm_loadu_ps(src + (x + 1) * kLanes + j);
-        __m128 r2 = _mm_loadu_ps(src + (x + 2) * kLanes + j), r3 = _mm_loadu_ps(src + (x + 3) * kLanes + j);
-        _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-        _mm_storeu_ps(rows[j] + x, r0);
-        _mm_storeu_ps(rows[j + 1] + x, r1);
-        _mm_storeu_ps(rows[j + 2] + x, r2);
-        _mm_storeu_ps(rows[j + 3] + x, r3);
-      }
-  }
-  for (; x < nx; ++x)
-    for (int j = 0; j < nrows; ++j) rows[j][x] = src[x * kLanes + j];
-}
+using strip::store_rows_transposed;
 
 }  // namespace
 

@@ -8,6 +8,7 @@
 
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
+#include "core/strip_transpose.hpp"
 
 namespace dofkit::core {
 
@@ -26,10 +27,10 @@ namespace dofkit::core {
 // strip_passes.
 namespace weighted_gaussian_detail {
 
-constexpr int kLanes = 16;
+constexpr int kLanes = strip::kStripLanes;
 constexpr int kResync = 32;
-constexpr int kBlock = 128;
-constexpr int kAhead = 4;    // rows prefetched ahead by the vertical sweep  // columns per block of the vertical sweep
+constexpr int kBlock = 128;  // columns per block of the vertical sweep
+constexpr int kAhead = 4;    // rows prefetched ahead by the vertical sweep
 
 /// `passes` extended-box passes (radius r, end weight alpha) over a strip of n samples in a,
 /// b is a second strip buffer; both have `pad` >= r + 1 border samples. Returns the buffer
@@ -122,24 +123,7 @@ inline void load_rows_transposed(const float* const* rows, int n, const float* m
       dst[x * kLanes + j] = mul ? rows[j][x] * mul[x * kLanes + j] : rows[j][x];
 }
 
-/// rows[j][x] = src[x · kLanes + j] for the first nrows lanes.
-inline void store_rows_transposed(const float* src, int n, float* const* rows, int nrows) {
-  int x = 0;
-  if (nrows == kLanes) {
-    for (; x + 4 <= n; x += 4)
-      for (int j = 0; j < kLanes; j += 4) {
-        __m128 r0 = _mm_loadu_ps(src + (x + 0) * kLanes + j), r1 = _mm_loadu_ps(src + (x + 1) * kLanes + j);
-        __m128 r2 = _mm_loadu_ps(src + (x + 2) * kLanes + j), r3 = _mm_loadu_ps(src + (x + 3) * kLanes + j);
-        _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-        _mm_storeu_ps(rows[j] + x, r0);
-        _mm_storeu_ps(rows[j + 1] + x, r1);
-        _mm_storeu_ps(rows[j + 2] + x, r2);
-        _mm_storeu_ps(rows[j + 3] + x, r3);
-      }
-  }
-  for (; x < n; ++x)
-    for (int j = 0; j < nrows; ++j) rows[j][x] = src[x * kLanes + j];
-}
+using strip::store_rows_transposed;
 
 /// One output row of one extended-box pass over nx lanes (same expression as strip_passes):
 /// out = (sum + alpha·(lo + hi))·norm, then the window slides: sum += hi − out_lo.

@@ -473,50 +473,57 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
       double* sum_b = reinterpret_cast<double*>(reinterpret_cast<std::uintptr_t>(nearness + W + 66) & ~std::uintptr_t(7));
       double* sum_n = sum_b + 4 * static_cast<std::size_t>(W);
       const int j0 = chunk_begin(ho, nchunk, chunk), j1 = chunk_begin(ho, nchunk, chunk + 1);
-      // Does any output row of the chunk have a near centre?
-      bool chunk_box = false;
-      for (int j = j0; j < j1 && !chunk_box; ++j) {
+      // Columns [box_c0, box_c1] hold every near centre of the chunk's output rows: the
+      // t_blur window sums (read only there) slide over those columns only.
+      int box_c0 = W, box_c1 = -1;
+      for (int j = j0; j < j1; ++j) {
         const float* sa = t_blur.row(4, oy + f * j);
-        for (int i = 0; i < W; ++i) chunk_box |= saturate(4.0f * (sa[i] * rmax)) == 1.0f;
+        for (int i = 0; i < W; ++i)
+          if (saturate(4.0f * (sa[i] * rmax)) == 1.0f) {
+            box_c0 = std::min(box_c0, i);
+            box_c1 = std::max(box_c1, i);
+          }
       }
+      const bool chunk_box = box_c1 >= 0;
       const float box_w = static_cast<float>(2 * R + 1);
       for (int j = j0; j < j1; ++j) {
         const int a = oy + f * j;
         if (j == j0) {
           // Window sums from scratch, 8 rows per pass.
-          auto init = [&](double* sum, const Image& img, int nc, int r) {
+          auto init = [&](double* sum, const Image& img, int nc, int r, int x0, int x1) {
             for (int c = 0; c < nc; ++c) {
-              double* dst = sum + c * static_cast<std::size_t>(W);
-              std::fill_n(dst, W, 0.0);
+              double* dst = sum + c * static_cast<std::size_t>(W) + x0;
+              std::fill_n(dst, x1 - x0, 0.0);
               for (int b0 = a - r; b0 <= a + r; b0 += 8) {
                 SlideRowsJob job;
                 job.dst = dst;
-                job.n = W;
+                job.n = x1 - x0;
                 for (int b = b0; b <= std::min(a + r, b0 + 7); ++b)
-                  job.plus[job.nplus++] = img.row(c, std::clamp(b, 0, H - 1));
+                  job.plus[job.nplus++] = img.row(c, std::clamp(b, 0, H - 1)) + x0;
                 slide_rows_simd(job);
               }
             }
           };
-          if (chunk_box) init(sum_b, t_blur, 4, R);
-          if (hbox >= 0) init(sum_n, t_near, 5, hbox);
+          if (chunk_box) init(sum_b, t_blur, 4, R, box_c0, box_c1 + 1);
+          if (hbox >= 0) init(sum_n, t_near, 5, hbox, 0, W);
         } else {
           // Rows entering (prev + r, a + r] and leaving [prev − r, a − r) the window, at most
           // f of each (f <= 4 <= 8), folded into one pass over the sums.
           const int prev = a - f;
-          auto slide = [&](double* sum, const Image& img, int nc, int r) {
+          auto slide = [&](double* sum, const Image& img, int nc, int r, int x0, int x1) {
             for (int c = 0; c < nc; ++c) {
               SlideRowsJob job;
-              job.dst = sum + c * static_cast<std::size_t>(W);
-              job.n = W;
-              for (int b = prev + r + 1; b <= a + r; ++b) job.plus[job.nplus++] = img.row(c, std::clamp(b, 0, H - 1));
+              job.dst = sum + c * static_cast<std::size_t>(W) + x0;
+              job.n = x1 - x0;
+              for (int b = prev + r + 1; b <= a + r; ++b)
+                job.plus[job.nplus++] = img.row(c, std::clamp(b, 0, H - 1)) + x0;
               for (int b = prev - r; b <= a - r - 1; ++b)
-                job.minus[job.nminus++] = img.row(c, std::clamp(b, 0, H - 1));
+                job.minus[job.nminus++] = img.row(c, std::clamp(b, 0, H - 1)) + x0;
               slide_rows_simd(job);
             }
           };
-          if (chunk_box) slide(sum_b, t_blur, 4, R);
-          if (hbox >= 0) slide(sum_n, t_near, 5, hbox);
+          if (chunk_box) slide(sum_b, t_blur, 4, R, box_c0, box_c1 + 1);
+          if (hbox >= 0) slide(sum_n, t_near, 5, hbox, 0, W);
         }
         // Taps of this output row: rows a + δ, clamped.
         for (int d = -R; d <= R; ++d) {

@@ -99,12 +99,30 @@ LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* _
     const int j0 = cd & 31;
     wk[j] = j0 == k ? w0[j] : ((j0 + 1 == k && (cd & 32)) ? 1.0f : 0.0f);
   }
+  // A layer covers a depth band, so inside a block its pixels come in runs: chunks of 32
+  // pixels with no non-zero matte are written as the 0 the formula gives there without
+  // reading the colour (the colour reads are what bounds this kernel).
+  constexpr int kChunk = 32;
+  bool live[256 / kChunk];
+  for (int j0 = 0; j0 < n; j0 += kChunk) {
+    bool any = false;
+    const int j1 = n < j0 + kChunk ? n : j0 + kChunk;
+    for (int j = j0; j < j1; ++j) any |= wk[j] > 0;
+    live[j0 / kChunk] = any;
+  }
   for (int c = 0; c < 4; ++c) {
     const float* __restrict src = in[c];
     float* __restrict dst = o[c];
-    for (int j = 0; j < n; ++j) {
-      const float t = (1.0f - 0.0f) * wk[j];
-      dst[j] = wk[j] > 0 ? 0.0f + t * src[j] : 0.0f;
+    for (int j0 = 0; j0 < n; j0 += kChunk) {
+      const int j1 = n < j0 + kChunk ? n : j0 + kChunk;
+      if (!live[j0 / kChunk]) {
+        for (int j = j0; j < j1; ++j) dst[j] = 0.0f;
+        continue;
+      }
+      for (int j = j0; j < j1; ++j) {
+        const float t = (1.0f - 0.0f) * wk[j];
+        dst[j] = wk[j] > 0 ? 0.0f + t * src[j] : 0.0f;
+      }
     }
   }
   if (hb)
@@ -161,6 +179,16 @@ LAYERED_SIMD void down_pairs(const float* __restrict a, const float* __restrict 
   for (int xh = 0; xh < m; ++xh) d[xh] = 0.25f * (a[2 * xh] + a[2 * xh + 1] + b[2 * xh] + b[2 * xh + 1]);
 }
 
+// The push at one pyramid level: v ← w v + (1 − w) up where w < 1 (as a select, so it
+// vectorises; a pixel with w >= 1 keeps its value).
+LAYERED_SIMD void push_row(const float* __restrict wr, const float* __restrict up, int n, float* __restrict v) {
+  for (int j = 0; j < n; ++j) {
+    const float wt = wr[j];
+    const float p = wt * v[j] + (1.0f - wt) * up[j];
+    v[j] = wt >= 1.0f ? v[j] : p;
+  }
+}
+
 // Pull of level 1 from two level-0 rows for coarse pixels [0, m) whose 2×2 children all lie
 // in the image: children (0,0), (1,0), (0,1), (1,1) in pull_level's order; a hole child is
 // skipped there, here it adds +0 (exact: the sums start at +0 and never become −0).
@@ -177,16 +205,24 @@ LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint
     s += h1[2 * x] ? 0.0 : 1.0;
     s += h1[2 * x + 1] ? 0.0 : 1.0;
     sw[x] = s;
-    cw[x] = static_cast<float>(std::min(1.0, s / 4.0));
+    cw[x] = static_cast<float>(s / 4.0 < 1.0 ? s / 4.0 : 1.0);  // std::min(1.0, s / 4.0)
   }
+  // Mask the holes on the contiguous fine rows (a blend), then de-interleave with plain
+  // strided copies: both vectorise, the masked strided form did not. (No std:: helpers in
+  // these kernels: a different target attribute stops them from being inlined.)
   for (int c = 0; c < 4; ++c) {
     const float* __restrict a = r0[c];
     const float* __restrict b = r1[c];
+    float z0[256], z1[256];
+    for (int j = 0; j < 2 * m; ++j) {
+      z0[j] = h0[j] ? 0.0f : a[j];
+      z1[j] = h1[j] ? 0.0f : b[j];
+    }
     for (int x = 0; x < m; ++x) {
-      e0[x] = h0[2 * x] ? 0.0f : a[2 * x];
-      o0[x] = h0[2 * x + 1] ? 0.0f : a[2 * x + 1];
-      e1[x] = h1[2 * x] ? 0.0f : b[2 * x];
-      o1[x] = h1[2 * x + 1] ? 0.0f : b[2 * x + 1];
+      e0[x] = z0[2 * x];
+      o0[x] = z0[2 * x + 1];
+      e1[x] = z1[2 * x];
+      o1[x] = z1[2 * x + 1];
     }
     float* __restrict d = cv[c];
     for (int x = 0; x < m; ++x) {
@@ -213,7 +249,7 @@ LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, c
     s += w1[2 * x] > 0 ? static_cast<double>(w1[2 * x]) : 0.0;
     s += w1[2 * x + 1] > 0 ? static_cast<double>(w1[2 * x + 1]) : 0.0;
     sw[x] = s;
-    cw[x] = static_cast<float>(std::min(1.0, s / 4.0));
+    cw[x] = static_cast<float>(s / 4.0 < 1.0 ? s / 4.0 : 1.0);  // std::min(1.0, s / 4.0)
   }
   for (int c = 0; c < 4; ++c) {
     const float* __restrict a = f0[c];
@@ -602,12 +638,7 @@ void pull_push_upper(const Pyramid& p) {
           if (!any) continue;
           for (int k = 0; k < 4; ++k) {
             up_block(cv.plane(k), cw, ch, y, x0, n, up);
-            float* v = fv.row(k, y) + x0;
-            for (int j = 0; j < n; ++j) {
-              const float wt = wr[x0 + j];
-              if (wt >= 1.0f) continue;
-              v[j] = wt * v[j] + (1.0f - wt) * up[j];
-            }
+            kern::push_row(wr + x0, up, n, fv.row(k, y) + x0);
           }
         }
       }

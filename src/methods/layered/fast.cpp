@@ -198,12 +198,15 @@ LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint
   // in double in pull_level's order.
   float e0[128], o0[128], e1[128], o1[128];
   double sw[128];
+  // Σ w over the children is the count of non-hole children (0 … 4: exact in float too);
+  // counted from contiguous 0 / 1 rows so the loops vectorise.
+  float n0[256], n1[256];
+  for (int j = 0; j < 2 * m; ++j) {
+    n0[j] = h0[j] ? 0.0f : 1.0f;
+    n1[j] = h1[j] ? 0.0f : 1.0f;
+  }
   for (int x = 0; x < m; ++x) {
-    double s = 0;
-    s += h0[2 * x] ? 0.0 : 1.0;
-    s += h0[2 * x + 1] ? 0.0 : 1.0;
-    s += h1[2 * x] ? 0.0 : 1.0;
-    s += h1[2 * x + 1] ? 0.0 : 1.0;
+    const double s = static_cast<double>(n0[2 * x] + n0[2 * x + 1] + n1[2 * x] + n1[2 * x + 1]);
     sw[x] = s;
     cw[x] = static_cast<float>(s / 4.0 < 1.0 ? s / 4.0 : 1.0);  // std::min(1.0, s / 4.0)
   }
@@ -242,23 +245,36 @@ LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, c
                                const float* __restrict w1, int m, float* const* cv, float* __restrict cw) {
   double sw[128];
   float e0[128], o0[128], e1[128], o1[128];
+  // The same skip-and-sum on contiguous rows first (masked weights and products: a child of
+  // confidence <= 0 becomes +0, which adds exactly what skipping adds), then plain strided
+  // de-interleaves: all of it vectorises.
+  float m0[256], m1[256];
+  for (int j = 0; j < 2 * m; ++j) {
+    m0[j] = w0[j] > 0 ? w0[j] : 0.0f;
+    m1[j] = w1[j] > 0 ? w1[j] : 0.0f;
+  }
   for (int x = 0; x < m; ++x) {
     double s = 0;
-    s += w0[2 * x] > 0 ? static_cast<double>(w0[2 * x]) : 0.0;
-    s += w0[2 * x + 1] > 0 ? static_cast<double>(w0[2 * x + 1]) : 0.0;
-    s += w1[2 * x] > 0 ? static_cast<double>(w1[2 * x]) : 0.0;
-    s += w1[2 * x + 1] > 0 ? static_cast<double>(w1[2 * x + 1]) : 0.0;
+    s += static_cast<double>(m0[2 * x]);
+    s += static_cast<double>(m0[2 * x + 1]);
+    s += static_cast<double>(m1[2 * x]);
+    s += static_cast<double>(m1[2 * x + 1]);
     sw[x] = s;
     cw[x] = static_cast<float>(s / 4.0 < 1.0 ? s / 4.0 : 1.0);  // std::min(1.0, s / 4.0)
   }
   for (int c = 0; c < 4; ++c) {
     const float* __restrict a = f0[c];
     const float* __restrict b = f1[c];
+    float z0[256], z1[256];
+    for (int j = 0; j < 2 * m; ++j) {
+      z0[j] = w0[j] > 0 ? w0[j] * a[j] : 0.0f;
+      z1[j] = w1[j] > 0 ? w1[j] * b[j] : 0.0f;
+    }
     for (int x = 0; x < m; ++x) {
-      e0[x] = w0[2 * x] > 0 ? w0[2 * x] * a[2 * x] : 0.0f;
-      o0[x] = w0[2 * x + 1] > 0 ? w0[2 * x + 1] * a[2 * x + 1] : 0.0f;
-      e1[x] = w1[2 * x] > 0 ? w1[2 * x] * b[2 * x] : 0.0f;
-      o1[x] = w1[2 * x + 1] > 0 ? w1[2 * x + 1] * b[2 * x + 1] : 0.0f;
+      e0[x] = z0[2 * x];
+      o0[x] = z0[2 * x + 1];
+      e1[x] = z1[2 * x];
+      o1[x] = z1[2 * x + 1];
     }
     float* __restrict d = cv[c];
     for (int x = 0; x < m; ++x) {
@@ -1392,18 +1408,29 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   const FusedLayer* Lf = focus_full ? &units.back() : nullptr;
   const AccRows BR(B.full, B.half, B.factor), FR(F.full, F.half, F.factor);
   out.resize(w, h, 4);
-  core::parallel_for(h, [&](int y0, int y1) {
+  // Bands of 4 rows, column block by column block, so the horizontally up-sampled coarse
+  // rows of B, F and the focus layer's fill are computed once per band (HCache), not twice
+  // per fine row.
+  struct FinalScratch {
     float fb[4][kBlock], bb[4][kBlock];
     float cur[4][kBlock];
-    for (int y = y0; y < y1; ++y)
-      for (int x0 = 0; x0 < w; x0 += kBlock) {
+    HCache bc, fc, lc;
+  };
+  core::parallel_for((h + 3) / 4, [&](int b0, int b1) {
+    auto sp = std::make_unique<FinalScratch>();
+    auto& fb = sp->fb;
+    auto& bb = sp->bb;
+    auto& cur = sp->cur;
+    for (int b = b0; b < b1; ++b)
+      for (int x0 = 0; x0 < w; x0 += kBlock)
+        for (int y = 4 * b; y < std::min(h, 4 * b + 4); ++y) {
         const int n = std::min(kBlock, w - x0);
-        if (Lf) Lf->get(y, x0, n, cur);
+        if (Lf) Lf->get(y, x0, n, cur, &sp->lc);
         else
           for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
         if (BR.present()) {
           const float* b[4];
-          BR.get(y, x0, n, bb, b);
+          BR.get(y, x0, n, bb, b, &sp->bc);
           float t[kBlock];
           for (int i = 0; i < n; ++i) t[i] = 1.0f - cur[3][i];
           for (int c = 0; c < 4; ++c)
@@ -1411,7 +1438,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
         }
         if (FR.present()) {
           const float* f[4];
-          FR.get(y, x0, n, fb, f);
+          FR.get(y, x0, n, fb, f, &sp->fc);
           float t[kBlock];
           for (int i = 0; i < n; ++i) t[i] = 1.0f - f[3][i];
           for (int c = 0; c < 4; ++c)
@@ -1419,7 +1446,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
         }
         for (int c = 0; c < 4; ++c) std::copy(cur[c], cur[c] + n, out.row(c, y) + x0);
       }
-  }, 4);
+  }, 1);
   g_fused_renders.fetch_add(1);
   return true;
 }

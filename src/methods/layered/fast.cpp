@@ -103,12 +103,17 @@ LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* _
   // pixels with no non-zero matte are written as the 0 the formula gives there without
   // reading the colour (the colour reads are what bounds this kernel).
   constexpr int kChunk = 32;
+  // wk > 0 exactly where the pixel's code names layer k (j0 = k, or j0 = k − 1 with the
+  // second layer at weight 1; a coded w0 is > 0): an integer OR-reduction, which vectorises.
   bool live[256 / kChunk];
   for (int j0 = 0; j0 < n; j0 += kChunk) {
-    bool any = false;
+    unsigned any = 0;
     const int j1 = n < j0 + kChunk ? n : j0 + kChunk;
-    for (int j = j0; j < j1; ++j) any |= wk[j] > 0;
-    live[j0 / kChunk] = any;
+    for (int j = j0; j < j1; ++j) {
+      const unsigned cd = code[j], jj = cd & 31u;
+      any |= (jj == static_cast<unsigned>(k)) | ((jj + 1u == static_cast<unsigned>(k)) & (cd >> 5));
+    }
+    live[j0 / kChunk] = any != 0;
   }
   for (int c = 0; c < 4; ++c) {
     const float* __restrict src = in[c];

@@ -184,6 +184,29 @@ LAYERED_SIMD void down_pairs(const float* __restrict a, const float* __restrict 
   for (int xh = 0; xh < m; ++xh) d[xh] = 0.25f * (a[2 * xh] + a[2 * xh + 1] + b[2 * xh] + b[2 * xh + 1]);
 }
 
+// Summary of one row block of the code pass (render_gaussian_fused): pres = the layers any
+// pixel has a non-zero matte in, hk = smallest | largest hole start << 8, and into ne the
+// layers with a non-zero matted alpha: layer j0 where 0 + (1 − 0)·w0·a > 0 (that is,
+// w0·a > 0), layer j0 + 1 (weight 1) where 0 + 1·a > 0, always true for a coded pixel
+// (a > 0). The no-layer code j0 = 31 only ever sets bit 31 (masked; layers are < 17) and
+// never the second-layer bit.
+LAYERED_SIMD void code_summary(const std::uint16_t* __restrict code, const float* __restrict w0,
+                               const float* __restrict a, int n, std::uint32_t* pres, std::uint32_t* hk,
+                               std::uint32_t* ne) {
+  std::uint32_t p = 0, e = 0, mn = 255, mx = 0;
+  for (int j = 0; j < n; ++j) {
+    const std::uint32_t cd = code[j], j0 = cd & 31u, hkc = cd >> 6;
+    const std::uint32_t b0 = 1u << j0, b1 = ((cd >> 5) & 1u) << ((j0 + 1u) & 31u);
+    p |= b0 | b1;
+    e |= (w0[j] * a[j] > 0 ? b0 : 0u) | b1;
+    mn = hkc < mn ? hkc : mn;
+    mx = hkc > mx ? hkc : mx;
+  }
+  *pres = p & 0x7fffffffu;
+  *hk = mn | (mx << 8);
+  *ne |= e & 0x7fffffffu;
+}
+
 // The push at one pyramid level: v ← w v + (1 − w) up where w < 1 (as a select, so it
 // vectorises; a pixel with w >= 1 keeps its value).
 LAYERED_SIMD void push_row(const float* __restrict wr, const float* __restrict up, int n, float* __restrict v) {
@@ -1260,27 +1283,14 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
             ho |= ((1u << K) - 1u) & ~((1u << hk) - 1u);
           }
         }
-        if (j0 != kNoLayer) {
-          const float t = (1.0f - 0.0f) * wv;
-          if (0.0f + t * a > 0) ne |= 1u << j0;
-          if (second && 0.0f + 1.0f * a > 0) ne |= 1u << (j0 + 1);
-        }
         code[base + x] = static_cast<std::uint16_t>(j0 | (second ? 32u : 0u) | (hk << 6));
         w0[base + x] = wv;
       }
-      // Block summaries of the row (from the codes just written).
+      // Block summaries of the row and the non-empty layers (from the codes just written).
       for (int b = 0; b < nb; ++b) {
-        std::uint32_t pres = 0;
-        unsigned hmin = 255, hmax = 0;
-        for (int x = b * kBlock; x < std::min(w, (b + 1) * kBlock); ++x) {
-          const unsigned cd = code[base + x];
-          const unsigned j0c = cd & 31u, hkc = cd >> 6;
-          if (j0c != kNoLayer) pres |= (1u << j0c) | ((cd & 32u) ? 1u << (j0c + 1) : 0u);
-          hmin = std::min(hmin, hkc);
-          hmax = std::max(hmax, hkc);
-        }
-        bpres[static_cast<std::size_t>(y) * nb + b] = pres;
-        bhk[static_cast<std::size_t>(y) * nb + b] = hmin | (hmax << 8);
+        const int x0 = b * kBlock, n = std::min(w, x0 + kBlock) - x0;
+        const std::size_t i = static_cast<std::size_t>(y) * nb + b;
+        kern::code_summary(code + base + x0, w0 + base + x0, al + x0, n, &bpres[i], &bhk[i], &ne);
       }
     }
     if (ne) nonempty.fetch_or(ne, std::memory_order_relaxed);

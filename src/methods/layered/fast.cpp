@@ -99,35 +99,12 @@ LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* _
     const int j0 = cd & 31;
     wk[j] = j0 == k ? w0[j] : ((j0 + 1 == k && (cd & 32)) ? 1.0f : 0.0f);
   }
-  // A layer covers a depth band, so inside a block its pixels come in runs: chunks of 32
-  // pixels with no non-zero matte are written as the 0 the formula gives there without
-  // reading the colour (the colour reads are what bounds this kernel).
-  constexpr int kChunk = 32;
-  // wk > 0 exactly where the pixel's code names layer k (j0 = k, or j0 = k − 1 with the
-  // second layer at weight 1; a coded w0 is > 0): an integer OR-reduction, which vectorises.
-  bool live[256 / kChunk];
-  for (int j0 = 0; j0 < n; j0 += kChunk) {
-    unsigned any = 0;
-    const int j1 = n < j0 + kChunk ? n : j0 + kChunk;
-    for (int j = j0; j < j1; ++j) {
-      const unsigned cd = code[j], jj = cd & 31u;
-      any |= (jj == static_cast<unsigned>(k)) | ((jj + 1u == static_cast<unsigned>(k)) & (cd >> 5));
-    }
-    live[j0 / kChunk] = any != 0;
-  }
   for (int c = 0; c < 4; ++c) {
     const float* __restrict src = in[c];
     float* __restrict dst = o[c];
-    for (int j0 = 0; j0 < n; j0 += kChunk) {
-      const int j1 = n < j0 + kChunk ? n : j0 + kChunk;
-      if (!live[j0 / kChunk]) {
-        for (int j = j0; j < j1; ++j) dst[j] = 0.0f;
-        continue;
-      }
-      for (int j = j0; j < j1; ++j) {
-        const float t = (1.0f - 0.0f) * wk[j];
-        dst[j] = wk[j] > 0 ? 0.0f + t * src[j] : 0.0f;
-      }
+    for (int j = 0; j < n; ++j) {
+      const float t = (1.0f - 0.0f) * wk[j];
+      dst[j] = wk[j] > 0 ? 0.0f + t * src[j] : 0.0f;
     }
   }
   if (hb)

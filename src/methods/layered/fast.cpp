@@ -975,6 +975,15 @@ struct FusedLayer {
   }
   // The layer with its holes filled.
   void get(int y, int x0, int n, float (*o)[kBlock], HCache* cache = nullptr) const {
+    if (fill && l1 && cache && !opaque && !under && cls(y, x0) == kEmptyHole) {
+      // Every pixel is a hole over a zero matte: fill_row gives 0·0 + (1 − 0)·up = +0 + up
+      // everywhere, computed here straight into o.
+      if (cache->img != l1 || cache->x0 != x0) cache->reset(l1, 2, x0);
+      cache->get(y, n, o);
+      for (int c = 0; c < 4; ++c)
+        for (int j = 0; j < n; ++j) o[c][j] = 0.0f + o[c][j];
+      return;
+    }
     std::uint8_t hb[kBlock];
     matte(y, x0, n, o, fill ? hb : nullptr);
     if (!fill) return;

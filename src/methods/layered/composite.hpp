@@ -8,6 +8,12 @@ namespace dofkit::detail::layered {
 /// either input.
 void over(const Image& front, const Image& back, Image& dst);
 
+/// The reduced-resolution part of a Gaussian blur of σ px at 1/f resolution, f = 2 (used
+/// for σ >= 4) or 4 (σ >= 8): `low` = the f×f box reduction of img (edge-clamped), blurred
+/// by the Gaussian whose variance, added to the box's and to that of the bilinear
+/// up-sampling by f the caller then does, gives exactly σ².
+void reduce_and_blur(const Image& img, int f, double sigma, Image& low);
+
 /// A recursively blurred accumulator (S4's F or B). Blurs are deferred and merged: by the
 /// Gaussian semigroup, H(σ₂) ∗ H(σ₁) ∗ X = H(sqrt(σ₁² + σ₂²)) ∗ X, so consecutive steps with
 /// nothing composited in between (empty layers) cost one blur, not several.

@@ -58,7 +58,7 @@ LAYERED_SIMD void up_quads(const float* __restrict src, int i0, int i1, float* _
   }
 }
 
-// 4×4 box of composite.cpp's blur_quarter_res for xq in [0, m) (all 16 taps in range):
+// 4×4 box of composite.cpp's reduce_and_blur for xq in [0, m) (all 16 taps in range):
 // s = 0 + Σ_dy Σ_dx r_dy[4xq + dx] in that order, d = s / 16.
 LAYERED_SIMD void down_quads(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2,
                              const float* __restrict r3, int m, float* __restrict d) {
@@ -338,7 +338,7 @@ inline void up_h(const float* src, int cw, int x0, int n, float* dst) {
   for (x = 2 * i; x < x1; ++x) dst[x - x0] = one(x);
 }
 
-// The same for 4× (composite.cpp blur_quarter_res); x0 is a multiple of 4.
+// The same for 4× (composite.cpp reduce_and_blur); x0 is a multiple of 4.
 inline void up_h4(const float* src, int cw, int x0, int n, float* dst) {
   auto one = [&](int x) {
     const int i = x >> 2, q = x & 3;
@@ -773,52 +773,18 @@ void FastAccumulator::settle() {
     const double sigma = std::sqrt(pending_var_);
     if (half_res_ && quarter_res_ && sigma >= 8.0) {
       if (lazy_up_) resolved();
-      // composite.cpp blur_quarter_res (same arithmetic), up-sampling deferred as below.
-      const Image& img = *full_;
-      const int w = img.width(), h = img.height();
-      const int qw = (w + 3) / 4, qh = (h + 3) / 4;
-      Image& q = ws_.image(name_ + ".quarter", qw, qh, 4);
-      core::parallel_for(qh, [&](int y0, int y1) {
-        for (int c = 0; c < 4; ++c)
-          for (int y = y0; y < y1; ++y) {
-            float* d = q.row(c, y);
-            for (int x = 0; x < qw; ++x) {
-              float sum = 0.0f;
-              for (int dy = 0; dy < 4; ++dy) {
-                const float* r = img.row(c, std::min(4 * y + dy, h - 1));
-                for (int dx = 0; dx < 4; ++dx) sum += r[std::min(4 * x + dx, w - 1)];
-              }
-              d[x] = 0.0625f * sum;
-            }
-          }
-      }, 2);
-      const double var = (sigma * sigma - 1.25 - 8.0 / 3.0) / 16.0;
-      if (var > 0) core::gaussian_blur(q, static_cast<float>(std::sqrt(var)));
+      // composite.cpp's reduction and blur, up-sampling deferred as below.
+      Image& q = ws_.image(name_ + ".quarter", (full_->width() + 3) / 4, (full_->height() + 3) / 4, 4);
+      reduce_and_blur(*full_, 4, sigma, q);
       half_ = &q;
       factor_ = 4;
       lazy_up_ = true;
     } else if (half_res_ && sigma >= 4.0) {
       if (lazy_up_) resolved();
-      // composite.cpp blur_half_res: 2×2 box down, blur of the remaining variance, bilinear
-      // up (deferred: the next composite or read up-samples on the fly).
-      const Image& img = *full_;
-      const int w = img.width(), h = img.height();
-      const int hw = (w + 1) / 2, hh = (h + 1) / 2;
-      Image& half = ws_.image(name_ + ".half", hw, hh, 4);
-      core::parallel_for(hh, [&](int y0, int y1) {
-        for (int c = 0; c < 4; ++c)
-          for (int y = y0; y < y1; ++y) {
-            const float* a = img.row(c, 2 * y);
-            const float* b = img.row(c, std::min(2 * y + 1, h - 1));
-            float* d = half.row(c, y);
-            for (int x = 0; x < hw; ++x) {
-              const int x1 = std::min(2 * x + 1, w - 1);
-              d[x] = 0.25f * (a[2 * x] + a[x1] + b[2 * x] + b[x1]);
-            }
-          }
-      }, 4);
-      const double var = (sigma * sigma - 0.25 - 2.0 / 3.0) / 4.0;
-      if (var > 0) core::gaussian_blur(half, static_cast<float>(std::sqrt(var)));
+      // composite.cpp's reduction and blur (2×2 box down, blur of the remaining variance);
+      // the bilinear up-sampling is deferred: the next composite or read does it on the fly.
+      Image& half = ws_.image(name_ + ".half", (full_->width() + 1) / 2, (full_->height() + 1) / 2, 4);
+      reduce_and_blur(*full_, 2, sigma, half);
       half_ = &half;
       factor_ = 2;
       lazy_up_ = true;

@@ -194,6 +194,28 @@ LAYERED_SIMD void push_row(const float* __restrict wr, const float* __restrict u
   }
 }
 
+// The sum both pulls share, for one channel: the 2×2 children of coarse pixel x (masked
+// fine rows z0, z1: a skipped child is +0) de-interleaved with plain strided copies, then
+// summed in double in pull_level's order and divided by Σ w (0 where Σ w = 0).
+LAYERED_SIMD void pull_sum(const float* __restrict z0, const float* __restrict z1, int m, const double* __restrict sw,
+                           float* __restrict d) {
+  float e0[128], o0[128], e1[128], o1[128];
+  for (int x = 0; x < m; ++x) {
+    e0[x] = z0[2 * x];
+    o0[x] = z0[2 * x + 1];
+    e1[x] = z1[2 * x];
+    o1[x] = z1[2 * x + 1];
+  }
+  for (int x = 0; x < m; ++x) {
+    double sv = 0;
+    sv += static_cast<double>(e0[x]);
+    sv += static_cast<double>(o0[x]);
+    sv += static_cast<double>(e1[x]);
+    sv += static_cast<double>(o1[x]);
+    d[x] = sw[x] > 0 ? static_cast<float>(sv / sw[x]) : 0.0f;
+  }
+}
+
 // Pull of level 1 from two level-0 rows for coarse pixels [0, m) whose 2×2 children all lie
 // in the image: children (0,0), (1,0), (0,1), (1,1) in pull_level's order; a hole child is
 // skipped there, here it adds +0 (exact: the sums start at +0 and never become −0).
@@ -201,7 +223,6 @@ LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint
                              const std::uint8_t* __restrict h1, int m, float* const* cv, float* __restrict cw) {
   // De-interleave the children into contiguous arrays, a hole child as +0 (float), then sum
   // in double in pull_level's order.
-  float e0[128], o0[128], e1[128], o1[128];
   double sw[128];
   // Σ w over the children is the count of non-hole children (0 … 4: exact in float too);
   // counted from contiguous 0 / 1 rows so the loops vectorise.
@@ -226,21 +247,7 @@ LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint
       z0[j] = h0[j] ? 0.0f : a[j];
       z1[j] = h1[j] ? 0.0f : b[j];
     }
-    for (int x = 0; x < m; ++x) {
-      e0[x] = z0[2 * x];
-      o0[x] = z0[2 * x + 1];
-      e1[x] = z1[2 * x];
-      o1[x] = z1[2 * x + 1];
-    }
-    float* __restrict d = cv[c];
-    for (int x = 0; x < m; ++x) {
-      double sv = 0;
-      sv += static_cast<double>(e0[x]);
-      sv += static_cast<double>(o0[x]);
-      sv += static_cast<double>(e1[x]);
-      sv += static_cast<double>(o1[x]);
-      d[x] = sw[x] > 0 ? static_cast<float>(sv / sw[x]) : 0.0f;
-    }
+    pull_sum(z0, z1, m, sw, cv[c]);
   }
 }
 
@@ -249,7 +256,6 @@ LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint
 LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, const float* __restrict w0,
                                const float* __restrict w1, int m, float* const* cv, float* __restrict cw) {
   double sw[128];
-  float e0[128], o0[128], e1[128], o1[128];
   // The same skip-and-sum on contiguous rows first (masked weights and products: a child of
   // confidence <= 0 becomes +0, which adds exactly what skipping adds), then plain strided
   // de-interleaves: all of it vectorises.
@@ -275,21 +281,7 @@ LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, c
       z0[j] = w0[j] > 0 ? w0[j] * a[j] : 0.0f;
       z1[j] = w1[j] > 0 ? w1[j] * b[j] : 0.0f;
     }
-    for (int x = 0; x < m; ++x) {
-      e0[x] = z0[2 * x];
-      o0[x] = z0[2 * x + 1];
-      e1[x] = z1[2 * x];
-      o1[x] = z1[2 * x + 1];
-    }
-    float* __restrict d = cv[c];
-    for (int x = 0; x < m; ++x) {
-      double sv = 0;
-      sv += static_cast<double>(e0[x]);
-      sv += static_cast<double>(o0[x]);
-      sv += static_cast<double>(e1[x]);
-      sv += static_cast<double>(o1[x]);
-      d[x] = sw[x] > 0 ? static_cast<float>(sv / sw[x]) : 0.0f;
-    }
+    pull_sum(z0, z1, m, sw, cv[c]);
   }
 }
 

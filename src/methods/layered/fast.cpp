@@ -10,6 +10,7 @@
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
 #include "methods/layered/composite.hpp"
+#include "methods/layered/inpaint.hpp"
 
 namespace dofkit::detail::layered {
 
@@ -530,36 +531,6 @@ MatteStats matte_layer_fast(const Fragments& frags, const LayerPlan& plan, int k
 }
 
 // ---------------------------------------------------------------------------------------
-namespace {
-
-// Pull of inpaint.cpp for one coarse level: value = Σ w v / Σ w over the 2×2 children (double
-// sums, children in the same order), confidence = min(1, Σ w / 4). `weight_of(fx, fy)` is
-// the child's confidence.
-template <class WeightOf>
-void pull_level(const Image& fine, const WeightOf& weight_of, Image& cv, Image& cwt) {
-  const int fw = fine.width(), fh = fine.height();
-  const int cw = cv.width(), ch = cv.height();
-  core::parallel_for(ch, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y)
-      for (int x = 0; x < cw; ++x) {
-        double sw = 0, sv[4] = {0, 0, 0, 0};
-        for (int dy = 0; dy < 2; ++dy)
-          for (int dx = 0; dx < 2; ++dx) {
-            const int fx = 2 * x + dx, fy = 2 * y + dy;
-            if (fx >= fw || fy >= fh) continue;
-            const float wt = weight_of(fx, fy);
-            if (wt <= 0) continue;
-            sw += wt;
-            for (int k = 0; k < 4; ++k) sv[k] += wt * fine.row(k, fy)[fx];
-          }
-        cwt.row(0, y)[x] = static_cast<float>(std::min(1.0, sw / 4.0));
-        for (int k = 0; k < 4; ++k) cv.row(k, y)[x] = sw > 0 ? static_cast<float>(sv[k] / sw) : 0.0f;
-      }
-  }, 8);
-}
-
-}  // namespace
-
 namespace {
 
 // The push-pull pyramid above level 0 (levels 1 … L, down to 1×1), from the workspace.

@@ -26,24 +26,7 @@ void push_pull_fill(Image& layer, const std::vector<std::uint8_t>& hole, bool op
     const int fw = f.value.width(), fh = f.value.height();
     const int cw = (fw + 1) / 2, ch = (fh + 1) / 2;
     Level c{Image(cw, ch, 4, 0.0f), Image(cw, ch, 1, 0.0f)};
-    core::parallel_for(ch, [&](int y0, int y1) {
-      for (int y = y0; y < y1; ++y)
-        for (int x = 0; x < cw; ++x) {
-          double sw = 0, sv[4] = {0, 0, 0, 0};
-          for (int dy = 0; dy < 2; ++dy)
-            for (int dx = 0; dx < 2; ++dx) {
-              const int fx = 2 * x + dx, fy = 2 * y + dy;
-              if (fx >= fw || fy >= fh) continue;
-              const float wt = f.weight.at(fx, fy);
-              if (wt <= 0) continue;
-              sw += wt;
-              for (int k = 0; k < 4; ++k) sv[k] += wt * f.value.at(fx, fy, k);
-            }
-          c.weight.at(x, y) = static_cast<float>(std::min(1.0, sw / 4.0));
-          if (sw > 0)
-            for (int k = 0; k < 4; ++k) c.value.at(x, y, k) = static_cast<float>(sv[k] / sw);
-        }
-    });
+    pull_level(f.value, [&](int fx, int fy) { return f.weight.at(fx, fy); }, c.value, c.weight);
     pyr.push_back(std::move(c));
   }
   // Push: from coarse to fine, v_l ← w_l v_l + (1 − w_l) · upsample(v_{l+1}).

@@ -589,20 +589,8 @@ void pull_push_upper(const Pyramid& p) {
           }
           x = full;
         }
-        for (; x < cw; ++x) {  // the rest: pull_level's loop
-          double sw = 0, sv[4] = {0, 0, 0, 0};
-          for (int dy = 0; dy < 2; ++dy)
-            for (int dx = 0; dx < 2; ++dx) {
-              const int fx = 2 * x + dx, fy = 2 * y + dy;
-              if (fx >= fw || fy >= fh) continue;
-              const float wt = fwt.row(0, fy)[fx];
-              if (wt <= 0) continue;
-              sw += wt;
-              for (int k = 0; k < 4; ++k) sv[k] += wt * fine.row(k, fy)[fx];
-            }
-          cwt.row(0, y)[x] = static_cast<float>(std::min(1.0, sw / 4.0));
-          for (int k = 0; k < 4; ++k) cv.row(k, y)[x] = sw > 0 ? static_cast<float>(sv[k] / sw) : 0.0f;
-        }
+        for (; x < cw; ++x)  // the rest, one pixel at a time
+          pull_pixel(fine, [&](int fx, int fy) { return fwt.row(0, fy)[fx]; }, x, y, cv, cwt);
       }
     }, 8);
   }

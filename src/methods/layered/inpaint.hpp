@@ -21,30 +21,34 @@ namespace dofkit::detail::layered {
 /// multi-layer input) in front of the fill: layer = layer over fill there.
 void push_pull_fill(Image& layer, const std::vector<std::uint8_t>& hole, bool opaque, bool under = false);
 
-/// The pull of one coarse pyramid level (push_pull_fill's, and impl=fast's where it builds a
-/// level from whole images): value = Σ w v / Σ w over the 2×2 children in the order (0,0),
-/// (1,0), (0,1), (1,1), double sums, 0 where Σ w = 0; confidence = min(1, Σ w / 4).
-/// `weight_of(fx, fy)` is the child's confidence; children with confidence <= 0 are skipped.
+/// The pull of coarse pixel (x, y) of a pyramid level (push_pull_fill's, and impl=fast's for
+/// the pixels its row kernels do not cover): value = Σ w v / Σ w over the 2×2 children of
+/// `fine` in the order (0,0), (1,0), (0,1), (1,1), double sums, 0 where Σ w = 0; confidence
+/// = min(1, Σ w / 4). `weight_of(fx, fy)` is the child's confidence; children with
+/// confidence <= 0 or outside `fine` are skipped.
+template <class WeightOf>
+inline void pull_pixel(const Image& fine, const WeightOf& weight_of, int x, int y, Image& cv, Image& cwt) {
+  const int fw = fine.width(), fh = fine.height();
+  double sw = 0, sv[4] = {0, 0, 0, 0};
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) {
+      const int fx = 2 * x + dx, fy = 2 * y + dy;
+      if (fx >= fw || fy >= fh) continue;
+      const float wt = weight_of(fx, fy);
+      if (wt <= 0) continue;
+      sw += wt;
+      for (int k = 0; k < 4; ++k) sv[k] += wt * fine.row(k, fy)[fx];
+    }
+  cwt.row(0, y)[x] = static_cast<float>(std::min(1.0, sw / 4.0));
+  for (int k = 0; k < 4; ++k) cv.row(k, y)[x] = sw > 0 ? static_cast<float>(sv[k] / sw) : 0.0f;
+}
+
+/// pull_pixel for every pixel of the coarse level (cv, cwt already sized).
 template <class WeightOf>
 void pull_level(const Image& fine, const WeightOf& weight_of, Image& cv, Image& cwt) {
-  const int fw = fine.width(), fh = fine.height();
-  const int cw = cv.width(), ch = cv.height();
-  core::parallel_for(ch, [&](int y0, int y1) {
+  core::parallel_for(cv.height(), [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y)
-      for (int x = 0; x < cw; ++x) {
-        double sw = 0, sv[4] = {0, 0, 0, 0};
-        for (int dy = 0; dy < 2; ++dy)
-          for (int dx = 0; dx < 2; ++dx) {
-            const int fx = 2 * x + dx, fy = 2 * y + dy;
-            if (fx >= fw || fy >= fh) continue;
-            const float wt = weight_of(fx, fy);
-            if (wt <= 0) continue;
-            sw += wt;
-            for (int k = 0; k < 4; ++k) sv[k] += wt * fine.row(k, fy)[fx];
-          }
-        cwt.row(0, y)[x] = static_cast<float>(std::min(1.0, sw / 4.0));
-        for (int k = 0; k < 4; ++k) cv.row(k, y)[x] = sw > 0 ? static_cast<float>(sv[k] / sw) : 0.0f;
-      }
+      for (int x = 0; x < cv.width(); ++x) pull_pixel(fine, weight_of, x, y, cv, cwt);
   }, 8);
 }
 

@@ -17,7 +17,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/parallel.hpp"
+#include "core/coc_range.hpp"
 #include "methods/mcguire/fast.hpp"
 #include "methods/mcguire/mcguire.hpp"
 #include "methods/method.hpp"
@@ -93,29 +93,8 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
   // must not be read at all.
   const Rect src = taps_req ? Rect{0, 0, W, H} : Rect{g_req, g_req, W - 2 * g_req, H - 2 * g_req};
 
-  // The largest near and far CoC: per block of rows in parallel, then combined (a maximum
-  // does not depend on the order, so the result is the same for any thread count).
-  constexpr int kScanBlocks = 32;
-  float block_near[kScanBlocks] = {}, block_far[kScanBlocks] = {};
-  core::parallel_for(kScanBlocks, [&](int b0, int b1) {
-    for (int b = b0; b < b1; ++b) {
-      float mn = 0, mf = 0;
-      for (int y = src.y + src.h * b / kScanBlocks; y < src.y + src.h * (b + 1) / kScanBlocks; ++y) {
-        const float* r = ctx.coc.row(0, y) + src.x;
-        for (int x = 0; x < src.w; ++x) {
-          mn = std::max(mn, r[x]);
-          mf = std::max(mf, -r[x]);
-        }
-      }
-      block_near[b] = mn;
-      block_far[b] = mf;
-    }
-  });
-  float max_near = 0, max_far = 0;
-  for (int b = 0; b < kScanBlocks; ++b) {
-    max_near = std::max(max_near, block_near[b]);
-    max_far = std::max(max_far, block_far[b]);
-  }
+  const core::CocRange range = core::coc_range(ctx.coc, src.x, src.y, src.w, src.h);
+  const float max_near = range.near_max, max_far = range.far_max;
   const Setup st = read_setup(ctx, max_near, max_far);
   const Constants& k = st.k;
   const int g = st.guard;

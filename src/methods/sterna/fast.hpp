@@ -76,13 +76,6 @@ void fill(Buffers& b);                                                  // P8
 void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blend, const Buffers& b,
                Image& out);                                             // P9
 
-/// Largest far (−r) and near (r) CoC of a signed CoC plane, each at least 0 (max is exact, so
-/// the parallel reduction gives the serial loop's result).
-struct CocRange {
-  float far_max = 0.0f, near_max = 0.0f;
-};
-CocRange coc_range(const Image& coc);
-
 /// The whole fast pipeline (buffers from ctx.workspace).
 void render(const MethodContext& ctx, const Settings& s, Image& out);
 

@@ -92,6 +92,18 @@ std::size_t first_not_positive(const float* z) {
   while (z[i] > 0) ++i;  // callers know that one exists
   return i;
 }
+// Throws "<what> has N NaN, zero or negative value(s), first at pixel (x, y) = v" for a depth plane
+// with such values (the visible depth and every layer's follow the same rule: a missing
+// fragment is z = +inf, never NaN or <= 0).
+void check_depth_values(const Image& depth, const std::string& what) {
+  const float* z = depth.plane(0);
+  const std::size_t bad = count_not_positive(z, depth.plane_size());
+  if (!bad) return;
+  const std::size_t first = first_not_positive(z);
+  throw_bad_input(what + " has " + std::to_string(bad) + " NaN, zero or negative value(s), first at pixel (" +
+                  std::to_string(first % depth.width()) + ", " + std::to_string(first / depth.width()) + ") = " +
+                  std::to_string(z[first]));
+}
 }  // namespace
 
 void validate_frame(const Frame& frame, const char* what) {
@@ -104,28 +116,14 @@ void validate_frame(const Frame& frame, const char* what) {
     throw_bad_input(src + ": depth is " + std::to_string(frame.depth.width()) + "x" +
                     std::to_string(frame.depth.height()) + " but colour is " + std::to_string(frame.color.width()) +
                     "x" + std::to_string(frame.color.height()));
-  const float* z = frame.depth.plane(0);
-  const std::size_t bad = count_not_positive(z, frame.depth.plane_size());
-  const std::size_t first = bad ? first_not_positive(z) : 0;
-  if (bad)
-    throw_bad_input(src + ": depth has " + std::to_string(bad) + " NaN, zero or negative value(s), first at pixel (" +
-                    std::to_string(first % frame.depth.width()) + ", " + std::to_string(first / frame.depth.width()) +
-                    ") = " + std::to_string(z[first]));
+  check_depth_values(frame.depth, src + ": depth");
   if (frame.layer_color.size() != frame.layer_depth.size())
     throw_bad_input(src + ": layer colour/depth counts differ");
   for (std::size_t l = 0; l < frame.layer_color.size(); ++l) {
     if (frame.layer_color[l].channels() != 4 || !frame.layer_color[l].same_size(frame.color) ||
         frame.layer_depth[l].channels() != 1 || !frame.layer_depth[l].same_size(frame.color))
       throw_bad_input(src + ": layer " + std::to_string(l) + " does not match the colour image size");
-    // Same rule as the visible depth: a missing fragment is z = +inf, never NaN or <= 0.
-    const float* lz = frame.layer_depth[l].plane(0);
-    const std::size_t lbad = count_not_positive(lz, frame.layer_depth[l].plane_size());
-    const std::size_t lfirst = lbad ? first_not_positive(lz) : 0;
-    if (lbad)
-      throw_bad_input(src + ": layer " + std::to_string(l) + " depth has " + std::to_string(lbad) +
-                      " NaN, zero or negative value(s), first at pixel (" +
-                      std::to_string(lfirst % frame.color.width()) + ", " +
-                      std::to_string(lfirst / frame.color.width()) + ") = " + std::to_string(lz[lfirst]));
+    check_depth_values(frame.layer_depth[l], src + ": layer " + std::to_string(l) + " depth");
   }
 }
 

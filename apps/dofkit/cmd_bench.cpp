@@ -67,35 +67,31 @@ double peak_rss_mb() {
 void run_child(const std::string& method, Size size, int threads, int iterations) {
   const Frame frame = scene::bench_frame(size.w, size.h);
   std::vector<double> ms, cpu;
-  using clock = std::chrono::steady_clock;
+  // One untimed warm-up, then `iterations` timed runs of `body` (wall and CPU ms each).
+  auto time_runs = [&](const auto& body) {
+    using clock = std::chrono::steady_clock;
+    for (int i = 0; i < iterations + 1; ++i) {
+      const double c0 = cpu_ms();
+      const auto t0 = clock::now();
+      body();
+      const auto t1 = clock::now();
+      const double c1 = cpu_ms();
+      if (i > 0) {
+        ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+        cpu.push_back(c1 - c0);
+      }
+    }
+  };
   if (method == "copy") {
     // The memory floor: read the RGBA float frame once and write it once.
     Image out(size.w, size.h, 4);
-    for (int i = 0; i < iterations + 1; ++i) {
-      const double c0 = cpu_ms();
-      const auto t0 = clock::now();
+    time_runs([&] {
       std::memcpy(out.data().data(), frame.color.data().data(), frame.color.data().size() * sizeof(float));
-      const auto t1 = clock::now();
-      const double c1 = cpu_ms();
-      if (i > 0) {
-        ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-        cpu.push_back(c1 - c0);
-      }
-    }
+    });
   } else {
     // A Renderer, as a game loop would use it: buffers are kept between frames.
     Renderer renderer(bench_settings(method, size.w, threads));
-    for (int i = 0; i < iterations + 1; ++i) {
-      const double c0 = cpu_ms();
-      const auto t0 = clock::now();
-      renderer.render(frame);
-      const auto t1 = clock::now();
-      const double c1 = cpu_ms();
-      if (i > 0) {
-        ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-        cpu.push_back(c1 - c0);
-      }
-    }
+    time_runs([&] { renderer.render(frame); });
   }
   std::sort(ms.begin(), ms.end());
   std::sort(cpu.begin(), cpu.end());

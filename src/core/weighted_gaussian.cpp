@@ -32,12 +32,29 @@ constexpr int kResync = 32;
 constexpr int kBlock = 128;  // columns per block of the vertical sweep
 constexpr int kAhead = 4;    // rows prefetched ahead by the vertical sweep
 
+/// Eight lanes as one value (GCC vector extension): the clones below keep the window sums
+/// of a strip in registers (two of these for 16 lanes) instead of re-loading and re-storing
+/// an array every step, and need no run-time alias checks between the strip buffers. Element
+/// by element the operations are the scalar ones, in the same order, so the sums are the same.
+typedef float Vec8 __attribute__((vector_size(32)));
+static_assert(kLanes == 16, "strip_passes keeps two 8-lane vectors per step");
+
+inline Vec8 load8(const float* p) {
+  Vec8 v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store8(float* p, Vec8 v) { __builtin_memcpy(p, &v, sizeof v); }
+
 /// `passes` extended-box passes (radius r, end weight alpha) over a strip of n samples in a,
 /// b is a second strip buffer; both have `pad` >= r + 1 border samples. Returns the buffer
 /// holding the result (a after an even number of passes, b after an odd one: no copy back).
 __attribute__((target_clones("avx512f", "avx2", "default")))
 float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
   const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
+  const Vec8 va = {alpha, alpha, alpha, alpha, alpha, alpha, alpha, alpha};
+  const Vec8 vn = {norm, norm, norm, norm, norm, norm, norm, norm};
+  const Vec8 zero = {};
   for (int p = 0; p < passes; ++p) {
     float* src = a + static_cast<std::size_t>(pad) * kLanes;
     float* dst = b + static_cast<std::size_t>(pad) * kLanes;
@@ -51,40 +68,42 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
     // as `hi` during the last 2r + 1 outputs of the current block, so the fresh sum is built
     // there (from 0, in the same order) instead of re-reading them: same value, bit for bit.
     const bool carry = 2 * r + 1 <= kResync;
-    float sum[kLanes], fresh[kLanes];
+    Vec8 s0 = zero, s1 = zero, f0 = zero, f1 = zero;  // window sums / next fresh sums, lanes 0-7, 8-15
     for (int i0 = 0; i0 < n; i0 += kResync) {
       if (i0 == 0 || !carry) {
-        for (int j = 0; j < kLanes; ++j) sum[j] = 0.0f;
+        s0 = zero;
+        s1 = zero;
         for (int k = -r; k <= r; ++k) {
           const float* q = src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes;
-          for (int j = 0; j < kLanes; ++j) sum[j] += q[j];
+          s0 += load8(q);
+          s1 += load8(q + 8);
         }
       } else {
-        for (int j = 0; j < kLanes; ++j) sum[j] = fresh[j];
+        s0 = f0;
+        s1 = f1;
       }
       const int i1 = std::min(n, i0 + kResync);
       const int acc_from = carry ? std::min(i1, i0 + kResync - 2 * r - 1) : i1;
-      for (int i = i0; i < acc_from; ++i) {
-        const float* lo = src + static_cast<std::ptrdiff_t>(i - r - 1) * kLanes;  // sample i − r − 1
-        const float* hi = src + static_cast<std::ptrdiff_t>(i + r + 1) * kLanes;  // sample i + r + 1
-        const float* out_lo = lo + kLanes;                                       // sample i − r
-        float* d = dst + static_cast<std::ptrdiff_t>(i) * kLanes;
-        for (int j = 0; j < kLanes; ++j) {
-          d[j] = (sum[j] + alpha * (lo[j] + hi[j])) * norm;
-          sum[j] += hi[j] - out_lo[j];
-        }
+      const float* lo = src + static_cast<std::ptrdiff_t>(i0 - r - 1) * kLanes;  // sample i − r − 1
+      const float* hi = src + static_cast<std::ptrdiff_t>(i0 + r + 1) * kLanes;  // sample i + r + 1
+      float* d = dst + static_cast<std::ptrdiff_t>(i0) * kLanes;
+      for (int i = i0; i < acc_from; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
+        const Vec8 h0 = load8(hi), h1 = load8(hi + 8);
+        store8(d, (s0 + va * (load8(lo) + h0)) * vn);
+        store8(d + 8, (s1 + va * (load8(lo + 8) + h1)) * vn);
+        s0 += h0 - load8(lo + kLanes);  // lo + kLanes: sample i − r, leaving the window
+        s1 += h1 - load8(lo + kLanes + 8);
       }
-      for (int j = 0; j < kLanes; ++j) fresh[j] = 0.0f;
-      for (int i = acc_from; i < i1; ++i) {
-        const float* lo = src + static_cast<std::ptrdiff_t>(i - r - 1) * kLanes;
-        const float* hi = src + static_cast<std::ptrdiff_t>(i + r + 1) * kLanes;
-        const float* out_lo = lo + kLanes;
-        float* d = dst + static_cast<std::ptrdiff_t>(i) * kLanes;
-        for (int j = 0; j < kLanes; ++j) {
-          d[j] = (sum[j] + alpha * (lo[j] + hi[j])) * norm;
-          sum[j] += hi[j] - out_lo[j];
-          fresh[j] += hi[j];
-        }
+      f0 = zero;
+      f1 = zero;
+      for (int i = acc_from; i < i1; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
+        const Vec8 h0 = load8(hi), h1 = load8(hi + 8);
+        store8(d, (s0 + va * (load8(lo) + h0)) * vn);
+        store8(d + 8, (s1 + va * (load8(lo + 8) + h1)) * vn);
+        s0 += h0 - load8(lo + kLanes);
+        s1 += h1 - load8(lo + kLanes + 8);
+        f0 += h0;
+        f1 += h1;
       }
     }
     std::swap(a, b);

@@ -334,7 +334,7 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
 // that are multiples of kResync, where the window sums are recomputed from scratch, so every
 // row's arithmetic is that of the whole-image sweep.
 void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                            int passes, float tiny, int y0, int y1, RowSink sink, void* ctx) {
+                            int passes, float tiny, int y0, int y1, RowSink sink, void* ctx, bool normalise) {
   y0 = std::max(y0, 0);
   y1 = std::min(y1, h);
   if (w <= 0 || h <= 0 || nplanes <= 0 || y0 >= y1) return;
@@ -455,9 +455,11 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
     }
   };
 
-  thread_local std::vector<const float*> out_rows;
+  thread_local std::vector<const float*> out_rows, raw_rows;
   out_rows.resize(nplanes);
+  raw_rows.resize(np);
   for (int p = 0; p < nplanes; ++p) out_rows[p] = outs + static_cast<std::size_t>(p) * row;
+  for (int p = 0; p < np; ++p) raw_rows[p] = last + static_cast<std::size_t>(p) * row;
   for (int y = passes > 0 ? produced[passes - 1] + 1 : y0; y < y1; ++y) {
     const float* res_base;
     if (passes > 0) {
@@ -472,6 +474,10 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
       res_base = last;
     }
     if (y < y0) continue;  // warm-up row of the band
+    if (!normalise) {
+      sink(ctx, y, raw_rows.data());
+      continue;
+    }
     const float* wt = res_base + static_cast<std::size_t>(nplanes) * row;
     for (int p = 0; p < nplanes; ++p)
       normalise_row(res_base + static_cast<std::size_t>(p) * row, wt, src[p] + static_cast<std::size_t>(y) * w,

@@ -33,19 +33,22 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
 /// passes · (r + 1) + 32 rows per pass), so the result is bit for bit that of
 /// weighted_gaussian whatever the banding. Working memory per call (kept per thread): about
 /// (passes + 1) · (2r + 19) rows of (nplanes + 1) · w floats, r ≈ sigma · sqrt(3 / passes).
+/// normalise = false: the rows are handed over before the division, rows[k] = plane k's
+/// blurred c·src (k < nplanes) and rows[nplanes] = the blurred weight, so that the consumer
+/// can divide only where it uses the result (`tiny` is then unused).
 /// Row consumer of weighted_gaussian_rows: sink(ctx, y, rows).
 using RowSink = void (*)(void* ctx, int y, const float* const* rows);
 void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                            int passes, float tiny, int y0, int y1, RowSink sink, void* ctx);
+                            int passes, float tiny, int y0, int y1, RowSink sink, void* ctx, bool normalise = true);
 /// Same with any callable f(y, rows) (no std::function: nothing is allocated per call).
 template <class F>
 void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                            int passes, float tiny, int y0, int y1, F&& row_out) {
+                            int passes, float tiny, int y0, int y1, F&& row_out, bool normalise = true) {
   using Fn = std::remove_reference_t<F>;
   weighted_gaussian_rows(
       src, nplanes, c, w, h, sigma, passes, tiny, y0, y1,
       [](void* f, int y, const float* const* rows) { (*static_cast<Fn*>(f))(y, rows); },
-      const_cast<void*>(static_cast<const void*>(&row_out)));
+      const_cast<void*>(static_cast<const void*>(&row_out)), normalise);
 }
 
 }  // namespace dofkit::core

@@ -149,13 +149,13 @@ inline void mix_scalar(const MixRow& r, int x, int w) {
   const float small = ((at(0, 0) + at(0, 1) + at(1, 0) + at(1, 1)) + (at(1, -2) + at(1, -1) + at(2, -2) + at(2, -1)) +
                        (at(3, -1) + at(3, 0) + at(4, -1) + at(4, 0)) + (at(2, 1) + at(2, 2) + at(3, 1) + at(3, 2))) *
                       (1.0f / 17.0f);
-  const float med = r.med[x];
+  const float med = r.mwt ? (r.mwt[x] > kTiny ? r.med[x] / r.mwt[x] : r.src[x]) : r.med[x];
   const float lg = r.cb[x] > kTiny ? r.num[x] / r.cb[x] : med;
   r.out[x] = r.ws[x] * small + r.wm[x] * med + r.wl[x] * lg + r.wsrc[x] * r.src[x];
 }
 
 void final_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
-               const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
+               const float* med_wt, const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
                const FinalGeometry& g, RowScratch& sc, int y) {
   const int w = g.w, h = g.h, lw = g.lw, lh = g.lh;
   // Vertical lerp of the quarter-res rows around this row, then horizontal lerp to full res:
@@ -199,7 +199,7 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
       std::copy(src, src + w, o);
       continue;
     }
-    MixRow mr{{}, med[ch], sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm, wr.wl,
+    MixRow mr{{}, med[ch], med_wt, sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm, wr.wl,
               wr.wsrc, src, o};
     for (int k = 0; k < 5; ++k) mr.rows[k] = color.row(ch, clampi(y + k - 2, 0, h - 1));
     // Columns 2 … w − 3 read x − 2 … x + 2 without clamping.
@@ -229,14 +229,15 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
 }
 
 void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
-                    const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y) {
+                    const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
+                    const float* med_wt) {
   const int w = color.width(), h = color.height();
   const FinalGeometry g{w, h, large.width(), large.height()};
   thread_local RowScratch sc;  // per worker, kept between frames
   sc.vrow.resize(static_cast<std::size_t>(g.lw) * 6);
   sc.hrow.resize(static_cast<std::size_t>(w) * 6);
   for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
-  final_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, g, sc, y);
+  final_row(color, depth, level, med, med_wt, large, inv_depth, keep_own_blur, out, g, sc, y);
 }
 
 }  // namespace dofkit::detail::starcraft

@@ -76,6 +76,7 @@ int FinalMix(const MixRow& r, int x0, int x1) {
   const float* const src = r.src;
   const float* const wsrc_row = r.wsrc;
   const float* const med_row = r.med;
+  const float* const mwt_row = r.mwt;
   const float* const cb_row = r.cb;
   const float* const num_row = r.num;
   const float* const ws_row = r.ws;
@@ -98,7 +99,12 @@ int FinalMix(const MixRow& r, int x0, int x1) {
     const auto t2 = hn::Add(hn::Add(hn::Add(L(p1, -1), L(p1, 0)), L(p2, -1)), L(p2, 0));
     const auto t3 = hn::Add(hn::Add(hn::Add(L(r0, 1), L(r0, 2)), L(p1, 1)), L(p1, 2));
     const auto small = hn::Mul(hn::Add(hn::Add(hn::Add(t0, t1), t2), t3), k17);
-    const auto med = hn::LoadU(d, med_row + x);
+    auto med = hn::LoadU(d, med_row + x);
+    if (mwt_row) {  // normalise: med / weight where some tap carried weight, else the source
+      const auto mw = hn::LoadU(d, mwt_row + x);
+      const auto ok = hn::Gt(mw, tiny);
+      med = hn::IfThenElse(ok, hn::Div(med, hn::IfThenElse(ok, mw, one)), s);
+    }
     const auto cb = hn::LoadU(d, cb_row + x);
     const auto has_large = hn::Gt(cb, tiny);
     const auto q = hn::Div(hn::LoadU(d, num_row + x), hn::IfThenElse(has_large, cb, one));

@@ -23,10 +23,14 @@ int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any);
 
 /// Mix of one channel of one row: the 17-tap small blur read from five source rows
 /// rows[0..4] = y−2 … y+2 (x−2 … x+2 must be valid columns), the medium level, the large
-/// numerator `num` over the up-sampled blurred level `cb`, blended over `src`.
+/// numerator `num` over the up-sampled blurred level `cb`, blended over `src`. With `mwt`
+/// set, `med` is the medium level's blurred c·colour and mwt its blurred weight c: the level
+/// is med / mwt where mwt > 1e-6, else the source (the division of the normalised
+/// convolution, made here only for the pixels that are mixed).
 struct MixRow {
   const float* rows[5];
   const float* med;
+  const float* mwt;
   const float* num;
   const float* cb;
   const float* ws;

@@ -127,8 +127,12 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
 
 /// One row y of final_pass with the medium level's row given as 4 plane pointers (w floats
 /// each); `out` must already have the frame's size. Same result as final_pass's row y.
+/// med_wt set: med holds the medium level before its division (blurred c·rgba) and med_wt
+/// the blurred weight c; the division (with the source where med_wt <= 1e-6, as in
+/// medium_blur) is made in the mix, only for the pixels that are not in focus.
 void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
-                    const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y);
+                    const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
+                    const float* med_wt = nullptr);
 
 /// C2 and C5 fused (fast form, no debug output): the medium level is streamed row by row
 /// (core::weighted_gaussian_rows) into the final pass, so it never exists as full planes.

@@ -117,6 +117,20 @@ TEST(LayeredFast, BitIdenticalToPlainSingleInput) {
   EXPECT_EQ(detail::layered::fused_render_count() - fused_before, 2u * gaussian_cases);
 }
 
+TEST(LayeredFast, BitIdenticalWhereTheNearAccumulatorIsZero) {
+  // 1100 px wide: the near bar and the ground leave whole 256-px blocks of the upper rows
+  // where the near accumulator F is +0 (beyond its blur's support), so the fused composite
+  // writes them as +0 and the final pass takes rows of +0 instead of up-sampling F there.
+  const std::uint64_t before = detail::layered::zero_block_count();
+  for (const char* quarter : {"on", "off"}) {
+    RenderSettings rs = settings("fast", 1, 20.0);
+    rs.params["psf"] = "gaussian";
+    rs.params["quarter_res"] = quarter;
+    expect_same(test_frame(1100, 120, 1, 13), rs, std::string("1100x120 K 20 quarter_res ") + quarter);
+  }
+  EXPECT_GT(detail::layered::zero_block_count(), before);
+}
+
 TEST(LayeredFast, BitIdenticalToPlainMultiLayerInput) {
   for (auto [w, h] : {std::pair{1, 1}, {3, 2}, {37, 19}, {160, 90}})
     for (const char* psf : {"gaussian", "disc"})

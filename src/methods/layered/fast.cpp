@@ -286,6 +286,17 @@ LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, c
   }
 }
 
+// True if any of p[0 … n) has a bit set (anything but +0), as an integer OR so it vectorises.
+LAYERED_SIMD bool any_bits(const float* __restrict p, int n) {
+  std::uint32_t acc = 0;
+  for (int i = 0; i < n; ++i) {
+    std::uint32_t b;
+    __builtin_memcpy(&b, p + i, 4);
+    acc |= b;
+  }
+  return acc != 0;
+}
+
 }  // namespace kern
 
 namespace {
@@ -683,13 +694,73 @@ void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bo
 // ---------------------------------------------------------------------------------------
 namespace {
 
+// Where a reduced accumulator is exactly +0 (all bits clear), per coarse row and fine column
+// block of kBlock pixels: nz[cy · nb + b] = 0 if every channel of coarse row cy is +0 over the
+// coarse columns the 2× / 4× up-sampling of fine columns [b·kBlock, b·kBlock + n) reads,
+// [x0/f − 1, (x0 + n − 1)/f + 1] (clamped). The up-sampling of such samples is exactly +0 —
+// each lerp is +0 + (+0 − +0)·t with t >= 0 finite — so a reader may take rows of +0 instead
+// of computing them, and a composite of an empty layer over them is +0 (the same bits).
+// The near accumulator F is +0 wherever nothing near lies within its blur's support (the
+// core Gaussian's running sums are recomputed from scratch every 32 samples, so they return
+// to +0 there); the map is measured from the data, so nothing here relies on that.
+struct ZeroMap {
+  const std::uint8_t* nz = nullptr;
+  int nb = 0, ch = 0, factor = 2;
+  // True if fine rows [y_first, y_last] of block x0 read only +0 samples.
+  bool zero(int y_first, int y_last, int x0) const {
+    if (!nz) return false;
+    const float scale = factor == 4 ? 0.25f : 0.5f;
+    int ya, yb, yc, yd;
+    float t;
+    core::bilinear_footprint((y_first + 0.5f) * scale, ch, ya, yb, t);
+    core::bilinear_footprint((y_last + 0.5f) * scale, ch, yc, yd, t);
+    const int b = x0 / kBlock;
+    for (int cy = std::min(ya, yb); cy <= std::max(yc, yd); ++cy)
+      if (nz[static_cast<std::size_t>(cy) * nb + b]) return false;
+    return true;
+  }
+};
+
+// Measures the ZeroMap of `img` (reduced by `factor` from a fine width fw) into nz (ch · nb bytes).
+ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
+  ZeroMap z;
+  z.nz = nz;
+  z.nb = (fw + kBlock - 1) / kBlock;
+  z.ch = img.height();
+  z.factor = factor;
+  const int cw = img.width(), nb = z.nb;
+  core::parallel_for(img.height(), [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int b = 0; b < nb; ++b) {
+        const int x0 = b * kBlock, n = std::min(kBlock, fw - x0);
+        const int lo = std::max(0, x0 / factor - 1), hi = std::min(cw - 1, (x0 + n - 1) / factor + 1);
+        bool any = false;
+        for (int c = 0; c < 4 && !any; ++c) {
+          const float* r = img.row(c, y);
+          // A dense accumulator is settled by its first sample; a sparse one needs the scan.
+          any = kern::any_bits(r + lo, 1) || kern::any_bits(r + lo, hi - lo + 1);
+        }
+        nz[static_cast<std::size_t>(y) * nb + b] = any ? 1 : 0;
+      }
+  }, 8);
+  return z;
+}
+
+// kBlock floats of +0: the rows of an accumulator that a ZeroMap shows to be +0.
+alignas(64) const float kZeroRow[kBlock] = {};
+const float* const kZeroRows[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
+
 // A read-only view of an accumulator's content by row blocks: the full image, or the
 // up-sampling of its half-resolution image computed on the fly.
 struct AccRows {
   const Image* full = nullptr;
   const Image* half = nullptr;  // reduced by `factor` (2 or 4)
   int factor = 2;
-  AccRows(const Image* f, const Image* hf, int fac) : full(f), half(hf), factor(fac) {}
+  const ZeroMap* zm = nullptr;  // where `half` is +0 (optional)
+  AccRows(const Image* f, const Image* hf, int fac, const ZeroMap* z = nullptr)
+      : full(f), half(hf), factor(fac), zm(hf ? z : nullptr) {}
+  // True if the rows [y_first, y_last] of block x0 are known to be +0.
+  bool zero(int y_first, int y_last, int x0) const { return zm && zm->zero(y_first, y_last, x0); }
   explicit AccRows(const FastAccumulator& a) {
     if (!a.has_content()) return;
     if (a.half_pending()) {
@@ -989,6 +1060,10 @@ struct NextPull {
   Image* cwt = nullptr;
 };
 
+std::atomic<std::uint64_t> g_fused_renders{0};
+// Band blocks of composite passes written as +0 without computing them (see composite_pass).
+std::atomic<std::uint64_t> zero_blocks{0};
+
 // One composite step of an accumulator: C = L over A (layer_in_front) or A over L (A absent:
 // C = L), written at full resolution into dst_full (which may be A's own full image) or
 // reduced by composite.cpp's 2×2 box into dst_half.
@@ -1002,11 +1077,16 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     std::uint8_t phb[2][kBlock];
     HCache acc, fill;
   };
-  auto crow = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s) {
+  auto empty = [&](int y, int x0) {
     const FusedLayer::Cls cl = L.cls(y, x0);
-    if (cl == FusedLayer::kEmptyKnown || (cl == FusedLayer::kEmptyHole && !L.fill)) {
+    return cl == FusedLayer::kEmptyKnown || (cl == FusedLayer::kEmptyHole && !L.fill);
+  };
+  // azero: A's rows here are known to be +0 (ZeroMap): they are taken as rows of +0 instead
+  // of being up-sampled (the same values, see ZeroMap).
+  auto crow = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s, bool azero) {
+    if (empty(y, x0)) {
       // L = 0 here: 0 over A = A and A over 0 = A (exactly, up to the sign of a zero).
-      if (!A.present()) {
+      if (!A.present() || azero) {
         for (int ch = 0; ch < 4; ++ch) std::fill(c[ch], c[ch] + n, 0.0f);
         return;
       }
@@ -1018,6 +1098,10 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     }
     L.get(y, x0, n, c, &s.fill);
     if (!A.present()) return;
+    if (azero) {
+      kern::over_rows(c, kZeroRows, layer_in_front, n);
+      return;
+    }
     const float* a[4];
     A.get(y, x0, n, s.tmp, a, &s.acc);
     kern::over_rows(c, a, layer_in_front, n);
@@ -1039,10 +1123,27 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
       for (int dy = 0; dy < 4; ++dy) ys[dy] = std::min(4 * b + dy, h - 1);
       for (int x0 = 0; x0 < w; x0 += kBlock) {
         const int n = std::min(kBlock, w - x0);
+        const bool azero = A.present() && A.zero(ys[0], ys[3], x0);
+        if ((!A.present() || azero) && empty(ys[0], x0) && empty(ys[1], x0) && empty(ys[2], x0) && empty(ys[3], x0)) {
+          // An empty layer over (or under) +0: the composite is +0, and so are its 2×2 and
+          // 4×4 box means (0.25 · (+0 + … + +0) = +0).
+          zero_blocks.fetch_add(1, std::memory_order_relaxed);
+          if (dst_full) {
+            for (int dy = 0; dy < 4 && 4 * b + dy < h; ++dy)
+              for (int ch = 0; ch < 4; ++ch) std::fill_n(dst_full->row(ch, 4 * b + dy) + x0, n, 0.0f);
+          } else if (dst_quarter) {
+            for (int ch = 0; ch < 4; ++ch) std::fill(dst_quarter->row(ch, b) + x0 / 4, dst_quarter->row(ch, b) + (x0 + n + 3) / 4, 0.0f);
+          } else {
+            for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh)
+              for (int ch = 0; ch < 4; ++ch)
+                std::fill(dst_half->row(ch, yh) + x0 / 2, dst_half->row(ch, yh) + (x0 + n + 1) / 2, 0.0f);
+          }
+          continue;
+        }
         for (int dy = 0; dy < 4; ++dy) {
           src[dy] = dy;
           if (dy > 0 && ys[dy] == ys[dy - 1]) src[dy] = src[dy - 1];
-          else crow(ys[dy], x0, n, s.rows[dy], s);
+          else crow(ys[dy], x0, n, s.rows[dy], s, azero);
         }
         if (dst_full) {
           for (int dy = 0; dy < 4 && 4 * b + dy < h; ++dy)
@@ -1089,11 +1190,8 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
 
 }  // namespace
 
-namespace {
-std::atomic<std::uint64_t> g_fused_renders{0};
-}  // namespace
-
 std::uint64_t fused_render_count() { return g_fused_renders.load(); }
+std::uint64_t zero_block_count() { return zero_blocks.load(); }
 
 bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, const LayerPlan& plan, bool half_res,
                            bool quarter_res, bool do_fill, bool fill_under, Image& out) {
@@ -1282,6 +1380,14 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     int factor = 2;
     bool has = false;
     int flip = 0, flip_q = 0;
+    ZeroMap zero;  // where `half` is +0 (valid while `half` is)
+  };
+  // Zero maps of the two sides (bytes in workspace float planes).
+  const int nbz = (w + kBlock - 1) / kBlock;
+  // One size for both reductions (the half-resolution row count), so no buffer is resized.
+  auto zero_store = [&](const std::string& name) {
+    const std::size_t bytes = static_cast<std::size_t>(nbz) * ((h + 1) / 2);
+    return reinterpret_cast<std::uint8_t*>(ws.image(name, static_cast<int>((bytes + 3) / 4), 1, 1).plane(0));
   };
   Side B, F;
   for (std::size_t i = 0; i < jobs.size(); ++i) {
@@ -1291,7 +1397,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     const FusedLayer& L = units[i];
     NextPull next;
     if (needs_pull(i + 1)) next = {&units[i + 1], pyr[(i + 1) % 2].val[1], pyr[(i + 1) % 2].wgt[1]};
-    const AccRows A(s.has ? s.full : nullptr, s.has ? s.half : nullptr, s.factor);
+    const AccRows A(s.has ? s.full : nullptr, s.has ? s.half : nullptr, s.factor, &s.zero);
     const double var = job.var;
     const double sigma = std::sqrt(var);
     if (var > 0 && half_res && quarter_res && sigma >= 8.0) {
@@ -1304,6 +1410,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       s.full = nullptr;
       s.half = &dst;
       s.factor = 4;
+      s.zero = build_zero_map(dst, 4, w, zero_store(name + ".nz"));
     } else if (var > 0 && half_res && sigma >= 4.0) {
       const int hw = (w + 1) / 2, hh = (h + 1) / 2;
       Image& dst = ws.image(name + ".half" + std::to_string(s.flip), hw, hh, 4);
@@ -1314,12 +1421,14 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       s.full = nullptr;
       s.half = &dst;
       s.factor = 2;
+      s.zero = build_zero_map(dst, 2, w, zero_store(name + ".nz"));
     } else {
       Image& dst = ws.image(name + ".full", w, h, 4);
       composite_pass(L, A, job.back, &dst, nullptr, nullptr, next);
       if (var > 0) core::gaussian_blur(dst, static_cast<float>(sigma));
       s.full = &dst;
       s.half = nullptr;
+      s.zero = ZeroMap();
     }
     s.has = true;
     if (next.L) finish_pull(i + 1);
@@ -1327,7 +1436,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
 
   // I = F over L_focus over B (final_composite's arithmetic; the focus layer on the fly).
   const FusedLayer* Lf = focus_full ? &units.back() : nullptr;
-  const AccRows BR(B.full, B.half, B.factor), FR(F.full, F.half, F.factor);
+  const AccRows BR(B.full, B.half, B.factor, &B.zero), FR(F.full, F.half, F.factor, &F.zero);
   out.resize(w, h, 4);
   // Bands of 4 rows, column block by column block, so the horizontally up-sampled coarse
   // rows of B, F and the focus layer's fill are computed once per band (HCache), not twice
@@ -1350,16 +1459,16 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
         else
           for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
         if (BR.present()) {
-          const float* b[4];
-          BR.get(y, x0, n, bb, b, &sp->bc);
+          const float* b[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};  // +0 rows where the map says so
+          if (!BR.zero(y, y, x0)) BR.get(y, x0, n, bb, b, &sp->bc);
           float t[kBlock];
           for (int i = 0; i < n; ++i) t[i] = 1.0f - cur[3][i];
           for (int c = 0; c < 4; ++c)
             for (int i = 0; i < n; ++i) cur[c][i] = cur[c][i] + t[i] * b[c][i];
         }
         if (FR.present()) {
-          const float* f[4];
-          FR.get(y, x0, n, fb, f, &sp->fc);
+          const float* f[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
+          if (!FR.zero(y, y, x0)) FR.get(y, x0, n, fb, f, &sp->fc);
           float t[kBlock];
           for (int i = 0; i < n; ++i) t[i] = 1.0f - f[3][i];
           for (int c = 0; c < 4; ++c)

@@ -88,4 +88,9 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
 /// that the fused path, not the fallback, produced what they compare).
 std::uint64_t fused_render_count();
 
+/// How many band blocks (4 rows × 256 columns) the fused composite passes have written as +0
+/// without computing them: an empty layer over an accumulator known to be +0 there (lets the
+/// tests check that the shortcut is taken).
+std::uint64_t zero_block_count();
+
 }  // namespace dofkit::detail::layered

@@ -118,16 +118,6 @@ namespace {
 
 struct RowScratch {
   std::vector<float> vrow, hrow, ws, wm, wl, wsrc;
-  // 2×2 block-sum rows of the small blur (MixRow4), per channel the last four block rows:
-  // block row j lives in slot j mod 4; tag = its j (or kNoRow). Consecutive output rows share
-  // three of their four block rows.
-  static constexpr int kNoRow = -1000000;
-  std::vector<float> blk;  // [4 channels][4 slots][w]
-  int tag[4][4];
-  void forget() {
-    for (auto& t : tag)
-      for (int& v : t) v = kNoRow;
-  }
 };
 
 struct FinalGeometry {
@@ -202,47 +192,20 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
                      keep_own_blur, sc.ws.data(), sc.wm.data(), sc.wl.data(), sc.wsrc.data()};
   bool any = false;
   for (int x = final_weights_simd(wr, 0, w, any); x < w; ++x) any |= weights_scalar(wr, x);
-  if (!any) {  // whole row in focus: the source, bit for bit
-    for (int ch = 0; ch < 4; ++ch) std::copy(color.row(ch, y), color.row(ch, y) + w, out.row(ch, y));
-    return;
-  }
-  // Columns 2 … w − 3 read x − 2 … x + 2 without clamping: the SIMD interior.
-  const int lo = std::min(2, w), hi = std::max(lo, w - 2);
-  int done = lo;
-  if (hi > lo) {
-    MixRow4 m{};
-    for (int ch = 0; ch < 4; ++ch) {
-      for (int k = 0; k < 4; ++k) {
-        // Block row j: source rows j and j + 1, clamped like the plain pass's taps.
-        const int j = y + kTapBlock[k][1];
-        const int slot = (j % 4 + 4) % 4;
-        float* b = sc.blk.data() + (static_cast<std::size_t>(ch) * 4 + slot) * w;
-        if (sc.tag[ch][slot] != j) {
-          block_row_simd(color.row(ch, clampi(j, 0, h - 1)), color.row(ch, clampi(j + 1, 0, h - 1)), b, w - 1);
-          sc.tag[ch][slot] = j;
-        }
-        m.blk[ch][k] = b;
-      }
-      m.med[ch] = med[ch];
-      m.num[ch] = sc.hrow.data() + static_cast<std::size_t>(ch) * w;
-      m.src[ch] = color.row(ch, y);
-      m.out[ch] = out.row(ch, y);
-    }
-    m.mwt = med_wt;
-    m.cb = cb;
-    m.ws = wr.ws;
-    m.wm = wr.wm;
-    m.wl = wr.wl;
-    m.wsrc = wr.wsrc;
-    done = final_mix4_simd(m, lo, hi);
-  }
-  // Border columns (clamped taps) and the tail: the scalar form, same arithmetic.
   for (int ch = 0; ch < 4; ++ch) {
+    const float* src = color.row(ch, y);
+    float* o = out.row(ch, y);
+    if (!any) {  // whole row in focus: the source, bit for bit
+      std::copy(src, src + w, o);
+      continue;
+    }
     MixRow mr{{}, med[ch], med_wt, sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm, wr.wl,
-              wr.wsrc, color.row(ch, y), out.row(ch, y)};
+              wr.wsrc, src, o};
     for (int k = 0; k < 5; ++k) mr.rows[k] = color.row(ch, clampi(y + k - 2, 0, h - 1));
+    // Columns 2 … w − 3 read x − 2 … x + 2 without clamping.
+    const int lo = std::min(2, w), hi = std::max(lo, w - 2);
     for (int x = 0; x < lo; ++x) mix_scalar(mr, x, w);
-    for (int x = done; x < w; ++x) mix_scalar(mr, x, w);
+    for (int x = final_mix_simd(mr, lo, hi); x < w; ++x) mix_scalar(mr, x, w);
   }
 }
 
@@ -260,25 +223,20 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
   core::parallel_for(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* med[4] = {medium.row(0, y), medium.row(1, y), medium.row(2, y), medium.row(3, y)};
-      final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, nullptr, y > y0);
+      final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y);
     }
   }, 8);
 }
 
 void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
                     const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
-                    const float* med_wt, bool continues) {
+                    const float* med_wt) {
   const int w = color.width(), h = color.height();
   const FinalGeometry g{w, h, large.width(), large.height()};
   thread_local RowScratch sc;  // per worker, kept between frames
   sc.vrow.resize(static_cast<std::size_t>(g.lw) * 6);
   sc.hrow.resize(static_cast<std::size_t>(w) * 6);
   for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
-  if (sc.blk.size() != static_cast<std::size_t>(w) * 16) {
-    sc.blk.resize(static_cast<std::size_t>(w) * 16);
-    continues = false;
-  }
-  if (!continues) sc.forget();
   final_row(color, depth, level, med, med_wt, large, inv_depth, keep_own_blur, out, g, sc, y);
 }
 

@@ -118,57 +118,6 @@ int FinalMix(const MixRow& r, int x0, int x1) {
   return x;
 }
 
-int FinalMix4(const MixRow4& r, int x0, int x1) {
-  const hn::ScalableTag<float> d;
-  const int n = static_cast<int>(hn::Lanes(d));
-  const auto one = hn::Set(d, 1.0f), tiny = hn::Set(d, 1e-6f), k17 = hn::Set(d, 1.0f / 17.0f);
-  const MixRow4 m = r;  // a local copy: the stores to out cannot alias it
-  int x = x0;
-  for (; x + n <= x1; x += n) {
-    const auto wsrc = hn::LoadU(d, m.wsrc + x);
-    const auto focus = hn::Eq(wsrc, one);
-    if (hn::AllTrue(d, focus)) {  // every lane in focus: the source, bit for bit
-      for (int ch = 0; ch < 4; ++ch) hn::StoreU(hn::LoadU(d, m.src[ch] + x), d, m.out[ch] + x);
-      continue;
-    }
-    const auto ws = hn::LoadU(d, m.ws + x), wm = hn::LoadU(d, m.wm + x), wl = hn::LoadU(d, m.wl + x);
-    const auto cb = hn::LoadU(d, m.cb + x);
-    const auto has_large = hn::Gt(cb, tiny);
-    const auto cb_den = hn::IfThenElse(has_large, cb, one);
-    const bool norm = m.mwt != nullptr;
-    const auto mw = norm ? hn::LoadU(d, m.mwt + x) : one;
-    const auto has_med = hn::Gt(mw, tiny);
-    const auto mw_den = hn::IfThenElse(has_med, mw, one);
-    for (int ch = 0; ch < 4; ++ch) {
-      const auto s = hn::LoadU(d, m.src[ch] + x);
-      // Taps (0, −2), (−2, −1), (−1, 1), (1, 0): B rows of block rows y − 2, y − 1, y + 1, y.
-      const auto t0 = hn::LoadU(d, m.blk[ch][0] + x);
-      const auto t1 = hn::LoadU(d, m.blk[ch][1] + x - 2);
-      const auto t2 = hn::LoadU(d, m.blk[ch][2] + x - 1);
-      const auto t3 = hn::LoadU(d, m.blk[ch][3] + x + 1);
-      const auto small = hn::Mul(hn::Add(hn::Add(hn::Add(t0, t1), t2), t3), k17);
-      auto med = hn::LoadU(d, m.med[ch] + x);
-      if (norm) med = hn::IfThenElse(has_med, hn::Div(med, mw_den), s);
-      const auto lg = hn::IfThenElse(has_large, hn::Div(hn::LoadU(d, m.num[ch] + x), cb_den), med);
-      const auto mixed =
-          hn::Add(hn::Add(hn::Add(hn::Mul(ws, small), hn::Mul(wm, med)), hn::Mul(wl, lg)), hn::Mul(wsrc, s));
-      hn::StoreU(hn::IfThenElse(focus, s, mixed), d, m.out[ch] + x);
-    }
-  }
-  return x;
-}
-
-void BlockRow(const float* a, const float* b, float* out, int n) {
-  const hn::ScalableTag<float> d;
-  const int lanes = static_cast<int>(hn::Lanes(d));
-  int x = 0;
-  for (; x + lanes <= n; x += lanes)
-    hn::StoreU(hn::Add(hn::Add(hn::Add(hn::LoadU(d, a + x), hn::LoadU(d, a + x + 1)), hn::LoadU(d, b + x)),
-                       hn::LoadU(d, b + x + 1)),
-               d, out + x);
-  for (; x < n; ++x) out[x] = ((a[x] + a[x + 1]) + b[x]) + b[x + 1];
-}
-
 int FinalHlerp(const float* v, float* out, int i0, int i1) {
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
@@ -246,8 +195,6 @@ namespace dofkit::detail::starcraft {
 
 HWY_EXPORT(FinalWeights);
 HWY_EXPORT(FinalMix);
-HWY_EXPORT(FinalMix4);
-HWY_EXPORT(BlockRow);
 HWY_EXPORT(FinalHlerp);
 HWY_EXPORT(LargeReduce);
 HWY_EXPORT(LevelsRow);
@@ -256,10 +203,6 @@ int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any) {
   return HWY_DYNAMIC_DISPATCH(FinalWeights)(r, x0, x1, any);
 }
 int final_mix_simd(const MixRow& r, int x0, int x1) { return HWY_DYNAMIC_DISPATCH(FinalMix)(r, x0, x1); }
-int final_mix4_simd(const MixRow4& r, int x0, int x1) { return HWY_DYNAMIC_DISPATCH(FinalMix4)(r, x0, x1); }
-void block_row_simd(const float* a, const float* b, float* out, int n) {
-  HWY_DYNAMIC_DISPATCH(BlockRow)(a, b, out, n);
-}
 int final_hlerp_simd(const float* v, float* out, int i0, int i1) {
   return HWY_DYNAMIC_DISPATCH(FinalHlerp)(v, out, i0, i1);
 }

@@ -42,31 +42,6 @@ struct MixRow {
 };
 int final_mix_simd(const MixRow& r, int x0, int x1);
 
-/// The same mix for the four channels at once, the small blur read from rows of 2×2 block
-/// sums: blk[ch][k] is the row of B(x) = ((s(x, j) + s(x + 1, j)) + s(x, j + 1)) + s(x + 1, j + 1)
-/// for tap k's block row j (final.cpp kTapBlock), so that tap k of pixel x is
-/// blk[ch][k][x + dx_k] — the sums FinalMix forms per pixel, in the same order (same values),
-/// each computed once instead of once per tap that reads it. The per-pixel inputs (weights,
-/// normalisers) are loaded once for the four channels. Needs x − 2 … x + 1 inside the B rows.
-struct MixRow4 {
-  const float* blk[4][4];
-  const float* med[4];
-  const float* mwt;  ///< as MixRow::mwt
-  const float* num[4];
-  const float* cb;
-  const float* ws;
-  const float* wm;
-  const float* wl;
-  const float* wsrc;
-  const float* src[4];
-  float* out[4];
-};
-int final_mix4_simd(const MixRow4& r, int x0, int x1);
-
-/// B row of two source rows (see MixRow4): out[x] = ((a[x] + a[x + 1]) + b[x]) + b[x + 1]
-/// for x in [0, n).
-void block_row_simd(const float* a, const float* b, float* out, int n);
-
 /// Horizontal up-sampling of one quarter-res row `v` to full res: cell i writes columns
 /// 4i … 4i + 3 (see final.cpp). Reads v[i − 1 … i + 1]: valid for 1 <= i < lw − 1.
 int final_hlerp_simd(const float* v, float* out, int i0, int i1);

@@ -129,12 +129,10 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
 /// each); `out` must already have the frame's size. Same result as final_pass's row y.
 /// med_wt set: med holds the medium level before its division (blurred c·rgba) and med_wt
 /// the blurred weight c; the division (with the source where med_wt <= 1e-6, as in
-/// medium_blur) is made in the mix, only for the pixels that are not in focus. continues: this
-/// thread's previous call was row y − 1 of the same frame, so the small blur's 2×2 block sums
-/// of the rows it shares with this one are reused (false is always correct).
+/// medium_blur) is made in the mix, only for the pixels that are not in focus.
 void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
                     const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
-                    const float* med_wt = nullptr, bool continues = false);
+                    const float* med_wt = nullptr);
 
 /// C2 and C5 fused (fast form, no debug output): the medium level is streamed row by row
 /// (core::weighted_gaussian_rows) into the final pass, so it never exists as full planes.

@@ -21,6 +21,16 @@
 // off in every lane of both rows (no far pixel; all four near taps' CoC 0) leaves the colour
 // as its selects would and is skipped; chunks with no far pixel and no near tile around are
 // copied.
+//
+// Order inside a group of 8 pixels × 2 rows (round 4): all eight colour vectors are loaded
+// first, then the far and near weights (shared by the channels), then channel by channel the
+// two blends and the stores. The x·y products of the bilinear weights are per row pair
+// constants (Pair::wxy). Loading the colour first matters more than the instruction count:
+// the planes of a 1080p frame lie a multiple of 4 kB apart, so a load of colour plane c + 1
+// right after a store to output plane c at the same x has the same address bits 0–11 and is
+// held back behind the store (4k aliasing); the channel-by-channel version with the load
+// inside the loop ran no faster than the old code despite 14 % fewer instructions, the
+// loads-first one 1.1–1.4 ms (≈ 9 %) faster per 1080p frame.
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -47,9 +57,9 @@ __attribute__((always_inline)) inline V4 load4(const float* p) {
 }
 
 // The two x-taps of 8 pixels from x = 2m on half-res row P (w texels), see the top.
-__attribute__((always_inline)) inline void taps(const float* P, int m, int w, V8& t0, V8& t1) {
+__attribute__((always_inline)) inline void taps(const float* P, int m, int w, bool inner, V8& t0, V8& t1) {
   V4 lo, hi;
-  if (m >= 1 && m + 4 <= w - 1) {
+  if (inner) {
     lo = load4(P + m - 1);
     hi = load4(P + m + 1);
   } else {
@@ -71,6 +81,8 @@ struct Pair {
   float* out[2][4];
   const float* fq[2];          // far(q) rows, from the chunk start
   float by[2][2];              // y-weights [row][b]
+  V8 wxy[2][2][2];             // bilinear weights [row][b][a] = x-weight a · y-weight b (composite.cpp
+                               // X.b[a] · Y.b[b]), lanes alternating even / odd x
   float blend = 1;
   bool far = false, near = false;  // parts some pixel of the chunk needs
 };
@@ -80,99 +92,111 @@ struct Pair {
 template <int kRows>
 __attribute__((always_inline)) inline void group(const Pair& R, int xa, int i, int n) {
   const int m = (xa + i) >> 1;
+  const bool inner = m >= 1 && m + 4 <= R.w - 1;  // the six texels of taps() need no clamp
   const V8 zero = splat(0.0f);
-  // x-weights (composite.cpp axis()): even x (¼, ¾), odd x (¾, ¼).
-  const V8 bx[2] = {V8{0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f},
-                    V8{0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f}};
-  V8 res[2][4], fq[2];
   constexpr int nr = kRows;
+  V8 fq[2];
   for (int r = 0; r < nr; ++r) {
     if (n == 8) {
-      for (int c = 0; c < 4; ++c) res[r][c] = load8(R.col[r][c] + i);
       fq[r] = load8(R.fq[r] + i);
-    } else {  // tail: through zero-padded copies
+    } else {  // tail: through a zero-padded copy
       float tmp[8] = {};
-      for (int c = 0; c < 4; ++c) {
-        std::copy(R.col[r][c] + i, R.col[r][c] + i + n, tmp);
-        res[r][c] = load8(tmp);
-      }
-      std::fill(tmp, tmp + 8, 0.0f);
       std::copy(R.fq[r] + i, R.fq[r] + i + n, tmp);
       fq[r] = load8(tmp);
     }
   }
-  // Far: CoC-bilateral bilinear.
+  // Far weights (CoC-bilateral bilinear) and blend masks, shared by the four channels.
   bool far_here = false;
   if (R.far)
     for (int r = 0; r < nr; ++r) far_here = far_here || any(fq[r] > zero);
+  V8 wf[2][2][2];  // [b][row][a]
+  V8 wsum[2] = {zero, zero}, tf[2];
+  I8 far_on[2];
   if (far_here) {
-    V8 wsum[2] = {zero, zero}, acc[2][4] = {{zero, zero, zero, zero}, {zero, zero, zero, zero}};
     for (int b = 0; b < 2; ++b) {
       V8 fk[2];
-      taps(R.P[b][4], m, R.w, fk[0], fk[1]);
-      V8 wk[2][2];  // [row][a]
+      taps(R.P[b][4], m, R.w, inner, fk[0], fk[1]);
       for (int r = 0; r < nr; ++r)
         for (int a = 0; a < 2; ++a) {
-          const V8 wraw = bx[a] * splat(R.by[r][b]) / (vabs(fq[r] - fk[a]) + splat(0.001f));
-          wk[r][a] = fk[a] > zero ? wraw : zero;
-          wsum[r] += wk[r][a];
+          const V8 wraw = R.wxy[r][b][a] / (vabs(fq[r] - fk[a]) + splat(0.001f));
+          wf[b][r][a] = fk[a] > zero ? wraw : zero;
+          wsum[r] += wf[b][r][a];
         }
-      for (int c = 0; c < 4; ++c) {
-        V8 t[2];
-        taps(R.P[b][c], m, R.w, t[0], t[1]);
-        for (int r = 0; r < nr; ++r)
-          for (int a = 0; a < 2; ++a) acc[r][c] += wk[r][a] * t[a];
-      }
     }
     for (int r = 0; r < nr; ++r) {
-      const V8 tf = splat(R.blend) * fq[r];
-      const I8 far_on = (fq[r] > zero) & (wsum[r] > zero);
-      for (int c = 0; c < 4; ++c)
-        res[r][c] = far_on ? res[r][c] + (acc[r][c] / wsum[r] - res[r][c]) * tf : res[r][c];
+      tf[r] = splat(R.blend) * fq[r];
+      far_on[r] = (fq[r] > zero) & (wsum[r] > zero);
     }
   }
-  // Near: bilinear field and dilated CoC.
+  // Near: bilinear dilated CoC → blend factor; skipped where all four taps' CoC are 0.
+  bool near_here = false;
+  V8 tn[2];
+  I8 near_on[2];
   if (R.near) {
     V8 nbk[2][2];  // [b][a]
     I8 some = splat_i(0);
     for (int b = 0; b < 2; ++b) {
-      taps(R.P[b][9], m, R.w, nbk[b][0], nbk[b][1]);
+      taps(R.P[b][9], m, R.w, inner, nbk[b][0], nbk[b][1]);
       some |= (nbk[b][0] > zero) | (nbk[b][1] > zero);
     }
     if (any(some)) {
-      V8 nb[2] = {zero, zero}, nf[2][4] = {{zero, zero, zero, zero}, {zero, zero, zero, zero}};
-      for (int b = 0; b < 2; ++b) {
-        V8 wk[2][2];
+      near_here = true;
+      V8 nb[2] = {zero, zero};
+      for (int b = 0; b < 2; ++b)
         for (int r = 0; r < nr; ++r)
-          for (int a = 0; a < 2; ++a) {
-            wk[r][a] = bx[a] * splat(R.by[r][b]);
-            nb[r] += wk[r][a] * nbk[b][a];
-          }
-        for (int c = 0; c < 4; ++c) {
-          V8 t[2];
-          taps(R.P[b][5 + c], m, R.w, t[0], t[1]);
-          for (int r = 0; r < nr; ++r)
-            for (int a = 0; a < 2; ++a) nf[r][c] += wk[r][a] * t[a];
-        }
-      }
+          for (int a = 0; a < 2; ++a) nb[r] += R.wxy[r][b][a] * nbk[b][a];
       const V8 one = splat(1.0f);
       for (int r = 0; r < nr; ++r) {
-        const V8 tn = splat(R.blend) * (one < nb[r] ? one : nb[r]);  // std::min(nb, 1)
-        const I8 near_on = tn > zero;
-        for (int c = 0; c < 4; ++c) res[r][c] = near_on ? res[r][c] + (nf[r][c] - res[r][c]) * tn : res[r][c];
+        tn[r] = splat(R.blend) * (one < nb[r] ? one : nb[r]);  // std::min(nb, 1)
+        near_on[r] = tn[r] > zero;
       }
     }
   }
-  for (int r = 0; r < nr; ++r)
-    for (int c = 0; c < 4; ++c) {
+  // Per channel: colour, far blend, near blend, store (few live vectors: no spills).
+  V8 colv[4][2];
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < nr; ++r) {
       if (n == 8) {
-        store8(R.out[r][c] + i, res[r][c]);
+        colv[c][r] = load8(R.col[r][c] + i);
+      } else {
+        float tmp[8] = {};
+        std::copy(R.col[r][c] + i, R.col[r][c] + i + n, tmp);
+        colv[c][r] = load8(tmp);
+      }
+    }
+  for (int c = 0; c < 4; ++c) {
+    V8 res[2] = {colv[c][0], colv[c][1]};
+    if (far_here) {
+      V8 acc[2] = {zero, zero};
+      for (int b = 0; b < 2; ++b) {
+        V8 t[2];
+        taps(R.P[b][c], m, R.w, inner, t[0], t[1]);
+        for (int r = 0; r < nr; ++r)
+          for (int a = 0; a < 2; ++a) acc[r] += wf[b][r][a] * t[a];
+      }
+      for (int r = 0; r < nr; ++r)
+        res[r] = far_on[r] ? res[r] + (acc[r] / wsum[r] - res[r]) * tf[r] : res[r];
+    }
+    if (near_here) {
+      V8 nf[2] = {zero, zero};
+      for (int b = 0; b < 2; ++b) {
+        V8 t[2];
+        taps(R.P[b][5 + c], m, R.w, inner, t[0], t[1]);
+        for (int r = 0; r < nr; ++r)
+          for (int a = 0; a < 2; ++a) nf[r] += R.wxy[r][b][a] * t[a];
+      }
+      for (int r = 0; r < nr; ++r) res[r] = near_on[r] ? res[r] + (nf[r] - res[r]) * tn[r] : res[r];
+    }
+    for (int r = 0; r < nr; ++r) {
+      if (n == 8) {
+        store8(R.out[r][c] + i, res[r]);
       } else {
         float o[8];
-        store8(o, res[r][c]);
+        store8(o, res[r]);
         std::copy(o, o + n, R.out[r][c] + i);
       }
     }
+  }
 }
 
 template <int kRows>
@@ -236,6 +260,11 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
         const float t = (ys[r] % 2 == 0) ? 0.75f : 0.25f;  // composite.cpp axis()
         R.by[r][0] = 1.0f - t;
         R.by[r][1] = t;
+        // x-weights (composite.cpp axis()): even x (¼, ¾), odd x (¾, ¼).
+        const V8 bx[2] = {V8{0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f},
+                          V8{0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f}};
+        for (int bb = 0; bb < 2; ++bb)
+          for (int a = 0; a < 2; ++a) R.wxy[r][bb][a] = bx[a] * splat(R.by[r][bb]);
       }
       for (int xa = 0; xa < W; xa += kChunk) {
         const int n = std::min(kChunk, W - xa);

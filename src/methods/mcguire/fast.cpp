@@ -58,6 +58,21 @@ inline int reach_of(float den) { return static_cast<int>(1.2f * den) + 1; }
 inline int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 inline int ceil_div(int a, int b) { return a <= 0 ? -((-a) / b) : (a + b - 1) / b; }
 
+// In-place running sums p[k][j] += p[k][j − 1] for j = 1 … n, for K arrays at once. A lone
+// running sum is bound by the add's latency (one element per ~4 cycles); K independent
+// chains in one loop overlap. Each array's additions are the same, in the same order, as a
+// loop of its own (s + v and v + s round alike), so the sums are bit-identical.
+template <int K>
+void running_sums(double* const (&p)[K], int n) {
+  double s[K];
+  for (int k = 0; k < K; ++k) s[k] = p[k][0];
+  for (int j = 1; j <= n; ++j)
+    for (int k = 0; k < K; ++k) {
+      s[k] += p[k][j];
+      p[k][j] = s[k];
+    }
+}
+
 constexpr int kBlock = 32;  // outputs per tap-bound block
 
 /// Far gather of outputs [i0, i1) of row `row` of `dst` (planes 0-3) from the taps
@@ -210,6 +225,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         const int qb = (2 * R + 1) / f, rem = (2 * R + 1) % f, nb = wo + qb;
         if (any_box) {
           const int j0 = box_lo, nj = box_hi - box_lo + qb + 1;
+          double* pg[4];
           for (int c = 0; c < 4; ++c) {
             double* PG = prefix + c * PST;
             double* RM = PG + (nb + 1);
@@ -224,8 +240,9 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             bs.Rm = RM + j0;
             block_sums_simd(bs);
             PG[j0] = 0;
-            for (int j = j0; j < j0 + nj; ++j) PG[j + 1] += PG[j];
+            pg[c] = PG + j0;
           }
+          running_sums(pg, nj);
         }
         const float box_w = static_cast<float>(2 * R + 1);  // the plain pass's Σw (every w = 1)
         for (int i0 = 0; i0 < wo; i0 += kBlock) {
@@ -269,11 +286,18 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
           lvl_lo[prep.near_hmin] = prep.near_first;
           lvl_hi[prep.near_hmin] = prep.near_last;
         } else {
-          for (int x = prep.near_first; x <= prep.near_last; ++x) {
+          // By runs of equal half-width (neighbouring sources mostly share one): a counter
+          // bumped per source would wait on its own store every step.
+          for (int x = prep.near_first; x <= prep.near_last;) {
             const int h = near_h[x];
-            if (h < 0) continue;
-            if (lvl_n[h]++ == 0) lvl_lo[h] = x;
-            lvl_hi[h] = x;
+            int e = x + 1;
+            while (e <= prep.near_last && near_h[e] == h) ++e;
+            if (h >= 0) {
+              if (lvl_n[h] == 0) lvl_lo[h] = x;
+              lvl_n[h] += e - x;
+              lvl_hi[h] = e - 1;
+            }
+            x = e;
           }
         }
         const std::size_t st = wo + 2;
@@ -328,11 +352,15 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
               lb.Rm[c] = lsum + (2 * c + 1) * ls;
             }
             level_blocks_simd(lb);
+            double* pg[5];
             for (int c = 0; c < 5; ++c) {
-              double* PG = lsum + 2 * c * ls;
+              pg[c] = lsum + 2 * c * ls;
+              pg[c][0] = 0;
+            }
+            running_sums(pg, nbl);
+            for (int c = 0; c < 5; ++c) {
+              const double* PG = pg[c];
               const double* RM = PG + ls;
-              PG[0] = 0;
-              for (int j = 0; j < nbl; ++j) PG[j + 1] += PG[j];
               double* ac = acc + c * static_cast<std::size_t>(wo);
               for (int i = ilo; i <= ihi; ++i) ac[i] += PG[i - ilo + qn] - PG[i - ilo] + RM[i - ilo + qn];
             }

@@ -150,6 +150,28 @@ TEST(SternaFast, EqualsPlainOnTinyAndEvenFrames) {
     expect_fast_equals_plain(test_frame(w, h), blur_at_infinity(2.0, 6.0), std::to_string(w) + "x" + std::to_string(h));
 }
 
+TEST(SternaFast, EqualsPlainWithManyTasks) {
+  // The composite computes the filled half-res rows it needs per task (two-row buffer,
+  // emptied at every task start): more threads give more, shorter tasks, each of which must
+  // recompute its first rows rather than reuse another task's or frame's. A tall narrow frame
+  // gives many row pairs per thread.
+  for (const auto& [w, h] : std::vector<std::pair<int, int>>{{203, 117}, {40, 301}}) {
+    const Frame f = test_frame(w, h);
+    RenderSettings s = blur_at_infinity(2.0, 9.0);
+    s.params["impl"] = "plain";
+    const RenderResult plain = render(f, s);
+    s.params["impl"] = "fast";
+    for (int threads : {3, 7}) {
+      s.threads = threads;
+      Renderer r(s);
+      for (int k = 0; k < 2; ++k) {  // second frame: buffers hold the first frame's rows
+        const Diff d = compare(r.render(f).image, plain.image);
+        EXPECT_EQ(d.differ, 0) << w << "x" << h << " threads=" << threads << " frame " << k;
+      }
+    }
+  }
+}
+
 TEST(SternaFast, RepeatedFramesOfChangingSizeReuseTheWorkspaceCorrectly) {
   // A Renderer keeps its buffers: frames of different sizes and kernels in one renderer must
   // each equal a fresh plain render (stale contents must never leak into a result).

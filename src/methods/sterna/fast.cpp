@@ -31,8 +31,6 @@ void render(const MethodContext& ctx, const Settings& s, Image& out) {
   b.near_blur = &ws.image("sterna.near_blur", b.w, b.h, 1);
   b.dof_near = &ws.image("sterna.dof_near", b.w, b.h, 4);
   b.dof_far = &ws.image("sterna.dof_far", b.w, b.h, 4);
-  b.near_fill = &ws.image("sterna.near_fill", b.w, b.h, 4);
-  b.far_fill = &ws.image("sterna.far_fill", b.w, b.h, 4);
   // Tile bits: per rendering thread, grown once.
   thread_local std::vector<std::uint8_t> tiles;
   b.tiles = &tiles;
@@ -40,7 +38,7 @@ void render(const MethodContext& ctx, const Settings& s, Image& out) {
   prepare(ctx, s, b);
   dilate(s, b);
   gather(s, b);
-  fill(b);
+  // (P8, the fill, runs inside the composite, row by row.)
   BlendRow blend;
   blend.init(ctx, s);
   out.resize(b.W, b.H, 4);

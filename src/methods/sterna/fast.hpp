@@ -8,7 +8,8 @@
 //   * the gather is register-blocked (8 texels × all channels accumulate over the 49 taps in
 //     registers), runs per 8×8 tile only for the field(s) that tile needs, and walks column
 //     strips top to bottom so the ±reach rows it reads stay in L2;
-//   * fill and composite are branch-free row loops (selects instead of per-pixel ifs);
+//   * fill and composite are branch-free row loops (selects instead of per-pixel ifs); the fill
+//     runs row by row inside the composite, which consumes its rows at once;
 //   * buffers come from ctx.workspace (no allocation per frame in steady state);
 //   * hot row functions are compiled for AVX-512 / AVX2 / baseline with runtime dispatch
 //     (GCC target_clones). Floating-point contraction is disabled in them so an FMA never
@@ -45,8 +46,6 @@ struct Buffers {
   Image* near_blur = nullptr; ///< dilated near CoC, 1 plane w × h
   Image* dof_near = nullptr;  ///< gathered near field, 4 planes w × h
   Image* dof_far = nullptr;   ///< gathered far field, 4 planes w × h
-  Image* near_fill = nullptr; ///< after the 3×3 max, 4 planes w × h
-  Image* far_fill = nullptr;  ///< after the 3×3 max, 4 planes w × h
   int tiles_x = 0, tiles_y = 0;
   std::vector<std::uint8_t>* tiles = nullptr;  ///< bit 1 near, bit 2 far (as gather.cpp)
 
@@ -72,7 +71,8 @@ struct BlendRow {
 void prepare(const MethodContext& ctx, const Settings& s, Buffers& b);  // P1+P2, padding
 void dilate(const Settings& s, Buffers& b);                             // P3–P6
 void gather(const Settings& s, Buffers& b);                             // tiles + P7
-void fill(Buffers& b);                                                  // P8
+/// P8 for half-res row y: the 3×3 max fill of the near and far fields, 4 rows of w each.
+void fill_rows(const Buffers& b, int y, float* const* near_out, float* const* far_out);
 void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blend, const Buffers& b,
                Image& out);                                             // P9
 

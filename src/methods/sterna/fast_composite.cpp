@@ -224,7 +224,7 @@ void stream_copy(const float* src, float* dst, int n) {
 }
 
 std::vector<float>& scratch(int slot, std::size_t n) {
-  thread_local std::vector<float> bufs[1];
+  thread_local std::vector<float> bufs[2];
   if (bufs[slot].size() < n) bufs[slot].resize(n);
   return bufs[slot];
 }
@@ -238,8 +238,32 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
   const int pairs = H / 2 + 1;
   core::parallel_for(pairs, [&](int p0, int p1) {
     float* fqbuf = scratch(0, 2 * static_cast<std::size_t>(W)).data();
+    // P8 rows: two slots of 8 filled rows (near ×4, far ×4), each holding one half-res row;
+    // pair p needs rows p − 1 and p, so consecutive pairs compute one new row each. Slots
+    // start empty in every task (rows from another task or frame are never reused).
+    const std::size_t wpad = (static_cast<std::size_t>(w) + 15) / 16 * 16;
+    float* fillbuf = scratch(1, 16 * wpad).data();
+    int slot_row[2] = {-1, -1};
+    auto slot_plane = [&](int slot, int k) { return fillbuf + (static_cast<std::size_t>(slot) * 8 + k) * wpad; };
+    auto filled = [&](int row, int keep) {  // slot holding `row`; the other slot than `keep` is reused
+      for (int sl = 0; sl < 2; ++sl)
+        if (slot_row[sl] == row) return sl;
+      const int sl = keep == 0 ? 1 : 0;
+      float* near_out[4];
+      float* far_out[4];
+      for (int c = 0; c < 4; ++c) {
+        near_out[c] = slot_plane(sl, c);
+        far_out[c] = slot_plane(sl, 4 + c);
+      }
+      fill_rows(b, row, near_out, far_out);
+      slot_row[sl] = row;
+      return sl;
+    };
     for (int p = p0; p < p1; ++p) {
       const int j[2] = {clampi(p - 1, 0, h - 1), clampi(p, 0, h - 1)};
+      int slot[2];
+      slot[0] = filled(j[0], slot_row[0] == j[1] ? 0 : (slot_row[1] == j[1] ? 1 : -1));
+      slot[1] = filled(j[1], slot[0]);
       int ys[2], nrows = 0;
       if (2 * p - 1 >= 0) ys[nrows++] = 2 * p - 1;
       if (2 * p <= H - 1) ys[nrows++] = 2 * p;
@@ -250,8 +274,8 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
       R.blend = cblend;
       for (int bb = 0; bb < 2; ++bb) {
         for (int c = 0; c < 4; ++c) {
-          R.P[bb][c] = b.far_fill->row(c, j[bb]);
-          R.P[bb][5 + c] = b.near_fill->row(c, j[bb]);
+          R.P[bb][c] = slot_plane(slot[bb], 4 + c);
+          R.P[bb][5 + c] = slot_plane(slot[bb], c);
         }
         R.P[bb][4] = b.far_h_row(j[bb]);
         R.P[bb][9] = b.near_blur->row(0, j[bb]);

@@ -5,6 +5,10 @@
 // select alone reproduces it: texel = (factor > 0) ? max of the 3×3 window : texel. The loop
 // body is then the same for every texel and vectorises; interior columns read x − 1 … x + 1
 // directly and only the two border columns clamp.
+//
+// There is no separate fill pass over the frame (round 4): the composite asks for the filled
+// rows it needs (fill_rows) just before it reads them, into a per-thread two-row buffer, so the
+// 8 filled planes (16 MB at 1080p) are never written to memory and read back.
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
@@ -65,19 +69,15 @@ STERNA_SIMD void fill_row(const Rows& R, const float* __restrict factor, float* 
 
 }  // namespace
 
-void fill(Buffers& b) {
+void fill_rows(const Buffers& b, int y, float* const* near_out, float* const* far_out) {
   const int w = b.w, h = b.h;
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const int ys[3] = {std::max(y - 1, 0), y, std::min(y + 1, h - 1)};
-      for (int c = 0; c < 4; ++c) {
-        Rows rn{{b.dof_near->row(c, ys[0]), b.dof_near->row(c, ys[1]), b.dof_near->row(c, ys[2])}};
-        fill_row(rn, b.near_blur->row(0, y), b.near_fill->row(c, y), w);
-        Rows rf{{b.dof_far->row(c, ys[0]), b.dof_far->row(c, ys[1]), b.dof_far->row(c, ys[2])}};
-        fill_row(rf, b.far_h_row(y), b.far_fill->row(c, y), w);
-      }
-    }
-  }, 8);
+  const int ys[3] = {std::max(y - 1, 0), y, std::min(y + 1, h - 1)};
+  for (int c = 0; c < 4; ++c) {
+    Rows rn{{b.dof_near->row(c, ys[0]), b.dof_near->row(c, ys[1]), b.dof_near->row(c, ys[2])}};
+    fill_row(rn, b.near_blur->row(0, y), near_out[c], w);
+    Rows rf{{b.dof_far->row(c, ys[0]), b.dof_far->row(c, ys[1]), b.dof_far->row(c, ys[2])}};
+    fill_row(rf, b.far_h_row(y), far_out[c], w);
+  }
 }
 
 }  // namespace dofkit::detail::sterna::fast

@@ -286,6 +286,48 @@ LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, c
   }
 }
 
+// One channel of the final composite's last step: o = f + u·(c + t·b) with t = 1 − c.a and
+// u = 1 − f.a, i.e. c over b, then f over that (final_composite's order); b or f may be null
+// (no content: that step is skipped).
+LAYERED_SIMD void final_channel(const float* __restrict c, const float* __restrict t, const float* __restrict b,
+                                const float* __restrict u, const float* __restrict f, int n, float* __restrict o) {
+  if (b && f) {
+    for (int i = 0; i < n; ++i) o[i] = f[i] + u[i] * (c[i] + t[i] * b[i]);
+  } else if (b) {
+    for (int i = 0; i < n; ++i) o[i] = c[i] + t[i] * b[i];
+  } else if (f) {
+    for (int i = 0; i < n; ++i) o[i] = f[i] + u[i] * c[i];
+  } else {
+    for (int i = 0; i < n; ++i) o[i] = c[i];
+  }
+}
+
+// t = 1 − a.
+LAYERED_SIMD void one_minus(const float* __restrict a, int n, float* __restrict t) {
+  for (int i = 0; i < n; ++i) t[i] = 1.0f - a[i];
+}
+
+// The code pass (render_gaussian_fused) for 16 pixels whose codes are all known: if every
+// pixel is transparent (!(a > 0)) or has CoC bits `bits`, writes the codes (`cd` and weight
+// wv, or the no-layer code and 0) and returns true; otherwise writes nothing.
+LAYERED_SIMD bool code_run16(const float* __restrict a, const float* __restrict r, std::uint32_t bits,
+                             std::uint16_t cd, float wv, std::uint16_t* __restrict code, float* __restrict w0) {
+  int bad = 0;
+  for (int j = 0; j < 16; ++j) {
+    std::uint32_t b;
+    __builtin_memcpy(&b, r + j, 4);
+    bad |= (a[j] > 0) & (b != bits);
+  }
+  if (bad) return false;
+  const std::uint16_t none = static_cast<std::uint16_t>(31u | (31u << 6));  // kNoLayer, hk 31
+  for (int j = 0; j < 16; ++j) {
+    const bool on = a[j] > 0;
+    code[j] = on ? cd : none;
+    w0[j] = on ? wv : 0.0f;
+  }
+  return true;
+}
+
 // True if any of p[0 … n) has a bit set (anything but +0), as an integer OR so it vectorises.
 LAYERED_SIMD bool any_bits(const float* __restrict p, int n) {
   std::uint32_t acc = 0;
@@ -1248,6 +1290,14 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       const float* rr = coc.row(0, y);
       const std::size_t base = static_cast<std::size_t>(y) * w;
       for (int x = 0; x < w; ++x) {
+        // Runs of 16 pixels that change nothing (each transparent or of the last CoC) are
+        // written by one vectorised kernel with the codes the loop below would write.
+        while (have && x + 16 <= w &&
+               kern::code_run16(al + x, rr + x, last_bits,
+                                static_cast<std::uint16_t>(j0 | (second ? 32u : 0u) | (hk << 6)), wv,
+                                code + base + x, w0 + base + x))
+          x += 16;
+        if (x >= w) break;
         const float a = al[x];
         if (!(a > 0)) {
           code[base + x] = static_cast<std::uint16_t>(kNoLayer | (31u << 6));
@@ -1458,23 +1508,18 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
         if (Lf) Lf->get(y, x0, n, cur, &sp->lc);
         else
           for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
-        if (BR.present()) {
-          const float* b[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};  // +0 rows where the map says so
-          if (!BR.zero(y, y, x0)) BR.get(y, x0, n, bb, b, &sp->bc);
-          float t[kBlock];
-          for (int i = 0; i < n; ++i) t[i] = 1.0f - cur[3][i];
-          for (int c = 0; c < 4; ++c)
-            for (int i = 0; i < n; ++i) cur[c][i] = cur[c][i] + t[i] * b[c][i];
-        }
-        if (FR.present()) {
-          const float* f[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
-          if (!FR.zero(y, y, x0)) FR.get(y, x0, n, fb, f, &sp->fc);
-          float t[kBlock];
-          for (int i = 0; i < n; ++i) t[i] = 1.0f - f[3][i];
-          for (int c = 0; c < 4; ++c)
-            for (int i = 0; i < n; ++i) cur[c][i] = f[c][i] + t[i] * cur[c][i];
-        }
-        for (int c = 0; c < 4; ++c) std::copy(cur[c], cur[c] + n, out.row(c, y) + x0);
+        // cur over B, then F over that (rows of +0 where a zero map says so).
+        const float* b[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
+        const float* f[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
+        if (BR.present() && !BR.zero(y, y, x0)) BR.get(y, x0, n, bb, b, &sp->bc);
+        if (FR.present() && !FR.zero(y, y, x0)) FR.get(y, x0, n, fb, f, &sp->fc);
+        float* o[4];
+        for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
+        float t[kBlock], u[kBlock];
+        kern::one_minus(cur[3], n, t);
+        if (FR.present()) kern::one_minus(f[3], n, u);
+        for (int c = 0; c < 4; ++c)
+          kern::final_channel(cur[c], t, BR.present() ? b[c] : nullptr, u, FR.present() ? f[c] : nullptr, n, o[c]);
       }
   }, 1);
   g_fused_renders.fetch_add(1);

@@ -269,9 +269,9 @@ TEST(StarcraftFast, MatchesThePlainImplementation) {
         for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 50.0f;
     }
   double worst = 0;
-  for (const char* reduce : {"mean", "max"}) {
+  for (const auto& [reduce, boxes] : {std::pair{"mean", "2"}, {"max", "2"}, {"mean", "1"}, {"mean", "3"}}) {
     RenderSettings s = settings_for(3.0, 12.0);
-    s.params = {{"coc_reduce", reduce}};
+    s.params = {{"coc_reduce", reduce}, {"medium_boxes", boxes}};
     const RenderResult fast = render(f, s);
     s.params["impl"] = "plain";
     const RenderResult plain = render(f, s);
@@ -319,8 +319,8 @@ TEST(StarcraftFast, StreamedMediumEqualsTheSeparatePassesOpaqueOrNot) {
   // The fused form (medium level streamed into the final pass, its division made in the mix,
   // the alpha plane left out of the blur when every alpha is 1) against the fast form with
   // full medium planes (taken when the "medium" debug view is asked for): bit for bit, on an
-  // opaque frame and on the same frame with one translucent pixel (all four planes blurred),
-  // for 1 and 2 threads; and within 1e-4 relative of impl=plain for both.
+  // opaque frame and on the same frame with one translucent pixel (all four planes blurred;
+  // there with 3 box passes), for 1 and 2 threads; and within 1e-4 relative of impl=plain for both.
   Frame f = textured_frame(203, 117, 10.0f);
   for (int y = 0; y < 117; ++y)
     for (int x = 0; x < 203; ++x)
@@ -329,6 +329,7 @@ TEST(StarcraftFast, StreamedMediumEqualsTheSeparatePassesOpaqueOrNot) {
     if (translucent)
       for (int c = 0; c < 4; ++c) f.color.at(120, 60, c) *= 0.5f;  // premultiplied: colour and alpha halved
     RenderSettings s = settings_for(3.0, 12.0);
+    s.params["medium_boxes"] = translucent ? "3" : "2";
     s.threads = 1;
     const RenderResult fused1 = render(f, s);
     s.threads = 2;

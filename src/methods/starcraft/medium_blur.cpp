@@ -4,6 +4,7 @@
 // extended-box cascade of core/filters, O(1) per pixel for any σ.
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <vector>
 
 #include <tbb/task_arena.h>
@@ -15,7 +16,7 @@
 
 namespace dofkit::detail::starcraft {
 
-void medium_blur(const Image& color, const Image& level, float sigma, Image& medium, Image& weight,
+void medium_blur(const Image& color, const Image& level, float sigma, int boxes, Image& medium, Image& weight,
                  bool plain) {
   const int w = color.width(), h = color.height();
   medium.resize(w, h, 4);
@@ -30,7 +31,7 @@ void medium_blur(const Image& color, const Image& level, float sigma, Image& med
     // arithmetic as the plain steps below with the fast Gaussian, bit for bit.
     const float* src[4] = {color.plane(0), color.plane(1), color.plane(2), color.plane(3)};
     float* dst[4] = {medium.plane(0), medium.plane(1), medium.plane(2), medium.plane(3)};
-    core::weighted_gaussian(src, 4, level.plane(0), w, h, sigma, 3, kTiny, dst, weight.plane(0));
+    core::weighted_gaussian(src, 4, level.plane(0), w, h, sigma, boxes, kTiny, dst, weight.plane(0));
     return;
   }
   std::copy(level.data().begin(), level.data().end(), weight.data().begin());
@@ -44,8 +45,8 @@ void medium_blur(const Image& color, const Image& level, float sigma, Image& med
       }
     }
   }, 16);
-  for (int ch = 0; ch < 4; ++ch) core::gaussian_blur_plane_plain(medium.plane(ch), w, h, sigma, sigma, 3);
-  core::gaussian_blur_plane_plain(weight.plane(0), w, h, sigma, sigma, 3);
+  for (int ch = 0; ch < 4; ++ch) core::gaussian_blur_plane_plain(medium.plane(ch), w, h, sigma, sigma, boxes);
+  core::gaussian_blur_plane_plain(weight.plane(0), w, h, sigma, sigma, boxes);
   core::parallel_for(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* wt = weight.row(0, y);
@@ -78,7 +79,7 @@ bool alpha_is_one(const Image& color) {
 
 }  // namespace
 
-void medium_and_final(const Image& color, const Image& depth, const Image& level, float sigma_medium,
+void medium_and_final(const Image& color, const Image& depth, const Image& level, float sigma_medium, int boxes,
                       const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out) {
   const int w = color.width(), h = color.height();
   out.resize(w, h, 4);
@@ -93,10 +94,10 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
   // passes up (the output does not depend on the banding), so more bands than workers would
   // only add that overhead. Cuts sit on multiples of 32 rows (the passes' re-synchronisation
   // rows, so the last pass needs no warm-up) and are moved down by about half a band's warm-up
-  // (~ 3 passes × (r + 1) + 32 rows, r ≈ σ) so that the bands below the first one, which pay
+  // (~ boxes × (r + 1) + 32 rows, r ≈ σ·sqrt(3 / boxes)) so that the bands below the first one, which pay
   // for it, get fewer rows of their own.
   const int bands = std::max(1, std::min(tbb::this_task_arena::max_concurrency(), h / 64));
-  const int warm = static_cast<int>(3.0f * (sigma_medium + 1.0f) + 32.0f);
+  const int warm = static_cast<int>(boxes * (sigma_medium * std::sqrt(3.0f / boxes) + 1.0f) + 32.0f);
   auto cut = [&](int b) {
     if (b == 0) return 0;
     if (b == bands) return h;
@@ -109,7 +110,7 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
       // The rows come before the division, which the final mix makes for the pixels it mixes
       // (with medium_blur's threshold 1e-6 and source fallback, so the same values).
       core::weighted_gaussian_rows(
-          src, nplanes, level.plane(0), w, h, sigma_medium, 3, 0.0f, y0, y1,
+          src, nplanes, level.plane(0), w, h, sigma_medium, boxes, 0.0f, y0, y1,
           [&](int y, const float* const* rows) {
             const float* wt = rows[nplanes];
             const float* med[4] = {rows[0], rows[1], rows[2], nplanes == 4 ? rows[3] : wt};

@@ -75,6 +75,7 @@ struct Settings {
   double medium_fraction = 0.5;  ///< r_medium / r_large
   double sigma_per_radius = 0.6; ///< Gaussian σ per disc radius (measured best 0.6-0.7)
   double depth_blur = 1.0;       ///< σ of the depth blur relative to the CoC blur
+  int medium_boxes = 2;          ///< extended-box passes per axis of the medium level's Gaussian (1-3)
   bool keep_own_blur = false;    ///< c = max(c_used, c_own): a pixel never gets sharper
   bool coc_reduce_max = false;   ///< quarter-res level = block max (else block mean)
   bool plain = false;            ///< impl=plain: the straightforward passes (test oracle)
@@ -91,7 +92,8 @@ void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& lev
 
 /// C2: medium level, full resolution, RGBA: CoC-weighted Gaussian of σ = sigma_medium,
 /// normalised; where no tap carries weight the source colour is kept. `weight` is scratch.
-void medium_blur(const Image& color, const Image& level, float sigma, Image& medium, Image& weight,
+/// `boxes`: extended-box passes per axis (the Gaussian's shape; its variance is σ² for any count).
+void medium_blur(const Image& color, const Image& level, float sigma, int boxes, Image& medium, Image& weight,
                  bool plain = false);
 
 /// C3: large level at W/4 × H/4. `large` gets 5 planes: blur(c·rgba) (4 planes, not yet
@@ -137,7 +139,7 @@ void final_pass_row(const Image& color, const Image& depth, const Image& level, 
 /// C2 and C5 fused (fast form, no debug output): the medium level is streamed row by row
 /// (core::weighted_gaussian_rows) into the final pass, so it never exists as full planes.
 /// Same result as medium_blur followed by final_pass, bit for bit.
-void medium_and_final(const Image& color, const Image& depth, const Image& level, float sigma_medium,
+void medium_and_final(const Image& color, const Image& depth, const Image& level, float sigma_medium, int boxes,
                       const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out);
 
 /// The chapter's level weights for a level c: {source, small, medium, large}; they sum to 1.

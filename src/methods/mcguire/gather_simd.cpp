@@ -134,11 +134,17 @@ void CompositeRow(const CompositeRowJob& job) {
     }
     const auto keep = hn::Sub(one, n4);
     const hn::Vec<decltype(df)> nn[4] = {n0, n1, n2, n3};
+    // Every load before the first store: the input and output planes of a frame whose
+    // plane size is a multiple of 4 KiB share their addresses' low 12 bits, and a load
+    // issued after a store to such an address waits on it (4K aliasing).
+    hn::Vec<decltype(df)> v[4];
     for (int c = 0; c < 4; ++c) {
       const auto sharp = hn::LoadU(df, job.col[c] + x);
-      auto v = hn::Add(sharp, hn::Mul(hn::Sub(L(5 + c), sharp), ba));
-      if (job.g3d) v = hn::Max(v, zero);
-      hn::StoreU(hn::Add(hn::Mul(v, keep), nn[c]), df, job.out[c] + x);
+      v[c] = hn::Add(sharp, hn::Mul(hn::Sub(L(5 + c), sharp), ba));
+    }
+    for (int c = 0; c < 4; ++c) {
+      if (job.g3d) v[c] = hn::Max(v[c], zero);
+      hn::StoreU(hn::Add(hn::Mul(v[c], keep), nn[c]), df, job.out[c] + x);
     }
   };
   int x = 0;

@@ -255,7 +255,11 @@ STERNA_SIMD float constant_near(const TapV* taps, int ntaps, float v, float inv_
 }
 
 STERNA_SIMD void classify_row(const float* __restrict nb, const float* __restrict fr, std::uint8_t* tiles, int w) {
-  for (int x0 = 0, t = 0; x0 < w; x0 += kTile, ++t) {
+  const V8 zero = splat(0.0f);
+  int x0 = 0, t = 0;
+  for (; x0 + kTile <= w; x0 += kTile, ++t)  // whole tiles: one vector each
+    tiles[t] |= (any(load8(nb + x0) > zero) ? kNearBit : 0) | (any(load8(fr + x0) > zero) ? kFarBit : 0);
+  for (; x0 < w; x0 += kTile, ++t) {
     const int x1 = std::min(w, x0 + kTile);
     bool nn = false, ff = false;
     for (int x = x0; x < x1; ++x) {

@@ -91,22 +91,45 @@ LAYERED_SIMD void lerp_rows(const float* __restrict top, const float* __restrict
   for (int j = 0; j < n; ++j) dst[j] = top[j] + (bot[j] - top[j]) * t;
 }
 
+// dst = +0 + (top + (bot − top)·t): lerp_rows followed by fill_row's "+0 +" of an all-hole block.
+LAYERED_SIMD void lerp_rows_z(const float* __restrict top, const float* __restrict bot, float t, int n,
+                              float* __restrict dst) {
+  for (int j = 0; j < n; ++j) dst[j] = 0.0f + (top[j] + (bot[j] - top[j]) * t);
+}
+
 // matting.cpp for one fragment per pixel from the per-pixel codes (see FusedLayer).
 LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* __restrict w0,
                             const float* const* in, int k, int n, float (*o)[256], std::uint8_t* __restrict hb) {
+  // w_k: w0 where j0 = k; 1 where j0 + 1 = k with the second-layer bit, i.e. where the low
+  // six bits are (k − 1) | 32 (no code has those for k = 0); 0 elsewhere. Compared in 16 bits
+  // and w0 loaded unconditionally, so it vectorises without masked loads.
+  const std::uint16_t k0 = static_cast<std::uint16_t>(k);
+  const std::uint16_t k1 = static_cast<std::uint16_t>(k >= 1 ? ((k - 1) | 32) : 0xffff);
   float wk[256];
   for (int j = 0; j < n; ++j) {
-    const int cd = code[j];
-    const int j0 = cd & 31;
-    wk[j] = j0 == k ? w0[j] : ((j0 + 1 == k && (cd & 32)) ? 1.0f : 0.0f);
+    const std::uint16_t cd = code[j];
+    const float wv = w0[j];
+    const float second = (cd & 63) == k1 ? 1.0f : 0.0f;
+    wk[j] = (cd & 31) == k0 ? wv : second;
   }
-  for (int c = 0; c < 4; ++c) {
-    const float* __restrict src = in[c];
-    float* __restrict dst = o[c];
-    for (int j = 0; j < n; ++j) {
-      const float t = (1.0f - 0.0f) * wk[j];
-      dst[j] = wk[j] > 0 ? 0.0f + t * src[j] : 0.0f;
-    }
+  // t = (1 − 0)·w_k = w_k exactly; acc = 0 + t·I where w_k > 0, else 0 (matting.cpp's order).
+  const float* __restrict s0 = in[0];
+  const float* __restrict s1 = in[1];
+  const float* __restrict s2 = in[2];
+  const float* __restrict s3 = in[3];
+  float* __restrict d0 = o[0];
+  float* __restrict d1 = o[1];
+  float* __restrict d2 = o[2];
+  float* __restrict d3 = o[3];
+  for (int j = 0; j < n; ++j) {
+    const float t = (1.0f - 0.0f) * wk[j];
+    const bool on = wk[j] > 0;
+    // Evaluated everywhere (the colour rows are full rows), selected where w_k > 0.
+    const float v0 = 0.0f + t * s0[j], v1 = 0.0f + t * s1[j], v2 = 0.0f + t * s2[j], v3 = 0.0f + t * s3[j];
+    d0[j] = on ? v0 : 0.0f;
+    d1[j] = on ? v1 : 0.0f;
+    d2[j] = on ? v2 : 0.0f;
+    d3[j] = on ? v3 : 0.0f;
   }
   if (hb)
     for (int j = 0; j < n; ++j) hb[j] = k >= (code[j] >> 6) ? 1 : 0;
@@ -470,14 +493,18 @@ struct HCache {
     }
     return v[i];
   }
-  // The 2× / 4× up-sampling of all channels at fine row y (up_block's result).
-  void get(int y, int n, float (*dst)[kBlock]) {
+  // The 2× / 4× up-sampling of all channels at fine row y (up_block's result); with
+  // plus_zero, +0 + that (see lerp_rows_z).
+  void get(int y, int n, float (*dst)[kBlock], bool plus_zero = false) {
     int ya, yb;
     float ty;
     core::bilinear_footprint((y + 0.5f) * (factor == 4 ? 0.25f : 0.5f), img->height(), ya, yb, ty);
     float (*a)[kBlock] = row(ya, n);
     float (*b)[kBlock] = row(yb, n);
-    for (int c = 0; c < 4; ++c) kern::lerp_rows(a[c], b[c], ty, n, dst[c]);
+    for (int c = 0; c < 4; ++c) {
+      if (plus_zero) kern::lerp_rows_z(a[c], b[c], ty, n, dst[c]);
+      else kern::lerp_rows(a[c], b[c], ty, n, dst[c]);
+    }
   }
 };
 
@@ -1009,9 +1036,7 @@ struct FusedLayer {
       // Every pixel is a hole over a zero matte: fill_row gives 0·0 + (1 − 0)·up = +0 + up
       // everywhere, computed here straight into o.
       if (cache->img != l1 || cache->x0 != x0) cache->reset(l1, 2, x0);
-      cache->get(y, n, o);
-      for (int c = 0; c < 4; ++c)
-        for (int j = 0; j < n; ++j) o[c][j] = 0.0f + o[c][j];
+      cache->get(y, n, o, true);
       return;
     }
     std::uint8_t hb[kBlock];

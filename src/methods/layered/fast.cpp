@@ -351,6 +351,20 @@ LAYERED_SIMD bool code_run16(const float* __restrict a, const float* __restrict 
   return true;
 }
 
+// True if any of w[0 … n) is > 0 (a child the pull counts).
+LAYERED_SIMD bool any_positive(const float* __restrict w, int n) {
+  int any = 0;
+  for (int i = 0; i < n; ++i) any |= w[i] > 0;
+  return any != 0;
+}
+
+// True if any of w[0 … n) is < 1 (a pixel the push changes).
+LAYERED_SIMD bool any_below_one(const float* __restrict w, int n) {
+  int any = 0;
+  for (int i = 0; i < n; ++i) any |= w[i] < 1.0f;
+  return any != 0;
+}
+
 // True if any of p[0 … n) has a bit set (anything but +0), as an integer OR so it vectorises.
 LAYERED_SIMD bool any_bits(const float* __restrict p, int n) {
   std::uint32_t acc = 0;
@@ -658,8 +672,7 @@ void pull_push_upper(const Pyramid& p) {
             }
             const float* wa = fwt.row(0, 2 * y) + 2 * x;
             const float* wb = fwt.row(0, 2 * y + 1) + 2 * x;
-            bool any = false;
-            for (int i = 0; i < 2 * m; ++i) any |= (wa[i] > 0) | (wb[i] > 0);
+            const bool any = kern::any_positive(wa, 2 * m) || kern::any_positive(wb, 2 * m);
             if (!any) {  // no child with confidence: Σ w = 0 gives value 0, confidence 0
               for (int k = 0; k < 4; ++k) std::fill(o[k], o[k] + m, 0.0f);
               std::fill(cwt.row(0, y) + x, cwt.row(0, y) + x + m, 0.0f);
@@ -679,19 +692,24 @@ void pull_push_upper(const Pyramid& p) {
     const Image& fwt = *p.wgt[l];
     const Image& cv = *p.val[l + 1];
     const int fw = fv.width(), fh = fv.height(), cw = cv.width(), ch = cv.height();
+    (void)cw;
+    (void)ch;
+    const int nb = (fw + kBlock - 1) / kBlock;
     core::parallel_for(fh, [&](int y0, int y1) {
-      float up[kBlock];
+      // One cache of horizontally up-sampled coarse rows per column block (up_block's values):
+      // a coarse row serves four fine rows, and is up-sampled once per task instead of four
+      // times. Default-initialised buffers (only the keys are set).
+      std::unique_ptr<HCache[]> cache(new HCache[nb]);
+      float up[4][kBlock];
       for (int y = y0; y < y1; ++y) {
         const float* wr = fwt.row(0, y);
         for (int x0 = 0; x0 < fw; x0 += kBlock) {
           const int n = std::min(kBlock, fw - x0);
-          bool any = false;
-          for (int j = 0; j < n; ++j) any |= wr[x0 + j] < 1.0f;
-          if (!any) continue;
-          for (int k = 0; k < 4; ++k) {
-            up_block(cv.plane(k), cw, ch, y, x0, n, up);
-            kern::push_row(wr + x0, up, n, fv.row(k, y) + x0);
-          }
+          if (!kern::any_below_one(wr + x0, n)) continue;
+          HCache& hc = cache[x0 / kBlock];
+          if (hc.img != &cv) hc.reset(&cv, 2, x0);
+          hc.get(y, n, up);
+          for (int k = 0; k < 4; ++k) kern::push_row(wr + x0, up[k], n, fv.row(k, y) + x0);
         }
       }
     }, 8);

@@ -8,6 +8,7 @@
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "methods/starcraft/final_simd.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/cache_control.h>
 #include <hwy/highway.h>
 
 HWY_BEFORE_NAMESPACE();
@@ -153,6 +154,7 @@ int LevelsRow(const float* r, float* c, int x0, int x1, float vs, float vm, floa
 }
 
 int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1) {
+  constexpr int kAhead = 256;  // floats (1 KiB) ahead of the current position
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
   const auto zero = hn::Zero(d), inv16 = hn::Set(d, 1.0f / 16.0f);
@@ -161,6 +163,10 @@ int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out
     // LoadInterleaved4 splits 4n consecutive pixels into the 4 columns of n blocks.
     auto csum = zero, cmax = zero;
     decltype(csum) wsum[4] = {zero, zero, zero, zero}, psum[4] = {zero, zero, zero, zero};
+    // 20 row streams at once (4 rows × 5 planes) are more than the hardware prefetchers
+    // follow: ask for each a few cache lines ahead (a hint; reading past the row is harmless).
+    for (int k = 0; k < 4; ++k)
+      for (int ch = 0; ch < 5; ++ch) hwy::Prefetch(rows[k][ch] + 4 * static_cast<std::ptrdiff_t>(i) + kAhead);
     for (int k = 0; k < 4; ++k) {
       decltype(csum) c0, c1, c2, c3;
       hn::LoadInterleaved4(d, rows[k][4] + 4 * static_cast<std::ptrdiff_t>(i), c0, c1, c2, c3);

@@ -1160,8 +1160,13 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     float tmp[4][kBlock];
     float pr[2][4][kBlock];
     std::uint8_t phb[2][kBlock];
-    HCache acc, fill;
+    HCache* acc;   // nbc caches of A's rows, one per column block
+    HCache* fill;  // nbc caches of the fill's pyramid level
   };
+  // Per column block, caches of the horizontally up-sampled coarse rows of A and of the
+  // fill's pyramid level: kept across the bands of a task, so a coarse row shared by
+  // neighbouring bands is up-sampled once per task (was once per band: 2–3 times).
+  const int nbc = (w + kBlock - 1) / kBlock;
   auto empty = [&](int y, int x0) {
     const FusedLayer::Cls cl = L.cls(y, x0);
     return cl == FusedLayer::kEmptyKnown || (cl == FusedLayer::kEmptyHole && !L.fill);
@@ -1176,19 +1181,19 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
         return;
       }
       const float* a[4];
-      A.get(y, x0, n, c, a, &s.acc);
+      A.get(y, x0, n, c, a, &s.acc[x0 / kBlock]);
       for (int ch = 0; ch < 4; ++ch)
         if (a[ch] != c[ch]) std::copy(a[ch], a[ch] + n, c[ch]);
       return;
     }
-    L.get(y, x0, n, c, &s.fill);
+    L.get(y, x0, n, c, &s.fill[x0 / kBlock]);
     if (!A.present()) return;
     if (azero) {
       kern::over_rows(c, kZeroRows, layer_in_front, n);
       return;
     }
     const float* a[4];
-    A.get(y, x0, n, s.tmp, a, &s.acc);
+    A.get(y, x0, n, s.tmp, a, &s.acc[x0 / kBlock]);
     kern::over_rows(c, a, layer_in_front, n);
   };
   // Bands of 4 full-resolution rows, column block by column block: the composite of rows
@@ -1203,6 +1208,9 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     // instructions per 1080p render.
     std::unique_ptr<Scratch> sp(new Scratch);
     Scratch& s = *sp;
+    std::unique_ptr<HCache[]> caches(new HCache[2 * nbc]);
+    s.acc = caches.get();
+    s.fill = caches.get() + nbc;
     for (int b = b0; b < b1; ++b) {
       int ys[4], src[4];
       for (int dy = 0; dy < 4; ++dy) ys[dy] = std::min(4 * b + dy, h - 1);
@@ -1537,10 +1545,12 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   struct FinalScratch {
     float fb[4][kBlock], bb[4][kBlock];
     float cur[4][kBlock];
-    HCache bc, fc, lc;
   };
+  // Caches per column block, kept across the bands of a task (as in composite_pass).
+  const int nbf = (w + kBlock - 1) / kBlock;
   core::parallel_for((h + 3) / 4, [&](int b0, int b1) {
     std::unique_ptr<FinalScratch> sp(new FinalScratch);  // default-initialised, as above
+    std::unique_ptr<HCache[]> caches(new HCache[3 * nbf]);
     auto& fb = sp->fb;
     auto& bb = sp->bb;
     auto& cur = sp->cur;
@@ -1548,14 +1558,14 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       for (int x0 = 0; x0 < w; x0 += kBlock)
         for (int y = 4 * b; y < std::min(h, 4 * b + 4); ++y) {
         const int n = std::min(kBlock, w - x0);
-        if (Lf) Lf->get(y, x0, n, cur, &sp->lc);
+        if (Lf) Lf->get(y, x0, n, cur, &caches[x0 / kBlock]);
         else
           for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
         // cur over B, then F over that (rows of +0 where a zero map says so).
         const float* b[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
         const float* f[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
-        if (BR.present() && !BR.zero(y, y, x0)) BR.get(y, x0, n, bb, b, &sp->bc);
-        if (FR.present() && !FR.zero(y, y, x0)) FR.get(y, x0, n, fb, f, &sp->fc);
+        if (BR.present() && !BR.zero(y, y, x0)) BR.get(y, x0, n, bb, b, &caches[nbf + x0 / kBlock]);
+        if (FR.present() && !FR.zero(y, y, x0)) FR.get(y, x0, n, fb, f, &caches[2 * nbf + x0 / kBlock]);
         float* o[4];
         for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
         float t[kBlock], u[kBlock];

@@ -14,6 +14,18 @@
 
 namespace dofkit::detail::starcraft {
 
+namespace {
+
+/// inv[x] = 1 / z[x] in double for x in [0, n). IEEE division is correctly rounded whatever the
+/// vector width, so the clones (4 or 8 doubles per division instead of the baseline's 2) give
+/// the same values; the divisions bound this pass.
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void inverse_row(const float* __restrict z, double* __restrict inv, int n) {
+  for (int x = 0; x < n; ++x) inv[x] = 1.0 / z[x];
+}
+
+}  // namespace
+
 void depth_blur(const Image& depth, float sigma_total, Image& inv_depth, bool plain) {
   const int w = depth.width(), h = depth.height();
   const int lw = down_size(w), lh = down_size(h);
@@ -32,7 +44,7 @@ void depth_blur(const Image& depth, float sigma_total, Image& inv_depth, bool pl
         std::fill(sum.begin(), sum.end(), 0.0);
         for (int y = ya; y < yb; ++y) {
           const float* z = depth.row(0, y);
-          for (int x = 0; x < full * kDown; ++x) inv[x] = 1.0 / z[x];
+          inverse_row(z, inv.data(), full * kDown);
           for (int i = 0; i < full; ++i)
             for (int k = 0; k < kDown; ++k) sum[i] += inv[i * kDown + k];
         }

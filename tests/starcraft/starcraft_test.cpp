@@ -325,9 +325,15 @@ TEST(StarcraftFast, StreamedMediumEqualsTheSeparatePassesOpaqueOrNot) {
   for (int y = 0; y < 117; ++y)
     for (int x = 0; x < 203; ++x)
       f.depth.at(x, y) = x < 50 ? 0.8f : x < 100 ? 3.0f + 0.01f * y : x < 150 ? 12.0f : std::numeric_limits<float>::infinity();
-  for (int translucent = 0; translucent < 2; ++translucent) {
+  // translucent = 1: one pixel inside the frame (a full 4×4 block of the large level's
+  // SIMD reduction, which also finds whether every alpha is 1); 2: one in the partial block
+  // at the bottom-right corner (its scalar reduction).
+  const Frame opaque_frame = f;
+  for (int translucent = 0; translucent < 3; ++translucent) {
+    f = opaque_frame;
+    const int tx = translucent == 1 ? 120 : 202, ty = translucent == 1 ? 60 : 116;
     if (translucent)
-      for (int c = 0; c < 4; ++c) f.color.at(120, 60, c) *= 0.5f;  // premultiplied: colour and alpha halved
+      for (int c = 0; c < 4; ++c) f.color.at(tx, ty, c) *= 0.5f;  // premultiplied: colour and alpha halved
     RenderSettings s = settings_for(3.0, 12.0);
     s.params["medium_boxes"] = translucent ? "3" : "2";
     s.threads = 1;

@@ -153,11 +153,14 @@ int LevelsRow(const float* r, float* c, int x0, int x1, float vs, float vm, floa
   return x;
 }
 
-int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1) {
+int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1,
+                bool& alpha_one) {
   constexpr int kAhead = 256;  // floats (1 KiB) ahead of the current position
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
   const auto zero = hn::Zero(d), inv16 = hn::Set(d, 1.0f / 16.0f);
+  const auto one = hn::Set(d, 1.0f);
+  auto opaque = hn::Eq(one, one);  // every alpha read so far is 1
   int i = i0;
   for (; i + n <= i1; i += n) {
     // LoadInterleaved4 splits 4n consecutive pixels into the 4 columns of n blocks.
@@ -178,6 +181,9 @@ int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out
         wsum[ch] = hn::Add(wsum[ch], hn::Add(hn::Add(hn::Mul(c0, s0), hn::Mul(c1, s1)),
                                              hn::Add(hn::Mul(c2, s2), hn::Mul(c3, s3))));
         psum[ch] = hn::Add(psum[ch], hn::Add(hn::Add(s0, s1), hn::Add(s2, s3)));
+        if (ch == 3)
+          opaque = hn::And(opaque, hn::And(hn::And(hn::Eq(s0, one), hn::Eq(s1, one)),
+                                           hn::And(hn::Eq(s2, one), hn::Eq(s3, one))));
       }
     }
     const auto cb = reduce_max ? cmax : hn::Mul(csum, inv16);
@@ -189,6 +195,7 @@ int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out
     }
     hn::StoreU(cb, d, out[4] + i);
   }
+  if (!hn::AllTrue(d, opaque)) alpha_one = false;
   return i;
 }
 
@@ -215,8 +222,9 @@ int final_hlerp_simd(const float* v, float* out, int i0, int i1) {
 int levels_row_simd(const float* r, float* c, int x0, int x1, float vs, float vm, float vl) {
   return HWY_DYNAMIC_DISPATCH(LevelsRow)(r, c, x0, x1, vs, vm, vl);
 }
-int large_reduce_simd(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1) {
-  return HWY_DYNAMIC_DISPATCH(LargeReduce)(rows, reduce_max, out, i0, i1);
+int large_reduce_simd(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1,
+                      bool& alpha_one) {
+  return HWY_DYNAMIC_DISPATCH(LargeReduce)(rows, reduce_max, out, i0, i1, alpha_one);
 }
 
 }  // namespace dofkit::detail::starcraft

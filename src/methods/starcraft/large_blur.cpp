@@ -10,6 +10,7 @@
 // c-weighted mean of its pixels, so a sharp pixel inside a block adds nothing to the large
 // level even before the blur; the block's level is the mean c (default) or the max c.
 #include <algorithm>
+#include <atomic>
 
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
@@ -19,13 +20,16 @@
 namespace dofkit::detail::starcraft {
 
 void large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large,
-                bool plain) {
+                bool plain, bool* alpha_is_one) {
   const int w = color.width(), h = color.height();
   const int lw = down_size(w), lh = down_size(h);
   large.resize(lw, lh, 5);
   // One block in the plain form (double sums). The fast form uses it only for the partial
   // blocks at the right and bottom borders.
-  auto block = [&](int i, int j) {
+  // Whether every alpha is exactly 1, found while the colour is read anyway (see
+  // medium_and_final). Each block row clears a shared flag: the same answer for any split.
+  std::atomic<bool> opaque{true};
+  auto block = [&](int i, int j, bool& alpha_one) {
     double wsum[4] = {0, 0, 0, 0}, psum[4] = {0, 0, 0, 0}, csum = 0;
     float cmax = 0;
     int n = 0;
@@ -34,6 +38,7 @@ void large_blur(const Image& color, const Image& level, float sigma_total, bool 
       for (int x = i * kDown; x < std::min(w, (i + 1) * kDown); ++x, ++n) {
         csum += c[x];
         cmax = std::max(cmax, c[x]);
+        if (color.row(3, y)[x] != 1.0f) alpha_one = false;
         for (int ch = 0; ch < 4; ++ch) {
           const float v = color.row(ch, y)[x];
           wsum[ch] += static_cast<double>(c[x]) * v;
@@ -51,6 +56,7 @@ void large_blur(const Image& color, const Image& level, float sigma_total, bool 
   };
   const int full_cols = w / kDown;  // blocks with all 4 columns inside the image
   core::parallel_for(lh, [&](int j0, int j1) {
+    bool alpha_one = true;
     for (int j = j0; j < j1; ++j) {
       int i = 0;
       if (!plain && (j + 1) * kDown <= h) {
@@ -60,11 +66,13 @@ void large_blur(const Image& color, const Image& level, float sigma_total, bool 
           rows[k][4] = level.row(0, j * kDown + k);
         }
         float* const out[5] = {large.row(0, j), large.row(1, j), large.row(2, j), large.row(3, j), large.row(4, j)};
-        i = large_reduce_simd(rows, reduce_max, out, 0, full_cols);
+        i = large_reduce_simd(rows, reduce_max, out, 0, full_cols, alpha_one);
       }
-      for (; i < lw; ++i) block(i, j);
+      for (; i < lw; ++i) block(i, j, alpha_one);
     }
+    if (!alpha_one) opaque.store(false, std::memory_order_relaxed);
   }, 4);
+  if (alpha_is_one) *alpha_is_one = opaque.load();
   const float s = quarter_res_sigma(sigma_total);
   for (int ch = 0; ch < 5; ++ch) (plain ? core::gaussian_blur_plane_plain : core::gaussian_blur_plane)(large.plane(ch), lw, lh, s, s, 3);
 }

@@ -3,7 +3,6 @@
 // As a normalised convolution: medium = G * (c·rgba) / G * c. The Gaussian is the
 // extended-box cascade of core/filters, O(1) per pixel for any σ.
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <vector>
 
@@ -59,28 +58,8 @@ void medium_blur(const Image& color, const Image& level, float sigma, int boxes,
   }, 16);
 }
 
-namespace {
-
-/// True when every alpha of the frame is exactly 1 (an opaque frame, the usual game colour
-/// buffer). Deterministic: the answer does not depend on how the rows are split.
-bool alpha_is_one(const Image& color) {
-  const int w = color.width();
-  std::atomic<bool> opaque{true};
-  core::parallel_for(color.height(), [&](int y0, int y1) {
-    for (int y = y0; y < y1 && opaque.load(std::memory_order_relaxed); ++y) {
-      const float* a = color.row(3, y);
-      int off = 0;
-      for (int x = 0; x < w; ++x) off |= a[x] != 1.0f ? 1 : 0;
-      if (off) opaque.store(false, std::memory_order_relaxed);
-    }
-  }, 32);
-  return opaque.load();
-}
-
-}  // namespace
-
 void medium_and_final(const Image& color, const Image& depth, const Image& level, float sigma_medium, int boxes,
-                      const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out) {
+                      bool opaque, const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out) {
   const int w = color.width(), h = color.height();
   out.resize(w, h, 4);
   const float* src[4] = {color.plane(0), color.plane(1), color.plane(2), color.plane(3)};
@@ -88,8 +67,9 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
   // weight's blur bit for bit, and its normalised value is 1 (w / w = 1 exactly, or the
   // source's 1 where no tap carried weight): the alpha plane is left out of the passes and
   // the weight row stands in for its numerator. One of the five planes of the most
-  // expensive level, for one read of the alpha plane.
-  const int nplanes = alpha_is_one(color) ? 3 : 4;
+  // expensive level (`opaque` comes from the large level's reduction, which reads the alpha
+  // plane anyway).
+  const int nplanes = opaque ? 3 : 4;
   // One horizontal band per worker: each band re-computes rows above it to warm its vertical
   // passes up (the output does not depend on the banding), so more bands than workers would
   // only add that overhead. Cuts sit on multiples of 32 rows (the passes' re-synchronisation

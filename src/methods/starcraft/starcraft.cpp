@@ -42,7 +42,8 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   ctx.debug.offer("coc", level);
 
   Image& large = ctx.workspace.image("starcraft.large", lw, lh, 5);
-  large_blur(color, level, g.sigma_large, s.coc_reduce_max, large, s.plain);
+  bool opaque = false;  // every alpha exactly 1 (found by the large level's reduction)
+  large_blur(color, level, g.sigma_large, s.coc_reduce_max, large, s.plain, &opaque);
   ctx.debug.offer("blurred_coc", [&] { return quarter_plane(large, 4); });
   ctx.debug.offer("large", [&] {
     Image img(large.width(), large.height(), 4);
@@ -69,7 +70,7 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   const bool fused = !s.plain && !ctx.debug.wants("medium") && !ctx.debug.wants("used_coc") &&
                      !ctx.debug.wants("small") && !ctx.debug.wants("weights");
   if (fused) {
-    medium_and_final(color, ctx.frame.depth, level, g.sigma_medium, s.medium_boxes, large, inv_depth, s.keep_own_blur, out);
+    medium_and_final(color, ctx.frame.depth, level, g.sigma_medium, s.medium_boxes, opaque, large, inv_depth, s.keep_own_blur, out);
     return;
   }
   Image& medium = ctx.workspace.image("starcraft.medium", w, h, 4);

@@ -99,8 +99,9 @@ void medium_blur(const Image& color, const Image& level, float sigma, int boxes,
 /// C3: large level at W/4 × H/4. `large` gets 5 planes: blur(c·rgba) (4 planes, not yet
 /// divided) and blur(c) — the blurred CoC, which is also the normaliser. `reduce_max`: the
 /// quarter-res level of a block is its max instead of its mean (colour stays c-weighted).
+/// alpha_is_one (optional): set to whether every alpha of `color` is exactly 1.
 void large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large,
-                bool plain = false);
+                bool plain = false, bool* alpha_is_one = nullptr);
 
 /// C4: inverse depth 1/z reduced to W/4 × H/4 (block mean) and blurred (1 plane).
 void depth_blur(const Image& depth, float sigma_total, Image& inv_depth, bool plain = false);
@@ -139,8 +140,10 @@ void final_pass_row(const Image& color, const Image& depth, const Image& level, 
 /// C2 and C5 fused (fast form, no debug output): the medium level is streamed row by row
 /// (core::weighted_gaussian_rows) into the final pass, so it never exists as full planes.
 /// Same result as medium_blur followed by final_pass, bit for bit.
+/// opaque: every alpha of `color` is exactly 1 (large_blur's alpha_is_one); the alpha plane
+/// is then left out of the medium blur.
 void medium_and_final(const Image& color, const Image& depth, const Image& level, float sigma_medium, int boxes,
-                      const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out);
+                      bool opaque, const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out);
 
 /// The chapter's level weights for a level c: {source, small, medium, large}; they sum to 1.
 /// x = sat(1 − c/d0), y = sat((1 − d2)/d1 − c/d1), z = sat(1/d2 − c/d2),

@@ -351,6 +351,13 @@ LAYERED_SIMD bool code_run16(const float* __restrict a, const float* __restrict 
   return true;
 }
 
+// True if any of b[0 … n) is non-zero (a hole flag), as an integer OR so it vectorises.
+LAYERED_SIMD bool any_byte(const std::uint8_t* __restrict b, int n) {
+  unsigned any = 0;
+  for (int i = 0; i < n; ++i) any |= b[i];
+  return any != 0;
+}
+
 // True if any of w[0 … n) is > 0 (a child the pull counts).
 LAYERED_SIMD bool any_positive(const float* __restrict w, int n) {
   int any = 0;
@@ -760,9 +767,7 @@ void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bo
       const std::uint8_t* hr = hole + static_cast<std::size_t>(y) * w;
       for (int x0 = 0; x0 < w; x0 += kBlock) {
         const int n = std::min(kBlock, w - x0);
-        bool any = false;
-        for (int j = 0; j < n; ++j) any |= hr[x0 + j] != 0;
-        if (!any) continue;
+        if (!kern::any_byte(hr + x0, n)) continue;
         for (int k = 0; k < 4; ++k) up_block(cv.plane(k), cw, ch, y, x0, n, up[k]);
         float* d[4];
         for (int k = 0; k < 4; ++k) d[k] = layer.row(k, y) + x0;
@@ -1060,9 +1065,7 @@ struct FusedLayer {
     std::uint8_t hb[kBlock];
     matte(y, x0, n, o, fill ? hb : nullptr);
     if (!fill) return;
-    bool any = false;
-    for (int j = 0; j < n; ++j) any |= hb[j] != 0;
-    if (!any) return;
+    if (!kern::any_byte(hb, n)) return;
     float up[4][kBlock];
     if (l1 && cache) {
       if (cache->img != l1 || cache->x0 != x0) cache->reset(l1, 2, x0);

@@ -116,6 +116,14 @@ void final_pass_plain(const Image& color, const Image& depth, const Image& level
 // scalar form below, which has the same arithmetic.
 namespace {
 
+/// v[i] = a[i] + (b[i] − a[i]) · t (the vertical quarter-res lerp of final_row), in clones
+/// for wider vectors than the baseline's; multiply and add stay separate (no FMA in these
+/// targets), so the values are the baseline's.
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void vertical_lerp(const float* __restrict a, const float* __restrict b, float* __restrict v, int n, float t) {
+  for (int i = 0; i < n; ++i) v[i] = a[i] + (b[i] - a[i]) * t;
+}
+
 struct RowScratch {
   std::vector<float> vrow, hrow, ws, wm, wl, wsrc;
 };
@@ -173,7 +181,7 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
     const float* ra = img.row(pl, ya);
     const float* rb = img.row(pl, yb);
     float* v = sc.vrow.data() + static_cast<std::size_t>(p) * lw;
-    for (int i = 0; i < lw; ++i) v[i] = ra[i] + (rb[i] - ra[i]) * ty;
+    vertical_lerp(ra, rb, v, lw, ty);
     float* hr = sc.hrow.data() + static_cast<std::size_t>(p) * w;
     auto cell = [&](int i) {
       const float vl = v[i > 0 ? i - 1 : 0], vc = v[i], vr = v[i + 1 < lw ? i + 1 : lw - 1];

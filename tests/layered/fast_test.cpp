@@ -11,6 +11,7 @@
 
 #include "dofkit/render.hpp"
 #include "methods/layered/fast.hpp"
+#include "scene/bench_frame.hpp"
 
 namespace {
 
@@ -129,6 +130,18 @@ TEST(LayeredFast, BitIdenticalWhereTheNearAccumulatorIsZero) {
     expect_same(test_frame(1100, 120, 1, 13), rs, std::string("1100x120 K 20 quarter_res ") + quarter);
   }
   EXPECT_GT(detail::layered::zero_block_count(), before);
+}
+
+TEST(LayeredFast, BitIdenticalOnTheBenchFrame) {
+  // The frame `dofkit bench` times (K = 9 layers, quarter- and half-resolution steps, a near
+  // accumulator that is +0 over much of the frame), at half its 1080p size.
+  const Frame f = scene::bench_frame(960, 540);
+  RenderSettings rs;
+  rs.method = "layered";
+  rs.camera = scene::bench_camera(960);
+  const std::uint64_t zero_before = detail::layered::zero_block_count();
+  expect_same(f, rs, "bench frame 960x540");
+  EXPECT_GT(detail::layered::zero_block_count(), zero_before);
 }
 
 TEST(LayeredFast, BitIdenticalToPlainMultiLayerInput) {

@@ -133,3 +133,33 @@ TEST(WeightedGaussian, StreamedRowsEqualThePlaneFormForAnyBanding) {
     }
   }
 }
+
+TEST(WeightedGaussian, StreamedRowsBeforeTheDivisionEqualThePlaneSums) {
+  // normalise = false (the starcraft final pass divides itself): rows[k] are the blurred c·src
+  // planes and rows[3] the blurred weight, bit for bit those of the plane form with
+  // normalise = false, for 2 and 3 box passes (the medium level's medium_boxes) and any banding.
+  for (const auto& size : {std::pair{5, 3}, {50, 119}, {203, 117}}) {
+    const int w = size.first, h = size.second;  // not a structured binding: the lambda below captures w
+    const Planes p = make_planes(w, h);
+    const std::size_t n = static_cast<std::size_t>(w) * h;
+    const float* src[3] = {p.src[0].data(), p.src[1].data(), p.src[2].data()};
+    for (int passes : {2, 3})
+      for (float sigma : {0.7f, 9.0f}) {
+        std::vector<float> ref(4 * n);
+        float* dst[3] = {ref.data(), ref.data() + n, ref.data() + 2 * n};
+        core::weighted_gaussian(src, 3, p.c.data(), w, h, sigma, passes, kTiny, dst, ref.data() + 3 * n, false);
+        for (const std::vector<int>& cuts : {std::vector<int>{0, h}, std::vector<int>{0, h / 3, h / 2 + 1, h}}) {
+          std::vector<float> out(4 * n, -1.0f);
+          for (std::size_t b = 0; b + 1 < cuts.size(); ++b)
+            core::weighted_gaussian_rows(
+                src, 3, p.c.data(), w, h, sigma, passes, kTiny, cuts[b], cuts[b + 1],
+                [&](int y, const float* const* rows) {
+                  for (int k = 0; k < 4; ++k)
+                    std::copy(rows[k], rows[k] + w, out.data() + k * n + std::size_t(y) * w);
+                },
+                false);
+          EXPECT_EQ(out, ref) << w << "x" << h << " passes " << passes << " sigma " << sigma;
+        }
+      }
+  }
+}

@@ -89,7 +89,9 @@ __attribute__((always_inline)) inline void gather_seg2(const float* base, const 
     const float* r2 = r1 + pitch;
     for (int v = 0; v < kVecs; ++v) {
       V8 c = load8(r1 + 8 * v), d = load8(r1 + 8 * v + 1);
+#if !defined(__clang__)  // (clang checks the constraint even where kPin is false)
       if constexpr (kPin) __asm__("" : "+x"(c), "+x"(d));
+#endif
       acc0[v] += w00 * load8(r0 + 8 * v) + w10 * load8(r0 + 8 * v + 1) + w01 * c + w11 * d;
       acc1[v] += w00 * c + w10 * d + w01 * load8(r2 + 8 * v) + w11 * load8(r2 + 8 * v + 1);
     }

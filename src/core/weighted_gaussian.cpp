@@ -32,19 +32,17 @@ constexpr int kResync = 32;
 constexpr int kBlock = 128;  // columns per block of the vertical sweep
 constexpr int kAhead = 4;    // rows prefetched ahead by the vertical sweep
 
-/// Eight lanes as one value (GCC vector extension): the clones below keep the window sums
+/// Eight lanes as one value (GCC/clang vector extension): the clones below keep the window sums
 /// of a strip in registers (two of these for 16 lanes) instead of re-loading and re-storing
 /// an array every step, and need no run-time alias checks between the strip buffers. Element
 /// by element the operations are the scalar ones, in the same order, so the sums are the same.
 typedef float Vec8 __attribute__((vector_size(32)));
+/// The same type at float alignment, for unaligned loads and stores through a pointer (no
+/// helper function: a vector argument or result would change the baseline clone's ABI).
+typedef float Vec8u __attribute__((vector_size(32), aligned(4), may_alias));
 static_assert(kLanes == 16, "strip_passes keeps two 8-lane vectors per step");
-
-inline Vec8 load8(const float* p) {
-  Vec8 v;
-  __builtin_memcpy(&v, p, sizeof v);
-  return v;
-}
-inline void store8(float* p, Vec8 v) { __builtin_memcpy(p, &v, sizeof v); }
+#define WG_LOAD8(p) (*reinterpret_cast<const Vec8u*>(p))
+#define WG_STORE8(p, v) (*reinterpret_cast<Vec8u*>(p) = (v))
 
 /// `passes` extended-box passes (radius r, end weight alpha) over a strip of n samples in a,
 /// b is a second strip buffer; both have `pad` >= r + 1 border samples. Returns the buffer
@@ -75,8 +73,8 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
         s1 = zero;
         for (int k = -r; k <= r; ++k) {
           const float* q = src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes;
-          s0 += load8(q);
-          s1 += load8(q + 8);
+          s0 += WG_LOAD8(q);
+          s1 += WG_LOAD8(q + 8);
         }
       } else {
         s0 = f0;
@@ -88,20 +86,20 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
       const float* hi = src + static_cast<std::ptrdiff_t>(i0 + r + 1) * kLanes;  // sample i + r + 1
       float* d = dst + static_cast<std::ptrdiff_t>(i0) * kLanes;
       for (int i = i0; i < acc_from; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
-        const Vec8 h0 = load8(hi), h1 = load8(hi + 8);
-        store8(d, (s0 + va * (load8(lo) + h0)) * vn);
-        store8(d + 8, (s1 + va * (load8(lo + 8) + h1)) * vn);
-        s0 += h0 - load8(lo + kLanes);  // lo + kLanes: sample i − r, leaving the window
-        s1 += h1 - load8(lo + kLanes + 8);
+        const Vec8 h0 = WG_LOAD8(hi), h1 = WG_LOAD8(hi + 8);
+        WG_STORE8(d, (s0 + va * (WG_LOAD8(lo) + h0)) * vn);
+        WG_STORE8(d + 8, (s1 + va * (WG_LOAD8(lo + 8) + h1)) * vn);
+        s0 += h0 - WG_LOAD8(lo + kLanes);  // lo + kLanes: sample i − r, leaving the window
+        s1 += h1 - WG_LOAD8(lo + kLanes + 8);
       }
       f0 = zero;
       f1 = zero;
       for (int i = acc_from; i < i1; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
-        const Vec8 h0 = load8(hi), h1 = load8(hi + 8);
-        store8(d, (s0 + va * (load8(lo) + h0)) * vn);
-        store8(d + 8, (s1 + va * (load8(lo + 8) + h1)) * vn);
-        s0 += h0 - load8(lo + kLanes);
-        s1 += h1 - load8(lo + kLanes + 8);
+        const Vec8 h0 = WG_LOAD8(hi), h1 = WG_LOAD8(hi + 8);
+        WG_STORE8(d, (s0 + va * (WG_LOAD8(lo) + h0)) * vn);
+        WG_STORE8(d + 8, (s1 + va * (WG_LOAD8(lo + 8) + h1)) * vn);
+        s0 += h0 - WG_LOAD8(lo + kLanes);
+        s1 += h1 - WG_LOAD8(lo + kLanes + 8);
         f0 += h0;
         f1 += h1;
       }
@@ -110,6 +108,9 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
   }
   return a;
 }
+
+#undef WG_LOAD8
+#undef WG_STORE8
 
 /// Per-thread strip scratch, grown on demand and kept (no allocation per frame).
 float* scratch(std::size_t floats) {

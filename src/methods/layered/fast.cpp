@@ -358,6 +358,13 @@ LAYERED_SIMD bool any_byte(const std::uint8_t* __restrict b, int n) {
   return any != 0;
 }
 
+// True if every w[0 … n) is exactly 1.
+LAYERED_SIMD bool all_one(const float* __restrict w, int n) {
+  int bad = 0;
+  for (int i = 0; i < n; ++i) bad |= w[i] != 1.0f;
+  return bad == 0;
+}
+
 // True if any of w[0 … n) is > 0 (a child the pull counts).
 LAYERED_SIMD bool any_positive(const float* __restrict w, int n) {
   int any = 0;
@@ -684,6 +691,19 @@ void pull_push_upper(const Pyramid& p) {
               for (int k = 0; k < 4; ++k) std::fill(o[k], o[k] + m, 0.0f);
               std::fill(cwt.row(0, y) + x, cwt.row(0, y) + x + m, 0.0f);
               continue;
+            }
+            if (kern::all_one(wa, 2 * m) && kern::all_one(wb, 2 * m)) {
+              bool zero = true;
+              for (int k = 0; k < 4 && zero; ++k)
+                zero = !kern::any_bits(f0[k], 2 * m) && !kern::any_bits(f1[k], 2 * m);
+              if (zero) {
+                // Four children of confidence 1 and value +0 (a region where the layer is known
+                // to be empty): Σ w v = +0 + 1·(+0) + … = +0, Σ w = 4, so value +0 / 4 = +0 and
+                // confidence min(1, 4/4) = 1, exactly what pull_pairs_w computes.
+                for (int k = 0; k < 4; ++k) std::fill(o[k], o[k] + m, 0.0f);
+                std::fill(cwt.row(0, y) + x, cwt.row(0, y) + x + m, 1.0f);
+                continue;
+              }
             }
             kern::pull_pairs_w(f0, f1, wa, wb, m, o, cwt.row(0, y) + x);
           }

@@ -319,3 +319,40 @@ TEST(Sanitize, LayerDepthMustBeValid) {
     EXPECT_NE(std::string(e.what()).find("(2, 1)"), std::string::npos) << e.what();
   }
 }
+
+// A Renderer refuses a frame with invalid depth anywhere (the count covers every row, the
+// first bad pixel is named, colour that would need sanitising does not mask it), and a
+// renderer whose frame was refused renders the next valid frame exactly like a fresh one.
+TEST(Sanitize, RendererDepthScanCountsEveryRowAndRecovers) {
+  const Frame good = textured_frame(64, 100);
+  Frame bad = good;
+  bad.depth.at(5, 0) = kNaN;
+  bad.depth.at(6, 40) = -1.0f;
+  bad.depth.at(7, 99) = 0.0f;
+  for (const char* method : {"mcguire", "starcraft"}) {
+    SCOPED_TRACE(method);
+    RenderSettings s = default_settings(method);
+    s.threads = 2;
+    Renderer renderer(s);
+    renderer.render(good);
+    try {
+      renderer.render(bad);
+      FAIL() << "invalid depth accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::bad_input);
+      const std::string m = e.what();
+      EXPECT_NE(m.find("depth has 3 NaN, zero or negative"), std::string::npos) << m;
+      EXPECT_NE(m.find("(5, 0)"), std::string::npos) << m;
+    }
+    // Hostile colour as well: the depth error still wins, and nothing is sanitised first.
+    Frame both = bad;
+    both.color.at(1, 1, 0) = kNaN;
+    EXPECT_THROW(renderer.render(both), Error);
+    const Image again = renderer.render(good).image;
+    const RenderResult fresh = render(good, s);
+    ASSERT_EQ(again.data().size(), fresh.image.data().size());
+    EXPECT_EQ(std::memcmp(again.data().data(), fresh.image.data().data(), again.data().size() * sizeof(float)), 0);
+    EXPECT_EQ(std::memcmp(renderer.render(good).coc.data().data(), fresh.coc.data().data(),
+                          fresh.coc.data().size() * sizeof(float)), 0);
+  }
+}

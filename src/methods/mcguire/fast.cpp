@@ -116,11 +116,11 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   const int P = W + 2 * R;             // padded row: x = source + R, clamped at the edges
   const int PS = P + kPrepSlack;       // padded arrays incl. slack
   const int M = (P + f - 1) / f + 64;  // phase array length (+ slack for vector over-reads)
-  // Scratch per chunk, in floats (each block rounded up to 16 floats = 64 bytes): 7 phase
+  // Scratch per chunk, in floats (each block rounded up to 16 floats = 64 bytes): 6 phase
   // planes (f·M each), 5 padded source planes, s_pad, rb_pad, reach (int), r_a, nearness;
   // then doubles: block prefix + partial sums 4·PST (PST = 2P + 4 >= 2·nb + 1), near bins 5·(wo+2).
   auto up16 = [](std::size_t n) { return (n + 15) & ~std::size_t(15); };
-  const std::size_t n_ph = up16(7 * static_cast<std::size_t>(f) * M), n_pad = up16(PS), n_wo = up16(wo + 32);
+  const std::size_t n_ph = up16(6 * static_cast<std::size_t>(f) * M), n_pad = up16(PS), n_wo = up16(wo + 32);
   const std::size_t n_lvl = up16(static_cast<std::size_t>(std::max(hbox, 0)) + 1);
   const std::size_t n_float = n_ph + 10 * n_pad + 2 * n_wo + 3 * n_lvl + n_wo;
   const std::size_t PST = 2 * static_cast<std::size_t>(P) + 4;
@@ -163,7 +163,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         const std::size_t at = static_cast<std::size_t>(q % f) * M + q / f;
         GatherTap& t = taps[R + d];
         t.col = ph + at;             // planes 0-3, stride `plane`
-        t.aux = ph + 4 * plane + at;  // planes 4-6
+        t.aux = ph + 4 * plane + at;  // planes 4-5
         t.d5 = d == 0 ? kCentreD5 : 5.0f * static_cast<float>(std::abs(d));
       }
       PrepRowJob prep;
@@ -458,27 +458,25 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
   float table[16];
   load_table(k, table);
 
-  // Per t_blur row: den, far flag, |r| (+ slack for vector over-reads) and the largest reach
-  // per column block.
+  // Per t_blur row: den (0 for a near source), |r| (+ slack for vector over-reads) and the
+  // largest reach of the far sources per column block.
   const int nblk = (W + kBlock - 1) / kBlock;
-  Image& aux = ws.image("mcguire.fast.v_aux", W + 64, H, 3);
+  Image& aux = ws.image("mcguire.fast.v_aux", W + 64, H, 2);
   Image& reach = ws.image("mcguire.fast.v_reach", nblk, H, 1);
   core::parallel_for(H, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* s = t_blur.row(4, y);
       float* den = aux.row(0, y);
-      float* flag = aux.row(1, y);
-      float* absb = aux.row(2, y);
+      float* absb = aux.row(1, y);
       for (int i = 0; i < W; ++i) {
         const float r_b = s[i] * rmax;
         den[i] = in_near(r_b) ? 0.0f : den_of(k, r_b);  // 0: near, far weight 0 (gather.hpp)
-        flag[i] = in_near(r_b) ? 0.0f : 1.0f;
         absb[i] = std::fabs(r_b);
       }
       for (int b = 0; b < nblk; ++b) {
         int m = 0;
         for (int i = b * kBlock; i < std::min(W, (b + 1) * kBlock); ++i)
-          if (flag[i] != 0.0f) m = std::max(m, reach_of(den[i]));
+          if (den[i] != 0.0f) m = std::max(m, reach_of(den[i]));  // far sources only (den >= 0.001)
         reach.row(0, y)[b] = static_cast<float>(m);
       }
     }

@@ -13,9 +13,8 @@ namespace dofkit::detail::mcguire {
 ///   col + c·col_stride   premultiplied RGBA of tap B, c = 0..3
 ///   aux                  den = 0.001 + c·|r_B| (c = 0.5 book, 0.8 demo), computed exactly as
 ///                        blur_weights.hpp; 0 for a near-field B (its far weight is 0: with
-///                        d5 > 0, d5/0 = ∞ indexes the table's 0)
-///   aux + aux_stride     flag: 1 if B is not near-field, 0 if it is (not read by the gather)
-///   aux + 2·aux_stride   |r_B| px (read only with the far occlusion test)
+///                        d5 > 0, d5/0 = ∞ indexes the table's 0), so den != 0 is the far flag
+///   aux + aux_stride     |r_B| px (read only with the far occlusion test)
 /// d5 of the centre tap: positive so that a near source (den 0) gives ∞ → weight 0, and so
 /// small that a far source (den >= 0.001) still gives index ⌊1e-30 / den⌋ = 0, as δ = 0 does.
 constexpr float kCentreD5 = 1e-30f;
@@ -40,7 +39,7 @@ struct GatherJob {
 };
 
 /// out[c][o] = Σ_t w_t,o·col_t[c][o] / Σ_t w_t,o with w = wn + (1 − wn)·nearness_o and
-/// wn = table[min(6, ⌊5|δ| / den⌋)]·flag (× occlusion term): the formula of far_weight()
+/// wn = table[min(6, ⌊5|δ| / den⌋)] (× occlusion term; 0 for a near source): the formula of far_weight()
 /// for book/demo, evaluated with the same division so the table index is exact.
 void far_gather_simd(const GatherJob& job);
 
@@ -79,8 +78,8 @@ void interp_row_simd(const InterpRowJob& job);
 /// (the slack replicates the last pixel); s_pad, rb_pad, reach hold P + kPrepSlack too. Computes s exactly as pack_coc does and r_B = s·R_max, then writes
 ///   s_pad[x], rb_pad[x]                        contiguous, x < P
 ///   reach[x] = far tap ? ⌊1.2·den⌋ + 1 : 0       contiguous, x < P (int)
-///   phase planes ph[q·plane + p·M + m] for padded x = f·m + p: q = 0..3 colour, 4 den,
-///   5 far flag (1 = not near), 6 |r_B|          (den = 0.001 + dc·|r_B|, as far_weight())
+///   phase planes ph[q·plane + p·M + m] for padded x = f·m + p: q = 0..3 colour, 4 den
+///   (0.001 + dc·|r_B| as far_weight(), 0 for a near source), 5 |r_B|
 struct PrepRowJob {
   const float* pad[5] = {};  ///< padded R, G, B, A, r
   int P = 0, f = 1;

@@ -47,7 +47,7 @@ void FarGatherT(const GatherJob& job) {
       const auto idx = hn::Sub(hn::BitCast(di, hn::Add(hn::Floor(hn::Min(q, six)), magic)), magic_bits);
       auto wn = permute ? hn::TableLookupLanes(table, hn::IndicesFromVec(df, idx)) : hn::GatherIndex(df, job.table, idx);
       if (kOcclusion) {
-        const auto occ = hn::Add(hn::Sub(abs_a, hn::LoadU(df, aux + 2 * as)), c15);
+        const auto occ = hn::Add(hn::Sub(abs_a, hn::LoadU(df, aux + as)), c15);
         wn = hn::Mul(wn, hn::Min(hn::Max(occ, zero), one));
       }
       const auto w = hn::MulAdd(hn::Sub(one, wn), n, wn);
@@ -80,7 +80,7 @@ void FarGatherT(const GatherJob& job) {
       const float q = tp.d5 / aux[0];
       float wn = job.table[q >= 6.0f ? 6 : static_cast<int>(q)];
       if (kOcclusion) {
-        const float occ = abs_a - aux[2 * as] + 1.5f;
+        const float occ = abs_a - aux[as] + 1.5f;
         wn *= occ < 0 ? 0.0f : occ > 1 ? 1.0f : occ;
       }
       const float w = wn + (1.0f - wn) * job.nearness[o];
@@ -338,8 +338,7 @@ void PrepRow(PrepRowJob& job) {
   const std::size_t plane = static_cast<std::size_t>(f) * M;
   for (int c = 0; c < 4; ++c) SplitPhases(df, f, M, mcount, job.pad[c], job.ph + c * plane);
   float* den_pl = job.ph + 4 * plane;
-  float* flag_pl = job.ph + 5 * plane;
-  float* abs_pl = job.ph + 6 * plane;
+  float* abs_pl = job.ph + 5 * plane;
   SplitPhases(df, f, M, mcount, job.rb_pad, abs_pl);  // r_B, made |r_B| below
   for (int p = 0; p < f; ++p)
     for (int m = 0; m < mcount; m += lanes) {
@@ -348,7 +347,6 @@ void PrepRow(PrepRowJob& job) {
       const auto ab = hn::Abs(rb);
       const auto near = hn::Gt(rb, q);
       hn::StoreU(hn::IfThenZeroElse(near, hn::Add(c0001, Opaque(hn::Mul(dc, ab)))), df, den_pl + at);
-      hn::StoreU(hn::IfThenElse(near, zero, one), df, flag_pl + at);
       hn::StoreU(ab, df, abs_pl + at);
     }
 }

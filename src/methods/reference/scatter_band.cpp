@@ -189,28 +189,24 @@ void ScatterBandT(const BandJob& job) {
             f3 = hn::MulAdd(wt, hn::Set(d, s_c3[j]), f3);
             fw = hn::Add(fw, wt);
           };
+          // Sources of `whole` that go wholly to one sum (`add`): those whose disc interior
+          // covers the whole receiver vector (coverage 1, weight s_ws) first, then the rim.
+          const auto add_whole = [&](std::uint64_t whole, const auto& add) {
+            for (std::uint64_t in = whole & inside; in; in &= in - 1) {
+              const int j = std::countr_zero(in);
+              add(hn::Set(d, s_ws[j]), j);
+            }
+            for (std::uint64_t rim = whole & ~inside; rim; rim &= rim - 1) {
+              const int j = std::countr_zero(rim);
+              add(weight(j), j);
+            }
+          };
           std::uint64_t bits = kDepthOrder ? act & all_b : act;
           act &= ~bits;
-          const std::uint64_t b_rim = bits & ~inside;
-          for (bits &= inside; bits; bits &= bits - 1) {  // all to B, coverage 1
-            const int j = std::countr_zero(bits);
-            add_b(hn::Set(d, s_ws[j]), j);
-          }
-          for (bits = b_rim; bits; bits &= bits - 1) {  // all to B
-            const int j = std::countr_zero(bits);
-            add_b(weight(j), j);
-          }
+          add_whole(bits, add_b);  // all to B
           bits = act & all_f;
           act &= ~bits;
-          const std::uint64_t f_rim = bits & ~inside;
-          for (bits &= inside; bits; bits &= bits - 1) {  // all to F, coverage 1
-            const int j = std::countr_zero(bits);
-            add_f(hn::Set(d, s_ws[j]), j);
-          }
-          for (bits = f_rim; bits; bits &= bits - 1) {  // all to F
-            const int j = std::countr_zero(bits);
-            add_f(weight(j), j);
-          }
+          add_whole(bits, add_f);  // all to F
           bits = act & no_behind;
           act &= ~bits;
           for (; bits; bits &= bits - 1) {  // rel ≥ 0: nothing blocked

@@ -16,13 +16,21 @@ typedef float V8 __attribute__((vector_size(32)));
 
 // Running maxima in 8 lanes, folded at the end (max of finite floats: any order gives the
 // same value; only the sign of a zero maximum could differ, and no caller looks at it).
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void row_range(const float* __restrict r, int n, float* far_max, float* near_max) {
+// With `alpha`, a value whose alpha is not > 0 counts as 0 (a select, so the loop stays
+// branch-free; the mask test is hoisted out of the loop by the template parameter).
+template <bool kMasked>
+__attribute__((always_inline)) inline void row_range_t(const float* __restrict r, const float* __restrict alpha, int n, float* far_max,
+                        float* near_max) {
   V8 f = V8{} + *far_max, m = V8{} + *near_max;
   int x = 0;
   for (; x + 8 <= n; x += 8) {
     V8 v;
     std::memcpy(&v, r + x, sizeof v);
+    if (kMasked) {
+      V8 a;
+      std::memcpy(&a, alpha + x, sizeof a);
+      v = a > V8{} ? v : V8{};
+    }
     f = f < -v ? -v : f;
     m = m < v ? v : m;
   }
@@ -32,11 +40,20 @@ void row_range(const float* __restrict r, int n, float* far_max, float* near_max
     ms = std::max(ms, m[k]);
   }
   for (; x < n; ++x) {
-    fs = std::max(fs, -r[x]);
-    ms = std::max(ms, r[x]);
+    const float v = !kMasked || alpha[x] > 0 ? r[x] : 0.0f;
+    fs = std::max(fs, -v);
+    ms = std::max(ms, v);
   }
   *far_max = fs;
   *near_max = ms;
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void row_range(const float* __restrict r, const float* __restrict alpha, int n, float* far_max, float* near_max) {
+  if (alpha)
+    row_range_t<true>(r, alpha, n, far_max, near_max);
+  else
+    row_range_t<false>(r, nullptr, n, far_max, near_max);
 }
 
 }  // namespace coc_range_detail
@@ -50,7 +67,7 @@ CocRange coc_range(const Image& coc, int x0, int y0, int w, int h) {
   core::parallel_for(blocks, [&](int b0, int b1) {
     for (int bl = b0; bl < b1; ++bl)
       for (int y = y0 + bl * kRows; y < y0 + std::min(h, (bl + 1) * kRows); ++y)
-        coc_range_detail::row_range(coc.row(0, y) + x0, w, &part[bl].far_max, &part[bl].near_max);
+        coc_range_detail::row_range(coc.row(0, y) + x0, nullptr, w, &part[bl].far_max, &part[bl].near_max);
   });
   CocRange out;
   for (const CocRange& p : part) {
@@ -58,6 +75,10 @@ CocRange coc_range(const Image& coc, int x0, int y0, int w, int h) {
     out.near_max = std::max(out.near_max, p.near_max);
   }
   return out;
+}
+
+void coc_row_range(const float* r, const float* alpha, int n, float& near_max, float& far_max) {
+  coc_range_detail::row_range(r, alpha, n, &far_max, &near_max);
 }
 
 }  // namespace dofkit::core

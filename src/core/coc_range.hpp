@@ -16,4 +16,9 @@ struct CocRange {
 CocRange coc_range(const Image& coc, int x0, int y0, int w, int h);
 inline CocRange coc_range(const Image& coc) { return coc_range(coc, 0, 0, coc.width(), coc.height()); }
 
+/// The same for one row of n values, folded into near_max / far_max (which start at >= 0).
+/// With `alpha` (n values, may be nullptr), only values whose alpha is > 0 count (layered's
+/// transparent fragments).
+void coc_row_range(const float* r, const float* alpha, int n, float& near_max, float& far_max);
+
 }  // namespace dofkit::core

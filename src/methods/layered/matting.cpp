@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "core/coc_range.hpp"
 #include "core/parallel.hpp"
 
 namespace dofkit::detail::layered {
@@ -50,47 +51,6 @@ MatteStats matte_layer(const Fragments& frags, const LayerPlan& plan, int k, Ima
   return s;
 }
 
-namespace {
-
-// The largest r and −r over the fragments of one row with alpha > 0, folded into n and f:
-// std::max(n, r) is (n < r) ? r : n, written so it vectorises (a transparent fragment
-// contributes 0, which never raises n or f from their start at 0; a NaN never wins).
-#if defined(__clang__)
-#define LAYERED_EXTREMES_SIMD
-#else
-#define LAYERED_EXTREMES_SIMD __attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
-LAYERED_EXTREMES_SIMD void row_extremes(const float* __restrict a, const float* __restrict r, int w, float& n_io,
-                                        float& f_io) {
-  // 16 independent running maxima (max is exact, so the lanes may be combined in any
-  // order: the result is the same as one running maximum).
-  float nl[16], fl[16];
-  for (int j = 0; j < 16; ++j) nl[j] = fl[j] = 0.0f;
-  int x = 0;
-  for (; x + 16 <= w; x += 16)
-    for (int j = 0; j < 16; ++j) {
-      const float v = a[x + j] > 0 ? r[x + j] : 0.0f;
-      const float m = -v;
-      nl[j] = nl[j] < v ? v : nl[j];
-      fl[j] = fl[j] < m ? m : fl[j];
-    }
-  float n = n_io, f = f_io;
-  for (int j = 0; j < 16; ++j) {
-    n = n < nl[j] ? nl[j] : n;
-    f = f < fl[j] ? fl[j] : f;
-  }
-  for (; x < w; ++x) {
-    const float v = a[x] > 0 ? r[x] : 0.0f;
-    const float m = -v;
-    n = n < v ? v : n;
-    f = f < m ? m : f;
-  }
-  n_io = n;
-  f_io = f;
-}
-
-}  // namespace
-
 void coc_extremes(const Fragments& frags, double& near_px, double& far_px) {
   // Row-parallel maxima, combined in row order (max is exact and order-free anyway).
   const int w = frags.width(), h = frags.height();
@@ -101,7 +61,7 @@ void coc_extremes(const Fragments& frags, double& near_px, double& far_px) {
       for (std::size_t fr = 0; fr < frags.color.size(); ++fr) {
         const float* a = frags.color[fr]->row(3, y);
         const float* r = frags.coc[fr]->row(0, y);
-        row_extremes(a, r, w, n, f);
+        core::coc_row_range(r, a, w, n, f);  // fragments with alpha > 0 only
       }
       row_near[y] = n;
       row_far[y] = f;

@@ -9,6 +9,7 @@
 
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
+#include "core/row_scan.hpp"
 #include "methods/layered/composite.hpp"
 #include "methods/layered/inpaint.hpp"
 
@@ -365,13 +366,6 @@ LAYERED_SIMD bool all_one(const float* __restrict w, int n) {
   return bad == 0;
 }
 
-// True if any of w[0 … n) is > 0 (a child the pull counts).
-LAYERED_SIMD bool any_positive(const float* __restrict w, int n) {
-  int any = 0;
-  for (int i = 0; i < n; ++i) any |= w[i] > 0;
-  return any != 0;
-}
-
 // True if any of w[0 … n) is < 1 (a pixel the push changes).
 LAYERED_SIMD bool any_below_one(const float* __restrict w, int n) {
   int any = 0;
@@ -686,7 +680,7 @@ void pull_push_upper(const Pyramid& p) {
             }
             const float* wa = fwt.row(0, 2 * y) + 2 * x;
             const float* wb = fwt.row(0, 2 * y + 1) + 2 * x;
-            const bool any = kern::any_positive(wa, 2 * m) || kern::any_positive(wb, 2 * m);
+            const bool any = core::any_positive(wa, 2 * m) || core::any_positive(wb, 2 * m);  // a child the pull counts
             if (!any) {  // no child with confidence: Σ w = 0 gives value 0, confidence 0
               for (int k = 0; k < 4; ++k) std::fill(o[k], o[k] + m, 0.0f);
               std::fill(cwt.row(0, y) + x, cwt.row(0, y) + x + m, 0.0f);
@@ -718,9 +712,7 @@ void pull_push_upper(const Pyramid& p) {
     Image& fv = *p.val[l];
     const Image& fwt = *p.wgt[l];
     const Image& cv = *p.val[l + 1];
-    const int fw = fv.width(), fh = fv.height(), cw = cv.width(), ch = cv.height();
-    (void)cw;
-    (void)ch;
+    const int fw = fv.width(), fh = fv.height();
     const int nb = (fw + kBlock - 1) / kBlock;
     core::parallel_for(fh, [&](int y0, int y1) {
       // One cache of horizontally up-sampled coarse rows per column block (up_block's values):
@@ -1580,23 +1572,23 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     for (int b = b0; b < b1; ++b)
       for (int x0 = 0; x0 < w; x0 += kBlock)
         for (int y = 4 * b; y < std::min(h, 4 * b + 4); ++y) {
-        const int n = std::min(kBlock, w - x0);
-        if (Lf) Lf->get(y, x0, n, cur, &caches[x0 / kBlock]);
-        else
-          for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
-        // cur over B, then F over that (rows of +0 where a zero map says so).
-        const float* b[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
-        const float* f[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
-        if (BR.present() && !BR.zero(y, y, x0)) BR.get(y, x0, n, bb, b, &caches[nbf + x0 / kBlock]);
-        if (FR.present() && !FR.zero(y, y, x0)) FR.get(y, x0, n, fb, f, &caches[2 * nbf + x0 / kBlock]);
-        float* o[4];
-        for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
-        float t[kBlock], u[kBlock];
-        kern::one_minus(cur[3], n, t);
-        if (FR.present()) kern::one_minus(f[3], n, u);
-        for (int c = 0; c < 4; ++c)
-          kern::final_channel(cur[c], t, BR.present() ? b[c] : nullptr, u, FR.present() ? f[c] : nullptr, n, o[c]);
-      }
+          const int n = std::min(kBlock, w - x0);
+          if (Lf) Lf->get(y, x0, n, cur, &caches[x0 / kBlock]);
+          else
+            for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
+          // cur over B, then F over that (rows of +0 where a zero map says so).
+          const float* back[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
+          const float* front[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
+          if (BR.present() && !BR.zero(y, y, x0)) BR.get(y, x0, n, bb, back, &caches[nbf + x0 / kBlock]);
+          if (FR.present() && !FR.zero(y, y, x0)) FR.get(y, x0, n, fb, front, &caches[2 * nbf + x0 / kBlock]);
+          float* o[4];
+          for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
+          float t[kBlock], u[kBlock];
+          kern::one_minus(cur[3], n, t);
+          if (FR.present()) kern::one_minus(front[3], n, u);
+          for (int c = 0; c < 4; ++c)
+            kern::final_channel(cur[c], t, BR.present() ? back[c] : nullptr, u, FR.present() ? front[c] : nullptr, n, o[c]);
+        }
   }, 1);
   g_fused_renders.fetch_add(1);
   return true;

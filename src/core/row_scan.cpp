@@ -1,0 +1,12 @@
+#include "core/row_scan.hpp"
+
+namespace dofkit::core {
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
+bool any_positive(const float* __restrict v, int n) {
+  int on = 0;
+  for (int i = 0; i < n; ++i) on |= v[i] > 0.0f;
+  return on != 0;
+}
+
+}  // namespace dofkit::core

@@ -344,7 +344,7 @@ TEST(Sanitize, RendererDepthScanCountsEveryRowAndRecovers) {
       EXPECT_NE(m.find("depth has 3 NaN, zero or negative"), std::string::npos) << m;
       EXPECT_NE(m.find("(5, 0)"), std::string::npos) << m;
     }
-    // Hostile colour as well: the depth error still wins, and nothing is sanitised first.
+    // Hostile colour as well: the depth error is still raised.
     Frame both = bad;
     both.color.at(1, 1, 0) = kNaN;
     EXPECT_THROW(renderer.render(both), Error);

@@ -32,6 +32,16 @@ double max_abs_diff(const Image& a, const Image& b) {
   return m;
 }
 
+// Worst |fast − plain| / max(1, |plain|) over every sample (the fast-vs-plain criterion).
+double worst_relative(const Image& fast, const Image& plain) {
+  double worst = 0;
+  for (std::size_t i = 0; i < plain.data().size(); ++i) {
+    const double p = plain.data()[i];
+    worst = std::max(worst, std::fabs(fast.data()[i] - p) / std::max(1.0, std::fabs(p)));
+  }
+  return worst;
+}
+
 }  // namespace
 
 TEST(StarcraftWeights, SumToOneAndFollowBreakpoints) {
@@ -275,10 +285,7 @@ TEST(StarcraftFast, MatchesThePlainImplementation) {
     const RenderResult fast = render(f, s);
     s.params["impl"] = "plain";
     const RenderResult plain = render(f, s);
-    for (std::size_t i = 0; i < fast.image.data().size(); ++i) {
-      const double p = plain.image.data()[i];
-      worst = std::max(worst, std::fabs(fast.image.data()[i] - p) / std::max(1.0, std::fabs(p)));
-    }
+    worst = std::max(worst, worst_relative(fast.image, plain.image));
   }
   std::printf("starcraft fast vs plain: worst relative difference %.3g\n", worst);
   EXPECT_LE(worst, 1e-4);
@@ -305,12 +312,7 @@ TEST(StarcraftFast, MatchesPlainAtOddAndTinySizesForAnyThreadCount) {
       EXPECT_EQ(fast1.image.data(), fast2.image.data()) << w << "x" << h;
       s.params["impl"] = "plain";
       const RenderResult plain = render(f, s);
-      double worst = 0;
-      for (std::size_t i = 0; i < plain.image.data().size(); ++i) {
-        const double p = plain.image.data()[i];
-        worst = std::max(worst, std::fabs(fast1.image.data()[i] - p) / std::max(1.0, std::fabs(p)));
-      }
-      EXPECT_LE(worst, 1e-4) << w << "x" << h << " keep_own_blur=" << keep;
+      EXPECT_LE(worst_relative(fast1.image, plain.image), 1e-4) << w << "x" << h << " keep_own_blur=" << keep;
     }
   }
 }
@@ -347,11 +349,6 @@ TEST(StarcraftFast, StreamedMediumEqualsTheSeparatePassesOpaqueOrNot) {
     s.debug_view.clear();
     s.params["impl"] = "plain";
     const RenderResult plain = render(f, s);
-    double worst = 0;
-    for (std::size_t i = 0; i < plain.image.data().size(); ++i) {
-      const double p = plain.image.data()[i];
-      worst = std::max(worst, std::fabs(fused1.image.data()[i] - p) / std::max(1.0, std::fabs(p)));
-    }
-    EXPECT_LE(worst, 1e-4) << "translucent=" << translucent;
+    EXPECT_LE(worst_relative(fused1.image, plain.image), 1e-4) << "translucent=" << translucent;
   }
 }

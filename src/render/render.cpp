@@ -2,6 +2,7 @@
 #include "dofkit/render.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <sstream>
 
@@ -92,22 +93,24 @@ std::size_t first_not_positive(const float* z) {
   while (z[i] > 0) ++i;  // callers know that one exists
   return i;
 }
-// Throws "<what> has N NaN, zero or negative value(s), first at pixel (x, y) = v" for a depth plane
-// with such values (the visible depth and every layer's follow the same rule: a missing
-// fragment is z = +inf, never NaN or <= 0).
-void check_depth_values(const Image& depth, const std::string& what) {
+// The message for a depth plane with `bad` NaN, zero or negative values: "<what> has N NaN, zero
+// or negative value(s), first at pixel (x, y) = v" (the visible depth and every layer's follow
+// the same rule: a missing fragment is z = +inf, never NaN or <= 0).
+[[noreturn]] void throw_bad_depth(const Image& depth, std::size_t bad, const std::string& what) {
   const float* z = depth.plane(0);
-  const std::size_t bad = count_not_positive(z, depth.plane_size());
-  if (!bad) return;
   const std::size_t first = first_not_positive(z);
   throw_bad_input(what + " has " + std::to_string(bad) + " NaN, zero or negative value(s), first at pixel (" +
                   std::to_string(first % depth.width()) + ", " + std::to_string(first / depth.width()) + ") = " +
                   std::to_string(z[first]));
 }
-}  // namespace
+void check_depth_values(const Image& depth, const std::string& what) {
+  const std::size_t bad = count_not_positive(depth.plane(0), depth.plane_size());
+  if (bad) throw_bad_depth(depth, bad, what);
+}
 
-void validate_frame(const Frame& frame, const char* what) {
-  const std::string src = what ? what : "frame";
+// validate_frame; render() passes visible_depth = false and checks the visible depth's values in
+// the same pass that turns them into CoC (fill_coc_checked).
+void validate_frame(const Frame& frame, const std::string& src, bool visible_depth) {
   if (frame.color.empty() || frame.color.width() <= 0 || frame.color.height() <= 0)
     throw_bad_input(src + ": colour image is empty");
   if (frame.color.channels() != 4)
@@ -116,7 +119,7 @@ void validate_frame(const Frame& frame, const char* what) {
     throw_bad_input(src + ": depth is " + std::to_string(frame.depth.width()) + "x" +
                     std::to_string(frame.depth.height()) + " but colour is " + std::to_string(frame.color.width()) +
                     "x" + std::to_string(frame.color.height()));
-  check_depth_values(frame.depth, src + ": depth");
+  if (visible_depth) check_depth_values(frame.depth, src + ": depth");
   if (frame.layer_color.size() != frame.layer_depth.size())
     throw_bad_input(src + ": layer colour/depth counts differ");
   for (std::size_t l = 0; l < frame.layer_color.size(); ++l) {
@@ -126,6 +129,11 @@ void validate_frame(const Frame& frame, const char* what) {
     check_depth_values(frame.layer_depth[l], src + ": layer " + std::to_string(l) + " depth");
   }
 }
+}  // namespace
+
+void validate_frame(const Frame& frame, const char* what) {
+  validate_frame(frame, what ? what : "frame", true);
+}
 
 namespace {
 // Signed, clamped CoC of every pixel (image pixels).
@@ -134,6 +142,23 @@ void fill_coc(const Image& depth, const CocFunction& f, Image& coc) {
   core::parallel_for(depth.height(), [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) f.evaluate(depth.row(0, y), coc.row(0, y), depth.width());
   }, 16);
+}
+// fill_coc that also counts the depth values validate_frame rejects, row by row while the row
+// is in cache (one parallel pass over the depth instead of a serial scan before the CoC pass),
+// and throws validate_frame's message if there are any.
+void fill_coc_checked(const Image& depth, const CocFunction& f, Image& coc, const std::string& what) {
+  coc.resize(depth.width(), depth.height(), 1);
+  std::atomic<std::size_t> bad{0};
+  const int w = depth.width();
+  core::parallel_for(depth.height(), [&](int y0, int y1) {
+    std::size_t n = 0;
+    for (int y = y0; y < y1; ++y) {
+      f.evaluate(depth.row(0, y), coc.row(0, y), w);
+      n += count_not_positive(depth.row(0, y), static_cast<std::size_t>(w));
+    }
+    bad.fetch_add(n, std::memory_order_relaxed);
+  }, 16);
+  if (const std::size_t n = bad.load()) throw_bad_depth(depth, n, what);
 }
 }  // namespace
 
@@ -210,7 +235,7 @@ const RenderSettings& Renderer::settings() const { return impl_->settings; }
 const RenderResult& Renderer::render(const Frame& frame_in) {
   const RenderSettings& settings = impl_->settings;
   const detail::MethodDef& method = *impl_->method;
-  validate_frame(frame_in);
+  validate_frame(frame_in, "frame", false);  // the depth values are checked by fill_coc_checked
   RenderResult& result = impl_->result;
   const detail::Params params(method.name, settings.params);
   detail::DebugSink sink(settings.debug_view);
@@ -219,7 +244,7 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     // Non-finite / out-of-range colour never reaches a method (rules in render/sanitize.hpp).
     const Frame& frame = detail::sanitized_frame(frame_in, impl_->sanitized);
     const CocFunction coc_of(settings.camera, frame.width());
-    fill_coc(frame.depth, coc_of, result.coc);
+    fill_coc_checked(frame.depth, coc_of, result.coc, "frame: depth");
     const detail::MethodContext ctx{frame, result.coc, settings.camera, coc_of, params, sink, threads,
                                     impl_->workspace};
     result.image.resize(frame.width(), frame.height(), 4);

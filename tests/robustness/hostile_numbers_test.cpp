@@ -320,8 +320,8 @@ TEST(Sanitize, LayerDepthMustBeValid) {
   }
 }
 
-// A Renderer refuses a frame with invalid depth anywhere (the count covers every row, the
-// first bad pixel is named, colour that would need sanitising does not mask it), and a
+// A Renderer refuses a frame with invalid depth anywhere (the count covers every row of
+// every worker's share, the first bad pixel is named, with validate_frame's message, colour that would need sanitising does not mask it), and a
 // renderer whose frame was refused renders the next valid frame exactly like a fresh one.
 TEST(Sanitize, RendererDepthScanCountsEveryRowAndRecovers) {
   const Frame good = textured_frame(64, 100);
@@ -343,6 +343,13 @@ TEST(Sanitize, RendererDepthScanCountsEveryRowAndRecovers) {
       const std::string m = e.what();
       EXPECT_NE(m.find("depth has 3 NaN, zero or negative"), std::string::npos) << m;
       EXPECT_NE(m.find("(5, 0)"), std::string::npos) << m;
+      // render() checks the depth in its parallel CoC pass; the message is validate_frame's.
+      try {
+        validate_frame(bad);
+        ADD_FAILURE() << "validate_frame accepted invalid depth";
+      } catch (const Error& v) {
+        EXPECT_EQ(m, std::string(v.what()));
+      }
     }
     // Hostile colour as well: the depth error is still raised.
     Frame both = bad;

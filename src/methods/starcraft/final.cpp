@@ -12,6 +12,7 @@
 //     level and the small blur's missing centre tap (1/17 of y').
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -210,8 +211,12 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
     MixRow mr{{}, med[ch], med_wt, sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm, wr.wl,
               wr.wsrc, src, o};
     for (int k = 0; k < 5; ++k) mr.rows[k] = color.row(ch, clampi(y + k - 2, 0, h - 1));
-    // Columns 2 … w − 3 read x − 2 … x + 2 without clamping.
-    const int lo = std::min(2, w), hi = std::max(lo, w - 2);
+    // Columns 2 … w − 3 read x − 2 … x + 2 without clamping. The vector part starts on a
+    // 64-byte boundary of the output row (whole vectors for every target, so the kernel can
+    // use non-temporal stores); the columns before it take the scalar form.
+    int lo = std::min(2, w);
+    while (lo < w && reinterpret_cast<std::uintptr_t>(o + lo) % 64 != 0) ++lo;
+    const int hi = std::max(lo, w - 2);
     for (int x = 0; x < lo; ++x) mix_scalar(mr, x, w);
     for (int x = final_mix_simd(mr, lo, hi); x < w; ++x) mix_scalar(mr, x, w);
   }

@@ -4,6 +4,7 @@
 #include "methods/starcraft/final_simd.hpp"
 
 #include <cstddef>
+#include <cstdint>
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "methods/starcraft/final_simd.cpp"
@@ -84,13 +85,21 @@ int FinalMix(const MixRow& r, int x0, int x1) {
   const float* const wm_row = r.wm;
   const float* const wl_row = r.wl;
   float* const out = r.out;
+  // The output is written once and not read again by the pass: where the row segment starts
+  // on a vector boundary (the caller arranges it), non-temporal stores send it to memory
+  // without first reading each line into the cache.
+  const bool stream = reinterpret_cast<std::uintptr_t>(out + x0) % (n * sizeof(float)) == 0;
+  auto store = [&](auto v, int at) {
+    if (stream) hn::Stream(v, d, out + at);
+    else hn::StoreU(v, d, out + at);
+  };
   int x = x0;
   for (; x + n <= x1; x += n) {
     const auto s = hn::LoadU(d, src + x);
     const auto wsrc = hn::LoadU(d, wsrc_row + x);
     const auto focus = hn::Eq(wsrc, one);
     if (hn::AllTrue(d, focus)) {  // every lane in focus: the source, bit for bit
-      hn::StoreU(s, d, out + x);
+      store(s, x);
       continue;
     }
     auto L = [&](const float* p, int o) { return hn::LoadU(d, p + x + o); };
@@ -114,8 +123,9 @@ int FinalMix(const MixRow& r, int x0, int x1) {
                                                hn::Mul(hn::LoadU(d, wm_row + x), med)),
                                        hn::Mul(hn::LoadU(d, wl_row + x), lg)),
                                hn::Mul(wsrc, s));
-    hn::StoreU(hn::IfThenElse(focus, s, mixed), d, out + x);
+    store(hn::IfThenElse(focus, s, mixed), x);
   }
+  if (stream) hwy::FlushStream();  // order the non-temporal stores before the row is handed on
   return x;
 }
 

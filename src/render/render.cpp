@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <optional>
 #include <sstream>
 
 #include "core/parallel.hpp"
@@ -238,23 +239,37 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
   validate_frame(frame_in, "frame", false);  // the depth values are checked by fill_coc_checked
   RenderResult& result = impl_->result;
   const detail::Params params(method.name, settings.params);
-  detail::DebugSink sink(settings.debug_view);
+  std::optional<detail::DebugSink> sink;
   const int threads = settings.threads > 0 ? settings.threads : core::hardware_threads();
   core::with_threads(settings.threads, [&] {
-    // Non-finite / out-of-range colour never reaches a method (rules in render/sanitize.hpp).
-    const Frame& frame = detail::sanitized_frame(frame_in, impl_->sanitized);
+    // Non-finite / out-of-range colour never reaches a method's result (rules in
+    // render/sanitize.hpp). A method that reads every colour sample in one of its passes
+    // anyway checks them there (checks_colour); otherwise, or when it found a bad sample,
+    // the colour is checked here and sanitised into a copy where needed.
+    std::atomic<bool> dirty{false};
+    const bool deferred = method.checks_colour && frame_in.layer_color.empty();
+    const Frame& frame = deferred ? frame_in : detail::sanitized_frame(frame_in, impl_->sanitized);
     const CocFunction coc_of(settings.camera, frame.width());
     fill_coc_checked(frame.depth, coc_of, result.coc, "frame: depth");
-    const detail::MethodContext ctx{frame, result.coc, settings.camera, coc_of, params, sink, threads,
-                                    impl_->workspace};
     result.image.resize(frame.width(), frame.height(), 4);
-    method.render(ctx, result.image);
+    sink.emplace(settings.debug_view);
+    method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,
+                   deferred ? &dirty : nullptr},
+                  result.image);
+    if (deferred && dirty.load()) {
+      // Rare (hostile input): everything from the first try is discarded. The depth, and so
+      // the CoC, are the caller's in both tries.
+      const Frame& clean = detail::sanitized_frame(frame_in, impl_->sanitized);
+      sink.emplace(settings.debug_view);
+      method.render({clean, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace},
+                    result.image);
+    }
   });
   result.debug = Image();
   if (!settings.debug_view.empty()) {
-    if (!sink.found())
+    if (!sink->found())
       throw_internal("method " + method.name + " did not produce debug view " + settings.debug_view);
-    result.debug = std::move(sink.result());
+    result.debug = std::move(sink->result());
   }
   return result;
 }

@@ -30,20 +30,13 @@ inline float clean_alpha(float a) {
 
 inline bool same_bits(float a, float b) { return a == b && std::signbit(a) == std::signbit(b); }
 
-// True if a row holds a value that sanitising would change: anything but ±0 or a normal
-// number of magnitude <= hi (alpha: 0 or a normal number in [min normal, hi]). Bitwise & and |
-// (no short-circuit branches) so the loop vectorises; compiled for AVX-512F / AVX2 / baseline.
+// True if a row holds a value that sanitising would change (sample_is_sanitary fails). The
+// bitwise | accumulation (no early exit) lets the loop vectorise; compiled for AVX-512F /
+// AVX2 / baseline.
 __attribute__((target_clones("avx512f", "avx2", "default")))
-bool row_has_unsanitary(const float* row, int w, float hi, bool signed_values) {
+bool row_has_unsanitary(const float* row, int w, bool alpha) {
   int bad = 0;
-  if (signed_values) {
-    for (int x = 0; x < w; ++x) {
-      const float m = std::fabs(row[x]);
-      bad |= !((row[x] == 0.0f) | ((m >= kMinNormal) & (m <= hi)));
-    }
-  } else {
-    for (int x = 0; x < w; ++x) bad |= !((row[x] == 0.0f) | ((row[x] >= kMinNormal) & (row[x] <= hi)));
-  }
+  for (int x = 0; x < w; ++x) bad |= !sample_is_sanitary(row[x], alpha);
   return bad != 0;
 }
 
@@ -61,8 +54,8 @@ bool color_is_sanitary(const Image& rgba) {
     for (int y = y0; y < y1 && !dirty.load(std::memory_order_relaxed); ++y) {
       // Bitwise & and | (no short-circuit branches) so the loops vectorise.
       bool bad = false;
-      for (int c = 0; c < 3; ++c) bad |= row_has_unsanitary(rgba.row(c, y), w, kMaxColorValue, true);
-      bad |= row_has_unsanitary(rgba.row(3, y), w, 1.0f, false);
+      for (int c = 0; c < 3; ++c) bad |= row_has_unsanitary(rgba.row(c, y), w, false);
+      bad |= row_has_unsanitary(rgba.row(3, y), w, true);
       if (bad) dirty.store(true, std::memory_order_relaxed);
     }
   }, kGrainRows);

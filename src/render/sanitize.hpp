@@ -9,6 +9,8 @@
 // validate_frame (the IO layer can turn them into +inf on request, `--invalid-depth far`);
 // +inf depth is valid (infinitely far) and tiny positive depth simply reaches the CoC clamp.
 #pragma once
+#include <limits>
+
 #include "dofkit/frame.hpp"
 #include "dofkit/image.hpp"
 
@@ -18,6 +20,16 @@ namespace dofkit::detail {
 /// a renderer writes (the sun's disc is ~1.6e9 cd/m²), yet small enough that a method may
 /// sum ~1e8 such samples (a 4096 px disc) or square one without overflowing float (3.4e38).
 inline constexpr float kMaxColorValue = 1e18f;
+
+/// Whether one sample already satisfies the rules above (sanitising would leave it as it is):
+/// ±0, or a normal number of magnitude <= kMaxColorValue (colour) / in [FLT_MIN, 1] (alpha).
+/// Comparisons only, so loops over it vectorise; NaN fails every comparison.
+inline bool sample_is_sanitary(float v, bool alpha) {
+  constexpr float kMinNormal = std::numeric_limits<float>::min();
+  if (alpha) return (v == 0.0f) | ((v >= kMinNormal) & (v <= 1.0f));
+  const float m = v < 0.0f ? -v : v;
+  return (v == 0.0f) | ((m >= kMinNormal) & (m <= kMaxColorValue));
+}
 
 /// True if every sample of a 4-plane RGBA image already satisfies the rules above (then
 /// render() passes the caller's frame through untouched, with no copy).

@@ -6,6 +6,7 @@
 
 #include <cstring>
 
+#include "methods/method.hpp"
 #include "render/sanitize.hpp"
 #include "robustness/robustness_util.hpp"
 
@@ -361,5 +362,52 @@ TEST(Sanitize, RendererDepthScanCountsEveryRowAndRecovers) {
     EXPECT_EQ(std::memcmp(again.data().data(), fresh.image.data().data(), again.data().size() * sizeof(float)), 0);
     EXPECT_EQ(std::memcmp(renderer.render(good).coc.data().data(), fresh.coc.data().data(),
                           fresh.coc.data().size() * sizeof(float)), 0);
+  }
+}
+
+// A method with MethodDef::checks_colour tests the colour itself, inside one of its passes,
+// instead of render()'s separate scan. Its test must see every sample: one bad sample
+// anywhere (every pixel of frames whose sides are and are not multiples of the passes' block
+// and vector sizes, a colour and the alpha plane, a NaN and an out-of-range value) must give
+// exactly the render of the sanitised frame, and the hostile frame's debug view must be the
+// sanitised frame's as well (the first try's views are discarded).
+TEST(Sanitize, MethodsThatCheckColourThemselvesSeeEverySample) {
+  for (const detail::MethodDef* m : detail::all_methods()) {
+    if (!m->checks_colour) continue;
+    SCOPED_TRACE(m->name);
+    RenderSettings s = default_settings(m->name);
+    s.threads = 2;
+    Renderer renderer(s);
+    for (auto [w, h] : {std::pair{13, 9}, {16, 8}, {37, 6}}) {
+      const Frame good = textured_frame(w, h);
+      int checked = 0;
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          for (int ch : {1, 3}) {
+            Frame bad = good;
+            bad.color.at(x, y, ch) = (x + y) % 2 ? kNaN : (ch == 3 ? 2.0f : kInf);
+            Frame clean = bad;
+            detail::sanitize_color(bad.color, clean.color);
+            const Image& got = renderer.render(bad).image;
+            const Image want = render(clean, s).image;
+            ASSERT_EQ(got.data().size(), want.data().size());
+            ASSERT_EQ(std::memcmp(got.data().data(), want.data().data(), got.data().size() * sizeof(float)), 0)
+                << w << "x" << h << " bad sample at (" << x << ", " << y << ") plane " << ch;
+            ++checked;
+          }
+      EXPECT_EQ(checked, 2 * w * h);
+    }
+    for (const DebugViewInfo& view : m->debug_views) {
+      RenderSettings d = s;
+      d.debug_view = view.name;
+      Frame bad = textured_frame(20, 12);
+      bad.color.at(19, 11, 0) = kNaN;
+      Frame clean = bad;
+      detail::sanitize_color(bad.color, clean.color);
+      const RenderResult a = render(bad, d), b = render(clean, d);
+      ASSERT_EQ(a.debug.data().size(), b.debug.data().size()) << view.name;
+      EXPECT_EQ(std::memcmp(a.debug.data().data(), b.debug.data().data(), a.debug.data().size() * sizeof(float)), 0)
+          << view.name;
+    }
   }
 }

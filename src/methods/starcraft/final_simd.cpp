@@ -2,9 +2,11 @@
 // plain pass's, operation for operation (same association of the sums, separate multiply
 // and add), so the scalar edges and tails in final.cpp produce the same values.
 #include "methods/starcraft/final_simd.hpp"
+#include "render/sanitize.hpp"
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "methods/starcraft/final_simd.cpp"
@@ -163,14 +165,24 @@ int LevelsRow(const float* r, float* c, int x0, int x1, float vs, float vm, floa
   return x;
 }
 
-int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1,
-                bool& alpha_one) {
+template <bool kCheck>
+int LargeReduceT(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1,
+                 bool& alpha_one, bool& sanitary) {
   constexpr int kAhead = 256;  // floats (1 KiB) ahead of the current position
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
   const auto zero = hn::Zero(d), inv16 = hn::Set(d, 1.0f / 16.0f);
   const auto one = hn::Set(d, 1.0f);
   auto opaque = hn::Eq(one, one);  // every alpha read so far is 1
+  // kCheck: sample_is_sanitary (render/sanitize.hpp) of every colour sample read, as vectors.
+  const auto min_normal = hn::Set(d, std::numeric_limits<float>::min());
+  const auto max_colour = hn::Set(d, kMaxColorValue);
+  auto clean = hn::Eq(one, one);
+  auto check = [&](auto v, bool alpha) {
+    const auto m = alpha ? v : hn::Abs(v);
+    const auto ok = hn::Or(hn::Eq(v, zero), hn::And(hn::Ge(m, min_normal), hn::Le(m, alpha ? one : max_colour)));
+    clean = hn::And(clean, ok);
+  };
   int i = i0;
   for (; i + n <= i1; i += n) {
     // LoadInterleaved4 splits 4n consecutive pixels into the 4 columns of n blocks.
@@ -194,6 +206,12 @@ int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out
         if (ch == 3)
           opaque = hn::And(opaque, hn::And(hn::And(hn::Eq(s0, one), hn::Eq(s1, one)),
                                            hn::And(hn::Eq(s2, one), hn::Eq(s3, one))));
+        if (kCheck) {
+          check(s0, ch == 3);
+          check(s1, ch == 3);
+          check(s2, ch == 3);
+          check(s3, ch == 3);
+        }
       }
     }
     const auto cb = reduce_max ? cmax : hn::Mul(csum, inv16);
@@ -206,7 +224,15 @@ int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out
     hn::StoreU(cb, d, out[4] + i);
   }
   if (!hn::AllTrue(d, opaque)) alpha_one = false;
+  if (kCheck && !hn::AllTrue(d, clean)) sanitary = false;
   return i;
+}
+
+int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1,
+                bool& alpha_one, bool* sanitary) {
+  if (sanitary) return LargeReduceT<true>(rows, reduce_max, out, i0, i1, alpha_one, *sanitary);
+  bool unused = true;
+  return LargeReduceT<false>(rows, reduce_max, out, i0, i1, alpha_one, unused);
 }
 
 }  // namespace HWY_NAMESPACE
@@ -233,8 +259,8 @@ int levels_row_simd(const float* r, float* c, int x0, int x1, float vs, float vm
   return HWY_DYNAMIC_DISPATCH(LevelsRow)(r, c, x0, x1, vs, vm, vl);
 }
 int large_reduce_simd(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1,
-                      bool& alpha_one) {
-  return HWY_DYNAMIC_DISPATCH(LargeReduce)(rows, reduce_max, out, i0, i1, alpha_one);
+                      bool& alpha_one, bool* sanitary) {
+  return HWY_DYNAMIC_DISPATCH(LargeReduce)(rows, reduce_max, out, i0, i1, alpha_one, sanitary);
 }
 
 }  // namespace dofkit::detail::starcraft

@@ -55,8 +55,9 @@ int levels_row_simd(const float* r, float* c, int x0, int x1, float vs, float vm
 /// rows[k][ch], ch 0-3 colour, 4 the level c, all inside the image): planes out[0..3] get
 /// c_block · (c-weighted block colour), out[4] c_block (mean, or max if reduce_max). Float
 /// sums (the plain form sums in double). Clears alpha_one if some alpha (rows[k][3]) read is
-/// not exactly 1.
+/// not exactly 1. sanitary set: also clears *sanitary if some colour sample read fails
+/// render/sanitize.hpp's sample_is_sanitary.
 int large_reduce_simd(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1,
-                      bool& alpha_one);
+                      bool& alpha_one, bool* sanitary = nullptr);
 
 }  // namespace dofkit::detail::starcraft

@@ -16,11 +16,12 @@
 #include "core/parallel.hpp"
 #include "methods/starcraft/final_simd.hpp"
 #include "methods/starcraft/starcraft.hpp"
+#include "render/sanitize.hpp"
 
 namespace dofkit::detail::starcraft {
 
-void large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large,
-                bool plain, bool* alpha_is_one) {
+bool large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large,
+                bool plain, bool* alpha_is_one, bool check_colour) {
   const int w = color.width(), h = color.height();
   const int lw = down_size(w), lh = down_size(h);
   large.resize(lw, lh, 5);
@@ -29,7 +30,11 @@ void large_blur(const Image& color, const Image& level, float sigma_total, bool 
   // Whether every alpha is exactly 1, found while the colour is read anyway (see
   // medium_and_final). Each block row clears a shared flag: the same answer for any split.
   std::atomic<bool> opaque{true};
-  auto block = [&](int i, int j, bool& alpha_one) {
+  // check_colour: every sample read also passes render()'s sanitation test (the frame has
+  // not been checked; see MethodContext::colour_dirty). Each block row reads its own
+  // samples, so together they read every sample of the image once.
+  std::atomic<bool> sanitary{true};
+  auto block = [&](int i, int j, bool& alpha_one, bool& clean) {
     double wsum[4] = {0, 0, 0, 0}, psum[4] = {0, 0, 0, 0}, csum = 0;
     float cmax = 0;
     int n = 0;
@@ -41,6 +46,7 @@ void large_blur(const Image& color, const Image& level, float sigma_total, bool 
         if (color.row(3, y)[x] != 1.0f) alpha_one = false;
         for (int ch = 0; ch < 4; ++ch) {
           const float v = color.row(ch, y)[x];
+          if (check_colour) clean &= sample_is_sanitary(v, ch == 3);
           wsum[ch] += static_cast<double>(c[x]) * v;
           psum[ch] += v;
         }
@@ -56,7 +62,7 @@ void large_blur(const Image& color, const Image& level, float sigma_total, bool 
   };
   const int full_cols = w / kDown;  // blocks with all 4 columns inside the image
   core::parallel_for(lh, [&](int j0, int j1) {
-    bool alpha_one = true;
+    bool alpha_one = true, clean = true;
     for (int j = j0; j < j1; ++j) {
       int i = 0;
       if (!plain && (j + 1) * kDown <= h) {
@@ -66,15 +72,18 @@ void large_blur(const Image& color, const Image& level, float sigma_total, bool 
           rows[k][4] = level.row(0, j * kDown + k);
         }
         float* const out[5] = {large.row(0, j), large.row(1, j), large.row(2, j), large.row(3, j), large.row(4, j)};
-        i = large_reduce_simd(rows, reduce_max, out, 0, full_cols, alpha_one);
+        i = large_reduce_simd(rows, reduce_max, out, 0, full_cols, alpha_one, check_colour ? &clean : nullptr);
       }
-      for (; i < lw; ++i) block(i, j, alpha_one);
+      for (; i < lw; ++i) block(i, j, alpha_one, clean);
     }
     if (!alpha_one) opaque.store(false, std::memory_order_relaxed);
+    if (!clean) sanitary.store(false, std::memory_order_relaxed);
   }, 4);
   if (alpha_is_one) *alpha_is_one = opaque.load();
+  if (!sanitary.load()) return false;  // the caller renders again from sanitised colour
   const float s = quarter_res_sigma(sigma_total);
   for (int ch = 0; ch < 5; ++ch) (plain ? core::gaussian_blur_plane_plain : core::gaussian_blur_plane)(large.plane(ch), lw, lh, s, s, 3);
+  return true;
 }
 
 }  // namespace dofkit::detail::starcraft

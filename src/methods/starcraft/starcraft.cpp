@@ -43,7 +43,13 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
 
   Image& large = ctx.workspace.image("starcraft.large", lw, lh, 5);
   bool opaque = false;  // every alpha exactly 1 (found by the large level's reduction)
-  large_blur(color, level, g.sigma_large, s.coc_reduce_max, large, s.plain, &opaque);
+  // The large level's reduction is the first pass that reads the colour, and it reads every
+  // sample once: it also makes render()'s sanitation check when render() left it to us.
+  if (!large_blur(color, level, g.sigma_large, s.coc_reduce_max, large, s.plain, &opaque,
+                  ctx.colour_dirty != nullptr)) {
+    ctx.colour_dirty->store(true);
+    return;
+  }
   ctx.debug.offer("blurred_coc", [&] { return quarter_plane(large, 4); });
   ctx.debug.offer("large", [&] {
     Image img(large.width(), large.height(), 4);
@@ -132,7 +138,8 @@ const MethodDef& starcraft_method() {
           {"large", "large level: CoC-weighted Gaussian, W/4 x H/4 (RGBA, normalised)"},
           {"weights", "level weights: planes source, small, medium, large (sum 1)"},
       },
-      render_starcraft};
+      render_starcraft,
+      /*checks_colour=*/true};
   return def;
 }
 

@@ -100,8 +100,10 @@ void medium_blur(const Image& color, const Image& level, float sigma, int boxes,
 /// divided) and blur(c) — the blurred CoC, which is also the normaliser. `reduce_max`: the
 /// quarter-res level of a block is its max instead of its mean (colour stays c-weighted).
 /// alpha_is_one (optional): set to whether every alpha of `color` is exactly 1.
-void large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large,
-                bool plain = false, bool* alpha_is_one = nullptr);
+/// check_colour: also test every colour sample against render()'s sanitation rules; returns
+/// false (and leaves `large` unfinished) if one fails, else true.
+bool large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large,
+                bool plain = false, bool* alpha_is_one = nullptr, bool check_colour = false);
 
 /// C4: inverse depth 1/z reduced to W/4 × H/4 (block mean) and blurred (1 plane).
 void depth_blur(const Image& depth, float sigma_total, Image& inv_depth, bool plain = false);

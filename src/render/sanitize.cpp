@@ -46,16 +46,21 @@ constexpr int kGrainRows = 32;
 
 }  // namespace
 
+bool row_is_sanitary(const float* row, int n, bool alpha) { return !row_has_unsanitary(row, n, alpha); }
+
 bool color_is_sanitary(const Image& rgba) {
   if (rgba.channels() != 4) return true;  // validate_frame reports the shape error
+  return rect_is_sanitary(rgba, 0, 0, rgba.width(), rgba.height());
+}
+
+bool rect_is_sanitary(const Image& rgba, int x0, int y0, int w, int h) {
   std::atomic<bool> dirty{false};
-  const int w = rgba.width();
-  core::parallel_for(rgba.height(), [&](int y0, int y1) {
-    for (int y = y0; y < y1 && !dirty.load(std::memory_order_relaxed); ++y) {
+  core::parallel_for(h, [&](int r0, int r1) {
+    for (int y = y0 + r0; y < y0 + r1 && !dirty.load(std::memory_order_relaxed); ++y) {
       // Bitwise & and | (no short-circuit branches) so the loops vectorise.
       bool bad = false;
-      for (int c = 0; c < 3; ++c) bad |= row_has_unsanitary(rgba.row(c, y), w, false);
-      bad |= row_has_unsanitary(rgba.row(3, y), w, true);
+      for (int c = 0; c < 3; ++c) bad |= row_has_unsanitary(rgba.row(c, y) + x0, w, false);
+      bad |= row_has_unsanitary(rgba.row(3, y) + x0, w, true);
       if (bad) dirty.store(true, std::memory_order_relaxed);
     }
   }, kGrainRows);

@@ -31,6 +31,12 @@ inline bool sample_is_sanitary(float v, bool alpha) {
   return (v == 0.0f) | ((m >= kMinNormal) & (m <= kMaxColorValue));
 }
 
+/// sample_is_sanitary for n consecutive samples (vectorised).
+bool row_is_sanitary(const float* row, int n, bool alpha);
+
+/// color_is_sanitary for the w × h rectangle at (x0, y0) of a 4-plane image.
+bool rect_is_sanitary(const Image& rgba, int x0, int y0, int w, int h);
+
 /// True if every sample of a 4-plane RGBA image already satisfies the rules above (then
 /// render() passes the caller's frame through untouched, with no copy).
 bool color_is_sanitary(const Image& rgba);

@@ -33,6 +33,7 @@
 #include "core/parallel.hpp"
 #include "methods/mcguire/blur_weights.hpp"
 #include "methods/mcguire/fast.hpp"
+#include "render/sanitize.hpp"
 #include "methods/mcguire/gather.hpp"
 
 namespace dofkit::detail::mcguire {
@@ -102,7 +103,7 @@ void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_s
 bool fast_supported(const Constants& k) { return k.variant != Variant::g3d; }
 
 void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src, const Constants& k, int ox, int wo,
-                          Image& t_blur, Image& t_near, Workspace& ws) {
+                          Image& t_blur, Image& t_near, Workspace& ws, std::atomic<bool>* colour_dirty) {
   const int W = src.w, H = src.h, R = k.r_max, f = k.f;
   const float rmax = static_cast<float>(R);
   t_blur.resize(wo, H, 5);
@@ -189,12 +190,16 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
 
       for (int y = chunk_begin(H, nchunk, chunk); y < chunk_begin(H, nchunk, chunk + 1); ++y) {
         // Padded source row: R copies of the first pixel, the row, R + slack copies of the last.
+        bool clean = true;
         for (int c = 0; c < 5; ++c) {
           const float* row = c < 4 ? colour.row(c, src.y + y) + src.x : coc.row(0, src.y + y) + src.x;
           std::fill_n(pad[c], R, row[0]);
           std::copy_n(row, W, pad[c] + R);
           std::fill_n(pad[c] + R + W, R + kPrepSlack, row[W - 1]);
+          // render()'s colour check, made on the copy while it is in cache.
+          if (colour_dirty && c < 4) clean &= row_is_sanitary(pad[c] + R, W, c == 3);
         }
+        if (!clean) colour_dirty->store(true, std::memory_order_relaxed);
         prep_row_simd(prep);
         const float* const* col = pad;
         const int cx0 = ox + R;  // padded x of output 0's centre

@@ -12,9 +12,11 @@ bool fast_supported(const Constants& k);
 
 /// P2 as blur_horizontal_plain (book/demo only) on the buffer pack_coc(colour, coc, src)
 /// would produce, read straight from colour and CoC (s computed as pack_coc does, so the
-/// packed copy is never written); scratch from `ws`.
+/// packed copy is never written); scratch from `ws`. colour_dirty set: every colour sample
+/// of `src` is also tested as its row is read (render/sanitize.hpp) and the flag is set if
+/// one fails (see MethodContext::colour_dirty); the outputs are then meaningless.
 void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src, const Constants& k, int ox, int wo,
-                          Image& t_blur, Image& t_near, Workspace& ws);
+                          Image& t_blur, Image& t_near, Workspace& ws, std::atomic<bool>* colour_dirty = nullptr);
 /// P3 as blur_vertical_plain (book/demo only); scratch from `ws`.
 void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constants& k, int oy, int ho, Image& blur,
                         Image& near, Workspace& ws);

@@ -21,6 +21,7 @@
 #include "methods/mcguire/fast.hpp"
 #include "methods/mcguire/mcguire.hpp"
 #include "methods/method.hpp"
+#include "render/sanitize.hpp"
 
 namespace dofkit::detail {
 
@@ -107,6 +108,14 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
   const bool plain = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
   const bool fast_blur = !plain && mcguire::fast_supported(k);
   const bool plain_composite = plain || ctx.debug.wants("weights");
+  // render() left the colour check to this method (MethodContext::colour_dirty): the fast
+  // horizontal pass makes it on each row it copies, which are all the samples any pass reads
+  // (the rectangle `src`; guard band pixels outside it never reach the output). Every other
+  // path checks that rectangle first.
+  if (ctx.colour_dirty && (!fast_blur || k.r_max == 0) && !rect_is_sanitary(colour, src.x, src.y, src.w, src.h)) {
+    ctx.colour_dirty->store(true);
+    return;
+  }
   // P1's packed copy: the plain passes (and g3d's blur) read it; the fast book/demo passes
   // compute s from the CoC as they read colour, so then it is never written.
   Image* packed = nullptr;
@@ -159,7 +168,8 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     mcguire::blur_horizontal_plain(*packed, k, ox, wo, t_blur, t_near);
     mcguire::blur_vertical_plain(t_blur, t_near, k, oy, ho, blur, near);
   } else if (fast_blur) {
-    mcguire::blur_horizontal_fast(colour, ctx.coc, src, k, ox, wo, t_blur, t_near, ws);
+    mcguire::blur_horizontal_fast(colour, ctx.coc, src, k, ox, wo, t_blur, t_near, ws, ctx.colour_dirty);
+    if (ctx.colour_dirty && ctx.colour_dirty->load()) return;  // render() starts again from sanitised colour
     mcguire::blur_vertical_fast(t_blur, t_near, k, oy, ho, blur, near, ws);
   } else {
     mcguire::blur_horizontal(*packed, k, ox, wo, t_blur, t_near);
@@ -226,7 +236,8 @@ const MethodDef& mcguire_method() {
           {"far", "blurry far/focus buffer, RGBA (reduced size)"},
           {"weights", "composite weights: R = near coverage, G = blurry weight, B = sharp weight (full size)"},
       },
-      render_mcguire};
+      render_mcguire,
+      /*checks_colour=*/true};
   return def;
 }
 

@@ -11,6 +11,7 @@
 //     source as out = rgba + (1 − alpha)·source: the source term carries both the source
 //     level and the small blur's missing centre tap (1/17 of y').
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -125,8 +126,20 @@ void vertical_lerp(const float* __restrict a, const float* __restrict b, float* 
   for (int i = 0; i < n; ++i) v[i] = a[i] + (b[i] - a[i]) * t;
 }
 
+/// 2×2 block sums of one source row pair: b[x] = ((r0[x] + r0[x+1]) + r1[x]) + r1[x+1] for
+/// x < n, the small blur's block sum in the plain pass's order (so the values are the same).
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void block_sums(const float* __restrict r0, const float* __restrict r1, float* __restrict b, int n) {
+  for (int x = 0; x < n; ++x) b[x] = ((r0[x] + r0[x + 1]) + r1[x]) + r1[x + 1];
+}
+
 struct RowScratch {
   std::vector<float> vrow, hrow, ws, wm, wl, wsrc;
+  // The small blur's 2×2 block sums of the source row pairs (j, j + 1), kept for the four
+  // output rows that read them: slot (channel, j mod 4), tagged with the pass and j.
+  std::vector<float> blocks;
+  std::uint64_t block_pass[4][4] = {};
+  int block_row[4][4] = {};
 };
 
 struct FinalGeometry {
@@ -165,7 +178,7 @@ inline void mix_scalar(const MixRow& r, int x, int w) {
 
 void final_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
                const float* med_wt, const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
-               const FinalGeometry& g, RowScratch& sc, int y) {
+               const FinalGeometry& g, RowScratch& sc, int y, std::uint64_t pass) {
   const int w = g.w, h = g.h, lw = g.lw, lh = g.lh;
   // Vertical lerp of the quarter-res rows around this row, then horizontal lerp to full res:
   // planes 0-3 numerators, 4 the blurred level (normaliser), 5 the blurred inverse depth.
@@ -208,9 +221,24 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
       std::copy(src, src + w, o);
       continue;
     }
-    MixRow mr{{}, med[ch], med_wt, sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm, wr.wl,
+    MixRow mr{{}, {}, med[ch], med_wt, sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm, wr.wl,
               wr.wsrc, src, o};
     for (int k = 0; k < 5; ++k) mr.rows[k] = color.row(ch, clampi(y + k - 2, 0, h - 1));
+    // Block sums of the row pairs starting at y − 2, y − 1, y + 1 and y (the pinwheel's taps
+    // t0 … t3), each computed once per pass and reused by the next output rows.
+    if (w >= 2) {
+      const int pairs[4] = {y - 2, y - 1, y + 1, y};
+      for (int t = 0; t < 4; ++t) {
+        const int j = pairs[t], slot = ((j % 4) + 4) % 4;
+        float* b = sc.blocks.data() + (static_cast<std::size_t>(ch) * 4 + slot) * w;
+        if (sc.block_pass[ch][slot] != pass || sc.block_row[ch][slot] != j) {
+          block_sums(color.row(ch, clampi(j, 0, h - 1)), color.row(ch, clampi(j + 1, 0, h - 1)), b, w - 1);
+          sc.block_pass[ch][slot] = pass;
+          sc.block_row[ch][slot] = j;
+        }
+        mr.blocks[t] = b;
+      }
+    }
     // Columns 2 … w − 3 read x − 2 … x + 2 without clamping. The vector part starts on a
     // 64-byte boundary of the output row (whole vectors for every target, so the kernel can
     // use non-temporal stores); the columns before it take the scalar form.
@@ -233,24 +261,34 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
   }
   const int w = color.width(), h = color.height();
   out.resize(w, h, 4);
+  const std::uint64_t pass = new_final_pass_id();
   core::parallel_for(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* med[4] = {medium.row(0, y), medium.row(1, y), medium.row(2, y), medium.row(3, y)};
-      final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y);
+      final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass);
     }
   }, 8);
 }
 
+std::uint64_t new_final_pass_id() {
+  static std::atomic<std::uint64_t> last{0};
+  return ++last;
+}
+
 void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
                     const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
-                    const float* med_wt) {
+                    std::uint64_t pass, const float* med_wt) {
   const int w = color.width(), h = color.height();
   const FinalGeometry g{w, h, large.width(), large.height()};
   thread_local RowScratch sc;  // per worker, kept between frames
   sc.vrow.resize(static_cast<std::size_t>(g.lw) * 6);
   sc.hrow.resize(static_cast<std::size_t>(w) * 6);
   for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
-  final_row(color, depth, level, med, med_wt, large, inv_depth, keep_own_blur, out, g, sc, y);
+  if (sc.blocks.size() < static_cast<std::size_t>(16) * w) {
+    sc.blocks.resize(static_cast<std::size_t>(16) * w);
+    for (auto& p : sc.block_pass) std::fill(std::begin(p), std::end(p), 0);  // contents gone
+  }
+  final_row(color, depth, level, med, med_wt, large, inv_depth, keep_own_blur, out, g, sc, y, pass);
 }
 
 }  // namespace dofkit::detail::starcraft

@@ -70,11 +70,10 @@ int FinalMix(const MixRow& r, int x0, int x1) {
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
   const auto one = hn::Set(d, 1.0f), tiny = hn::Set(d, 1e-6f), k17 = hn::Set(d, 1.0f / 17.0f);
-  const float* m2 = r.rows[0];
-  const float* m1 = r.rows[1];
-  const float* r0 = r.rows[2];
-  const float* p1 = r.rows[3];
-  const float* p2 = r.rows[4];
+  const float* const b0 = r.blocks[0];
+  const float* const b1 = r.blocks[1];
+  const float* const b2 = r.blocks[2];
+  const float* const b3 = r.blocks[3];
   // The row pointers as locals: the stores to `out` could otherwise alias the struct and
   // force a reload of every pointer per vector.
   const float* const src = r.src;
@@ -105,11 +104,12 @@ int FinalMix(const MixRow& r, int x0, int x1) {
       continue;
     }
     auto L = [&](const float* p, int o) { return hn::LoadU(d, p + x + o); };
-    // The four 2×2 blocks of the pinwheel, each summed left to right as in the plain pass.
-    const auto t0 = hn::Add(hn::Add(hn::Add(L(m2, 0), L(m2, 1)), L(m1, 0)), L(m1, 1));
-    const auto t1 = hn::Add(hn::Add(hn::Add(L(m1, -2), L(m1, -1)), L(r0, -2)), L(r0, -1));
-    const auto t2 = hn::Add(hn::Add(hn::Add(L(p1, -1), L(p1, 0)), L(p2, -1)), L(p2, 0));
-    const auto t3 = hn::Add(hn::Add(hn::Add(L(r0, 1), L(r0, 2)), L(p1, 1)), L(p1, 2));
+    // The four 2×2 blocks of the pinwheel, each summed left to right as in the plain pass
+    // (by block_sums, once per row pair).
+    const auto t0 = L(b0, 0);
+    const auto t1 = L(b1, -2);
+    const auto t2 = L(b2, -1);
+    const auto t3 = L(b3, 1);
     const auto small = hn::Mul(hn::Add(hn::Add(hn::Add(t0, t1), t2), t3), k17);
     auto med = hn::LoadU(d, med_row + x);
     if (mwt_row) {  // normalise: med / weight where some tap carried weight, else the source

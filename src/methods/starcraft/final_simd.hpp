@@ -21,14 +21,17 @@ struct WeightRow {
 };
 int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any);
 
-/// Mix of one channel of one row: the 17-tap small blur read from five source rows
-/// rows[0..4] = y−2 … y+2 (x−2 … x+2 must be valid columns), the medium level, the large
+/// Mix of one channel of one row: the 17-tap small blur from the block sums of the five source
+/// rows rows[0..4] = y−2 … y+2 (x−2 … x+2 must be valid columns; rows are for the scalar form), the medium level, the large
 /// numerator `num` over the up-sampled blurred level `cb`, blended over `src`. With `mwt`
 /// set, `med` is the medium level's blurred c·colour and mwt its blurred weight c: the level
 /// is med / mwt where mwt > 1e-6, else the source (the division of the normalised
 /// convolution, made here only for the pixels that are mixed).
 struct MixRow {
   const float* rows[5];
+  /// The 2×2 block sums (block_sums in final.cpp) of the source row pairs starting at y − 2,
+  /// y − 1, y + 1 and y: the pinwheel's taps at columns x, x − 2, x − 1 and x + 1.
+  const float* blocks[4];
   const float* med;
   const float* mwt;
   const float* num;

@@ -18,6 +18,7 @@
 // * RGBA premultiplied throughout; alpha is blurred like colour.
 // * A tie in the depth test (flat neighbourhood) keeps the pixel's own level.
 #pragma once
+#include <cstdint>
 #include <algorithm>
 #include <vector>
 
@@ -135,9 +136,13 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
 /// med_wt set: med holds the medium level before its division (blurred c·rgba) and med_wt
 /// the blurred weight c; the division (with the source where med_wt <= 1e-6, as in
 /// medium_blur) is made in the mix, only for the pixels that are not in focus.
+/// `pass`: new_final_pass_id() of the pass the row belongs to (a worker keeps the small blur's
+/// block sums of the source rows it read for the next rows of the same pass).
 void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
                     const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
-                    const float* med_wt = nullptr);
+                    std::uint64_t pass, const float* med_wt = nullptr);
+/// A number no earlier final pass of the process used.
+std::uint64_t new_final_pass_id();
 
 /// C2 and C5 fused (fast form, no debug output): the medium level is streamed row by row
 /// (core::weighted_gaussian_rows) into the final pass, so it never exists as full planes.

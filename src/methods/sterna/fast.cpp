@@ -35,7 +35,12 @@ void render(const MethodContext& ctx, const Settings& s, Image& out) {
   thread_local std::vector<std::uint8_t> tiles;
   b.tiles = &tiles;
 
-  prepare(ctx, s, b);
+  // The downsample reads every colour sample: it also makes render()'s sanitation check
+  // when render() left it to the method (nothing before it depends on colour values).
+  if (!prepare(ctx, s, b)) {
+    ctx.colour_dirty->store(true);
+    return;
+  }
   dilate(s, b);
   gather(s, b);
   // (P8, the fill, runs inside the composite, row by row.)

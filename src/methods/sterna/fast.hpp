@@ -68,7 +68,9 @@ struct BlendRow {
   void operator()(int y, float* near, float* far) const;
 };
 
-void prepare(const MethodContext& ctx, const Settings& s, Buffers& b);  // P1+P2, padding
+/// P1+P2, padding. With ctx.colour_dirty set it also tests every colour sample against
+/// render()'s sanitation rules and returns false (buffers unfinished) if one fails.
+bool prepare(const MethodContext& ctx, const Settings& s, Buffers& b);
 void dilate(const Settings& s, Buffers& b);                             // P3–P6
 void gather(const Settings& s, Buffers& b);                             // tiles + P7
 /// P8 for half-res row y: the 3×3 max fill of the near and far fields, 4 rows of w each.

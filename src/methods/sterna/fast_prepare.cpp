@@ -15,6 +15,8 @@
 // the vectors (contiguous loads instead of a stride-w walk). Max of non-negative finite
 // numbers is exact in any order, so the result equals the plain one.
 #include <algorithm>
+#include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <variant>
@@ -23,6 +25,7 @@
 #include "core/parallel.hpp"
 #include "methods/sterna/fast.hpp"
 #include "methods/sterna/v8.hpp"
+#include "render/sanitize.hpp"
 
 namespace dofkit::detail::sterna::fast {
 
@@ -132,10 +135,57 @@ __attribute__((always_inline)) inline void quad8(const V8 (&c)[4][4], const V8 (
   store8(o.nearh + i, near_tl);
 }
 
-template <bool kKaris>
-STERNA_SIMD void downsample_row(const float* const* r0, const float* const* r1, const float* __restrict f0,
+// The sanitation test of render/sanitize.hpp (sample_is_sanitary) for 8 samples at a time,
+// as integer maxima and minima of the bit patterns b accumulated over a row (4 vector ops per
+// vector of samples, against 7 for the float comparisons; exact, and in any order).
+// Non-negative floats order like their bit patterns as signed ints, and
+//  * colour: with k = b & 0x7fffffff (the bits of |v|), v passes iff k = 0 or
+//    bits(FLT_MIN) = 0x800000 <= k <= bits(kMaxColorValue). The upper bound (which also catches
+//    inf and NaN, whose k exceed inf's 0x7f800000) is a signed max of k. The lower one is an
+//    unsigned min of k − 1: k = 0 wraps to 0xffffffff and never lowers the min, denormals
+//    (1 <= k < 0x800000) give values below 0x7fffff, normal numbers give >= 0x7fffff;
+//  * alpha: v passes iff b = 0 (+0), b = 0x80000000 (−0) or 0x800000 <= b <= bits(1). A signed
+//    max of b catches b > bits(1) with the sign clear (+inf, +NaN, > 1); the unsigned min of
+//    b − 1 catches positive denormals as above (negative b give >= 0x7fffffff); a signed min
+//    of b − 1 catches every negative b but −0: b − 1 is then in [INT_MIN, −2], while +0 gives −1
+//    and −0 wraps to INT_MAX.
+struct SampleCheck8 {
+  typedef unsigned U8 __attribute__((vector_size(32)));
+  static constexpr int kMaxColourBits = std::bit_cast<int>(kMaxColorValue);
+  static constexpr int kOneBits = std::bit_cast<int>(1.0f);
+  I8 colour_max = splat_i(0), alpha_max = splat_i(0), signed_min = splat_i(0);
+  U8 unsigned_min = reinterpret_cast<U8>(splat_i(-1));
+
+  __attribute__((always_inline)) void colour(V8 v) {
+    const I8 k = reinterpret_cast<I8>(v) & splat_i(0x7fffffff);
+    const U8 km1 = reinterpret_cast<U8>(k) - 1u;
+    colour_max = k > colour_max ? k : colour_max;
+    unsigned_min = km1 < unsigned_min ? km1 : unsigned_min;
+  }
+  __attribute__((always_inline)) void alpha(V8 v) {
+    const I8 b = reinterpret_cast<I8>(v);
+    const U8 bm1 = reinterpret_cast<U8>(b) - 1u;
+    const I8 sbm1 = reinterpret_cast<I8>(bm1);
+    alpha_max = b > alpha_max ? b : alpha_max;
+    unsigned_min = bm1 < unsigned_min ? bm1 : unsigned_min;
+    signed_min = sbm1 < signed_min ? sbm1 : signed_min;
+  }
+  __attribute__((always_inline)) bool clean() const {
+    const U8 min_normal_m1 = reinterpret_cast<U8>(splat_i(0x7fffff));
+    return !any((colour_max > splat_i(kMaxColourBits)) | (alpha_max > splat_i(kOneBits)) |
+                reinterpret_cast<I8>(unsigned_min < min_normal_m1) | (signed_min < splat_i(-1)));
+  }
+};
+
+// kCheck: the downsample is the first pass that reads the colour, and it reads every sample
+// (see prepare), so it also makes render()'s sanitation test when render() left that to the
+// method. Returns false if some sample read fails it (always true without kCheck). The test
+// only accumulates: nothing the row computes or reads depends on it.
+template <bool kKaris, bool kCheck>
+STERNA_SIMD bool downsample_row(const float* const* r0, const float* const* r1, const float* __restrict f0,
                                 const float* __restrict f1, const float* __restrict n0, const QuadOut& o, int W,
                                 int w) {
+  SampleCheck8 check;
   int i = 0;
   // Whole quads (2i + 1 < W), 8 texels = 16 full-res columns at a time.
   for (; i + 8 <= W / 2; i += 8) {
@@ -145,13 +195,20 @@ STERNA_SIMD void downsample_row(const float* const* r0, const float* const* r1, 
       deinterleave(r0[ch] + x, c[0][ch], c[1][ch]);
       deinterleave(r1[ch] + x, c[2][ch], c[3][ch]);
     }
+    if (kCheck)
+      for (int k = 0; k < 4; ++k) {
+        for (int ch = 0; ch < 3; ++ch) check.colour(c[k][ch]);
+        check.alpha(c[k][3]);
+      }
     deinterleave(f0 + x, far[0], far[1]);
     deinterleave(f1 + x, far[2], far[3]);
     deinterleave(n0 + x, ntl, nodd);
     quad8<kKaris>(c, far, ntl, o, i);
   }
+  bool clean = !kCheck || check.clean();
   for (; i < w; ++i) {
-    // With an odd width the last quad repeats the edge column.
+    // With an odd width the last quad repeats the edge column (x1 = x0 = W - 1): the edge
+    // column is still read (and checked), twice.
     const int x0 = 2 * i, x1 = std::min(2 * i + 1, W - 1);
     float c[4][4], far[4];
     for (int ch = 0; ch < 4; ++ch) {
@@ -160,12 +217,16 @@ STERNA_SIMD void downsample_row(const float* const* r0, const float* const* r1, 
       c[2][ch] = r1[ch][x0];
       c[3][ch] = r1[ch][x1];
     }
+    if (kCheck)
+      for (int k = 0; k < 4; ++k)
+        for (int ch = 0; ch < 4; ++ch) clean &= sample_is_sanitary(c[k][ch], ch == 3);
     far[0] = f0[x0];
     far[1] = f0[x1];
     far[2] = f1[x0];
     far[3] = f1[x1];
     quad<kKaris>(c, far, n0[x0], o, i);
   }
+  return clean;
 }
 
 // Thread-local scratch rows (grown once, reused every frame).
@@ -253,15 +314,23 @@ void BlendRow::operator()(int y, float* near, float* far) const {
     blend_from_coc(ctx->coc.row(0, y), near, far, W, ramp);
 }
 
-void prepare(const MethodContext& ctx, const Settings& s, Buffers& b) {
+bool prepare(const MethodContext& ctx, const Settings& s, Buffers& b) {
   const Image& color = ctx.frame.color;
   const int W = b.W, H = b.H, w = b.w, h = b.h, pad = b.pad;
   BlendRow blend;
   blend.init(ctx, s);
+  // Every colour sample is read here: row j reads full-res rows 2j and min(2j + 1, H − 1),
+  // so rows 0 … H − 1 over j < h = ⌈H/2⌉; downsample_row reads columns 2i and
+  // min(2i + 1, W − 1) for i < w = ⌈W/2⌉ (vector quads then the scalar tail), so columns
+  // 0 … W − 1. The sanitation check rides on it (check_colour); each chunk clears the shared
+  // flag, so the answer does not depend on the split.
+  const bool check_colour = ctx.colour_dirty != nullptr;
+  std::atomic<bool> sanitary{true};
   core::parallel_for(h, [&](int j0, int j1) {
     float* n0 = scratch(0, W).data();
     float* f0 = scratch(1, W).data();
     float* f1 = scratch(2, W).data();
+    bool clean = true;
     for (int j = j0; j < j1; ++j) {
       const int y0 = 2 * j, y1 = clampi(2 * j + 1, 0, H - 1);
       blend(y0, n0, f0);
@@ -277,12 +346,17 @@ void prepare(const MethodContext& ctx, const Settings& s, Buffers& b) {
       }
       o.farh = b.src_row(*b.far_src, 4, j);
       o.nearh = b.near_h->row(0, j);
-      if (s.karis)
-        downsample_row<true>(r0, r1, f0, f1, n0, o, W, w);
+      if (check_colour)
+        clean &= s.karis ? downsample_row<true, true>(r0, r1, f0, f1, n0, o, W, w)
+                         : downsample_row<false, true>(r0, r1, f0, f1, n0, o, W, w);
+      else if (s.karis)
+        downsample_row<true, false>(r0, r1, f0, f1, n0, o, W, w);
       else
-        downsample_row<false>(r0, r1, f0, f1, n0, o, W, w);
+        downsample_row<false, false>(r0, r1, f0, f1, n0, o, W, w);
     }
+    if (!clean) sanitary.store(false, std::memory_order_relaxed);
   }, 4);
+  if (!sanitary.load()) return false;  // the caller renders again from sanitised colour
   // Edge replication into the border (rows first read their finished interior row).
   const int pw = w + 2 * pad, ph = h + 2 * pad;
   core::parallel_for(ph, [&](int p0, int p1) {
@@ -298,6 +372,7 @@ void prepare(const MethodContext& ctx, const Settings& s, Buffers& b) {
         }
     }
   }, 16);
+  return true;
 }
 
 void dilate(const Settings& s, Buffers& b) {

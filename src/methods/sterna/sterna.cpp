@@ -30,6 +30,7 @@
 #include "methods/method.hpp"
 #include "methods/sterna/fast.hpp"
 #include "methods/sterna/passes.hpp"
+#include "render/sanitize.hpp"
 
 namespace dofkit::detail {
 
@@ -105,13 +106,21 @@ void render_sterna(const MethodContext& ctx, Image& out) {
   const bool want_view = ctx.debug.wants("near_coc") || ctx.debug.wants("far_coc") ||
                          ctx.debug.wants("near_coc_dilated") || ctx.debug.wants("near") ||
                          ctx.debug.wants("far") || ctx.debug.wants("near_fill") || ctx.debug.wants("far_fill");
-  if (s.composite_blend <= 0.0f && !want_view) {
+  const bool strength_zero = s.composite_blend <= 0.0f && !want_view;
+  // impl=fast (default) runs the optimised passes of fast_*.cpp, which give the same output
+  // as the plain passes below (the oracle, impl=plain); settings they do not cover run plain.
+  const bool fast_path = !strength_zero && fast && !s.per_pixel_scale && !s.bicubic_near && !want_view;
+  // checks_colour: when render() leaves the sanitation check to us (ctx.colour_dirty), the
+  // fast path makes it inside its downsample; every other path scans the colour first.
+  if (ctx.colour_dirty && !fast_path && !color_is_sanitary(ctx.frame.color)) {
+    ctx.colour_dirty->store(true);
+    return;
+  }
+  if (strength_zero) {
     out = ctx.frame.color;  // strength 0: the input, exactly
     return;
   }
-  // impl=fast (default) runs the optimised passes of fast_*.cpp, which give the same output
-  // as the plain passes below (the oracle, impl=plain); settings they do not cover run plain.
-  if (fast && !s.per_pixel_scale && !s.bicubic_near && !want_view) {
+  if (fast_path) {
     sterna::fast::render(ctx, s, out);
     return;
   }
@@ -164,7 +173,8 @@ const MethodDef& sterna_method() {
           {"near_fill", "half-res near field after the 3x3 max fill (RGBA, W/2 x H/2)"},
           {"far_fill", "half-res far field after the 3x3 max fill (RGBA, W/2 x H/2)"},
       },
-      render_sterna};
+      render_sterna,
+      /*checks_colour=*/true};
   return def;
 }
 

@@ -368,7 +368,7 @@ TEST(Sanitize, RendererDepthScanCountsEveryRowAndRecovers) {
 // A method with MethodDef::checks_colour tests the colour itself, inside one of its passes,
 // instead of render()'s separate scan. Its test must see every sample: one bad sample
 // anywhere (every pixel of frames whose sides are and are not multiples of the passes' block
-// and vector sizes, a colour and the alpha plane, a NaN and an out-of-range value) must give
+// and vector sizes, every plane, a NaN and an out-of-range value) must give
 // exactly the render of the sanitised frame, and the hostile frame's debug view must be the
 // sanitised frame's as well (the first try's views are discarded).
 TEST(Sanitize, MethodsThatCheckColourThemselvesSeeEverySample) {
@@ -378,12 +378,12 @@ TEST(Sanitize, MethodsThatCheckColourThemselvesSeeEverySample) {
     RenderSettings s = default_settings(m->name);
     s.threads = 2;
     Renderer renderer(s);
-    for (auto [w, h] : {std::pair{13, 9}, {16, 8}, {37, 6}}) {
+    for (auto [w, h] : {std::pair{13, 9}, {16, 8}, {37, 6}, {37, 7}}) {
       const Frame good = textured_frame(w, h);
       int checked = 0;
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
-          for (int ch : {1, 3}) {
+          for (int ch = 0; ch < 4; ++ch) {
             Frame bad = good;
             bad.color.at(x, y, ch) = (x + y) % 2 ? kNaN : (ch == 3 ? 2.0f : kInf);
             Frame clean = bad;
@@ -395,7 +395,7 @@ TEST(Sanitize, MethodsThatCheckColourThemselvesSeeEverySample) {
                 << w << "x" << h << " bad sample at (" << x << ", " << y << ") plane " << ch;
             ++checked;
           }
-      EXPECT_EQ(checked, 2 * w * h);
+      EXPECT_EQ(checked, 4 * w * h);
     }
     for (const DebugViewInfo& view : m->debug_views) {
       RenderSettings d = s;

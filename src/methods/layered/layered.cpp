@@ -100,7 +100,14 @@ void render_layered(const MethodContext& ctx, Image& out) {
   }
 
   double near_px, far_px;
-  coc_extremes(frags, near_px, far_px);
+  // The first pass over the fragments, and one that reads every alpha anyway: it also makes
+  // render()'s colour check when render() left it to us (ctx.colour_dirty; single RGB-D
+  // frames), before anything at all is derived from the colour (the plan's extremes count
+  // only fragments with alpha > 0). On failure render() renders again from a sanitised copy.
+  if (!coc_extremes(frags, near_px, far_px, ctx.colour_dirty != nullptr)) {
+    ctx.colour_dirty->store(true);
+    return;
+  }
   LayerPlan plan = plan_layers(near_px, far_px, cap, c, unit);
   // Matte ramp: S&W's full-gap ramp for the Gaussian; a quarter of the gap for the disc
   // (measured, docs/methods/layered.md: 0 leaves seams on continuous surfaces, wider bands
@@ -242,7 +249,8 @@ const MethodDef& layered_method() {
        {"impl", "fast", "fast (fused passes, workspace buffers; same arithmetic) or plain (the straightforward form, the test oracle)"},
        {"matte_band", "1 (gaussian) / 0.25 (disc)", "width of the matte ramp between two anchors as a fraction of the gap (0-1): 1 = S&W (u in the nearer layer over 1 in the farther, blur interpolated), 0 = each fragment wholly in its nearest anchor's layer (counted once)"}},
       debug_views(),
-      render_layered};
+      render_layered,
+      /*checks_colour=*/true};
   return def;
 }
 

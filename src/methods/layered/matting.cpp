@@ -1,9 +1,11 @@
 #include "methods/layered/matting.hpp"
 
 #include <algorithm>
+#include <atomic>
 
 #include "core/coc_range.hpp"
 #include "core/parallel.hpp"
+#include "render/sanitize.hpp"
 
 namespace dofkit::detail::layered {
 
@@ -51,28 +53,58 @@ MatteStats matte_layer(const Fragments& frags, const LayerPlan& plan, int k, Ima
   return s;
 }
 
-void coc_extremes(const Fragments& frags, double& near_px, double& far_px) {
+namespace {
+
+// True if some sample of the four colour rows (plane 3: alpha) fails sample_is_sanitary.
+// Bitwise accumulation without an early exit, so the loop vectorises (four streams compared
+// lane by lane); compiled for AVX-512F / AVX2 / baseline and chosen at run time.
+#if defined(__clang__)
+#define LAYERED_CHECK_CLONES
+#else
+#define LAYERED_CHECK_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+LAYERED_CHECK_CLONES bool colour_row_bad(const float* __restrict c0, const float* __restrict c1,
+                                         const float* __restrict c2, const float* __restrict a, int n) {
+  int ok = 1;
+  for (int j = 0; j < n; ++j)
+    ok &= sample_is_sanitary(c0[j], false) & sample_is_sanitary(c1[j], false) & sample_is_sanitary(c2[j], false) &
+          sample_is_sanitary(a[j], true);
+  return ok == 0;
+}
+
+}  // namespace
+
+bool coc_extremes(const Fragments& frags, double& near_px, double& far_px, bool check_colour) {
   // Row-parallel maxima, combined in row order (max is exact and order-free anyway).
   const int w = frags.width(), h = frags.height();
   std::vector<float> row_near(h, 0.0f), row_far(h, 0.0f);
+  // check_colour: each row's colour is tested in the same pass, while its alpha row is in
+  // L1 (every row of every fragment, all w columns: together every sample once).
+  std::atomic<bool> dirty{false};
   core::parallel_for(h, [&](int y0, int y1) {
+    bool bad = false;
     for (int y = y0; y < y1; ++y) {
       float n = 0.0f, f = 0.0f;
       for (std::size_t fr = 0; fr < frags.color.size(); ++fr) {
-        const float* a = frags.color[fr]->row(3, y);
+        const Image& c = *frags.color[fr];
+        const float* a = c.row(3, y);
         const float* r = frags.coc[fr]->row(0, y);
         core::coc_row_range(r, a, w, n, f);  // fragments with alpha > 0 only
+        if (check_colour) bad |= colour_row_bad(c.row(0, y), c.row(1, y), c.row(2, y), a, w);
       }
       row_near[y] = n;
       row_far[y] = f;
     }
+    if (bad) dirty.store(true, std::memory_order_relaxed);
   }, 8);
+  if (dirty.load()) return false;
   near_px = 0;
   far_px = 0;
   for (int y = 0; y < h; ++y) {
     near_px = std::max(near_px, static_cast<double>(row_near[y]));
     far_px = std::max(far_px, static_cast<double>(row_far[y]));
   }
+  return true;
 }
 
 }  // namespace dofkit::detail::layered

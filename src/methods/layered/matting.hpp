@@ -30,6 +30,10 @@ MatteStats matte_layer(const Fragments& frags, const LayerPlan& plan, int k, Ima
                        std::vector<std::uint8_t>* hole);
 
 /// Largest r and largest −r over all fragments with alpha > 0 (0 if none on a side).
-void coc_extremes(const Fragments& frags, double& near_px, double& far_px);
+/// check_colour: the same pass, which reads every fragment's alpha, also tests every sample
+/// of the fragments' 4 colour planes against render()'s sanitation rules
+/// (render/sanitize.hpp, sample_is_sanitary; see MethodContext::colour_dirty) and returns
+/// false if one fails (near_px / far_px are then unspecified). Otherwise returns true.
+bool coc_extremes(const Fragments& frags, double& near_px, double& far_px, bool check_colour = false);
 
 }  // namespace dofkit::detail::layered

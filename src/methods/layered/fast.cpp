@@ -124,13 +124,15 @@ LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* _
   float* __restrict d3 = o[3];
   for (int j = 0; j < n; ++j) {
     const float t = (1.0f - 0.0f) * wk[j];
-    const bool on = wk[j] > 0;
-    // Evaluated everywhere (the colour rows are full rows), selected where w_k > 0.
-    const float v0 = 0.0f + t * s0[j], v1 = 0.0f + t * s1[j], v2 = 0.0f + t * s2[j], v3 = 0.0f + t * s3[j];
-    d0[j] = on ? v0 : 0.0f;
-    d1[j] = on ? v1 : 0.0f;
-    d2[j] = on ? v2 : 0.0f;
-    d3[j] = on ? v3 : 0.0f;
+    // No select needed: w_k is exactly 0 where the pixel is not in layer k (else > 0), and the
+    // colour is finite (render() sanitises it, or layered's own check in coc_extremes passed
+    // before this pass), so 0 + 0·I = 0 + (±0) = +0, matting.cpp's value. The unconditional
+    // form streams the rows with plain loads; the select made GCC emit masked loads
+    // (vmaskmovps), ~20 % of this kernel's time.
+    d0[j] = 0.0f + t * s0[j];
+    d1[j] = 0.0f + t * s1[j];
+    d2[j] = 0.0f + t * s2[j];
+    d3[j] = 0.0f + t * s3[j];
   }
   if (hb)
     for (int j = 0; j < n; ++j) hb[j] = k >= (code[j] >> 6) ? 1 : 0;

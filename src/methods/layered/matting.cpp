@@ -67,8 +67,8 @@ LAYERED_CHECK_CLONES bool colour_row_bad(const float* __restrict c0, const float
                                          const float* __restrict c2, const float* __restrict a, int n) {
   int ok = 1;
   for (int j = 0; j < n; ++j)
-    ok &= sample_is_sanitary(c0[j], false) & sample_is_sanitary(c1[j], false) & sample_is_sanitary(c2[j], false) &
-          sample_is_sanitary(a[j], true);
+    ok &= static_cast<int>(sample_is_sanitary(c0[j], false)) & static_cast<int>(sample_is_sanitary(c1[j], false)) &
+          static_cast<int>(sample_is_sanitary(c2[j], false)) & static_cast<int>(sample_is_sanitary(a[j], true));
   return ok == 0;
 }
 

@@ -84,3 +84,72 @@ TEST(McguirePassTiming, DISABLED_Demo1080p) {
                 t[i][0], threads, k.r_max);
   }
 }
+
+// The same harness for variant=g3d (whose P2/P3 are blur.cpp's blur_horizontal /
+// blur_vertical with the kernels of g3d_simd.cpp; P1 is pack_coc): times P1 pack, P2, P3
+// and P4. Run with --gtest_filter=*PassTiming.DISABLED_G3d* (same environment variables;
+// MCGUIRE_TIMING_IMPL=plain times the plain passes instead).
+TEST(McguirePassTiming, DISABLED_G3d1080p) {
+  const char* it_env = std::getenv("MCGUIRE_TIMING_ITERS");
+  const char* th_env = std::getenv("MCGUIRE_TIMING_THREADS");
+  const char* impl_env = std::getenv("MCGUIRE_TIMING_IMPL");
+  const int iters = std::max(1, it_env ? std::atoi(it_env) : 5);
+  const int threads = std::max(1, th_env ? std::atoi(th_env) : 1);
+  const bool plain = impl_env && std::strcmp(impl_env, "plain") == 0;
+  const int W = 1920, H = 1080;
+  const Frame fr = scene::bench_frame(W, H);
+  const Image coc = compute_coc(fr.depth, scene::bench_camera(W));
+  float max_near = 0, max_far = 0;
+  for (float r : coc.data()) {
+    max_near = std::max(max_near, r);
+    max_far = std::max(max_far, -r);
+  }
+  // The g3d constants render_mcguire derives for this frame (mcguire.cpp read_setup).
+  mg::Constants k;
+  k.variant = mg::Variant::g3d;
+  k.f = 2;
+  k.r_max = static_cast<int>(std::ceil(std::max(max_near, max_far)));
+  k.r_near = std::ceil(max_near);
+  k.inv_near = 1.0f / std::max(k.r_near, 1e-4f);
+  k.far_rescale = static_cast<float>(k.r_max) / std::max(max_far, 1e-4f);
+  k.coverage_boost = 1.5f;
+  k.far_occlusion = true;
+  k.g3d_fov_rad = static_cast<float>(40.0 * M_PI / 180.0);
+  detail::Workspace ws;
+  Image packed, tb, tn, blur, near, out(W, H, 4);
+  const mg::Rect src{0, 0, W, H};
+  std::vector<double> t[4];
+  core::with_threads(threads, [&] {
+    for (int it = 0; it < iters; ++it) {
+      const auto t0 = std::chrono::steady_clock::now();
+      mg::pack_coc(fr.color, coc, src, k, packed);
+      const auto t1 = std::chrono::steady_clock::now();
+      if (plain) mg::blur_horizontal_plain(packed, k, 0, W / 2, tb, tn);
+      else mg::blur_horizontal(packed, k, 0, W / 2, tb, tn);
+      const auto t2 = std::chrono::steady_clock::now();
+      if (plain) mg::blur_vertical_plain(tb, tn, k, 0, H / 2, blur, near);
+      else mg::blur_vertical(tb, tn, k, 0, H / 2, blur, near);
+      const auto t3 = std::chrono::steady_clock::now();
+      mg::composite_fast(fr.color, coc, src, 0, 0, blur, near, k, src, out, ws);
+      const auto t4 = std::chrono::steady_clock::now();
+      if (it == 0 && iters > 1) continue;  // first frame allocates
+      t[0].push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      t[1].push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+      t[2].push_back(std::chrono::duration<double, std::milli>(t3 - t2).count());
+      t[3].push_back(std::chrono::duration<double, std::milli>(t4 - t3).count());
+    }
+  });
+  std::uint64_t fnv = 1469598103934665603ull;
+  for (float v : out.data()) {
+    std::uint32_t b;
+    std::memcpy(&b, &v, 4);
+    fnv = (fnv ^ b) * 1099511628211ull;
+  }
+  std::printf("output checksum %016llx\n", static_cast<unsigned long long>(fnv));
+  const char* names[4] = {"P1 pack", "P2 horizontal", "P3 vertical", "P4 composite"};
+  for (int i = 0; i < 4; ++i) {
+    std::sort(t[i].begin(), t[i].end());
+    std::printf("%-14s median %8.2f ms  min %8.2f ms  (%d threads, R_max %d, R_near %.0f, %s)\n", names[i],
+                t[i][t[i].size() / 2], t[i][0], threads, k.r_max, k.r_near, plain ? "plain" : "fast");
+  }
+}

@@ -22,9 +22,58 @@
 
 #include "core/parallel.hpp"
 #include "methods/mcguire/blur_weights.hpp"
+#include "methods/mcguire/g3d.hpp"
 #include "methods/mcguire/mcguire.hpp"
 
 namespace dofkit::detail::mcguire {
+
+namespace {
+
+// The g3d kernels' constants (g3d.hpp); `tab` holds near_box(δ) for δ = −R … R.
+G3dParams g3d_params(const Constants& k, std::vector<float>& tab) {
+  G3dParams p;
+  p.R = k.r_max;
+  p.f = k.f;
+  p.rmax = static_cast<float>(k.r_max);
+  p.occlusion = k.far_occlusion;
+  p.inv_near = k.inv_near;
+  p.near_inv = near_box_inverse_norm(k);
+  p.fov_rad = k.g3d_fov_rad;
+  tab.resize(2 * static_cast<std::size_t>(k.r_max) + 1);
+  bool any = false;
+  for (int d = -k.r_max; d <= k.r_max; ++d) any |= (tab[d + k.r_max] = near_box(k, static_cast<float>(d))) != 0.0f;
+  p.near_tab = any ? tab.data() : nullptr;  // R_near = 0: the near sums are all 0
+  return p;
+}
+
+// Per-thread scratch of the g3d kernels: grows to the largest row / row group seen and is
+// reused by every later frame (no allocation in steady state).
+std::vector<float>& g3d_scratch() {
+  thread_local std::vector<float> s;
+  return s;
+}
+
+void g3d_horizontal(const Image& packed, const Constants& k, int ox, int wo, Image& t_blur, Image& t_near) {
+  std::vector<float> tab;
+  const G3dParams p = g3d_params(k, tab);
+  core::parallel_for(packed.height(), [&](int y0, int y1) {
+    std::vector<float>& scratch = g3d_scratch();
+    for (int y = y0; y < y1; ++y) {
+      G3dRowJob job;
+      for (int c = 0; c < 5; ++c) {
+        job.src[c] = packed.row(c, y);
+        job.t_blur[c] = t_blur.row(c, y);
+        job.t_near[c] = t_near.row(c, y);
+      }
+      job.W = packed.width();
+      job.ox = ox;
+      job.wo = wo;
+      g3d_horizontal_row(p, job, scratch);
+    }
+  }, 4);
+}
+
+}  // namespace
 
 void blur_horizontal_plain(const Image& packed, const Constants& k, int ox, int wo, Image& t_blur, Image& t_near) {
   const int W = packed.width(), H = packed.height(), R = k.r_max;
@@ -99,7 +148,9 @@ void blur_vertical_plain(const Image& t_blur, const Image& t_near, const Constan
   }, 2);
 }
 
-// Fast P2: the same sums as blur_horizontal_plain, in the same order, but each output pixel
+// Fast P2. g3d: the SIMD kernel of g3d_simd.cpp (g3d.hpp explains it; equal to the plain pass
+// within float rounding). book/demo (used by tests only: the renderer takes fast.cpp's passes
+// for them): the same sums as blur_horizontal_plain, in the same order, but each output pixel
 // only visits the taps that can contribute. For book/demo the far weight is exactly 0 once
 // 5|δ| / (0.001 + c|r_B|) >= 6, i.e. |δ| >= 1.2 (0.001 + c|r_B|), and a near tap only
 // contributes for |δ| <= r_B; so unless the centre itself is near-field (then every tap has
@@ -108,12 +159,12 @@ void blur_vertical_plain(const Image& t_blur, const Image& t_near, const Constan
 // normaliser (the box count) does not depend on the data and is computed once. Rows are
 // padded with R_max replicated edge pixels so clamped taps need no clamp in the loop.
 void blur_horizontal(const Image& packed, const Constants& k, int ox, int wo, Image& t_blur, Image& t_near) {
-  const bool bounded = k.variant != Variant::g3d;  // g3d's Gaussians never reach exactly 0
+  t_blur.resize(wo, packed.height(), 5);
+  t_near.resize(wo, packed.height(), 5);
+  if (k.variant == Variant::g3d) return g3d_horizontal(packed, k, ox, wo, t_blur, t_near);
   const int W = packed.width(), H = packed.height(), R = k.r_max, f = k.f;
   const float rmax = static_cast<float>(R);
   const float reach_c = k.variant == Variant::book ? 0.5f : 0.8f;
-  t_blur.resize(wo, H, 5);
-  t_near.resize(wo, H, 5);
   const float near_inv = near_box_inverse_norm(k);
   constexpr int kTile = 8;
   core::parallel_for(H, [&](int y0, int y1) {
@@ -136,7 +187,7 @@ void blur_horizontal(const Image& packed, const Constants& k, int ox, int wo, Im
         }
         const int far_reach = static_cast<int>(1.2f * (0.001f + reach_c * far_max)) + 1;
         const int near_reach = std::min(static_cast<int>(near_max), static_cast<int>(std::ceil(k.r_near)));
-        const int tile_bound = bounded ? std::min(R, std::max(far_reach, near_reach)) : R;
+        const int tile_bound = std::min(R, std::max(far_reach, near_reach));
         for (int i = i0; i < i1; ++i) {
           const int a = ox + f * i + R;
           const float r_a = rb[a];
@@ -167,7 +218,8 @@ void blur_horizontal(const Image& packed, const Constants& k, int ox, int wo, Im
   }, 4);
 }
 
-// Fast P3: the same per-pixel sums in the same δ order as blur_vertical_plain, but with the
+// Fast P3. g3d: the SIMD kernel of g3d_simd.cpp. book/demo (tests only, as above): the same
+// per-pixel sums in the same δ order as blur_vertical_plain, but with the
 // tap loop outside the loop over a row of outputs, so every tap reads one contiguous row
 // (the plain version walks down columns), and with rows of zero near-box weight skipped.
 void blur_vertical(const Image& t_blur, const Image& t_near, const Constants& k, int oy, int ho, Image& blur,
@@ -176,6 +228,22 @@ void blur_vertical(const Image& t_blur, const Image& t_near, const Constants& k,
   const float rmax = static_cast<float>(R);
   blur.resize(W, ho, 4);
   near.resize(W, ho, 5);
+  if (k.variant == Variant::g3d) {
+    std::vector<float> tab;
+    const G3dParams p = g3d_params(k, tab);
+    // Fixed work items of 64 output rows × 256 columns (not the partitioner's chunks: each
+    // item copies a 2R-row halo, and 2 threads need enough items to share evenly).
+    constexpr int kRows = 64, kCols = 256;
+    const int nj = (ho + kRows - 1) / kRows, nx = (W + kCols - 1) / kCols;
+    core::parallel_for(nj * nx, [&](int t0, int t1) {
+      for (int t = t0; t < t1; ++t) {
+        const int j0 = (t / nx) * kRows, x0 = (t % nx) * kCols;
+        g3d_vertical_block(p, t_blur, t_near, oy, j0, std::min(ho, j0 + kRows), x0, std::min(W, x0 + kCols), blur,
+                           near, g3d_scratch());
+      }
+    });
+    return;
+  }
   const float near_inv = near_box_inverse_norm(k);
   core::parallel_for(ho, [&](int j0, int j1) {
     std::vector<float> r_a(W), nearness(W), acc(5 * W), nacc(5 * W);

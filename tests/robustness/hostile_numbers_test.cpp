@@ -368,17 +368,27 @@ TEST(Sanitize, RendererDepthScanCountsEveryRowAndRecovers) {
 // A method with MethodDef::checks_colour tests the colour itself, inside one of its passes,
 // instead of render()'s separate scan. Its test must see every sample: one bad sample
 // anywhere (every pixel of frames whose sides are and are not multiples of the passes' block
-// and vector sizes, every plane, a NaN and an out-of-range value) must give
+// and vector sizes, every plane, a NaN and an out-of-range value; the default settings and
+// impl=plain) must give
 // exactly the render of the sanitised frame, and the hostile frame's debug view must be the
 // sanitised frame's as well (the first try's views are discarded).
 TEST(Sanitize, MethodsThatCheckColourThemselvesSeeEverySample) {
   for (const detail::MethodDef* m : detail::all_methods()) {
     if (!m->checks_colour) continue;
     SCOPED_TRACE(m->name);
-    RenderSettings s = default_settings(m->name);
-    s.threads = 2;
-    Renderer renderer(s);
-    for (auto [w, h] : {std::pair{13, 9}, {16, 8}, {37, 6}, {37, 7}}) {
+    // The default settings on four sizes; the plain passes (whose check is a separate path)
+    // on the first size.
+    std::vector<std::pair<RenderSettings, std::vector<std::pair<int, int>>>> configs;
+    configs.push_back({default_settings(m->name), {{13, 9}, {16, 8}, {37, 7}}});
+    if (std::any_of(m->params.begin(), m->params.end(), [](const ParamInfo& p) { return p.name == "impl"; })) {
+      RenderSettings plain = default_settings(m->name);
+      plain.params["impl"] = "plain";
+      configs.push_back({plain, {{13, 9}}});
+    }
+    for (auto& [s, sizes] : configs)
+    for (auto [w, h] : sizes) {
+      s.threads = 2;
+      Renderer renderer(s), reference(s);
       const Frame good = textured_frame(w, h);
       int checked = 0;
       for (int y = 0; y < h; ++y)
@@ -389,16 +399,17 @@ TEST(Sanitize, MethodsThatCheckColourThemselvesSeeEverySample) {
             Frame clean = bad;
             detail::sanitize_color(bad.color, clean.color);
             const Image& got = renderer.render(bad).image;
-            const Image want = render(clean, s).image;
+            const Image& want = reference.render(clean).image;
             ASSERT_EQ(got.data().size(), want.data().size());
             ASSERT_EQ(std::memcmp(got.data().data(), want.data().data(), got.data().size() * sizeof(float)), 0)
-                << w << "x" << h << " bad sample at (" << x << ", " << y << ") plane " << ch;
+                << w << "x" << h << " bad sample at (" << x << ", " << y << ") plane " << ch
+                << (s.params.count("impl") ? " impl=plain" : "");
             ++checked;
           }
       EXPECT_EQ(checked, 4 * w * h);
     }
     for (const DebugViewInfo& view : m->debug_views) {
-      RenderSettings d = s;
+      RenderSettings d = default_settings(m->name);
       d.debug_view = view.name;
       Frame bad = textured_frame(20, 12);
       bad.color.at(19, 11, 0) = kNaN;

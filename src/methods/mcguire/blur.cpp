@@ -29,7 +29,7 @@ namespace dofkit::detail::mcguire {
 
 namespace {
 
-// The g3d kernels' constants (g3d.hpp); `tab` holds near_box(δ) for δ = −R … R.
+// The g3d kernels' constants (g3d.hpp); `tab` holds near_box(δ) then δ² for δ = −R … R.
 G3dParams g3d_params(const Constants& k, std::vector<float>& tab) {
   G3dParams p;
   p.R = k.r_max;
@@ -39,10 +39,15 @@ G3dParams g3d_params(const Constants& k, std::vector<float>& tab) {
   p.inv_near = k.inv_near;
   p.near_inv = near_box_inverse_norm(k);
   p.fov_rad = k.g3d_fov_rad;
-  tab.resize(2 * static_cast<std::size_t>(k.r_max) + 1);
+  const std::size_t n = 2 * static_cast<std::size_t>(k.r_max) + 1;
+  tab.resize(2 * n);
   bool any = false;
-  for (int d = -k.r_max; d <= k.r_max; ++d) any |= (tab[d + k.r_max] = near_box(k, static_cast<float>(d))) != 0.0f;
+  for (int d = -k.r_max; d <= k.r_max; ++d) {
+    any |= (tab[d + k.r_max] = near_box(k, static_cast<float>(d))) != 0.0f;
+    tab[n + d + k.r_max] = static_cast<float>(d) * static_cast<float>(d);
+  }
   p.near_tab = any ? tab.data() : nullptr;  // R_near = 0: the near sums are all 0
+  p.d2_tab = tab.data() + n;
   return p;
 }
 

@@ -7,7 +7,7 @@
 // window for a strongly blurred B, so unlike book/demo there is no small data-independent
 // reach; each (output, tap) pair costs one exponential. The kernels (g3d_simd.cpp) therefore
 //  * evaluate the far taps for 4–16 adjacent outputs at once (Highway, run-time dispatch),
-//    with a short exp2 (argument reduction + degree-6 polynomial, relative error ≈ 2e-7)
+//    with a short exp2 (argument reduction + degree-5 polynomial, relative error ≈ 2e-7)
 //    on per-source precomputed −2·log2(e)/(0.01 + |r_B|)²;
 //  * skip a tap for the whole vector when every lane's exponent is below kG3dExp2Min: the
 //    kernel returns exactly 0 there, so a skipped tap is an exact zero of the kernel itself
@@ -36,6 +36,7 @@ struct G3dParams {
   float inv_near = 0;           ///< 1 / R_near, 1/px (near coverage α = saturate(r_B / R_near)²)
   float near_inv = 0;           ///< 1 / Σ_δ near_box(δ), the near sums' normaliser
   const float* near_tab = nullptr;  ///< near_box(δ) at index δ + R (2R + 1 values); null = no near field
+  const float* d2_tab = nullptr;    ///< δ² at index δ + R (2R + 1 values)
   float fov_rad = 0.7f;         ///< g3d coverage curve parameter, radians
 };
 

@@ -26,22 +26,23 @@ namespace hn = hwy::HWY_NAMESPACE;
 
 // 2^t for t <= 0; exactly 0 for t < kG3dExp2Min. t = n + x with n = round(t) (1.5·2^23
 // added and subtracted rounds to an integer and leaves it in the low mantissa bits) and
-// |x| <= 1/2; 2^x from Cephes' exp2f polynomial (relative error ≈ 2e-7), 2^n built in the
-// exponent field. The cut-off keeps every weight >= 2^-100, far from the subnormal range
-// where products with the colour would be slow, and is what lets whole taps be skipped.
+// |x| <= 1/2; 2^x from a degree-5 minimax polynomial (fitted by Remez exchange on relative
+// error: 7.5e-8, 2.3e-7 with float rounding) evaluated in Estrin's form — its dependency
+// chain is three FMAs long instead of five, and the chain from the tap's q to its weight is
+// what limits how many taps the core overlaps. 2^n is built in the exponent field. The
+// cut-off keeps every weight >= 2^-100, far from the subnormal range where products with
+// the colour would be slow, and is what lets whole taps be skipped.
 template <class D, class V = hn::Vec<D>>
 HWY_INLINE V Exp2Neg(D d, V t) {
   const hn::RebindToSigned<D> di;
   const auto magic = hn::Set(d, 12582912.0f);
   const auto r = hn::Add(t, magic);
   const auto x = hn::Sub(t, hn::Sub(r, magic));
-  auto p = hn::Set(d, 1.535336188319500e-4f);
-  p = hn::MulAdd(p, x, hn::Set(d, 1.339887440266574e-3f));
-  p = hn::MulAdd(p, x, hn::Set(d, 9.618437357674640e-3f));
-  p = hn::MulAdd(p, x, hn::Set(d, 5.550332471162809e-2f));
-  p = hn::MulAdd(p, x, hn::Set(d, 2.402264791363012e-1f));
-  p = hn::MulAdd(p, x, hn::Set(d, 6.931472028550421e-1f));
-  p = hn::MulAdd(p, x, hn::Set(d, 1.0f));
+  const auto x2 = hn::Mul(x, x);
+  const auto p01 = hn::MulAdd(hn::Set(d, 0.6931469440460205f), x, hn::Set(d, 1.0000001192092896f));
+  const auto p23 = hn::MulAdd(hn::Set(d, 0.05550713092088699f), x, hn::Set(d, 0.24022120237350464f));
+  const auto p45 = hn::MulAdd(hn::Set(d, 0.0013276472454890609f), x, hn::Set(d, 0.009675540961325169f));
+  const auto p = hn::MulAdd(x2, hn::MulAdd(x2, p45, p23), p01);
   // bits(r) = bits(magic) + n; the float 2^n has bits (n + 127) << 23.
   const auto e = hn::ShiftLeft<23>(hn::Sub(hn::BitCast(di, r), hn::Set(di, 0x4B400000 - 127)));
   return hn::IfThenZeroElse(hn::Lt(t, hn::Set(d, kG3dExp2Min)), hn::Mul(p, hn::BitCast(d, e)));
@@ -74,8 +75,8 @@ enum Plane { kCol = 0, kQ = 4, kR = 5, kIb = 6, kNear = 7, kAlpha = 11, kPlanes 
 // 0 = every centre far/focus (nearness 0: w = wn; taps that are 0 in every lane skipped),
 // 1 = mixed (w = lerp(wn, 1, nearness)), 2 = every centre near (nearness 1: w = 1, a box).
 template <int kMode, bool kOcc, class D>
-HWY_INLINE void FarSum(D d, int R, hn::Vec<D> ra, hn::Vec<D> n, const float* base, const int* off, std::size_t ps,
-                       hn::Vec<D> out[4]) {
+HWY_INLINE void FarSum(D d, int R, const float* d2, hn::Vec<D> ra, hn::Vec<D> n, const float* base, const int* off,
+                       std::size_t ps, hn::Vec<D> out[4]) {
   const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f);
   const float* c = base + off[R];
   auto a0 = hn::LoadU(d, c), a1 = hn::LoadU(d, c + ps), a2 = hn::LoadU(d, c + 2 * ps), a3 = hn::LoadU(d, c + 3 * ps);
@@ -92,7 +93,7 @@ HWY_INLINE void FarSum(D d, int R, hn::Vec<D> ra, hn::Vec<D> n, const float* bas
       a3 = hn::Add(a3, hn::LoadU(d, t0 + 3 * ps));
       continue;
     }
-    const auto t = hn::Mul(hn::LoadU(d, t0 + kQ * ps), hn::Set(d, static_cast<float>(delta * delta)));
+    const auto t = hn::Mul(hn::LoadU(d, t0 + kQ * ps), hn::Set(d, d2[delta + R]));
     if (kMode == 0 && hn::AllTrue(d, hn::Lt(t, tmin))) continue;
     auto w = Exp2Neg(d, t);
     if (kOcc) {
@@ -123,28 +124,29 @@ HWY_INLINE void FarDispatch(D d, const G3dParams& p, const float* base, const in
   const auto n = hn::Min(hn::Max(hn::Mul(hn::Set(d, 4.0f), ra), zero), one);  // nearness = saturate(4 r_A)
   const int R = p.R;
   if (hn::AllTrue(d, hn::Eq(n, zero))) {
-    if (p.occlusion) FarSum<0, true>(d, R, ra, n, base, off, ps, out);
-    else FarSum<0, false>(d, R, ra, n, base, off, ps, out);
+    if (p.occlusion) FarSum<0, true>(d, R, p.d2_tab, ra, n, base, off, ps, out);
+    else FarSum<0, false>(d, R, p.d2_tab, ra, n, base, off, ps, out);
   } else if (hn::AllTrue(d, hn::Eq(n, one))) {
-    FarSum<2, false>(d, R, ra, n, base, off, ps, out);
+    FarSum<2, false>(d, R, p.d2_tab, ra, n, base, off, ps, out);
   } else {
-    if (p.occlusion) FarSum<1, true>(d, R, ra, n, base, off, ps, out);
-    else FarSum<1, false>(d, R, ra, n, base, off, ps, out);
+    if (p.occlusion) FarSum<1, true>(d, R, p.d2_tab, ra, n, base, off, ps, out);
+    else FarSum<1, false>(d, R, p.d2_tab, ra, n, base, off, ps, out);
   }
 }
 
 // Near sum Σ_δ near_box(δ)·(α·RGBA, α) times the normaliser; taps whose α is 0 in every
 // lane are exact zeros and skipped. Even and odd taps go to separate accumulators (two
 // independent FMA chains), added at the end.
+// Only taps k (= δ + R) in [k0, k1) are visited: the caller's bound on where α can be
+// nonzero.
 template <class D>
-HWY_INLINE void NearSum(D d, const G3dParams& p, const float* base, const int* off, std::size_t ps,
+HWY_INLINE void NearSum(D d, const G3dParams& p, const float* base, const int* off, std::size_t ps, int k0, int k1,
                         hn::Vec<D> out[5]) {
   using V = hn::Vec<D>;
   const auto zero = hn::Zero(d);
   V acc[2][5];
   for (auto& set : acc)
     for (auto& v : set) v = zero;
-  const int n = 2 * p.R + 1;
   auto tap = [&](V* a, int k) {
     const float v = p.near_tab[k];
     if (v == 0.0f) return;
@@ -158,12 +160,12 @@ HWY_INLINE void NearSum(D d, const G3dParams& p, const float* base, const int* o
     a[3] = hn::MulAdd(vv, hn::LoadU(d, t0 + 3 * ps), a[3]);
     a[4] = hn::MulAdd(vv, al, a[4]);
   };
-  int k = 0;
-  for (; k + 1 < n; k += 2) {
+  int k = k0;
+  for (; k + 1 < k1; k += 2) {
     tap(acc[0], k);
     tap(acc[1], k + 1);
   }
-  if (k < n) tap(acc[0], k);
+  if (k < k1) tap(acc[0], k);
   const auto inv = hn::Set(d, p.near_inv);
   for (int c = 0; c < 5; ++c) out[c] = hn::Mul(hn::Add(acc[0][c], acc[1][c]), inv);
 }
@@ -195,8 +197,10 @@ void HorizontalRow(const G3dParams& p, const G3dRowJob& job, std::vector<float>&
     off[delta + R] = (u % f) * Mp + u / f;
   }
 
-  // Per-source data, then the padded phase split (index clamped to the row).
+  // Per-source data, then the padded phase split (index clamped to the row). [alo, ahi]:
+  // the padded x range outside which α = 0.
   bool any_alpha = false;
+  int alo = 0, ahi = -1;
   {
     int x = 0;
     auto src_block = [&](auto dd, int x0) {
@@ -209,8 +213,18 @@ void HorizontalRow(const G3dParams& p, const G3dRowJob& job, std::vector<float>&
     };
     for (; x + lanes <= W; x += lanes) src_block(d, x);
     for (; x < W; ++x) src_block(d1, x);
-    if (p.near_tab)
-      for (int i = 0; i < W; ++i) any_alpha |= sal[i] > 0.0f;
+    if (p.near_tab) {
+      int first = W, last = -1;
+      for (int i = 0; i < W; ++i)
+        if (sal[i] > 0.0f) {
+          first = std::min(first, i);
+          last = i;
+        }
+      any_alpha = last >= 0;
+      // Padding replicates the edge pixels: a nonzero edge α extends over its padding.
+      alo = first == 0 ? 0 : first + R;
+      ahi = last == W - 1 ? W + 2 * R - 1 : last + R;
+    }
   }
   const float* const cols[4] = {job.src[0], job.src[1], job.src[2], job.src[3]};
   for (int ph = 0; ph < f; ++ph) {
@@ -236,7 +250,11 @@ void HorizontalRow(const G3dParams& p, const G3dRowJob& job, std::vector<float>&
     FarDispatch(dd, p, planes + i0, off, ps, out);
     for (int c = 0; c < 4; ++c) hn::StoreU(out[c], dd, job.t_blur[c] + i0);
     if (any_alpha) {
-      NearSum(dd, p, planes + i0, off, ps, out);
+      // Lane l of tap δ reads padded x = ox + R + δ + f·(i0 + l): only δ whose lanes meet
+      // [alo, ahi] can be nonzero.
+      const int x0 = ox + R + f * i0, span = f * (static_cast<int>(hn::Lanes(dd)) - 1);
+      const int k0 = std::max(0, alo - span - x0 + R), k1 = std::min(2 * R + 1, ahi - x0 + R + 1);
+      NearSum(dd, p, planes + i0, off, ps, k0, std::max(k0, k1), out);
       for (int c = 0; c < 5; ++c) hn::StoreU(out[c], dd, job.t_near[c] + i0);
     }
   };
@@ -308,7 +326,7 @@ void VerticalBlock(const G3dParams& p, const Image& tb, const Image& tn, int oy,
           for (int c = 0; c < 5; ++c) hn::StoreU(hn::Zero(dd), dd, near.row(c, j) + x0 + i);
           return;
         }
-        NearSum(dd, p, planes + i, off, ps, out);
+        NearSum(dd, p, planes + i, off, ps, 0, 2 * R + 1, out);
         // g3d coverage curve, exactly as g3d_coverage_curve() (blur_weights.hpp).
         const auto zero = hn::Zero(dd), one = hn::Set(dd, 1.0f);
         const auto al = out[4];

@@ -180,69 +180,95 @@ void HorizontalRow(const G3dParams& p, const G3dRowJob& job, std::vector<float>&
   const hn::CappedTag<float, 1> d1;
   const int lanes = static_cast<int>(hn::Lanes(d));
   const int R = p.R, f = p.f, W = job.W, wo = job.wo, ox = job.ox;
-  const int Mp = (ox + 2 * R) / f + wo + 1;  // elements per phase (covers every tap read)
-  const std::size_t ps = static_cast<std::size_t>(Mp) * f;
-  const std::size_t per_src = static_cast<std::size_t>(W) + lanes;
+  // Elements per phase: every tap read, rounded up to whole vectors (the phase split below
+  // stores whole vectors).
+  const int Mp = ((ox + 2 * R) / f + wo + 1 + lanes - 1) / lanes * lanes;
+  const std::size_t len = static_cast<std::size_t>(Mp) * f;  // padded length handled
+  // Plane stride: one cache line more than a multiple of 16 floats, so that the planes do not
+  // all start at the same offset modulo 4 KiB (same L1 sets; Mp is often a power of 2).
+  const std::size_t ps = (len + 15) / 16 * 16 + 16;
   const std::size_t n_off = 2 * static_cast<std::size_t>(R) + 1;
-  scratch.resize(4 * per_src + kPlanes * ps + n_off);
-  float* sq = scratch.data();
-  float* sr = sq + per_src;
-  float* sib = sr + per_src;
-  float* sal = sib + per_src;
-  float* planes = sal + per_src;
-  int* off = reinterpret_cast<int*>(planes + kPlanes * ps);  // int and float have the same size and alignment
+  const int nin = f == 1 ? 0 : 5;  // padded input rows (f = 1: the planes themselves)
+  scratch.resize((kPlanes + nin) * ps + n_off + static_cast<std::size_t>(f) * lanes);
+  float* planes = scratch.data();
+  float* pad = planes + kPlanes * ps;
+  int* off = reinterpret_cast<int*>(pad + nin * ps);  // int and float have the same size and alignment
   static_assert(sizeof(int) == sizeof(float) && alignof(int) == alignof(float));
   for (int delta = -R; delta <= R; ++delta) {
     const int u = ox + R + delta;
     off[delta + R] = (u % f) * Mp + u / f;
   }
 
-  // Per-source data, then the padded phase split (index clamped to the row). [alo, ahi]:
-  // the padded x range outside which α = 0.
+  // 1. Padded rows of colour and s (padded x = packed x + R, edge pixels replicated; len
+  //    elements). f = 1: straight into the planes (s into the q plane).
+  const int dst_plane[5] = {kCol, kCol + 1, kCol + 2, kCol + 3, kQ};
+  for (int c = 0; c < 5; ++c) {
+    float* row = f == 1 ? planes + dst_plane[c] * ps : pad + c * ps;
+    const float* src = job.src[c];
+    const std::size_t left = std::min<std::size_t>(R, len);
+    std::fill_n(row, left, src[0]);
+    const std::size_t mid = std::min<std::size_t>(W, len - left);
+    std::copy_n(src, mid, row + left);
+    std::fill_n(row + left + mid, len - left - mid, src[W - 1]);
+  }
+  // 2. Phase split: padded x = f·m + ph → element m of phase ph.
+  if (f > 1)
+    for (int c = 0; c < 5; ++c) {
+      const float* in = pad + c * ps;
+      float* o = planes + dst_plane[c] * ps;
+      for (int m = 0; m < Mp; m += lanes) {
+        hn::Vec<decltype(d)> v0, v1, v2, v3;
+        if (f == 2) {
+          hn::LoadInterleaved2(d, in + 2 * m, v0, v1);
+          hn::StoreU(v0, d, o + m);
+          hn::StoreU(v1, d, o + Mp + m);
+        } else if (f == 3) {
+          hn::LoadInterleaved3(d, in + 3 * m, v0, v1, v2);
+          hn::StoreU(v0, d, o + m);
+          hn::StoreU(v1, d, o + Mp + m);
+          hn::StoreU(v2, d, o + 2 * Mp + m);
+        } else {
+          hn::LoadInterleaved4(d, in + 4 * m, v0, v1, v2, v3);
+          hn::StoreU(v0, d, o + m);
+          hn::StoreU(v1, d, o + Mp + m);
+          hn::StoreU(v2, d, o + 2 * Mp + m);
+          hn::StoreU(v3, d, o + 3 * Mp + m);
+        }
+      }
+    }
+  // 3. Per-source data in place of s (every element of every phase, contiguous).
+  //    [alo, ahi]: a padded x range outside which α = 0 (α > 0 needs s > 0; found on the
+  //    padded s row, so the edge padding is included).
   bool any_alpha = false;
   int alo = 0, ahi = -1;
-  {
-    int x = 0;
-    auto src_block = [&](auto dd, int x0) {
-      hn::Vec<decltype(dd)> q, r, ib, al;
-      SourceData(dd, p, hn::LoadU(dd, job.src[4] + x0), q, r, ib, al);
-      hn::StoreU(q, dd, sq + x0);
-      hn::StoreU(r, dd, sr + x0);
-      hn::StoreU(ib, dd, sib + x0);
-      hn::StoreU(al, dd, sal + x0);
-    };
-    for (; x + lanes <= W; x += lanes) src_block(d, x);
-    for (; x < W; ++x) src_block(d1, x);
-    if (p.near_tab) {
-      int first = W, last = -1;
-      for (int i = 0; i < W; ++i)
-        if (sal[i] > 0.0f) {
-          first = std::min(first, i);
-          last = i;
-        }
-      any_alpha = last >= 0;
-      // Padding replicates the edge pixels: a nonzero edge α extends over its padding.
-      alo = first == 0 ? 0 : first + R;
-      ahi = last == W - 1 ? W + 2 * R - 1 : last + R;
+  if (p.near_tab) {
+    const float* srow = f == 1 ? planes + kQ * ps : pad + 4 * ps;
+    const int P = static_cast<int>(std::min<std::size_t>(W + 2 * R, len));  // taps never read beyond len
+    int first = P;
+    for (int x = 0; x < P; ++x)
+      if (srow[x] > 0.0f) {
+        first = x;
+        break;
+      }
+    if (first < P) {
+      int last = P - 1;
+      while (!(srow[last] > 0.0f)) --last;
+      any_alpha = true;
+      alo = first;
+      ahi = last;
     }
   }
-  const float* const cols[4] = {job.src[0], job.src[1], job.src[2], job.src[3]};
-  for (int ph = 0; ph < f; ++ph) {
-    float* e = planes + static_cast<std::size_t>(ph) * Mp;
-    for (int m = 0; m < Mp; ++m) {
-      const int s = std::clamp(f * m + ph - R, 0, W - 1);
-      for (int c = 0; c < 4; ++c) e[c * ps + m] = cols[c][s];
-      e[kQ * ps + m] = sq[s];
-      e[kR * ps + m] = sr[s];
-      e[kIb * ps + m] = sib[s];
+  for (std::size_t x = 0; x < len; x += lanes) {
+    hn::Vec<decltype(d)> q, r, ib, al;
+    SourceData(d, p, hn::LoadU(d, planes + kQ * ps + x), q, r, ib, al);
+    hn::StoreU(q, d, planes + kQ * ps + x);
+    hn::StoreU(r, d, planes + kR * ps + x);
+    hn::StoreU(ib, d, planes + kIb * ps + x);
+    if (any_alpha) {
+      hn::StoreU(al, d, planes + kAlpha * ps + x);
+      for (int c = 0; c < 4; ++c)
+        hn::StoreU(hn::Mul(al, hn::LoadU(d, planes + (kCol + c) * ps + x)), d, planes + (kNear + c) * ps + x);
     }
-    if (any_alpha)
-      for (int m = 0; m < Mp; ++m) {
-        const int s = std::clamp(f * m + ph - R, 0, W - 1);
-        const float a = sal[s];
-        for (int c = 0; c < 4; ++c) e[(kNear + c) * ps + m] = a * cols[c][s];
-        e[kAlpha * ps + m] = a;
-      }
   }
 
   auto block = [&](auto dd, int i0) {

@@ -192,6 +192,7 @@ TEST(Mcguire, G3dPassesMatchPlain) {
       {123, 70, 4, 20, 20, false},
       {65, 41, 1, 12, 12, true, 0.0f},
       {7, 5, 2, 9, 6},             // wo = 3, ho = 2: fewer outputs than lanes
+      {3, 2, 4, 5, 4},             // narrower than the reduction: one output, taps all clamped
       {33, 31, 1, 40, 30},         // R_max beyond the frame on every side
       {90, 50, 2, 16, 0},          // no near field
       {90, 50, 2, 30, 2},          // near box much narrower than R_max

@@ -118,6 +118,46 @@ TEST(LayeredFast, BitIdenticalToPlainSingleInput) {
   EXPECT_EQ(detail::layered::fused_render_count() - fused_before, 2u * gaussian_cases);
 }
 
+// Stripes of three depths (near, in focus, far) whose widths vary with the row, so a layer
+// occupies several disjoint runs inside one 256-px row block, runs touch all four image
+// borders, and a few pixels are transparent (no layer at all). The fused path evaluates the
+// matte and the pull only inside each layer's span per row block; outside it must give the
+// same bits as the full evaluation.
+Frame stripe_frame(int w, int h) {
+  Frame f;
+  f.color = Image(w, h, 4, 1.0f);
+  f.depth = Image(w, h, 1);
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> u(0, 1);
+  const float depths[4] = {1.2f, 4.0f, 30.0f, kInf};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int period = 5 + (y % 7) * 4;  // 5 … 29 px stripes
+      f.depth.at(x, y) = depths[((x + 3 * y) / period) % 4];
+      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = u(rng);
+      if ((x * 7 + y * 3) % 97 == 0)
+        for (int c = 0; c < 4; ++c) f.color.at(x, y, c) = 0.0f;  // transparent
+    }
+  return f;
+}
+
+TEST(LayeredFast, BitIdenticalWithDisjointRunsPerBlock) {
+  const std::uint64_t fused_before = detail::layered::fused_render_count();
+  int cases = 0;
+  for (auto [w, h] : {std::pair{263, 37}, {517, 23}, {31, 9}})
+    for (const char* fill : {"auto", "under", "off"})
+      for (const char* half : {"on", "off"}) {
+        RenderSettings rs = settings("fast", 1, 20.0);
+        rs.params["psf"] = "gaussian";
+        rs.params["fill"] = fill;
+        rs.params["half_res"] = half;
+        expect_same(stripe_frame(w, h), rs,
+                    std::to_string(w) + "x" + std::to_string(h) + " stripes fill " + fill + " half_res " + half);
+        ++cases;
+      }
+  EXPECT_EQ(detail::layered::fused_render_count() - fused_before, 2u * cases);
+}
+
 TEST(LayeredFast, BitIdenticalWhereTheNearAccumulatorIsZero) {
   // 1100 px wide: the near bar and the ground leave whole 256-px blocks of the upper rows
   // where the near accumulator F is +0 (beyond its blur's support), so the fused composite

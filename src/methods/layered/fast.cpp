@@ -99,15 +99,16 @@ LAYERED_SIMD void lerp_rows_z(const float* __restrict top, const float* __restri
 }
 
 // matting.cpp for one fragment per pixel from the per-pixel codes (see FusedLayer).
+// Columns [lo, hi) of the block (the caller's span; the rest of o is left alone).
 LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* __restrict w0,
-                            const float* const* in, int k, int n, float (*o)[256], std::uint8_t* __restrict hb) {
+                            const float* const* in, int k, int lo, int hi, float (*o)[256]) {
   // w_k: w0 where j0 = k; 1 where j0 + 1 = k with the second-layer bit, i.e. where the low
   // six bits are (k − 1) | 32 (no code has those for k = 0); 0 elsewhere. Compared in 16 bits
   // and w0 loaded unconditionally, so it vectorises without masked loads.
   const std::uint16_t k0 = static_cast<std::uint16_t>(k);
   const std::uint16_t k1 = static_cast<std::uint16_t>(k >= 1 ? ((k - 1) | 32) : 0xffff);
   float wk[256];
-  for (int j = 0; j < n; ++j) {
+  for (int j = lo; j < hi; ++j) {
     const std::uint16_t cd = code[j];
     const float wv = w0[j];
     const float second = (cd & 63) == k1 ? 1.0f : 0.0f;
@@ -122,7 +123,7 @@ LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* _
   float* __restrict d1 = o[1];
   float* __restrict d2 = o[2];
   float* __restrict d3 = o[3];
-  for (int j = 0; j < n; ++j) {
+  for (int j = lo; j < hi; ++j) {
     const float t = (1.0f - 0.0f) * wk[j];
     // No select needed: w_k is exactly 0 where the pixel is not in layer k (else > 0), and the
     // colour is finite (render() sanitises it, or layered's own check in coc_extremes passed
@@ -134,8 +135,11 @@ LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* _
     d2[j] = 0.0f + t * s2[j];
     d3[j] = 0.0f + t * s3[j];
   }
-  if (hb)
-    for (int j = 0; j < n; ++j) hb[j] = k >= (code[j] >> 6) ? 1 : 0;
+}
+
+// The hole flags of layer k (a hole from layer hk = code >> 6 on).
+LAYERED_SIMD void hole_row(const std::uint16_t* __restrict code, int k, int n, std::uint8_t* __restrict hb) {
+  for (int j = 0; j < n; ++j) hb[j] = k >= (code[j] >> 6) ? 1 : 0;
 }
 
 // inpaint.cpp's level-0 fill (confidence 0: v = 0·v + 1·up) and final rules at hole pixels.
@@ -194,9 +198,11 @@ LAYERED_SIMD void down_pairs(const float* __restrict a, const float* __restrict 
 // w0·a > 0), layer j0 + 1 (weight 1) where 0 + 1·a > 0, always true for a coded pixel
 // (a > 0). The no-layer code j0 = 31 only ever sets bit 31 (masked; layers are < 17) and
 // never the second-layer bit.
+//
+// Also the same layer bits per 16-pixel chunk: cm[c] for pixels [16c, 16c + 16) ∩ [0, n).
 LAYERED_SIMD void code_summary(const std::uint16_t* __restrict code, const float* __restrict w0,
                                const float* __restrict a, int n, std::uint32_t* pres, std::uint32_t* hk,
-                               std::uint32_t* ne) {
+                               std::uint32_t* ne, std::uint32_t* __restrict cm) {
   std::uint32_t p = 0, e = 0, mn = 255, mx = 0;
   for (int j = 0; j < n; ++j) {
     const std::uint32_t cd = code[j], j0 = cd & 31u, hkc = cd >> 6;
@@ -205,6 +211,21 @@ LAYERED_SIMD void code_summary(const std::uint16_t* __restrict code, const float
     e |= (w0[j] * a[j] > 0 ? b0 : 0u) | b1;
     mn = hkc < mn ? hkc : mn;
     mx = hkc > mx ? hkc : mx;
+  }
+  for (int c = 0; 16 * c < n; ++c) {
+    std::uint32_t q = 0;
+    if (16 * c + 16 <= n) {
+      for (int j = 16 * c; j < 16 * c + 16; ++j) {
+        const std::uint32_t cd = code[j], j0 = cd & 31u;
+        q |= (1u << j0) | (((cd >> 5) & 1u) << ((j0 + 1u) & 31u));
+      }
+    } else {
+      for (int j = 16 * c; j < n; ++j) {
+        const std::uint32_t cd = code[j], j0 = cd & 31u;
+        q |= (1u << j0) | (((cd >> 5) & 1u) << ((j0 + 1u) & 31u));
+      }
+    }
+    cm[c] = q;
   }
   *pres = p & 0x7fffffffu;
   *hk = mn | (mx << 8);
@@ -246,8 +267,14 @@ LAYERED_SIMD void pull_sum(const float* __restrict z0, const float* __restrict z
 // Pull of level 1 from two level-0 rows for coarse pixels [0, m) whose 2×2 children all lie
 // in the image: children (0,0), (1,0), (0,1), (1,1) in pull_level's order; a hole child is
 // skipped there, here it adds +0 (exact: the sums start at +0 and never become −0).
+// Values only for the pairs [c0, c1) (0 <= c0 <= c1 <= m), reading the rows only at fine
+// columns [2·c0, 2·c1): the caller guarantees that the layer is +0 in both rows outside
+// them, where the value is then +0, what the full computation gives (every child adds +0,
+// +0 / Σ w = +0, or 0 where Σ w = 0). The confidences depend on the hole flags only and are
+// computed for all m pairs.
 LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint8_t* __restrict h0,
-                             const std::uint8_t* __restrict h1, int m, float* const* cv, float* __restrict cw) {
+                             const std::uint8_t* __restrict h1, int m, int c0, int c1, float* const* cv,
+                             float* __restrict cw) {
   // De-interleave the children into contiguous arrays, a hole child as +0 (float), then sum
   // in double in pull_level's order.
   double sw[128];
@@ -267,14 +294,20 @@ LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint
   // strided copies: both vectorise, the masked strided form did not. (No std:: helpers in
   // these kernels: a different target attribute stops them from being inlined.)
   for (int c = 0; c < 4; ++c) {
-    const float* __restrict a = r0[c];
-    const float* __restrict b = r1[c];
+    float* __restrict d = cv[c];
+    for (int x = 0; x < c0; ++x) d[x] = 0.0f;
+    for (int x = c1; x < m; ++x) d[x] = 0.0f;
+    if (c1 <= c0) continue;
+    const float* __restrict a = r0[c] + 2 * c0;
+    const float* __restrict b = r1[c] + 2 * c0;
+    const std::uint8_t* __restrict g0 = h0 + 2 * c0;
+    const std::uint8_t* __restrict g1 = h1 + 2 * c0;
     float z0[256], z1[256];
-    for (int j = 0; j < 2 * m; ++j) {
-      z0[j] = h0[j] ? 0.0f : a[j];
-      z1[j] = h1[j] ? 0.0f : b[j];
+    for (int j = 0; j < 2 * (c1 - c0); ++j) {
+      z0[j] = g0[j] ? 0.0f : a[j];
+      z1[j] = g1[j] ? 0.0f : b[j];
     }
-    pull_sum(z0, z1, m, sw, cv[c]);
+    pull_sum(z0, z1, c1 - c0, sw + c0, d + c0);
   }
 }
 
@@ -1040,6 +1073,10 @@ struct FusedLayer {
   // non-zero matte in, and the smallest / largest hk (hole from layer hk on) in the block.
   const std::uint32_t* bpres = nullptr;
   const std::uint32_t* bhk = nullptr;
+  // Per row block and layer j < 16 (index 16·block + j), for the layers in bpres only: the
+  // span lo | hi << 16 of columns (relative to the block) outside which layer j's matte is
+  // zero (block_spans).
+  const std::uint32_t* bspan = nullptr;
   int nb = 0;
 
   enum Cls { kGeneral, kEmptyKnown, kEmptyHole };
@@ -1055,17 +1092,57 @@ struct FusedLayer {
   }
 
   // matting.cpp's values of row y, columns [x0, x0 + n); hole flags into hb if non-null.
-  void matte(int y, int x0, int n, float (*o)[kBlock], std::uint8_t* hb) const {
+  // Returns the span [lo, hi) (relative to x0; lo >= hi if empty) outside which the values
+  // are +0.
+  //
+  // Why only the span is evaluated: matte_row gives 0 + t·I with t = w_k, and w_k is non-zero
+  // only at pixels whose code names layer k (j0 = k, or j0 + 1 = k with the second-layer
+  // bit): the code pass stores every other layer's matte as exactly 0 (see
+  // render_gaussian_fused). Elsewhere t = 0 and I is finite (checked before this pass), so
+  // 0·I = ±0 and 0 + (±0) = +0: the +0 written outside the span is bit for bit what
+  // matte_row computes there. Every pixel whose code names k lies in the span (block_spans:
+  // the chunk masks cover all columns), so no non-zero value lies outside; a layer not in
+  // bpres has no such pixel in the block.
+  // With zero_outside false, o outside the span is left as it was (the caller fills what it
+  // reads there).
+  std::pair<int, int> matte(int y, int x0, int n, float (*o)[kBlock], std::uint8_t* hb,
+                            bool zero_outside = true) const {
     const Cls c = cls(y, x0);
     if (c != kGeneral) {
       for (int ch = 0; ch < 4; ++ch) std::fill(o[ch], o[ch] + n, 0.0f);
       if (hb) std::fill(hb, hb + n, static_cast<std::uint8_t>(c == kEmptyHole ? 1 : 0));
-      return;
+      return {n, 0};
     }
+    const std::size_t bi = static_cast<std::size_t>(y) * nb + x0 / kBlock;
     const std::size_t base = static_cast<std::size_t>(y) * w + x0;
-    const float* in[4];
-    for (int c = 0; c < 4; ++c) in[c] = color->row(c, y) + x0;
-    kern::matte_row(code + base, w0 + base, in, k, n, o, hb);
+    int lo = n, hi = 0;
+    if ((bpres[bi] >> k) & 1u) {
+      const std::uint32_t sp = bspan[16 * bi + static_cast<std::size_t>(k)];
+      lo = static_cast<int>(sp & 0xffffu);
+      hi = static_cast<int>(sp >> 16);
+    }
+    if (hi <= lo) {
+      if (zero_outside)
+        for (int ch = 0; ch < 4; ++ch) std::fill(o[ch], o[ch] + n, 0.0f);
+    } else {
+      const float* in[4];
+      for (int ch = 0; ch < 4; ++ch) {
+        if (zero_outside) {
+          std::fill(o[ch], o[ch] + lo, 0.0f);
+          std::fill(o[ch] + hi, o[ch] + n, 0.0f);
+        }
+        in[ch] = color->row(ch, y) + x0;
+      }
+      kern::matte_row(code + base, w0 + base, in, k, lo, hi, o);
+    }
+    if (hb) {
+      // The flags are k >= hk per pixel; all 0 below the block's smallest hk, all 1 from its
+      // largest on.
+      const int hmin = static_cast<int>(bhk[bi] & 255u), hmax = static_cast<int>(bhk[bi] >> 8);
+      if (k < hmin || k >= hmax) std::fill(hb, hb + n, static_cast<std::uint8_t>(k >= hmax ? 1 : 0));
+      else kern::hole_row(code + base, k, n, hb);
+    }
+    return {lo, hi};
   }
   // The layer with its holes filled.
   void get(int y, int x0, int n, float (*o)[kBlock], HCache* cache = nullptr) const {
@@ -1123,8 +1200,27 @@ void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][
         std::fill(cwt.row(0, yc) + xc, cwt.row(0, yc) + xc + m, c0 == FusedLayer::kEmptyKnown ? 1.0f : 0.0f);
         continue;
       }
-      for (int dy = 0; dy < 2; ++dy) L.matte(2 * yc + dy, x0, n, r[dy], hb[dy]);
-      kern::pull_pairs(r[0], r[1], hb[0], hb[1], m, cvp, cwt.row(0, yc) + xc);
+      // Both rows are +0 outside the union [lo, hi) of their spans (FusedLayer::matte), and
+      // the pairs [p0, p1) = [lo / 2, ⌈hi / 2⌉) cover it. pull_pairs reads the rows at fine
+      // columns [2·p0, 2·p1) only, so with no odd last column (2m = n; else the scalar tail
+      // below reads the block's last column) only those are completed with +0 outside each
+      // row's own span.
+      const bool exact = 2 * m == n;
+      const std::pair<int, int> sp[2] = {L.matte(2 * yc, x0, n, r[0], hb[0], !exact),
+                                         L.matte(2 * yc + 1, x0, n, r[1], hb[1], !exact)};
+      const int lo = std::min(sp[0].first, sp[1].first), hi = std::max(sp[0].second, sp[1].second);
+      const int p0 = hi > lo ? std::min(lo / 2, m) : 0, p1 = hi > lo ? std::max(p0, std::min((hi + 1) / 2, m)) : 0;
+      if (exact)
+        for (int dy = 0; dy < 2; ++dy) {
+          const int a = 2 * p0, e = 2 * p1;
+          const int l = sp[dy].second > sp[dy].first ? std::clamp(sp[dy].first, a, e) : e;
+          const int u = sp[dy].second > sp[dy].first ? std::clamp(sp[dy].second, l, e) : e;
+          for (int ch = 0; ch < 4; ++ch) {
+            std::fill(r[dy][ch] + a, r[dy][ch] + l, 0.0f);
+            std::fill(r[dy][ch] + u, r[dy][ch] + e, 0.0f);
+          }
+        }
+      kern::pull_pairs(r[0], r[1], hb[0], hb[1], m, p0, p1, cvp, cwt.row(0, yc) + xc);
       xc += m;
     } else {
       L.matte(2 * yc, x0, n, r[0], hb[0]);
@@ -1161,6 +1257,33 @@ struct NextPull {
   Image* cv = nullptr;
   Image* cwt = nullptr;
 };
+
+// The spans of FusedLayer::bspan for one row block of n <= kBlock pixels, from its chunk
+// masks (kern::code_summary): for each layer k named in the block, [lo, hi) from the start
+// of the first to the end of the last 16-pixel chunk naming k. Every pixel whose code names k
+// lies in one of those chunks, so in the span (it may also hold pixels that do not: their
+// matte is computed, and is 0, as before).
+void block_spans(const std::uint32_t* cm, int n, std::uint32_t* span) {
+  const int nc = (n + 15) / 16;
+  std::uint32_t lo[16], hi[16];
+  std::uint32_t seen = 0;
+  for (int c = 0; c < nc; ++c) {
+    const std::uint32_t b = cm[c] & 0xffffu;
+    for (std::uint32_t f = b & ~seen; f; f &= f - 1) lo[std::countr_zero(f)] = static_cast<std::uint32_t>(16 * c);
+    seen |= b;
+  }
+  seen = 0;
+  for (int c = nc - 1; c >= 0; --c) {
+    const std::uint32_t b = cm[c] & 0xffffu;
+    for (std::uint32_t f = b & ~seen; f; f &= f - 1)
+      hi[std::countr_zero(f)] = static_cast<std::uint32_t>(std::min(n, 16 * c + 16));
+    seen |= b;
+  }
+  for (std::uint32_t f = seen; f; f &= f - 1) {
+    const int k = std::countr_zero(f);
+    span[k] = lo[k] | hi[k] << 16;
+  }
+}
 
 std::atomic<std::uint64_t> g_fused_renders{0};
 // Band blocks of composite passes written as +0 without computing them (see composite_pass).
@@ -1341,6 +1464,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   Image& binfo = ws.image("layered.blocks", nb, h, 2);
   std::uint32_t* bpres = reinterpret_cast<std::uint32_t*>(binfo.plane(0));
   std::uint32_t* bhk = reinterpret_cast<std::uint32_t*>(binfo.plane(1));
+  std::uint32_t* bspan = reinterpret_cast<std::uint32_t*>(ws.image("layered.spans", 16 * nb, h, 1).plane(0));
   std::atomic<std::uint32_t> nonempty{0}, holes{0};
   std::atomic<bool> bail{false};
   core::parallel_for(h, [&](int y0, int y1) {
@@ -1412,7 +1536,9 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       for (int b = 0; b < nb; ++b) {
         const int x0 = b * kBlock, n = std::min(w, x0 + kBlock) - x0;
         const std::size_t i = static_cast<std::size_t>(y) * nb + b;
-        kern::code_summary(code + base + x0, w0 + base + x0, al + x0, n, &bpres[i], &bhk[i], &ne);
+        std::uint32_t cm[kBlock / 16];
+        kern::code_summary(code + base + x0, w0 + base + x0, al + x0, n, &bpres[i], &bhk[i], &ne, cm);
+        block_spans(cm, n, bspan + 16 * i);
       }
     }
     if (ne) nonempty.fetch_or(ne, std::memory_order_relaxed);
@@ -1436,6 +1562,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     L.under = fill_under;
     L.bpres = bpres;
     L.bhk = bhk;
+    L.bspan = bspan;
     L.nb = nb;
     return L;
   };

@@ -26,27 +26,45 @@
 using namespace dofkit;
 namespace mg = dofkit::detail::mcguire;
 
-TEST(McguirePassTiming, DISABLED_Demo1080p) {
-  const char* it_env = std::getenv("MCGUIRE_TIMING_ITERS");
-  const char* th_env = std::getenv("MCGUIRE_TIMING_THREADS");
-  const int iters = std::max(1, it_env ? std::atoi(it_env) : 12);
-  const int threads = std::max(1, th_env ? std::atoi(th_env) : 1);
-  const int W = 1920, H = 1080;
-  const Frame fr = scene::bench_frame(W, H);
-  const Image coc = compute_coc(fr.depth, scene::bench_camera(W));
-  float max_near = 0, max_far = 0;
-  for (float r : coc.data()) {
-    max_near = std::max(max_near, r);
-    max_far = std::max(max_far, -r);
-  }
-  // The demo constants render_mcguire derives for this frame (mcguire.cpp read_setup).
+namespace {
+
+constexpr int W = 1920, H = 1080;
+
+/// The bench frame, its CoC, the iteration and thread counts from the environment and the
+/// radii-derived constants render_mcguire's read_setup computes for it (the variant-specific
+/// ones are set by each harness).
+struct BenchSetup {
+  Frame fr = scene::bench_frame(W, H);
+  Image coc = compute_coc(fr.depth, scene::bench_camera(W));
+  int iters, threads;
   mg::Constants k;
+  explicit BenchSetup(int default_iters) {
+    const char* it_env = std::getenv("MCGUIRE_TIMING_ITERS");
+    const char* th_env = std::getenv("MCGUIRE_TIMING_THREADS");
+    iters = std::max(1, it_env ? std::atoi(it_env) : default_iters);
+    threads = std::max(1, th_env ? std::atoi(th_env) : 1);
+    float max_near = 0, max_far = 0;
+    for (float r : coc.data()) {
+      max_near = std::max(max_near, r);
+      max_far = std::max(max_far, -r);
+    }
+    k.r_max = static_cast<int>(std::ceil(std::max(max_near, max_far)));
+    k.r_near = std::ceil(max_near);
+    k.inv_near = 1.0f / std::max(k.r_near, 1e-4f);
+    k.far_rescale = static_cast<float>(k.r_max) / std::max(max_far, 1e-4f);
+  }
+};
+
+}  // namespace
+
+TEST(McguirePassTiming, DISABLED_Demo1080p) {
+  BenchSetup st(12);
+  const Frame& fr = st.fr;
+  const Image& coc = st.coc;
+  const int iters = st.iters, threads = st.threads;
+  mg::Constants& k = st.k;
   k.variant = mg::Variant::demo;
   k.f = 4;
-  k.r_max = static_cast<int>(std::ceil(std::max(max_near, max_far)));
-  k.r_near = std::ceil(max_near);
-  k.inv_near = 1.0f / std::max(k.r_near, 1e-4f);
-  k.far_rescale = static_cast<float>(k.r_max) / std::max(max_far, 1e-4f);
   k.coverage_boost = 1.0f;
   k.double_coc = true;
   detail::Workspace ws;
@@ -90,28 +108,15 @@ TEST(McguirePassTiming, DISABLED_Demo1080p) {
 // and P4. Run with --gtest_filter=*PassTiming.DISABLED_G3d* (same environment variables;
 // MCGUIRE_TIMING_IMPL=plain times the plain passes instead).
 TEST(McguirePassTiming, DISABLED_G3d1080p) {
-  const char* it_env = std::getenv("MCGUIRE_TIMING_ITERS");
-  const char* th_env = std::getenv("MCGUIRE_TIMING_THREADS");
   const char* impl_env = std::getenv("MCGUIRE_TIMING_IMPL");
-  const int iters = std::max(1, it_env ? std::atoi(it_env) : 5);
-  const int threads = std::max(1, th_env ? std::atoi(th_env) : 1);
   const bool plain = impl_env && std::strcmp(impl_env, "plain") == 0;
-  const int W = 1920, H = 1080;
-  const Frame fr = scene::bench_frame(W, H);
-  const Image coc = compute_coc(fr.depth, scene::bench_camera(W));
-  float max_near = 0, max_far = 0;
-  for (float r : coc.data()) {
-    max_near = std::max(max_near, r);
-    max_far = std::max(max_far, -r);
-  }
-  // The g3d constants render_mcguire derives for this frame (mcguire.cpp read_setup).
-  mg::Constants k;
+  BenchSetup st(5);
+  const Frame& fr = st.fr;
+  const Image& coc = st.coc;
+  const int iters = st.iters, threads = st.threads;
+  mg::Constants& k = st.k;
   k.variant = mg::Variant::g3d;
   k.f = 2;
-  k.r_max = static_cast<int>(std::ceil(std::max(max_near, max_far)));
-  k.r_near = std::ceil(max_near);
-  k.inv_near = 1.0f / std::max(k.r_near, 1e-4f);
-  k.far_rescale = static_cast<float>(k.r_max) / std::max(max_far, 1e-4f);
   k.coverage_boost = 1.5f;
   k.far_occlusion = true;
   k.g3d_fov_rad = static_cast<float>(40.0 * M_PI / 180.0);

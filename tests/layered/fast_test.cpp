@@ -158,6 +158,45 @@ TEST(LayeredFast, BitIdenticalWithDisjointRunsPerBlock) {
   EXPECT_EQ(detail::layered::fused_render_count() - fused_before, 2u * cases);
 }
 
+// Six depths in stripes of varying width, so that within one 256-px row block the pixels in
+// front of a layer (its holes) form several disjoint runs for many layers at once, touching
+// the block and image borders. The fused path fills (and flags) holes only inside each
+// layer's hole span per row block (the chunks holding a hole); outside it must give the same
+// bits as the full evaluation. (A span shrunk by one pixel at either end fails this test.)
+Frame hole_stripe_frame(int w, int h) {
+  Frame f;
+  f.color = Image(w, h, 4, 1.0f);
+  f.depth = Image(w, h, 1);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0, 1);
+  const float depths[6] = {1.1f, 1.6f, 2.5f, 4.0f, 9.0f, kInf};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int period = 3 + (y % 5) * 7;  // 3 … 31 px stripes
+      const int i = ((x + 5 * y) / period) % 11;
+      f.depth.at(x, y) = depths[i < 6 ? i : 10 - i];  // 0 … 5 … 1: every step up and down
+      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = u(rng);
+    }
+  return f;
+}
+
+TEST(LayeredFast, BitIdenticalWithHoleRunsPerBlock) {
+  const std::uint64_t fused_before = detail::layered::fused_render_count();
+  int cases = 0;
+  for (auto [w, h] : {std::pair{300, 21}, {17, 11}})
+    for (const char* fill : {"auto", "under"})
+      for (double k_px : {8.0, 20.0}) {
+        RenderSettings rs = settings("fast", 1, k_px);
+        rs.params["psf"] = "gaussian";
+        rs.params["fill"] = fill;
+        expect_same(hole_stripe_frame(w, h), rs,
+                    std::to_string(w) + "x" + std::to_string(h) + " hole stripes fill " + fill + " K " +
+                        std::to_string(k_px));
+        ++cases;
+      }
+  EXPECT_EQ(detail::layered::fused_render_count() - fused_before, 2u * cases);
+}
+
 TEST(LayeredFast, BitIdenticalWhereTheNearAccumulatorIsZero) {
   // 1100 px wide: the near bar and the ground leave whole 256-px blocks of the upper rows
   // where the near accumulator F is +0 (beyond its blur's support), so the fused composite

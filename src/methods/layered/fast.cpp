@@ -137,27 +137,28 @@ LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* _
   }
 }
 
-// The hole flags of layer k (a hole from layer hk = code >> 6 on).
-LAYERED_SIMD void hole_row(const std::uint16_t* __restrict code, int k, int n, std::uint8_t* __restrict hb) {
-  for (int j = 0; j < n; ++j) hb[j] = k >= (code[j] >> 6) ? 1 : 0;
+// The hole flags of layer k (a hole from layer hk = code >> 6 on), columns [lo, n).
+LAYERED_SIMD void hole_row(const std::uint16_t* __restrict code, int k, int lo, int n, std::uint8_t* __restrict hb) {
+  for (int j = lo; j < n; ++j) hb[j] = k >= (code[j] >> 6) ? 1 : 0;
 }
 
-// inpaint.cpp's level-0 fill (confidence 0: v = 0·v + 1·up) and final rules at hole pixels.
-LAYERED_SIMD void fill_row(const std::uint8_t* __restrict hb, float (*up)[256], bool opaque, bool under, int n,
-                           float (*o)[256]) {
+// inpaint.cpp's level-0 fill (confidence 0: v = 0·v + 1·up) and final rules at hole pixels,
+// columns [lo, n) of the block (the rest of o is left alone).
+LAYERED_SIMD void fill_row(const std::uint8_t* __restrict hb, float (*up)[256], bool opaque, bool under, int lo,
+                           int n, float (*o)[256]) {
   const float wt = 0.0f;
   if (!opaque && !under) {  // the common case: the fill replaces the hole pixel
     for (int c = 0; c < 4; ++c) {
       float* __restrict d = o[c];
       const float* __restrict u = up[c];
-      for (int j = 0; j < n; ++j) {
+      for (int j = lo; j < n; ++j) {
         const float v = wt * d[j] + (1.0f - wt) * u[j];
         d[j] = hb[j] ? v : d[j];
       }
     }
     return;
   }
-  for (int j = 0; j < n; ++j) {
+  for (int j = lo; j < n; ++j) {
     float v[4];
     for (int c = 0; c < 4; ++c) v[c] = wt * o[c][j] + (1.0f - wt) * up[c][j];
     const bool norm = opaque && v[3] > 1e-6f;
@@ -199,33 +200,37 @@ LAYERED_SIMD void down_pairs(const float* __restrict a, const float* __restrict 
 // (a > 0). The no-layer code j0 = 31 only ever sets bit 31 (masked; layers are < 17) and
 // never the second-layer bit.
 //
-// Also the same layer bits per 16-pixel chunk: cm[c] for pixels [16c, 16c + 16) ∩ [0, n).
+// Also the same layer bits per 16-pixel chunk: cm[c] for pixels [16c, 16c + 16) ∩ [0, n),
+// and the chunk's smallest hk in ch[c].
 LAYERED_SIMD void code_summary(const std::uint16_t* __restrict code, const float* __restrict w0,
                                const float* __restrict a, int n, std::uint32_t* pres, std::uint32_t* hk,
-                               std::uint32_t* ne, std::uint32_t* __restrict cm) {
+                               std::uint32_t* ne, std::uint32_t* __restrict cm, std::uint32_t* __restrict ch) {
   std::uint32_t p = 0, e = 0, mn = 255, mx = 0;
   for (int j = 0; j < n; ++j) {
     const std::uint32_t cd = code[j], j0 = cd & 31u, hkc = cd >> 6;
     const std::uint32_t b0 = 1u << j0, b1 = ((cd >> 5) & 1u) << ((j0 + 1u) & 31u);
     p |= b0 | b1;
     e |= (w0[j] * a[j] > 0 ? b0 : 0u) | b1;
-    mn = hkc < mn ? hkc : mn;
     mx = hkc > mx ? hkc : mx;
   }
   for (int c = 0; 16 * c < n; ++c) {
-    std::uint32_t q = 0;
+    std::uint32_t q = 0, m = 255;
     if (16 * c + 16 <= n) {
       for (int j = 16 * c; j < 16 * c + 16; ++j) {
-        const std::uint32_t cd = code[j], j0 = cd & 31u;
+        const std::uint32_t cd = code[j], j0 = cd & 31u, hkc = cd >> 6;
         q |= (1u << j0) | (((cd >> 5) & 1u) << ((j0 + 1u) & 31u));
+        m = hkc < m ? hkc : m;
       }
     } else {
       for (int j = 16 * c; j < n; ++j) {
-        const std::uint32_t cd = code[j], j0 = cd & 31u;
+        const std::uint32_t cd = code[j], j0 = cd & 31u, hkc = cd >> 6;
         q |= (1u << j0) | (((cd >> 5) & 1u) << ((j0 + 1u) & 31u));
+        m = hkc < m ? hkc : m;
       }
     }
     cm[c] = q;
+    ch[c] = m;
+    mn = m < mn ? m : mn;
   }
   *pres = p & 0x7fffffffu;
   *hk = mn | (mx << 8);
@@ -1077,6 +1082,10 @@ struct FusedLayer {
   // span lo | hi << 16 of columns (relative to the block) outside which layer j's matte is
   // zero (block_spans).
   const std::uint32_t* bspan = nullptr;
+  // Per row block and layer j < 16 (index 16·block + j), for the j with hmin <= j < hmax
+  // (bhk) only: the span lo | hi << 16 of columns (relative to the block) outside which no
+  // pixel is a hole of layer j (hole_spans; it holds at least one).
+  const std::uint32_t* bhole = nullptr;
   int nb = 0;
 
   enum Cls { kGeneral, kEmptyKnown, kEmptyHole };
@@ -1139,12 +1148,25 @@ struct FusedLayer {
       // The flags are k >= hk per pixel; all 0 below the block's smallest hk, all 1 from its
       // largest on.
       const int hmin = static_cast<int>(bhk[bi] & 255u), hmax = static_cast<int>(bhk[bi] >> 8);
-      if (k < hmin || k >= hmax) std::fill(hb, hb + n, static_cast<std::uint8_t>(k >= hmax ? 1 : 0));
-      else kern::hole_row(code + base, k, n, hb);
+      if (k < hmin || k >= hmax) {
+        std::fill(hb, hb + n, static_cast<std::uint8_t>(k >= hmax ? 1 : 0));
+      } else {  // 0 outside the hole span (bhole), no hole there
+        const std::uint32_t hs = bhole[16 * bi + static_cast<std::size_t>(k)];
+        const int a0 = static_cast<int>(hs & 0xffffu), a1 = static_cast<int>(hs >> 16);
+        std::fill(hb, hb + a0, static_cast<std::uint8_t>(0));
+        kern::hole_row(code + base, k, a0, a1, hb);
+        std::fill(hb + a1, hb + n, static_cast<std::uint8_t>(0));
+      }
     }
     return {lo, hi};
   }
   // The layer with its holes filled.
+  //
+  // The fill (fill_row, or finish_fill for a 1×1 image) changes hole pixels only and leaves
+  // every other pixel's matte value as it is, so it runs on the block's hole span [a0, a1)
+  // only (bhole: every hole pixel of layer k lies in it), and the hole flags are needed
+  // (hole_row) only there: the columns outside hold no hole and keep the matte's values,
+  // what the fill over the whole block leaves there.
   void get(int y, int x0, int n, float (*o)[kBlock], HCache* cache = nullptr) const {
     if (fill && l1 && cache && !opaque && !under && cls(y, x0) == kEmptyHole) {
       // Every pixel is a hole over a zero matte: fill_row gives 0·0 + (1 − 0)·up = +0 + up
@@ -1153,10 +1175,23 @@ struct FusedLayer {
       cache->get(y, n, o, true);
       return;
     }
-    std::uint8_t hb[kBlock];
-    matte(y, x0, n, o, fill ? hb : nullptr);
+    matte(y, x0, n, o, nullptr);
     if (!fill) return;
-    if (!kern::any_byte(hb, n)) return;
+    // The flags are k >= hk per pixel: none below the block's smallest hk, all from its
+    // largest on (as in matte).
+    const std::size_t bi = static_cast<std::size_t>(y) * nb + x0 / kBlock;
+    const int hmin = static_cast<int>(bhk[bi] & 255u), hmax = static_cast<int>(bhk[bi] >> 8);
+    if (k < hmin) return;
+    std::uint8_t hb[kBlock];
+    int a0 = 0, a1 = n;
+    if (k >= hmax) {
+      std::fill(hb, hb + n, static_cast<std::uint8_t>(1));
+    } else {
+      const std::uint32_t hs = bhole[16 * bi + static_cast<std::size_t>(k)];
+      a0 = static_cast<int>(hs & 0xffffu);
+      a1 = static_cast<int>(hs >> 16);
+      kern::hole_row(code + static_cast<std::size_t>(y) * w + x0, k, a0, a1, hb);
+    }
     float up[4][kBlock];
     if (l1 && cache) {
       if (cache->img != l1 || cache->x0 != x0) cache->reset(l1, 2, x0);
@@ -1168,11 +1203,11 @@ struct FusedLayer {
       }
     }
     if (l1) {
-      kern::fill_row(hb, up, opaque, under, n, o);
+      kern::fill_row(hb, up, opaque, under, a0, a1, o);
       return;
     }
     float* d[4] = {o[0], o[1], o[2], o[3]};
-    for (int j = 0; j < n; ++j) {
+    for (int j = a0; j < a1; ++j) {
       if (!hb[j]) continue;
       float v[4];
       for (int c = 0; c < 4; ++c) v[c] = up[c][j];
@@ -1283,6 +1318,25 @@ void block_spans(const std::uint32_t* cm, int n, std::uint32_t* span) {
     const int k = std::countr_zero(f);
     span[k] = lo[k] | hi[k] << 16;
   }
+}
+
+// FusedLayer::bhole for one row block of n <= kBlock pixels, from the smallest hk of each
+// 16-pixel chunk (kern::code_summary), for the layers k in [hmin, min(hmax, 16)) only (the
+// block's smallest / largest hk: below, no pixel is a hole, from hmax on every pixel is, and
+// FusedLayer decides those from bhk without reading bhole): [lo, hi) from the start of the
+// first to the end of the last chunk with a pixel of hk <= k (a hole of layer k). Every hole
+// pixel of k lies in such a chunk, so in the span, and at least one chunk (one holding hk =
+// hmin) qualifies. The first chunk for k comes no later than for k − 1 (more chunks
+// qualify), so one pass in each direction sets each layer once: a chunk sets the layers from
+// its own smallest hk up to (not including) the smallest hk of the chunks before it.
+void hole_spans(const std::uint32_t* ch, int n, std::uint32_t hk, std::uint32_t* span) {
+  const std::uint32_t hmin = hk & 255u, hmax = std::min(hk >> 8, 16u);
+  std::uint32_t s = hmax;
+  for (int c = 0; s > hmin; ++c)
+    for (; s > ch[c]; --s) span[s - 1] = static_cast<std::uint32_t>(16 * c);
+  s = hmax;
+  for (int c = (n + 15) / 16 - 1; s > hmin; --c)
+    for (; s > ch[c]; --s) span[s - 1] |= static_cast<std::uint32_t>(std::min(n, 16 * c + 16)) << 16;
 }
 
 std::atomic<std::uint64_t> g_fused_renders{0};
@@ -1465,6 +1519,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   std::uint32_t* bpres = reinterpret_cast<std::uint32_t*>(binfo.plane(0));
   std::uint32_t* bhk = reinterpret_cast<std::uint32_t*>(binfo.plane(1));
   std::uint32_t* bspan = reinterpret_cast<std::uint32_t*>(ws.image("layered.spans", 16 * nb, h, 1).plane(0));
+  std::uint32_t* bhole = reinterpret_cast<std::uint32_t*>(ws.image("layered.holes", 16 * nb, h, 1).plane(0));
   std::atomic<std::uint32_t> nonempty{0}, holes{0};
   std::atomic<bool> bail{false};
   core::parallel_for(h, [&](int y0, int y1) {
@@ -1536,9 +1591,10 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       for (int b = 0; b < nb; ++b) {
         const int x0 = b * kBlock, n = std::min(w, x0 + kBlock) - x0;
         const std::size_t i = static_cast<std::size_t>(y) * nb + b;
-        std::uint32_t cm[kBlock / 16];
-        kern::code_summary(code + base + x0, w0 + base + x0, al + x0, n, &bpres[i], &bhk[i], &ne, cm);
+        std::uint32_t cm[kBlock / 16], chk[kBlock / 16];
+        kern::code_summary(code + base + x0, w0 + base + x0, al + x0, n, &bpres[i], &bhk[i], &ne, cm, chk);
         block_spans(cm, n, bspan + 16 * i);
+        hole_spans(chk, n, bhk[i], bhole + 16 * i);
       }
     }
     if (ne) nonempty.fetch_or(ne, std::memory_order_relaxed);
@@ -1563,6 +1619,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     L.bpres = bpres;
     L.bhk = bhk;
     L.bspan = bspan;
+    L.bhole = bhole;
     L.nb = nb;
     return L;
   };

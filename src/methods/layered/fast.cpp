@@ -556,16 +556,18 @@ struct HCache {
     return v[i];
   }
   // The 2× / 4× up-sampling of all channels at fine row y (up_block's result); with
-  // plus_zero, +0 + that (see lerp_rows_z).
-  void get(int y, int n, float (*dst)[kBlock], bool plus_zero = false) {
+  // plus_zero, +0 + that (see lerp_rows_z). Written only at columns [lo, hi) of the n
+  // (the cached horizontal rows still cover all n).
+  void get(int y, int n, float (*dst)[kBlock], bool plus_zero = false) { get(y, n, 0, n, dst, plus_zero); }
+  void get(int y, int n, int lo, int hi, float (*dst)[kBlock], bool plus_zero = false) {
     int ya, yb;
     float ty;
     core::bilinear_footprint((y + 0.5f) * (factor == 4 ? 0.25f : 0.5f), img->height(), ya, yb, ty);
     float (*a)[kBlock] = row(ya, n);
     float (*b)[kBlock] = row(yb, n);
     for (int c = 0; c < 4; ++c) {
-      if (plus_zero) kern::lerp_rows_z(a[c], b[c], ty, n, dst[c]);
-      else kern::lerp_rows(a[c], b[c], ty, n, dst[c]);
+      if (plus_zero) kern::lerp_rows_z(a[c] + lo, b[c] + lo, ty, hi - lo, dst[c] + lo);
+      else kern::lerp_rows(a[c] + lo, b[c] + lo, ty, hi - lo, dst[c] + lo);
     }
   }
 };
@@ -1195,7 +1197,7 @@ struct FusedLayer {
     float up[4][kBlock];
     if (l1 && cache) {
       if (cache->img != l1 || cache->x0 != x0) cache->reset(l1, 2, x0);
-      cache->get(y, n, up);
+      cache->get(y, n, a0, a1, up);  // the fill reads up only at [a0, a1)
     } else {
       for (int c = 0; c < 4; ++c) {
         if (l1) up_block(l1->plane(c), l1->width(), l1->height(), y, x0, n, up[c]);

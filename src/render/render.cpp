@@ -110,7 +110,7 @@ void check_depth_values(const Image& depth, const std::string& what) {
 }
 
 // validate_frame; render() passes visible_depth = false and checks the visible depth's values in
-// the same pass that turns them into CoC (fill_coc_checked).
+// the same pass that turns them into CoC (fill_coc).
 void validate_frame(const Frame& frame, const std::string& src, bool visible_depth) {
   if (frame.color.empty() || frame.color.width() <= 0 || frame.color.height() <= 0)
     throw_bad_input(src + ": colour image is empty");
@@ -137,17 +137,11 @@ void validate_frame(const Frame& frame, const char* what) {
 }
 
 namespace {
-// Signed, clamped CoC of every pixel (image pixels).
-void fill_coc(const Image& depth, const CocFunction& f, Image& coc) {
-  coc.resize(depth.width(), depth.height(), 1);
-  core::parallel_for(depth.height(), [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) f.evaluate(depth.row(0, y), coc.row(0, y), depth.width());
-  }, 16);
-}
-// fill_coc that also counts the depth values validate_frame rejects, row by row while the row
-// is in cache (one parallel pass over the depth instead of a serial scan before the CoC pass),
-// and throws validate_frame's message if there are any.
-void fill_coc_checked(const Image& depth, const CocFunction& f, Image& coc, const std::string& what) {
+// Signed, clamped CoC of every pixel (image pixels). Returns how many depth values
+// validate_frame rejects (NaN, zero or negative), counted row by row while the row is in
+// cache: render() checks the visible depth in this parallel pass instead of a serial scan
+// before it.
+std::size_t fill_coc(const Image& depth, const CocFunction& f, Image& coc) {
   coc.resize(depth.width(), depth.height(), 1);
   std::atomic<std::size_t> bad{0};
   const int w = depth.width();
@@ -159,7 +153,7 @@ void fill_coc_checked(const Image& depth, const CocFunction& f, Image& coc, cons
     }
     bad.fetch_add(n, std::memory_order_relaxed);
   }, 16);
-  if (const std::size_t n = bad.load()) throw_bad_depth(depth, n, what);
+  return bad.load();
 }
 }  // namespace
 
@@ -236,7 +230,7 @@ const RenderSettings& Renderer::settings() const { return impl_->settings; }
 const RenderResult& Renderer::render(const Frame& frame_in) {
   const RenderSettings& settings = impl_->settings;
   const detail::MethodDef& method = *impl_->method;
-  validate_frame(frame_in, "frame", false);  // the depth values are checked by fill_coc_checked
+  validate_frame(frame_in, "frame", false);  // the depth values are checked by fill_coc
   RenderResult& result = impl_->result;
   const detail::Params params(method.name, settings.params);
   std::optional<detail::DebugSink> sink;
@@ -250,7 +244,7 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     const bool deferred = method.checks_colour && frame_in.layer_color.empty();
     const Frame& frame = deferred ? frame_in : detail::sanitized_frame(frame_in, impl_->sanitized);
     const CocFunction coc_of(settings.camera, frame.width());
-    fill_coc_checked(frame.depth, coc_of, result.coc, "frame: depth");
+    if (const std::size_t bad = fill_coc(frame.depth, coc_of, result.coc)) throw_bad_depth(frame.depth, bad, "frame: depth");
     result.image.resize(frame.width(), frame.height(), 4);
     sink.emplace(settings.debug_view);
     method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,

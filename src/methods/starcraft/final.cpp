@@ -284,10 +284,8 @@ void final_pass_row(const Image& color, const Image& depth, const Image& level, 
   sc.vrow.resize(static_cast<std::size_t>(g.lw) * 6);
   sc.hrow.resize(static_cast<std::size_t>(w) * 6);
   for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
-  if (sc.blocks.size() < static_cast<std::size_t>(16) * w) {
-    sc.blocks.resize(static_cast<std::size_t>(16) * w);
-    for (auto& p : sc.block_pass) std::fill(std::begin(p), std::end(p), 0);  // contents gone
-  }
+  // (A pass id is never reused, so slots filled by an earlier pass, of any width, never match.)
+  if (sc.blocks.size() < static_cast<std::size_t>(16) * w) sc.blocks.resize(static_cast<std::size_t>(16) * w);
   final_row(color, depth, level, med, med_wt, large, inv_depth, keep_own_blur, out, g, sc, y, pass);
 }
 

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <initializer_list>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -55,6 +56,25 @@ struct BenchSetup {
   }
 };
 
+/// Prints an FNV-1a checksum of the output's bits (changes that should keep the arithmetic
+/// can be checked for bit-identical output between builds) and each pass's median and
+/// minimum time.
+void report(const Image& out, std::vector<double>* t, std::initializer_list<const char*> names, const char* note) {
+  std::uint64_t fnv = 1469598103934665603ull;
+  for (float v : out.data()) {
+    std::uint32_t b;
+    std::memcpy(&b, &v, 4);
+    fnv = (fnv ^ b) * 1099511628211ull;
+  }
+  std::printf("output checksum %016llx\n", static_cast<unsigned long long>(fnv));
+  int i = 0;
+  for (const char* name : names) {
+    std::vector<double>& v = t[i++];
+    std::sort(v.begin(), v.end());
+    std::printf("%-14s median %8.2f ms  min %8.2f ms  (%s)\n", name, v[v.size() / 2], v[0], note);
+  }
+}
+
 }  // namespace
 
 TEST(McguirePassTiming, DISABLED_Demo1080p) {
@@ -86,21 +106,9 @@ TEST(McguirePassTiming, DISABLED_Demo1080p) {
       t[2].push_back(std::chrono::duration<double, std::milli>(t3 - t2).count());
     }
   });
-  // FNV-1a over the output's bits: changes that should keep the arithmetic can be checked
-  // for bit-identical output between builds.
-  std::uint64_t fnv = 1469598103934665603ull;
-  for (float v : out.data()) {
-    std::uint32_t b;
-    std::memcpy(&b, &v, 4);
-    fnv = (fnv ^ b) * 1099511628211ull;
-  }
-  std::printf("output checksum %016llx\n", static_cast<unsigned long long>(fnv));
-  const char* names[3] = {"P2 horizontal", "P3 vertical", "P4 composite"};
-  for (int i = 0; i < 3; ++i) {
-    std::sort(t[i].begin(), t[i].end());
-    std::printf("%-14s median %7.2f ms  min %7.2f ms  (%d threads, R_max %d)\n", names[i], t[i][t[i].size() / 2],
-                t[i][0], threads, k.r_max);
-  }
+  char note[64];
+  std::snprintf(note, sizeof note, "%d threads, R_max %d", threads, k.r_max);
+  report(out, t, {"P2 horizontal", "P3 vertical", "P4 composite"}, note);
 }
 
 // The same harness for variant=g3d (whose P2/P3 are blur.cpp's blur_horizontal /
@@ -144,17 +152,8 @@ TEST(McguirePassTiming, DISABLED_G3d1080p) {
       t[3].push_back(std::chrono::duration<double, std::milli>(t4 - t3).count());
     }
   });
-  std::uint64_t fnv = 1469598103934665603ull;
-  for (float v : out.data()) {
-    std::uint32_t b;
-    std::memcpy(&b, &v, 4);
-    fnv = (fnv ^ b) * 1099511628211ull;
-  }
-  std::printf("output checksum %016llx\n", static_cast<unsigned long long>(fnv));
-  const char* names[4] = {"P1 pack", "P2 horizontal", "P3 vertical", "P4 composite"};
-  for (int i = 0; i < 4; ++i) {
-    std::sort(t[i].begin(), t[i].end());
-    std::printf("%-14s median %8.2f ms  min %8.2f ms  (%d threads, R_max %d, R_near %.0f, %s)\n", names[i],
-                t[i][t[i].size() / 2], t[i][0], threads, k.r_max, k.r_near, plain ? "plain" : "fast");
-  }
+  char note[96];
+  std::snprintf(note, sizeof note, "%d threads, R_max %d, R_near %.0f, %s", threads, k.r_max, k.r_near,
+                plain ? "plain" : "fast");
+  report(out, t, {"P1 pack", "P2 horizontal", "P3 vertical", "P4 composite"}, note);
 }

@@ -109,9 +109,6 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
   return a;
 }
 
-#undef WG_LOAD8
-#undef WG_STORE8
-
 /// Per-thread strip scratch, grown on demand and kept (no allocation per frame).
 float* scratch(std::size_t floats) {
   thread_local std::vector<float> buf;
@@ -168,12 +165,31 @@ void box_row_acc(float* __restrict sum, float* __restrict fresh, const float* lo
 }
 
 /// sum = Σ rows[k] for k = 0 … n − 1, in that order (the re-synchronisation of the window).
+/// 32 columns at a time stay in registers while the n rows are added, so a column costs its
+/// n loads and one store (row by row, the partial sums would be loaded and stored again for
+/// every row: 3n memory operations; at 4K, where the medium level's window no longer fits a
+/// re-synchronisation block, that made this the biggest kernel of the level).
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void sum_rows(float* __restrict sum, const float* const* rows, int n, int nx) {
-  for (int j = 0; j < nx; ++j) sum[j] = 0.0f;
-  for (int k = 0; k < n; ++k) {
-    const float* q = rows[k];
-    for (int j = 0; j < nx; ++j) sum[j] += q[j];
+  int j = 0;
+  for (; j + 32 <= nx; j += 32) {
+    Vec8 a0 = {}, a1 = {}, a2 = {}, a3 = {};
+    for (int k = 0; k < n; ++k) {
+      const float* q = rows[k] + j;
+      a0 += WG_LOAD8(q);
+      a1 += WG_LOAD8(q + 8);
+      a2 += WG_LOAD8(q + 16);
+      a3 += WG_LOAD8(q + 24);
+    }
+    WG_STORE8(sum + j, a0);
+    WG_STORE8(sum + j + 8, a1);
+    WG_STORE8(sum + j + 16, a2);
+    WG_STORE8(sum + j + 24, a3);
+  }
+  for (; j < nx; ++j) {
+    float a = 0.0f;
+    for (int k = 0; k < n; ++k) a += rows[k][j];
+    sum[j] = a;
   }
 }
 
@@ -194,6 +210,9 @@ void normalise_row(const float* __restrict num, const float* __restrict wt, cons
     }
   }
 }
+
+#undef WG_LOAD8
+#undef WG_STORE8
 
 }  // namespace weighted_gaussian_detail
 

@@ -330,7 +330,7 @@ TEST(Sanitize, RendererDepthScanCountsEveryRowAndRecovers) {
   bad.depth.at(5, 0) = kNaN;
   bad.depth.at(6, 40) = -1.0f;
   bad.depth.at(7, 99) = 0.0f;
-  for (const char* method : {"mcguire", "starcraft"}) {
+  for (const std::string& method : method_names()) {  // every method of this build
     SCOPED_TRACE(method);
     RenderSettings s = default_settings(method);
     s.threads = 2;

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "dofkit/error.hpp"
+#include "core/clones.hpp"
 
 namespace dofkit {
 
@@ -174,7 +175,7 @@ namespace {
 #else
 #define DOFKIT_NO_TRAPPING_MATH
 #endif
-__attribute__((target_clones("avx512f", "avx2", "default"))) DOFKIT_NO_TRAPPING_MATH
+DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH
 void thin_lens_row(const float* z, float* r, int n, double k, double focus, double hi) {
   const double lo = -hi;
   for (int i = 0; i < n; ++i) {

@@ -5,11 +5,10 @@
 #include <vector>
 
 #include "core/parallel.hpp"
+#include "core/clones.hpp"
 
 namespace dofkit::core {
 
-// A named namespace, not an anonymous one: clang 14 gives the run-time dispatch resolvers of
-// target_clones functions external names.
 namespace coc_range_detail {
 
 typedef float V8 __attribute__((vector_size(32)));
@@ -48,7 +47,7 @@ __attribute__((always_inline)) inline void row_range_t(const float* __restrict r
   *near_max = ms;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
+DOFKIT_CLONES
 void row_range(const float* __restrict r, const float* __restrict alpha, int n, float* far_max, float* near_max) {
   if (alpha)
     row_range_t<true>(r, alpha, n, far_max, near_max);

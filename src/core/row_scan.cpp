@@ -1,8 +1,9 @@
 #include "core/row_scan.hpp"
+#include "core/clones.hpp"
 
 namespace dofkit::core {
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
+DOFKIT_CLONES
 bool any_positive(const float* __restrict v, int n) {
   int on = 0;
   for (int i = 0; i < n; ++i) on |= v[i] > 0.0f;

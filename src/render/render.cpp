@@ -10,6 +10,7 @@
 #include "core/parallel.hpp"
 #include "methods/method.hpp"
 #include "render/sanitize.hpp"
+#include "core/clones.hpp"
 
 namespace dofkit {
 
@@ -83,7 +84,7 @@ namespace {
 // Depth values that are NaN, zero or negative. The count is a branch-free sum so it
 // vectorises (the scan runs on every frame); the position of the first one is looked up
 // only when there is one, for the message.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+DOFKIT_CLONES
 std::size_t count_not_positive(const float* z, std::size_t n) {
   std::size_t bad = 0;
   for (std::size_t i = 0; i < n; ++i) bad += !(z[i] > 0);

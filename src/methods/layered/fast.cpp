@@ -7,6 +7,7 @@
 #include <cmath>
 #include <utility>
 
+#include "core/clones.hpp"
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
 #include "core/row_scan.hpp"
@@ -28,8 +29,7 @@ constexpr int kBlock = 256;  // columns per block of the row passes (stack buffe
 // clang (the fuzz build only) has no optimize() attribute: one build for the build's target.
 #define LAYERED_SIMD
 #else
-#define LAYERED_SIMD \
-  __attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off", "no-trapping-math")))
+#define LAYERED_SIMD DOFKIT_CLONES __attribute__((optimize("fp-contract=off", "no-trapping-math")))
 #endif
 
 namespace kern {

@@ -11,6 +11,7 @@
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
 #include "methods/starcraft/starcraft.hpp"
+#include "core/clones.hpp"
 
 namespace dofkit::detail::starcraft {
 
@@ -19,7 +20,7 @@ namespace {
 /// inv[x] = 1 / z[x] in double for x in [0, n). IEEE division is correctly rounded whatever the
 /// vector width, so the clones (4 or 8 doubles per division instead of the baseline's 2) give
 /// the same values; the divisions bound this pass.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+DOFKIT_CLONES
 void inverse_row(const float* __restrict z, double* __restrict inv, int n) {
   for (int x = 0; x < n; ++x) inv[x] = 1.0 / z[x];
 }

@@ -19,6 +19,7 @@
 #include "core/parallel.hpp"
 #include "methods/starcraft/final_simd.hpp"
 #include "methods/starcraft/starcraft.hpp"
+#include "core/clones.hpp"
 
 namespace dofkit::detail::starcraft {
 
@@ -121,14 +122,14 @@ namespace {
 /// v[i] = a[i] + (b[i] − a[i]) · t (the vertical quarter-res lerp of final_row), in clones
 /// for wider vectors than the baseline's; multiply and add stay separate (no FMA in these
 /// targets), so the values are the baseline's.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+DOFKIT_CLONES
 void vertical_lerp(const float* __restrict a, const float* __restrict b, float* __restrict v, int n, float t) {
   for (int i = 0; i < n; ++i) v[i] = a[i] + (b[i] - a[i]) * t;
 }
 
 /// 2×2 block sums of one source row pair: b[x] = ((r0[x] + r0[x+1]) + r1[x]) + r1[x+1] for
 /// x < n, the small blur's block sum in the plain pass's order (so the values are the same).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+DOFKIT_CLONES
 void block_sums(const float* __restrict r0, const float* __restrict r1, float* __restrict b, int n) {
   for (int x = 0; x < n; ++x) b[x] = ((r0[x] + r0[x + 1]) + r1[x]) + r1[x + 1];
 }

@@ -22,6 +22,7 @@
 
 #include "dofkit/image.hpp"
 #include "methods/method.hpp"
+#include "core/clones.hpp"
 #include "methods/sterna/passes.hpp"
 
 #if defined(__clang__)
@@ -29,7 +30,7 @@
 // compiled once, for the build's target, with clang's own contraction setting.
 #define STERNA_SIMD
 #else
-#define STERNA_SIMD __attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
+#define STERNA_SIMD DOFKIT_CLONES __attribute__((optimize("fp-contract=off")))
 #endif
 
 namespace dofkit::detail::sterna::fast {

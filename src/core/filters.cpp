@@ -114,57 +114,13 @@ void gaussian_blur_plain(Image& img, float sigma, int passes) {
 // (a transpose). The clamp-to-edge border becomes pad replicated samples, so the sliding
 // window loop has no branches and every lane runs the same instructions (SIMD across j).
 //
-// Precision: the window sum S_i = Σ_{|k|<=r} v_{i+k} is updated as S_{i+1} = S_i + v_{i+r+1}
-// − v_{i−r} in float. Each update adds a rounding error of at most ε·|S| (ε = 2⁻²⁴), so after
-// m updates the drift is <= m·ε·max|S|; recomputing S from scratch every kResync outputs caps
-// m, i.e. the error stays below ~kResync·ε ≈ 2e-6 of the local window magnitude (the plain
-// form's double sums are exact to that level, its float output rounding is ε).
+// The box passes themselves are strip::strip_passes (core/strip_passes.cpp), shared with
+// core/weighted_gaussian.cpp; its header comment gives their precision.
 
 namespace {
 
 constexpr int kLanes = strip::kStripLanes;
-constexpr int kResync = 32;
-
-/// Runs `passes` extended-box passes over a strip of n samples. a and b are strip buffers
-/// with `pad` >= r + 1 samples of border each side; the result ends in a.
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
-  const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
-  for (int p = 0; p < passes; ++p) {
-    float* src = a + static_cast<std::size_t>(pad) * kLanes;  // sample 0
-    float* dst = b + static_cast<std::size_t>(pad) * kLanes;
-    // Replicate the edges of the current signal into its border.
-    for (int i = 1; i <= r + 1; ++i)
-      for (int j = 0; j < kLanes; ++j) {
-        src[-i * kLanes + j] = src[j];
-        src[(n - 1 + i) * kLanes + j] = src[(n - 1) * kLanes + j];
-      }
-    float sum[kLanes];
-    for (int i0 = 0; i0 < n; i0 += kResync) {
-      for (int j = 0; j < kLanes; ++j) sum[j] = 0.0f;
-      for (int k = -r; k <= r; ++k) {
-        const float* q = src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes;
-        for (int j = 0; j < kLanes; ++j) sum[j] += q[j];
-      }
-      const int i1 = std::min(n, i0 + kResync);
-      for (int i = i0; i < i1; ++i) {
-        const float* lo = src + static_cast<std::ptrdiff_t>(i - r - 1) * kLanes;
-        const float* hi = src + static_cast<std::ptrdiff_t>(i + r + 1) * kLanes;
-        const float* out_lo = lo + kLanes;  // sample i − r
-        float* d = dst + static_cast<std::ptrdiff_t>(i) * kLanes;
-        for (int j = 0; j < kLanes; ++j) {
-          d[j] = (sum[j] + alpha * (lo[j] + hi[j])) * norm;
-          sum[j] += hi[j] - out_lo[j];
-        }
-      }
-    }
-    std::swap(a, b);
-  }
-  if (passes % 2 == 1) {  // result is in the original b: copy back into a
-    std::copy(a + static_cast<std::size_t>(pad) * kLanes, a + static_cast<std::size_t>(pad + n) * kLanes,
-              b + static_cast<std::size_t>(pad) * kLanes);
-  }
-}
+using strip::strip_passes;
 
 /// Per-thread strip scratch (two buffers), grown on demand and kept: no allocation per frame.
 float* strip_scratch(std::size_t floats) {
@@ -209,8 +165,8 @@ void extended_box_passes_x(float* data, int w, int h, int r, float alpha, int pa
       // Lanes past the last row repeat it (their results are discarded).
       for (int j = 0; j < kLanes; ++j) rows[j] = data + static_cast<std::size_t>(y0 + std::min(j, ny - 1)) * w;
       load_rows_transposed(rows, 0, w, a + static_cast<std::size_t>(pad) * kLanes);
-      strip_passes(a, b, w, pad, r, alpha, passes);
-      store_rows_transposed(a + static_cast<std::size_t>(pad) * kLanes, w, rows, ny);
+      const float* res = strip_passes(a, b, w, pad, r, alpha, passes);
+      store_rows_transposed(res + static_cast<std::size_t>(pad) * kLanes, w, rows, ny);
     }
   });
 }
@@ -232,9 +188,9 @@ void extended_box_passes_y(float* data, int w, int h, int r, float alpha, int pa
         for (int j = 0; j < nx; ++j) d[j] = src[j];
         for (int j = nx; j < kLanes; ++j) d[j] = src[nx - 1];
       }
-      strip_passes(a, b, h, pad, r, alpha, passes);
+      const float* res = strip_passes(a, b, h, pad, r, alpha, passes) + static_cast<std::size_t>(pad) * kLanes;
       for (int y = 0; y < h; ++y) {
-        const float* sp = base + static_cast<std::size_t>(y) * kLanes;
+        const float* sp = res + static_cast<std::size_t>(y) * kLanes;
         std::copy(sp, sp + nx, data + static_cast<std::size_t>(y) * w + x0);
       }
     }

@@ -9,6 +9,7 @@
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
 #include "core/strip_transpose.hpp"
+#include "core/clones.hpp"
 
 namespace dofkit::core {
 
@@ -17,97 +18,23 @@ namespace dofkit::core {
 // the signals are kLanes rows (transposed in with SSE 4×4 transposes); vertical sweep: kLanes
 // adjacent columns (plain copies). The pad holds the replicated edge sample (clamp-to-edge).
 //
-// Precision: the running window sum is float and is recomputed from scratch every kResync
-// outputs, so the drift of the updates S += v_in − v_out stays below ~kResync·2⁻²⁴ of the
-// local window magnitude; the same constants and operation order as core/filters.cpp make the
-// output identical to gaussian_blur_plane's.
+// The horizontal passes are strip::strip_passes, the very function gaussian_blur_plane runs
+// (core/strip_passes.cpp, where their precision is derived); the vertical sweeps below repeat
+// its arithmetic row by row (same sums, re-synchronised at the same kResync outputs), so the
+// output is gaussian_blur_plane's bit for bit.
 
-// A named namespace, not an anonymous one: clang 14 gives the run-time dispatch resolvers of
-// target_clones functions external names, which would clash with core/filters.cpp's
-// strip_passes.
 namespace weighted_gaussian_detail {
 
 constexpr int kLanes = strip::kStripLanes;
-constexpr int kResync = 32;
+using strip::kResync;
 constexpr int kBlock = 128;  // columns per block of the vertical sweep
 constexpr int kAhead = 4;    // rows prefetched ahead by the vertical sweep
 
-/// Eight lanes as one value (GCC/clang vector extension): the clones below keep the window sums
-/// of a strip in registers (two of these for 16 lanes) instead of re-loading and re-storing
-/// an array every step, and need no run-time alias checks between the strip buffers. Element
-/// by element the operations are the scalar ones, in the same order, so the sums are the same.
-typedef float Vec8 __attribute__((vector_size(32)));
-/// The same type at float alignment, for unaligned loads and stores through a pointer (no
-/// helper function: a vector argument or result would change the baseline clone's ABI).
-typedef float Vec8u __attribute__((vector_size(32), aligned(4), may_alias));
-static_assert(kLanes == 16, "strip_passes keeps two 8-lane vectors per step");
+using strip::Vec8;
+using strip::Vec8u;
 #define WG_LOAD8(p) (*reinterpret_cast<const Vec8u*>(p))
 #define WG_STORE8(p, v) (*reinterpret_cast<Vec8u*>(p) = (v))
-
-/// `passes` extended-box passes (radius r, end weight alpha) over a strip of n samples in a,
-/// b is a second strip buffer; both have `pad` >= r + 1 border samples. Returns the buffer
-/// holding the result (a after an even number of passes, b after an odd one: no copy back).
-__attribute__((target_clones("avx512f", "avx2", "default")))
-float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
-  const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
-  const Vec8 va = {alpha, alpha, alpha, alpha, alpha, alpha, alpha, alpha};
-  const Vec8 vn = {norm, norm, norm, norm, norm, norm, norm, norm};
-  const Vec8 zero = {};
-  for (int p = 0; p < passes; ++p) {
-    float* src = a + static_cast<std::size_t>(pad) * kLanes;
-    float* dst = b + static_cast<std::size_t>(pad) * kLanes;
-    for (int i = 1; i <= r + 1; ++i)
-      for (int j = 0; j < kLanes; ++j) {
-        src[-i * kLanes + j] = src[j];
-        src[(n - 1 + i) * kLanes + j] = src[(n - 1) * kLanes + j];
-      }
-    // The window sums are recomputed from scratch at every kResync-th output. When the
-    // window is no longer than kResync, the samples of the next fresh sum all enter the window
-    // as `hi` during the last 2r + 1 outputs of the current block, so the fresh sum is built
-    // there (from 0, in the same order) instead of re-reading them: same value, bit for bit.
-    const bool carry = 2 * r + 1 <= kResync;
-    Vec8 s0 = zero, s1 = zero, f0 = zero, f1 = zero;  // window sums / next fresh sums, lanes 0-7, 8-15
-    for (int i0 = 0; i0 < n; i0 += kResync) {
-      if (i0 == 0 || !carry) {
-        s0 = zero;
-        s1 = zero;
-        for (int k = -r; k <= r; ++k) {
-          const float* q = src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes;
-          s0 += WG_LOAD8(q);
-          s1 += WG_LOAD8(q + 8);
-        }
-      } else {
-        s0 = f0;
-        s1 = f1;
-      }
-      const int i1 = std::min(n, i0 + kResync);
-      const int acc_from = carry ? std::min(i1, i0 + kResync - 2 * r - 1) : i1;
-      const float* lo = src + static_cast<std::ptrdiff_t>(i0 - r - 1) * kLanes;  // sample i − r − 1
-      const float* hi = src + static_cast<std::ptrdiff_t>(i0 + r + 1) * kLanes;  // sample i + r + 1
-      float* d = dst + static_cast<std::ptrdiff_t>(i0) * kLanes;
-      for (int i = i0; i < acc_from; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
-        const Vec8 h0 = WG_LOAD8(hi), h1 = WG_LOAD8(hi + 8);
-        WG_STORE8(d, (s0 + va * (WG_LOAD8(lo) + h0)) * vn);
-        WG_STORE8(d + 8, (s1 + va * (WG_LOAD8(lo + 8) + h1)) * vn);
-        s0 += h0 - WG_LOAD8(lo + kLanes);  // lo + kLanes: sample i − r, leaving the window
-        s1 += h1 - WG_LOAD8(lo + kLanes + 8);
-      }
-      f0 = zero;
-      f1 = zero;
-      for (int i = acc_from; i < i1; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
-        const Vec8 h0 = WG_LOAD8(hi), h1 = WG_LOAD8(hi + 8);
-        WG_STORE8(d, (s0 + va * (WG_LOAD8(lo) + h0)) * vn);
-        WG_STORE8(d + 8, (s1 + va * (WG_LOAD8(lo + 8) + h1)) * vn);
-        s0 += h0 - WG_LOAD8(lo + kLanes);
-        s1 += h1 - WG_LOAD8(lo + kLanes + 8);
-        f0 += h0;
-        f1 += h1;
-      }
-    }
-    std::swap(a, b);
-  }
-  return a;
-}
+using strip::strip_passes;
 
 /// Per-thread strip scratch, grown on demand and kept (no allocation per frame).
 float* scratch(std::size_t floats) {
@@ -144,7 +71,7 @@ using strip::store_rows_transposed;
 
 /// One output row of one extended-box pass over nx lanes (same expression as strip_passes):
 /// out = (sum + alpha·(lo + hi))·norm, then the window slides: sum += hi − out_lo.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+DOFKIT_CLONES
 void box_row(float* __restrict sum, const float* lo, const float* hi, const float* out_lo, float* __restrict out,
              int nx, float alpha, float norm) {
   for (int j = 0; j < nx; ++j) {
@@ -154,7 +81,7 @@ void box_row(float* __restrict sum, const float* lo, const float* hi, const floa
 }
 
 /// box_row that also adds hi to `fresh` (the next re-synchronised window sum, see strip_passes).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+DOFKIT_CLONES
 void box_row_acc(float* __restrict sum, float* __restrict fresh, const float* lo, const float* hi, const float* out_lo,
                  float* __restrict out, int nx, float alpha, float norm) {
   for (int j = 0; j < nx; ++j) {
@@ -169,7 +96,7 @@ void box_row_acc(float* __restrict sum, float* __restrict fresh, const float* lo
 /// n loads and one store (row by row, the partial sums would be loaded and stored again for
 /// every row: 3n memory operations; at 4K, where the medium level's window no longer fits a
 /// re-synchronisation block, that made this the biggest kernel of the level).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+DOFKIT_CLONES
 void sum_rows(float* __restrict sum, const float* const* rows, int n, int nx) {
   int j = 0;
   for (; j + 32 <= nx; j += 32) {
@@ -195,7 +122,7 @@ void sum_rows(float* __restrict sum, const float* const* rows, int n, int nx) {
 
 /// The division of the normalised convolution for one row segment: out = num / wt where
 /// wt > tiny, else the source (no tap carried weight; read only when some pixel needs it).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+DOFKIT_CLONES
 void normalise_row(const float* __restrict num, const float* __restrict wt, const float* __restrict src,
                    float* __restrict out, int nx, float tiny) {
   int ok = 0;

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "core/parallel.hpp"
+#include "core/clones.hpp"
 
 namespace dofkit::detail {
 
@@ -30,23 +31,23 @@ inline float clean_alpha(float a) {
 
 inline bool same_bits(float a, float b) { return a == b && std::signbit(a) == std::signbit(b); }
 
-// True if a row holds a value that sanitising would change (sample_is_sanitary fails). The
-// bitwise | accumulation (no early exit) lets the loop vectorise; compiled for AVX-512F /
-// AVX2 / baseline.
-__attribute__((target_clones("avx512f", "avx2", "default")))
-bool row_has_unsanitary(const float* row, int w, bool alpha) {
-  int bad = 0;
-  for (int x = 0; x < w; ++x) bad |= !sample_is_sanitary(row[x], alpha);
-  return bad != 0;
-}
-
 // Rows are checked/copied in parallel; each chunk writes only its own rows and the change
 // count is an integer sum, so the result does not depend on the partition.
 constexpr int kGrainRows = 32;
 
 }  // namespace
 
-bool row_is_sanitary(const float* row, int n, bool alpha) { return !row_has_unsanitary(row, n, alpha); }
+// One loop over the four streams, the planes read side by side, with bitwise & accumulation
+// and no early exit so that it vectorises; compiled for AVX-512F / AVX2 / baseline.
+DOFKIT_CLONES
+bool rgba_row_is_sanitary(const float* __restrict r, const float* __restrict g, const float* __restrict b,
+                          const float* __restrict a, int n) {
+  int ok = 1;
+  for (int x = 0; x < n; ++x)
+    ok &= static_cast<int>(sample_is_sanitary(r[x], false)) & static_cast<int>(sample_is_sanitary(g[x], false)) &
+          static_cast<int>(sample_is_sanitary(b[x], false)) & static_cast<int>(sample_is_sanitary(a[x], true));
+  return ok != 0;
+}
 
 bool color_is_sanitary(const Image& rgba) {
   if (rgba.channels() != 4) return true;  // validate_frame reports the shape error
@@ -57,11 +58,8 @@ bool rect_is_sanitary(const Image& rgba, int x0, int y0, int w, int h) {
   std::atomic<bool> dirty{false};
   core::parallel_for(h, [&](int r0, int r1) {
     for (int y = y0 + r0; y < y0 + r1 && !dirty.load(std::memory_order_relaxed); ++y) {
-      // Bitwise & and | (no short-circuit branches) so the loops vectorise.
-      bool bad = false;
-      for (int c = 0; c < 3; ++c) bad |= row_has_unsanitary(rgba.row(c, y) + x0, w, false);
-      bad |= row_has_unsanitary(rgba.row(3, y) + x0, w, true);
-      if (bad) dirty.store(true, std::memory_order_relaxed);
+      if (!rgba_row_is_sanitary(rgba.row(0, y) + x0, rgba.row(1, y) + x0, rgba.row(2, y) + x0, rgba.row(3, y) + x0, w))
+        dirty.store(true, std::memory_order_relaxed);
     }
   }, kGrainRows);
   return !dirty.load();

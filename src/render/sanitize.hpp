@@ -31,8 +31,10 @@ inline bool sample_is_sanitary(float v, bool alpha) {
   return (v == 0.0f) | ((m >= kMinNormal) & (m <= kMaxColorValue));
 }
 
-/// sample_is_sanitary for n consecutive samples (vectorised).
-bool row_is_sanitary(const float* row, int n, bool alpha);
+/// sample_is_sanitary for n consecutive pixels given as their four plane rows r, g, b and
+/// alpha a (vectorised; the one row check of render()'s scan and of the methods that check
+/// the colour in their own passes).
+bool rgba_row_is_sanitary(const float* r, const float* g, const float* b, const float* a, int n);
 
 /// color_is_sanitary for the w × h rectangle at (x0, y0) of a 4-plane image.
 bool rect_is_sanitary(const Image& rgba, int x0, int y0, int w, int h);

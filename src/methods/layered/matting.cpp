@@ -53,27 +53,6 @@ MatteStats matte_layer(const Fragments& frags, const LayerPlan& plan, int k, Ima
   return s;
 }
 
-namespace {
-
-// True if some sample of the four colour rows (plane 3: alpha) fails sample_is_sanitary.
-// Bitwise accumulation without an early exit, so the loop vectorises (four streams compared
-// lane by lane); compiled for AVX-512F / AVX2 / baseline and chosen at run time.
-#if defined(__clang__)
-#define LAYERED_CHECK_CLONES
-#else
-#define LAYERED_CHECK_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
-LAYERED_CHECK_CLONES bool colour_row_bad(const float* __restrict c0, const float* __restrict c1,
-                                         const float* __restrict c2, const float* __restrict a, int n) {
-  int ok = 1;
-  for (int j = 0; j < n; ++j)
-    ok &= static_cast<int>(sample_is_sanitary(c0[j], false)) & static_cast<int>(sample_is_sanitary(c1[j], false)) &
-          static_cast<int>(sample_is_sanitary(c2[j], false)) & static_cast<int>(sample_is_sanitary(a[j], true));
-  return ok == 0;
-}
-
-}  // namespace
-
 bool coc_extremes(const Fragments& frags, double& near_px, double& far_px, bool check_colour) {
   // Row-parallel maxima, combined in row order (max is exact and order-free anyway).
   const int w = frags.width(), h = frags.height();
@@ -90,7 +69,7 @@ bool coc_extremes(const Fragments& frags, double& near_px, double& far_px, bool 
         const float* a = c.row(3, y);
         const float* r = frags.coc[fr]->row(0, y);
         core::coc_row_range(r, a, w, n, f);  // fragments with alpha > 0 only
-        if (check_colour) bad |= colour_row_bad(c.row(0, y), c.row(1, y), c.row(2, y), a, w);
+        if (check_colour) bad |= !rgba_row_is_sanitary(c.row(0, y), c.row(1, y), c.row(2, y), a, w);
       }
       row_near[y] = n;
       row_far[y] = f;

@@ -190,16 +190,15 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
 
       for (int y = chunk_begin(H, nchunk, chunk); y < chunk_begin(H, nchunk, chunk + 1); ++y) {
         // Padded source row: R copies of the first pixel, the row, R + slack copies of the last.
-        bool clean = true;
         for (int c = 0; c < 5; ++c) {
           const float* row = c < 4 ? colour.row(c, src.y + y) + src.x : coc.row(0, src.y + y) + src.x;
           std::fill_n(pad[c], R, row[0]);
           std::copy_n(row, W, pad[c] + R);
           std::fill_n(pad[c] + R + W, R + kPrepSlack, row[W - 1]);
-          // render()'s colour check, made on the copy while it is in cache.
-          if (colour_dirty && c < 4) clean &= row_is_sanitary(pad[c] + R, W, c == 3);
         }
-        if (!clean) colour_dirty->store(true, std::memory_order_relaxed);
+        // render()'s colour check, made on the copies while they are in cache.
+        if (colour_dirty && !rgba_row_is_sanitary(pad[0] + R, pad[1] + R, pad[2] + R, pad[3] + R, W))
+          colour_dirty->store(true, std::memory_order_relaxed);
         prep_row_simd(prep);
         const float* const* col = pad;
         const int cx0 = ox + R;  // padded x of output 0's centre

@@ -4,10 +4,9 @@
 #include <cmath>
 #include <vector>
 
-#include <immintrin.h>
 
 #include "core/parallel.hpp"
-#include "core/strip_transpose.hpp"
+#include "core/strip.hpp"
 
 namespace dofkit::core {
 
@@ -114,7 +113,7 @@ void gaussian_blur_plain(Image& img, float sigma, int passes) {
 // (a transpose). The clamp-to-edge border becomes pad replicated samples, so the sliding
 // window loop has no branches and every lane runs the same instructions (SIMD across j).
 //
-// The box passes themselves are strip::strip_passes (core/strip_passes.cpp), shared with
+// The box passes themselves are strip::strip_passes (core/strip.cpp), shared with
 // core/weighted_gaussian.cpp; its header comment gives their precision.
 
 namespace {
@@ -129,24 +128,7 @@ float* strip_scratch(std::size_t floats) {
   return buf.data();
 }
 
-// 4×4 transposes between row-major rows and the interleaved strip (SSE, baseline x86-64).
-inline void load_rows_transposed(const float* const* rows, int x0, int nx, float* dst) {
-  // dst[(x − x0) * kLanes + j] = rows[j][x] for x in [x0, x0 + nx).
-  int x = 0;
-  for (; x + 4 <= nx; x += 4)
-    for (int j = 0; j < kLanes; j += 4) {
-      __m128 r0 = _mm_loadu_ps(rows[j] + x0 + x), r1 = _mm_loadu_ps(rows[j + 1] + x0 + x);
-      __m128 r2 = _mm_loadu_ps(rows[j + 2] + x0 + x), r3 = _mm_loadu_ps(rows[j + 3] + x0 + x);
-      _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-      _mm_storeu_ps(dst + (x + 0) * kLanes + j, r0);
-      _mm_storeu_ps(dst + (x + 1) * kLanes + j, r1);
-      _mm_storeu_ps(dst + (x + 2) * kLanes + j, r2);
-      _mm_storeu_ps(dst + (x + 3) * kLanes + j, r3);
-    }
-  for (; x < nx; ++x)
-    for (int j = 0; j < kLanes; ++j) dst[x * kLanes + j] = rows[j][x0 + x];
-}
-
+using strip::load_rows_transposed;
 using strip::store_rows_transposed;
 
 }  // namespace
@@ -164,7 +146,7 @@ void extended_box_passes_x(float* data, int w, int h, int r, float alpha, int pa
       float* rows[kLanes];
       // Lanes past the last row repeat it (their results are discarded).
       for (int j = 0; j < kLanes; ++j) rows[j] = data + static_cast<std::size_t>(y0 + std::min(j, ny - 1)) * w;
-      load_rows_transposed(rows, 0, w, a + static_cast<std::size_t>(pad) * kLanes);
+      load_rows_transposed(rows, w, nullptr, a + static_cast<std::size_t>(pad) * kLanes);
       const float* res = strip_passes(a, b, w, pad, r, alpha, passes);
       store_rows_transposed(res + static_cast<std::size_t>(pad) * kLanes, w, rows, ny);
     }

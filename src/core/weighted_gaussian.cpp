@@ -4,11 +4,10 @@
 #include <cstddef>
 #include <vector>
 
-#include <immintrin.h>
 
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
-#include "core/strip_transpose.hpp"
+#include "core/strip.hpp"
 #include "core/clones.hpp"
 
 namespace dofkit::core {
@@ -19,7 +18,7 @@ namespace dofkit::core {
 // adjacent columns (plain copies). The pad holds the replicated edge sample (clamp-to-edge).
 //
 // The horizontal passes are strip::strip_passes, the very function gaussian_blur_plane runs
-// (core/strip_passes.cpp, where their precision is derived); the vertical sweeps below repeat
+// (core/strip.cpp, where their precision is derived); the vertical sweeps below repeat
 // its arithmetic row by row (same sums, re-synchronised at the same kResync outputs), so the
 // output is gaussian_blur_plane's bit for bit.
 
@@ -43,30 +42,7 @@ float* scratch(std::size_t floats) {
   return buf.data();
 }
 
-/// dst[x · kLanes + j] = rows[j][x] · (mul ? mul[x · kLanes + j] : 1) for x in [0, n).
-inline void load_rows_transposed(const float* const* rows, int n, const float* mul, float* dst) {
-  int x = 0;
-  for (; x + 4 <= n; x += 4)
-    for (int j = 0; j < kLanes; j += 4) {
-      __m128 r0 = _mm_loadu_ps(rows[j] + x), r1 = _mm_loadu_ps(rows[j + 1] + x);
-      __m128 r2 = _mm_loadu_ps(rows[j + 2] + x), r3 = _mm_loadu_ps(rows[j + 3] + x);
-      _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-      if (mul) {
-        r0 = _mm_mul_ps(r0, _mm_loadu_ps(mul + (x + 0) * kLanes + j));
-        r1 = _mm_mul_ps(r1, _mm_loadu_ps(mul + (x + 1) * kLanes + j));
-        r2 = _mm_mul_ps(r2, _mm_loadu_ps(mul + (x + 2) * kLanes + j));
-        r3 = _mm_mul_ps(r3, _mm_loadu_ps(mul + (x + 3) * kLanes + j));
-      }
-      _mm_storeu_ps(dst + (x + 0) * kLanes + j, r0);
-      _mm_storeu_ps(dst + (x + 1) * kLanes + j, r1);
-      _mm_storeu_ps(dst + (x + 2) * kLanes + j, r2);
-      _mm_storeu_ps(dst + (x + 3) * kLanes + j, r3);
-    }
-  for (; x < n; ++x)
-    for (int j = 0; j < kLanes; ++j)
-      dst[x * kLanes + j] = mul ? rows[j][x] * mul[x * kLanes + j] : rows[j][x];
-}
-
+using strip::load_rows_transposed;
 using strip::store_rows_transposed;
 
 /// One output row of one extended-box pass over nx lanes (same expression as strip_passes):

@@ -1,10 +1,9 @@
 // Shared by the strip filters (core/filters.cpp, core/weighted_gaussian.cpp): a strip holds
 // kStripLanes independent 1-D signals interleaved, strip[x · kStripLanes + j] = sample x of
-// signal j. The horizontal sweeps transpose rows into and out of it with SSE 4×4 transposes
-// (baseline x86-64, so no per-target copies are needed); both filters run their box passes
-// with strip_passes (core/strip_passes.cpp), so their sums are the same bit for bit.
+// signal j. The horizontal sweeps transpose rows into and out of it (load_rows_transposed,
+// store_rows_transposed) and both filters run their box passes with strip_passes, all three
+// in core/strip.cpp, so the two filters' sums are the same bit for bit.
 #pragma once
-#include <immintrin.h>
 
 namespace dofkit::core::strip {
 
@@ -31,24 +30,12 @@ typedef float Vec8u __attribute__((vector_size(32), aligned(4), may_alias));
 /// one): the caller reads it from there, no copy back.
 float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int passes);
 
+/// dst[x · kStripLanes + j] = rows[j][x] · (mul ? mul[x · kStripLanes + j] : 1) for x in
+/// [0, nx) and j in [0, kStripLanes): kStripLanes rows into a strip (each product rounded once,
+/// as a separate multiply would).
+void load_rows_transposed(const float* const* rows, int nx, const float* mul, float* dst);
+
 /// rows[j][x] = src[x · kStripLanes + j] for x in [0, nx) and the first nrows signals.
-inline void store_rows_transposed(const float* src, int nx, float* const* rows, int nrows) {
-  constexpr int L = kStripLanes;
-  int x = 0;
-  if (nrows == L) {
-    for (; x + 4 <= nx; x += 4)
-      for (int j = 0; j < L; j += 4) {
-        __m128 r0 = _mm_loadu_ps(src + (x + 0) * L + j), r1 = _mm_loadu_ps(src + (x + 1) * L + j);
-        __m128 r2 = _mm_loadu_ps(src + (x + 2) * L + j), r3 = _mm_loadu_ps(src + (x + 3) * L + j);
-        _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-        _mm_storeu_ps(rows[j] + x, r0);
-        _mm_storeu_ps(rows[j + 1] + x, r1);
-        _mm_storeu_ps(rows[j + 2] + x, r2);
-        _mm_storeu_ps(rows[j + 3] + x, r3);
-      }
-  }
-  for (; x < nx; ++x)
-    for (int j = 0; j < nrows; ++j) rows[j][x] = src[x * L + j];
-}
+void store_rows_transposed(const float* src, int nx, float* const* rows, int nrows);
 
 }  // namespace dofkit::core::strip

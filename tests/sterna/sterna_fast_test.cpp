@@ -1,8 +1,18 @@
 // The optimised sterna passes (impl=fast, the default) against the plain passes (impl=plain,
-// the oracle). The fast passes perform the same float operations in the same order per
-// output value, with FMA contraction disabled, so the outputs are expected to be identical;
-// the assertion is the issue-8 bound (1e-4, relative to max(1, |value|) since the frames are
-// HDR) and the test also reports how many samples differ at all.
+// the oracle). The assertion is the issue-8 bound (1e-4, relative to max(1, |value|) since the
+// frames are HDR); the test also reports how many samples differ at all.
+//
+// Bit identity with plain no longer holds where the CPU has FMA: the fast gather's AVX2+FMA /
+// AVX-512 kernels write the bilinear tap separably (h = a − fx·(a − b) per source row, then a
+// vertical lerp, with fused multiply-adds; fast_gather.cpp, tap_rows2) instead of plain's
+// Σ w·value with rounded products, to balance Zen 3's multiply and add pipes. The two are the
+// same real-number expression and round differently: measured worst relative difference
+// 2.9e-6 (kernel_scale=0.3), under 1e-6 in every other case here, on 18-58 % of the samples
+// of these frames (Zen 3, AVX2+FMA copy). The baseline (no FMA) kernel keeps plain's
+// arithmetic, and every other fast pass still performs plain's operations in plain's order.
+// What stays exact, and is asserted bit for bit: the output for any thread count, in a reused
+// Renderer, and the opaque-frame shortcuts of the gather against the full gather
+// (OpaqueShortcutsEqualTheFullGather).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -73,18 +83,27 @@ Diff compare(const Image& a, const Image& b) {
   return d;
 }
 
-void expect_fast_equals_plain(const Frame& f, RenderSettings s, const std::string& label) {
+// Fast within 1e-4 of plain at 1 and 2 threads, and the two fast outputs bit-identical.
+// Returns the 1-thread fast image.
+Image expect_fast_equals_plain(const Frame& f, RenderSettings s, const std::string& label) {
   s.params["impl"] = "plain";
   const RenderResult plain = render(f, s);
   s.params["impl"] = "fast";
+  Image first;
   for (int threads : {1, 2}) {
     s.threads = threads;
     const RenderResult fast = render(f, s);
     const Diff d = compare(fast.image, plain.image);
     EXPECT_LE(d.worst, 1e-4) << label << " threads=" << threads;
-    if (d.differ) std::printf("%s threads=%d: %lld samples differ, worst %.3g\n", label.c_str(), threads, d.differ, d.worst);
-    EXPECT_EQ(d.differ, 0) << label << " threads=" << threads << " (not bit-identical; worst " << d.worst << ")";
+    if (d.differ && threads == 1)
+      std::printf("%s: %lld of %zu samples differ from plain, worst %.3g\n", label.c_str(), d.differ,
+                  plain.image.data().size(), d.worst);
+    if (threads == 1)
+      first = fast.image;
+    else
+      EXPECT_EQ(compare(fast.image, first).differ, 0) << label << ": 2 threads differ from 1 thread";
   }
+  return first;
 }
 
 RenderSettings blur_at_infinity(double focus_m, double k_px, std::map<std::string, std::string> p = {}) {
@@ -120,7 +139,7 @@ TEST(SternaFast, EqualsPlainOnEveryCoveredSetting) {
 TEST(SternaFast, EqualsPlainOnOpaqueFrames) {
   // Alpha 1 everywhere: the fast gather then derives the near and far alpha planes without
   // gathering them (fast_gather.cpp); a frame whose alpha is constant but not 1 takes the
-  // near shortcut only. Both must still equal plain bit for bit.
+  // near shortcut only. Both must still equal plain within the bound.
   for (float alpha : {1.0f, 0.5f}) {
     Frame f = test_frame(203, 117);
     for (int y = 0; y < f.color.height(); ++y)
@@ -132,6 +151,45 @@ TEST(SternaFast, EqualsPlainOnOpaqueFrames) {
     for (const auto& p : std::vector<std::map<std::string, std::string>>{{}, {{"firefly", "karis"}}, {{"strength", "0.1"}}})
       expect_fast_equals_plain(f, blur_at_infinity(2.0, 9.0, p),
                                "alpha=" + std::to_string(alpha) + (p.empty() ? "" : " " + p.begin()->first));
+  }
+}
+
+TEST(SternaFast, OpaqueShortcutsEqualTheFullGather) {
+  // The shortcuts stand for gathers of the same planes, so they must reproduce them bit for
+  // bit (the near one computes the gather's sums of a constant plane, per row parity: see
+  // constant_near_body). The same frame with one alpha sample changed in the top-right corner
+  // takes neither shortcut (the checks are frame-wide) and runs the full gathers; away from
+  // that corner the two outputs must agree exactly. Rows 60.. of 117 are compared, every
+  // column: 60 px below the changed sample, beyond the reach of its kernel, dilation and fill
+  // (CoC ≤ 9 px there; a sample that did reach would fail the test, not pass it). Alphas 0.7
+  // and 0.3 make the two row parities' constant-plane sums differ (0.700000286 / 0.699999809
+  // or 0.699999988 with the FMA kernel; 1 and 0.5 come out exact in both): giving odd rows the
+  // even rows' value goes unseen (the 3×3 max fill takes the larger neighbour anyway), but
+  // giving even rows the odd rows' value changes ~3300-3900 samples and fails this test.
+  for (float alpha : {1.0f, 0.5f, 0.7f, 0.3f}) {
+    Frame f = test_frame(203, 117);
+    for (int y = 0; y < f.color.height(); ++y)
+      for (int x = 0; x < f.color.width(); ++x) {
+        const float a = f.color.at(x, y, 3);
+        for (int c = 0; c < 3; ++c) f.color.at(x, y, c) *= alpha / a;
+        f.color.at(x, y, 3) = alpha;
+      }
+    Frame g = f;
+    const int cx = f.color.width() - 1;
+    for (int c = 0; c < 4; ++c) g.color.at(cx, 0, c) *= 0.5f;  // premultiplied: scale all four
+    for (const auto& p : std::vector<std::map<std::string, std::string>>{{}, {{"firefly", "karis"}}, {{"kernel_scale", "0.3"}}}) {
+      const std::string label = "alpha=" + std::to_string(alpha) + (p.empty() ? "" : " " + p.begin()->first);
+      RenderSettings s = blur_at_infinity(2.0, 9.0, p);
+      const Image with = expect_fast_equals_plain(f, s, label + " (shortcuts)");
+      const Image without = expect_fast_equals_plain(g, s, label + " (full gather)");
+      long long differ = 0, far_differ = 0;
+      for (int y = 0; y < with.height(); ++y)
+        for (int x = 0; x < with.width(); ++x)
+          for (int c = 0; c < 4; ++c)
+            if (with.at(x, y, c) != without.at(x, y, c)) (y >= 60 ? far_differ : differ)++;
+      EXPECT_EQ(far_differ, 0) << label;
+      EXPECT_GT(differ, 0) << label << ": the changed sample must change its neighbourhood";
+    }
   }
 }
 
@@ -158,14 +216,13 @@ TEST(SternaFast, EqualsPlainWithManyTasks) {
   for (const auto& [w, h] : std::vector<std::pair<int, int>>{{203, 117}, {40, 301}}) {
     const Frame f = test_frame(w, h);
     RenderSettings s = blur_at_infinity(2.0, 9.0);
-    s.params["impl"] = "plain";
-    const RenderResult plain = render(f, s);
-    s.params["impl"] = "fast";
+    // (Bit for bit against the 1-thread fast render, within 1e-4 of plain: see the top.)
+    const Image one = expect_fast_equals_plain(f, s, std::to_string(w) + "x" + std::to_string(h));
     for (int threads : {3, 7}) {
       s.threads = threads;
       Renderer r(s);
       for (int k = 0; k < 2; ++k) {  // second frame: buffers hold the first frame's rows
-        const Diff d = compare(r.render(f).image, plain.image);
+        const Diff d = compare(r.render(f).image, one);
         EXPECT_EQ(d.differ, 0) << w << "x" << h << " threads=" << threads << " frame " << k;
       }
     }
@@ -174,16 +231,17 @@ TEST(SternaFast, EqualsPlainWithManyTasks) {
 
 TEST(SternaFast, RepeatedFramesOfChangingSizeReuseTheWorkspaceCorrectly) {
   // A Renderer keeps its buffers: frames of different sizes and kernels in one renderer must
-  // each equal a fresh plain render (stale contents must never leak into a result).
+  // each equal a fresh render bit for bit (stale contents must never leak into a result),
+  // and plain within the bound.
   RenderSettings s = blur_at_infinity(2.0, 9.0);
   Renderer r(s);
   for (const auto& [w, h] : std::vector<std::pair<int, int>>{{120, 70}, {97, 63}, {120, 70}, {40, 200}}) {
     const Frame f = test_frame(w, h);
     const Image fast = r.render(f).image;
+    EXPECT_EQ(compare(fast, render(f, s).image).differ, 0) << w << "x" << h;
     RenderSettings sp = s;
     sp.params["impl"] = "plain";
-    const Diff d = compare(fast, render(f, sp).image);
-    EXPECT_EQ(d.differ, 0) << w << "x" << h;
+    EXPECT_LE(compare(fast, render(f, sp).image).worst, 1e-4) << w << "x" << h;
   }
 }
 

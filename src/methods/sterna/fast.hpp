@@ -1,7 +1,10 @@
 // The optimised form of the sterna passes (impl=fast, the default). The plain passes
 // (coc.cpp … composite.cpp) stay as the test oracle; every fast pass performs the same
-// floating-point operations in the same order per output value, so the two agree bit for bit
-// (tests/sterna/sterna_fast_test.cpp). What changes is only the organisation:
+// floating-point operations in the same order per output value — except the gather's tap
+// sums on CPUs with FMA (fast_gather.cpp: a separable form with fused multiply-adds that
+// balances the multiply and add pipes), so the two agree bit for bit on a CPU without FMA
+// and to ~3e-6 relative on one with it (tests/sterna/sterna_fast_test.cpp). Otherwise what
+// changes is only the organisation:
 //   * no full-resolution near/far planes: the blend factors are recomputed from the CoC (or z)
 //     row wherever they are needed (a few flops instead of 16 MB of traffic at 1080p);
 //   * the downsample writes straight into the edge-padded planes the gather reads;
@@ -13,7 +16,8 @@
 //   * buffers come from ctx.workspace (no allocation per frame in steady state);
 //   * hot row functions are compiled for AVX-512 / AVX2 / baseline with runtime dispatch
 //     (GCC target_clones). Floating-point contraction is disabled in them so an FMA never
-//     merges a multiply and an add that the plain code rounds separately.
+//     merges a multiply and an add that the plain code rounds separately (the gather's FMA
+//     kernels write their fused operations explicitly).
 // Settings the fast path does not cover (per_pixel_scale=on, near_upsample=bicubic, debug
 // views) run the plain passes.
 #pragma once

@@ -1,4 +1,6 @@
-// Fast P7: the 49-tap gather, register-blocked. Same sums as gather.cpp, same order.
+// Fast P7: the 49-tap gather, register-blocked. Same sums as gather.cpp, same order, in the
+// baseline copy; the FMA copies (the usual case) write each bilinear tap separably and agree
+// with gather.cpp to rounding (see tap_rows2).
 //
 // gather.cpp accumulates tap by tap into row-length arrays: per tap and channel it loads
 // 4 source values, the accumulator, and stores the accumulator back. Here a segment of 32
@@ -37,11 +39,14 @@ static_assert(kTile == 8, "one tile row is one 8-lane chunk");
 struct Tap {
   std::ptrdiff_t off;        // dy·pitch + dx, floats
   float w00, w10, w01, w11;  // bilinear weights (gather.cpp split())
+  float fx, fy;              // fractional parts of the offset, [0, 1)
 };
 
-// A tap with its weights already broadcast to vectors (loaded, not rebuilt, per tap).
+// A tap with its weights already broadcast to vectors (loaded, not rebuilt, per tap): the
+// four bilinear weights for the baseline kernel, fx, fy and 1 − fy for the FMA kernel.
 struct alignas(32) TapV {
   V8 w00, w10, w01, w11;
+  V8 fx, fy, gy;
   std::ptrdiff_t off;
 };
 
@@ -49,53 +54,174 @@ struct alignas(32) TapV {
 Tap split(float ox, float oy, int pitch) {
   const float fx0 = std::floor(ox), fy0 = std::floor(oy);
   const float fx = ox - fx0, fy = oy - fy0;
-  return {static_cast<std::ptrdiff_t>(fy0) * pitch + static_cast<std::ptrdiff_t>(fx0), (1 - fx) * (1 - fy),
-          fx * (1 - fy), (1 - fx) * fy, fx * fy};
+  return {static_cast<std::ptrdiff_t>(fy0) * pitch + static_cast<std::ptrdiff_t>(fx0),
+          (1 - fx) * (1 - fy),
+          fx * (1 - fy),
+          (1 - fx) * fy,
+          fx * fy,
+          fx,
+          fy};
 }
 
 constexpr int kSeg = kStripTiles * kTile;  // texels per segment = strip width (32)
 constexpr int kVecs = kSeg / 8;
 
+// Two ways to sum one bilinear tap, chosen per compiled copy (kFma):
+//
+// * baseline (kFma false): gather.cpp's own sum w00·a + w10·b + w01·c + w11·d with the
+//   weights w00 = (1−fx)(1−fy) …, rounded after every operation — bit-identical to impl=plain.
+//   Per tap and pair of output vectors (rows y, y+1 share the middle source row): 6 loads,
+//   8 multiplies, 8 adds. Zen 3 runs multiplies/FMAs on two pipes (FP0/1) and adds on two
+//   others (FP2/3), so both pairs are busy 4 cycles while the loads need 3.
+//
+// * FMA (AVX2+FMA / AVX-512 copies): the same bilinear value written separably. With the tap's
+//   source rows k = 0, 1, 2 (a_k at x, b_k at x+1),
+//     h_k = a_k − fx·(a_k − b_k)                 (horizontal lerp: 1 sub + 1 FNMA each)
+//   row y    += h_0 + fy·(h_1 − h_0)             (sub, FMA, add)
+//   row y+1   = (1−fy)·h_1 + (fy·h_2 + row y+1)  (2 FMAs, the accumulator inside)
+//   Both expand to Σ (1−fx)(1−fy)a + … exactly in real arithmetic; only the rounding differs.
+//   (a − fx·(a − b) rounds exactly as a + fx·(b − a) — negation is exact — but a − b lets the
+//   b load be the sub's memory operand: 14 instructions per vector pair instead of 17.)
+//   Count: 5 ops on FP2/3 (4 subs, 1 add) and 6 on FP0/1 (FMAs) — 3 cycles, as the 6 loads.
+//   The two output rows use different forms (row y: 7 add-pipe/5 FMA-pipe ops if both used
+//   the first, the reverse with the second), so a row's sum depends on its parity; the last
+//   row of an odd-height frame (gather_seg) is an even row and uses the row-y form.
+//   The relative rounding of h_0 + fy·(h_1 − h_0) is no longer bounded by that of a sum of
+//   non-negative terms (the difference can cancel), but it stays of the order of one ulp of
+//   the larger source value: tests/sterna/sterna_fast_test.cpp measures the distance to
+//   impl=plain (worst 2.9e-6 relative).
+//   Measured (round 5, 1080p bench frame, 1 thread): the gather's own samples (perf) −3..−6 %,
+//   the frame −2.9..−3.6 % min-of-min. Less than the 4 → 3 cycle model says: the loop is not
+//   bound by the FP pipes alone — about 7/16 of these unaligned 32-byte loads cross a 64-byte
+//   line (two load slots each), and only ~70 % of the gather's time is in the tap loops.
+
+// a·b + c rounded once (vfmadd231: c ← a·b + c). Written as asm rather than the intrinsic:
+// the intrinsic's wrapper does not inline into these target-less helpers, and GCC does not
+// declare its builtin outside FMA code. The asm is only ever reached from the FMA copies,
+// and the compiler cannot contract, split or reorder it (no fp-contract setting involved).
+template <bool kFma, class T>
+__attribute__((always_inline)) inline T fmadd(T a, T b, T c) {
+  static_assert(kFma, "only the FMA kernels fuse");
+#if !defined(__clang__)
+  if constexpr (sizeof(T) == 32)
+    __asm__("vfmadd231ps %2, %1, %0" : "+x"(c) : "x"(a), "x"(b));
+  else
+    __asm__("vfmadd231ss %2, %1, %0" : "+x"(c) : "x"(a), "x"(b));
+  return c;
+#else
+  return a * b + c;  // (never instantiated: clang builds only the baseline kernel)
+#endif
+}
+
+// c − a·b rounded once (vfnmadd231: c ← −(a·b) + c).
+template <bool kFma, class T>
+__attribute__((always_inline)) inline T fnmadd(T a, T b, T c) {
+  static_assert(kFma, "only the FMA kernels fuse");
+#if !defined(__clang__)
+  if constexpr (sizeof(T) == 32)
+    __asm__("vfnmadd231ps %2, %1, %0" : "+x"(c) : "x"(a), "x"(b));
+  else
+    __asm__("vfnmadd231ss %2, %1, %0" : "+x"(c) : "x"(a), "x"(b));
+  return c;
+#else
+  return c - a * b;  // (never instantiated, as fmadd)
+#endif
+}
+
+// One tap for one output row from source rows (a0, b0) above and (a1, b1) below.
+template <bool kFma, class T>
+__attribute__((always_inline)) inline T tap_row0(T acc, T a0, T b0, T a1, T b1, T w00, T w10, T w01, T w11, T fx,
+                                                  T fy) {
+  if constexpr (kFma) {
+    const T h0 = fnmadd<true>(fx, a0 - b0, a0), h1 = fnmadd<true>(fx, a1 - b1, a1);
+    return acc + fmadd<true>(fy, h1 - h0, h0);
+  } else {
+    (void)fx, (void)fy;
+    return acc + (w00 * a0 + w10 * b0 + w01 * a1 + w11 * b1);
+  }
+}
+
+// One tap for output rows y (acc0: source rows 0, 1) and y + 1 (acc1: source rows 1, 2).
+template <bool kFma, class T>
+__attribute__((always_inline)) inline void tap_rows2(T& acc0, T& acc1, T a0, T b0, T a1, T b1, T a2, T b2,
+                                                     const TapV& tp) {
+  if constexpr (kFma) {
+    const T fx = tp.fx, fy = tp.fy, gy = tp.gy;
+    const T h0 = fnmadd<true>(fx, a0 - b0, a0), h1 = fnmadd<true>(fx, a1 - b1, a1),
+            h2 = fnmadd<true>(fx, a2 - b2, a2);
+    acc0 = acc0 + fmadd<true>(fy, h1 - h0, h0);
+    acc1 = fmadd<true>(gy, h1, fmadd<true>(fy, h2, acc1));
+  } else {
+    const T w00 = tp.w00, w10 = tp.w10, w01 = tp.w01, w11 = tp.w11;
+    acc0 += w00 * a0 + w10 * b0 + w01 * a1 + w11 * b1;
+    acc1 += w00 * a1 + w10 * b1 + w01 * a2 + w11 * b2;
+  }
+}
+
 // Σ_taps bilinear(src) for the kSeg texels starting at `base` (one channel), into acc.
+template <bool kFma>
 __attribute__((always_inline)) inline void gather_seg(const float* base, const TapV* taps, int ntaps,
                                                       std::ptrdiff_t pitch, V8* acc) {
   for (int v = 0; v < kVecs; ++v) acc[v] = splat(0.0f);
   for (int t = 0; t < ntaps; ++t) {
-    const V8 w00 = taps[t].w00, w10 = taps[t].w10, w01 = taps[t].w01, w11 = taps[t].w11;
-    const float* r0 = base + taps[t].off;
+    const TapV& tp = taps[t];
+    const float* r0 = base + tp.off;
     const float* r1 = r0 + pitch;
     for (int v = 0; v < kVecs; ++v)
-      acc[v] += w00 * load8(r0 + 8 * v) + w10 * load8(r0 + 8 * v + 1) + w01 * load8(r1 + 8 * v) +
-                w11 * load8(r1 + 8 * v + 1);
+      acc[v] = tap_row0<kFma>(acc[v], load8(r0 + 8 * v), load8(r0 + 8 * v + 1), load8(r1 + 8 * v),
+                              load8(r1 + 8 * v + 1), tp.w00, tp.w10, tp.w01, tp.w11, tp.fx, tp.fy);
   }
 }
 
 // gather_seg for rows y (acc0) and y + 1 (acc1) at once: a tap's second source row for y is
-// its first for y + 1, so 6 loads serve two output vectors instead of 8. Each sum has the
-// operations and order of gather_seg.
+// its first for y + 1, so 6 loads serve two output vectors instead of 8.
 //
-// kPin: left to itself GCC folds each shared load (c, d) into both multiplies that use it, so
-// the loop issues 8 loads per vector again. An empty asm that "modifies" c and d in a vector
-// register pins them there (6 loads). It needs a 32-byte vector register, so only the AVX2 /
+// kPin: left to itself GCC folds a load used twice into both operations that use it (the
+// baseline: a1, d feed both rows' sums; FMA: each a_k feeds its sub and its FMA), so the loop
+// issues 8 loads per vector again. An empty asm that "modifies" them in a vector register
+// pins them there (6 loads). It needs a 32-byte vector register, so only the AVX2 /
 // AVX-512 copies use it (round 4: gather 19.2–19.9 → 17.8–19.1 ms CPU per 1080p frame).
-template <bool kPin>
+template <bool kPin, bool kFma>
 __attribute__((always_inline)) inline void gather_seg2(const float* base, const TapV* taps, int ntaps,
                                                        std::ptrdiff_t pitch, V8* acc0, V8* acc1) {
   for (int v = 0; v < kVecs; ++v) acc0[v] = acc1[v] = splat(0.0f);
   for (int t = 0; t < ntaps; ++t) {
-    const V8 w00 = taps[t].w00, w10 = taps[t].w10, w01 = taps[t].w01, w11 = taps[t].w11;
-    const float* r0 = base + taps[t].off;
+    const TapV& tp = taps[t];
+    const float* r0 = base + tp.off;
     const float* r1 = r0 + pitch;
     const float* r2 = r1 + pitch;
     for (int v = 0; v < kVecs; ++v) {
-      V8 c = load8(r1 + 8 * v), d = load8(r1 + 8 * v + 1);
+      V8 a0 = load8(r0 + 8 * v), a1 = load8(r1 + 8 * v), d = load8(r1 + 8 * v + 1), a2 = load8(r2 + 8 * v);
 #if !defined(__clang__)  // (clang checks the constraint even where kPin is false)
-      if constexpr (kPin) __asm__("" : "+x"(c), "+x"(d));
+      if constexpr (kPin && kFma) __asm__("" : "+x"(a0), "+x"(a1), "+x"(a2));  // a_k: sub and FMA
+      if constexpr (kPin && !kFma) __asm__("" : "+x"(a1), "+x"(d));           // row 1: both sums
 #endif
-      acc0[v] += w00 * load8(r0 + 8 * v) + w10 * load8(r0 + 8 * v + 1) + w01 * c + w11 * d;
-      acc1[v] += w00 * c + w10 * d + w01 * load8(r2 + 8 * v) + w11 * load8(r2 + 8 * v + 1);
+      tap_rows2<kFma>(acc0[v], acc1[v], a0, load8(r0 + 8 * v + 1), a1, d, a2, load8(r2 + 8 * v + 1), tp);
     }
   }
+}
+
+// The near gather of a plane that holds v everywhere, for an even (parity 0) or odd output
+// row: the operations of gather_seg2 / gather_seg for one lane, in scalar arithmetic (which
+// rounds exactly as the vector lanes do). With the FMA kernel h_k = v + fx·0 = v, but the
+// two row forms still round differently, so the value depends on the row's parity.
+template <bool kFma>
+__attribute__((always_inline)) inline float constant_near_body(const TapV* taps, int ntaps, float v, float inv_taps,
+                                                              int parity) {
+  float acc0 = 0.0f, acc1 = 0.0f;
+  for (int t = 0; t < ntaps; ++t) {
+    const TapV& tp = taps[t];
+    if constexpr (kFma) {
+      const float fx = tp.fx[0], fy = tp.fy[0], gy = tp.gy[0];
+      const float h = fnmadd<true>(fx, v - v, v);
+      acc0 = acc0 + fmadd<true>(fy, h - h, h);
+      acc1 = fmadd<true>(gy, h, fmadd<true>(fy, h, acc1));
+    } else {
+      acc0 += tp.w00[0] * v + tp.w10[0] * v + tp.w01[0] * v + tp.w11[0] * v;
+      acc1 = acc0;
+    }
+  }
+  return (parity ? acc1 : acc0) * inv_taps;
 }
 
 struct Job {
@@ -104,9 +230,9 @@ struct Job {
   int ntaps;
   float inv_taps;
   // Opaque-frame shortcuts (see gather()): colour_h alpha is this one value everywhere, so its
-  // near gather is the same number at every texel (near_alpha, computed once) ...
+  // near gather is one number per row parity (near_alpha[y % 2], computed once) ...
   bool near_alpha_const;
-  float near_alpha;
+  float near_alpha[2];
   // ... and colourFar_h alpha equals far_h bit for bit, so its far gather is the denominator's.
   bool far_alpha_is_den;
   // Prefetch: the row that output row y + kAhead will be the first to read (its last tap row,
@@ -158,7 +284,7 @@ __attribute__((always_inline)) inline void store_seg(float* row, int x0, int n, 
 // One segment of kSeg texels (tiles [tx0, tx1)) over all rows: channel by channel, rows
 // inner, so the source rows one channel's taps read (≈ 2·reach + 2 rows × a few cache lines)
 // stay in L1 while the segment walks down.
-template <bool kPin>
+template <bool kPin, bool kFma>
 __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int tx0, int tx1, float* inv_den) {
   const Buffers& b = *job.b;
   const int h = b.h;
@@ -176,9 +302,9 @@ __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int
     prefetch_ahead(job, base, y, h, pitch);
     if (y + 1 < h) {
       prefetch_ahead(job, base + pitch, y + 1, h, pitch);
-      gather_seg2<kPin>(base, job.taps, job.ntaps, pitch, acc[0], acc[1]);
+      gather_seg2<kPin, kFma>(base, job.taps, job.ntaps, pitch, acc[0], acc[1]);
     } else {
-      gather_seg(base, job.taps, job.ntaps, pitch, acc[0]);
+      gather_seg<kFma>(base, job.taps, job.ntaps, pitch, acc[0]);
     }
   };
   // Near field: (1/49) Σ colour_h where nearBlur_h > 0, else colour_h.
@@ -193,7 +319,7 @@ __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int
           V8 nbv[kVecs];
           load_seg(b.near_blur->row(0, y + r), x0, n, nbv);
           for (int v = 0; v < kVecs; ++v) {
-            const V8 g = gathered ? acc[r][v] * inv_taps : splat(job.near_alpha);
+            const V8 g = gathered ? acc[r][v] * inv_taps : splat(job.near_alpha[r]);
             res[v] = nbv[v] > zero ? g : load8(base + 8 * v);
           }
         } else {
@@ -242,28 +368,47 @@ __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int
     }
 }
 
-// gather_strip_body compiled for AVX-512, AVX2 and the baseline, chosen at run time (as
-// target_clones would, which cannot be used here: the pinned loads exist only in the AVX
-// copies). Contraction stays off in all three.
+// gather_strip_body (and the constant-plane sums that must match it) compiled for AVX-512,
+// AVX2+FMA and the baseline, chosen at run time (as target_clones would, which cannot be used
+// here: the pinned loads exist only in the AVX copies, and the choice of the strip kernel and
+// of constant_near must be the same one). Contraction stays off in all three: the FMA copies
+// fuse exactly the operations written with fmadd, nothing else.
+struct Kernels {
+  void (*strip)(const Job& job, int tx0, int tx1, float* inv_den);
+  float (*constant_near)(const TapV* taps, int ntaps, float v, float inv_taps, int parity);
+};
 #if defined(__clang__)
-void gather_strip(const Job& job, int tx0, int tx1, float* inv_den) { gather_strip_body<false>(job, tx0, tx1, inv_den); }
+void gather_strip_base(const Job& job, int tx0, int tx1, float* inv_den) {
+  gather_strip_body<false, false>(job, tx0, tx1, inv_den);
+}
+float constant_near_base(const TapV* taps, int ntaps, float v, float inv_taps, int parity) {
+  return constant_near_body<false>(taps, ntaps, v, inv_taps, parity);
+}
+const Kernels& kernels() {
+  static const Kernels k{gather_strip_base, constant_near_base};
+  return k;
+}
 #else
-__attribute__((target("avx512f"), optimize("fp-contract=off"))) void gather_strip_avx512(const Job& job, int tx0,
-                                                                                          int tx1, float* inv_den) {
-  gather_strip_body<true>(job, tx0, tx1, inv_den);
-}
-__attribute__((target("avx2"), optimize("fp-contract=off"))) void gather_strip_avx2(const Job& job, int tx0, int tx1,
-                                                                                     float* inv_den) {
-  gather_strip_body<true>(job, tx0, tx1, inv_den);
-}
-__attribute__((optimize("fp-contract=off"))) void gather_strip_base(const Job& job, int tx0, int tx1, float* inv_den) {
-  gather_strip_body<false>(job, tx0, tx1, inv_den);
-}
-void gather_strip(const Job& job, int tx0, int tx1, float* inv_den) {
-  static const auto fn = __builtin_cpu_supports("avx512f") ? gather_strip_avx512
-                         : __builtin_cpu_supports("avx2") ? gather_strip_avx2
-                                                          : gather_strip_base;
-  fn(job, tx0, tx1, inv_den);
+#define STERNA_GATHER_COPY(suffix, attrs, pin, fma)                                                                 \
+  __attribute__((attrs, optimize("fp-contract=off"))) void gather_strip_##suffix(const Job& job, int tx0, int tx1,  \
+                                                                                 float* inv_den) {                  \
+    gather_strip_body<pin, fma>(job, tx0, tx1, inv_den);                                                            \
+  }                                                                                                                 \
+  __attribute__((attrs, optimize("fp-contract=off"))) float constant_near_##suffix(const TapV* taps, int ntaps,     \
+                                                                                   float v, float inv_taps,         \
+                                                                                   int parity) {                    \
+    return constant_near_body<fma>(taps, ntaps, v, inv_taps, parity);                                               \
+  }
+STERNA_GATHER_COPY(avx512, target("avx512f,fma"), true, true)
+STERNA_GATHER_COPY(avx2, target("avx2,fma"), true, true)
+STERNA_GATHER_COPY(base, used, false, false)  // (`used`: a no-op attribute, the macro wants one)
+#undef STERNA_GATHER_COPY
+const Kernels& kernels() {
+  static const Kernels k = !__builtin_cpu_supports("fma")    ? Kernels{gather_strip_base, constant_near_base}
+                           : __builtin_cpu_supports("avx512f") ? Kernels{gather_strip_avx512, constant_near_avx512}
+                           : __builtin_cpu_supports("avx2")    ? Kernels{gather_strip_avx2, constant_near_avx2}
+                                                               : Kernels{gather_strip_base, constant_near_base};
+  return k;
 }
 #endif
 
@@ -282,13 +427,6 @@ STERNA_SIMD bool rows_equal(const float* __restrict a, const float* __restrict b
     ok &= u == v;
   }
   return ok;
-}
-
-// The near gather of a plane that holds v everywhere: the sums of gather_seg for one lane.
-STERNA_SIMD float constant_near(const TapV* taps, int ntaps, float v, float inv_taps) {
-  float acc = 0.0f;
-  for (int t = 0; t < ntaps; ++t) acc += taps[t].w00[0] * v + taps[t].w10[0] * v + taps[t].w01[0] * v + taps[t].w11[0] * v;
-  return acc * inv_taps;
 }
 
 STERNA_SIMD void classify_row(const float* __restrict nb, const float* __restrict fr, std::uint8_t* tiles, int w) {
@@ -343,7 +481,7 @@ void gather(const Settings& s, Buffers& b) {
   for (int t = 0; t < ntaps; ++t) {
     const float ox = s.offsets[t].x * s.kernel_scale, oy = s.offsets[t].y * s.kernel_scale;
     const Tap tp = split(ox, oy, pitch);
-    taps[t] = {splat(tp.w00), splat(tp.w10), splat(tp.w01), splat(tp.w11), tp.off};
+    taps[t] = {splat(tp.w00), splat(tp.w10), splat(tp.w01), splat(tp.w11), splat(tp.fx), splat(tp.fy), splat(1 - tp.fy), tp.off};
     dx_min = std::min(dx_min, static_cast<int>(std::floor(ox)));
     dx_max = std::max(dx_max, static_cast<int>(std::floor(ox)) + 1);
     dy_max = std::max(dy_max, static_cast<int>(std::floor(oy)) + 1);
@@ -355,17 +493,24 @@ void gather(const Settings& s, Buffers& b) {
   // alpha gather of a constant plane gives one value everywhere, and the far alpha gather is
   // the denominator's sum, so alpha_far = den · (1/den). Both are the very operations of the
   // full gather on the same inputs, so the output stays bit-identical; the checks are exact
-  // (==, bit patterns) and any frame that fails them takes the full gather.
+  // (==, bit patterns) and any frame that fails them takes the full gather. (Bit-identical to
+  // the full gather, that is; with the FMA kernel that differs from plain by rounding.)
+  // (With the FMA kernel the near alpha of a constant plane differs between even and odd rows
+  // by rounding — see tap_rows2 — so it is computed once per parity, by the same compiled
+  // copy as the gather it stands for.)
+  const Kernels& kern = kernels();
   const bool near_alpha_const = (alpha_bits & 1) != 0;
-  const Job job{&b,      taps, ntaps, inv_taps, near_alpha_const,
-                near_alpha_const ? constant_near(taps, ntaps, a0, inv_taps) : 0.0f, (alpha_bits & 2) != 0,
-                dy_max, dx_min, dx_max - dx_min + kSeg + 8};
+  Job job{&b, taps, ntaps, inv_taps, near_alpha_const, {0.0f, 0.0f}, (alpha_bits & 2) != 0,
+          dy_max, dx_min, dx_max - dx_min + kSeg + 8};
+  if (near_alpha_const)
+    for (int parity = 0; parity < 2; ++parity)
+      job.near_alpha[parity] = kern.constant_near(taps, ntaps, a0, inv_taps, parity);
   const int strips = (b.tiles_x + kStripTiles - 1) / kStripTiles;
   core::parallel_for(strips, [&](int s0, int s1) {
     thread_local std::vector<float> inv_den;  // 1/Σ far_h of one strip, h × kSeg
     if (inv_den.size() < static_cast<std::size_t>(h) * kSeg) inv_den.resize(static_cast<std::size_t>(h) * kSeg);
     for (int st = s0; st < s1; ++st)
-      gather_strip(job, st * kStripTiles, std::min(b.tiles_x, (st + 1) * kStripTiles), inv_den.data());
+      kern.strip(job, st * kStripTiles, std::min(b.tiles_x, (st + 1) * kStripTiles), inv_den.data());
   });
 }
 

@@ -93,7 +93,10 @@ constexpr int kVecs = kSeg / 8;
 //   Measured (round 5, 1080p bench frame, 1 thread): the gather's own samples (perf) −3..−6 %,
 //   the frame −2.9..−3.6 % min-of-min. Less than the 4 → 3 cycle model says: the loop is not
 //   bound by the FP pipes alone — about 7/16 of these unaligned 32-byte loads cross a 64-byte
-//   line (two load slots each), and only ~70 % of the gather's time is in the tap loops.
+//   line (two load slots each), and only ~70 % of the gather's time is in the tap loops. So
+//   the FMA copies also take four rows per pass (gather_seg4: 2.5 loads per output vector
+//   instead of 3): gather ≈ 17.5 → 16.0 ms CPU per frame (perf samples, old → now), frame
+//   −4.8 % min-of-min at 1 thread, −4.9 % at 2.
 
 // a·b + c rounded once (vfmadd231: c ← a·b + c). Written as asm rather than the intrinsic:
 // the intrinsic's wrapper does not inline into these target-less helpers, and GCC does not
@@ -201,6 +204,51 @@ __attribute__((always_inline)) inline void gather_seg2(const float* base, const 
   }
 }
 
+// gather_seg2 for rows y .. y + 3 (FMA kernel only): the four rows read source rows 0 .. 4,
+// so 10 loads serve four output vectors (2.5 each instead of 3). Rows y, y + 2 use the even
+// form and y + 1, y + 3 the odd form of tap_rows2, with the same operations in the same tap
+// order, so the sums are bit-identical to two gather_seg2 calls (checked when written: the
+// `dofkit render` EXR pixel data of two scenes at 641×361/363/365, 1 and 2 threads, equal to
+// the two-row version's). Per tap and output vector: 2.5 loads, 2.75 FMAs, 2.25 subs/adds
+// (h_2 serves both pairs). Sixteen accumulators do not fit the 16 AVX2 registers with the
+// weights, so the segment is done in two halves of kVecs / 2 vectors (8 accumulators,
+// fx/fy/1−fy, temporaries). kPin keeps each a_k (sub and FNMA) in a register, as gather_seg2.
+template <bool kPin>
+__attribute__((always_inline)) inline void gather_seg4(const float* base, const TapV* taps, int ntaps,
+                                                       std::ptrdiff_t pitch, V8 (*acc)[kVecs]) {
+  constexpr int kHalf = kVecs / 2;
+  for (int half = 0; half < 2; ++half) {
+    V8 a[4][kHalf];
+    for (int r = 0; r < 4; ++r)
+      for (int v = 0; v < kHalf; ++v) a[r][v] = splat(0.0f);
+    const float* b0 = base + 8 * kHalf * half;
+    for (int t = 0; t < ntaps; ++t) {
+      const TapV& tp = taps[t];
+      const float* r0 = b0 + tp.off;
+      for (int v = 0; v < kHalf; ++v) {
+        const float* p = r0 + 8 * v;
+        V8 s0 = load8(p), s1 = load8(p + pitch), s2 = load8(p + 2 * pitch), s3 = load8(p + 3 * pitch),
+           s4 = load8(p + 4 * pitch);
+#if !defined(__clang__)
+        if constexpr (kPin) __asm__("" : "+x"(s0), "+x"(s1), "+x"(s2), "+x"(s3), "+x"(s4));
+#endif
+        // tap_rows2's operations for rows (y, y + 1) and (y + 2, y + 3), h_2 shared.
+        const V8 fx = tp.fx, fy = tp.fy, gy = tp.gy;
+        const V8 h0 = fnmadd<true>(fx, s0 - load8(p + 1), s0), h1 = fnmadd<true>(fx, s1 - load8(p + pitch + 1), s1),
+                 h2 = fnmadd<true>(fx, s2 - load8(p + 2 * pitch + 1), s2),
+                 h3 = fnmadd<true>(fx, s3 - load8(p + 3 * pitch + 1), s3),
+                 h4 = fnmadd<true>(fx, s4 - load8(p + 4 * pitch + 1), s4);
+        a[0][v] = a[0][v] + fmadd<true>(fy, h1 - h0, h0);
+        a[1][v] = fmadd<true>(gy, h1, fmadd<true>(fy, h2, a[1][v]));
+        a[2][v] = a[2][v] + fmadd<true>(fy, h3 - h2, h2);
+        a[3][v] = fmadd<true>(gy, h3, fmadd<true>(fy, h4, a[3][v]));
+      }
+    }
+    for (int r = 0; r < 4; ++r)
+      for (int v = 0; v < kHalf; ++v) acc[r][kHalf * half + v] = a[r][v];
+  }
+}
+
 // The near gather of a plane that holds v everywhere, for an even (parity 0) or odd output
 // row: the operations of gather_seg2 / gather_seg for one lane, in scalar arithmetic (which
 // rounds exactly as the vector lanes do). With the FMA kernel h_k = v + fx·0 = v, but the
@@ -286,40 +334,51 @@ __attribute__((always_inline)) inline void store_seg(float* row, int x0, int n, 
 // stay in L1 while the segment walks down.
 template <bool kPin, bool kFma>
 __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int tx0, int tx1, float* inv_den) {
+  constexpr int kRows = kFma ? 4 : 2;  // output rows per pass over the taps
+  static_assert(kTile % kRows == 0);
   const Buffers& b = *job.b;
   const int h = b.h;
   const int x0 = tx0 * kTile, n = std::min(kSeg, b.w - x0);
   const std::ptrdiff_t pitch = b.near_src->width();
   const V8 inv_taps = splat(job.inv_taps);
   const V8 zero = splat(0.0f);
-  V8 acc[2][kVecs], res[kVecs];
-  // Σ taps for rows y and y + 1 (both when y + 1 < h) of plane `src`, into acc[0], acc[1].
-  // Rows come in pairs that share a tile row (kTile is even), so they share the field bits.
+  V8 acc[kRows][kVecs], res[kVecs];
+  // Σ taps for rows y .. y + kRows − 1 (those < h) of plane `src`, into acc[0 ..]. Rows come
+  // in groups that share a tile row (kTile is a multiple of kRows), so they share the field
+  // bits.
   // (always_inline: the lambda's own body would otherwise be compiled for the baseline target,
   // not for the AVX copy it is called from.)
   auto run = [&](const Image& src, int c, int y) __attribute__((always_inline)) {
     const float* base = b.src_row(src, c, y) + x0;
-    prefetch_ahead(job, base, y, h, pitch);
-    if (y + 1 < h) {
-      prefetch_ahead(job, base + pitch, y + 1, h, pitch);
-      gather_seg2<kPin, kFma>(base, job.taps, job.ntaps, pitch, acc[0], acc[1]);
-    } else {
-      gather_seg<kFma>(base, job.taps, job.ntaps, pitch, acc[0]);
+    for (int r = 0; r < kRows; ++r) prefetch_ahead(job, base + r * pitch, y + r, h, pitch);
+    if constexpr (kRows == 4) {
+      if (y + 3 < h) {
+        gather_seg4<kPin>(base, job.taps, job.ntaps, pitch, acc);
+        return;
+      }
+    }
+    // The rest in pairs, the last single row (always an even row) alone.
+    for (int r = 0; r < kRows && y + r < h; r += 2) {
+      const float* br = base + r * pitch;
+      if (y + r + 1 < h)
+        gather_seg2<kPin, kFma>(br, job.taps, job.ntaps, pitch, acc[r], acc[r + 1]);
+      else
+        gather_seg<kFma>(br, job.taps, job.ntaps, pitch, acc[r]);
     }
   };
   // Near field: (1/49) Σ colour_h where nearBlur_h > 0, else colour_h.
   for (int c = 0; c < 4; ++c)
-    for (int y = 0; y < h; y += 2) {
+    for (int y = 0; y < h; y += kRows) {
       const bool active = seg_has(b, y / kTile, tx0, tx1, kNearBit);
       const bool gathered = active && !(c == 3 && job.near_alpha_const);
       if (gathered) run(*b.near_src, c, y);
-      for (int r = 0; r < 2 && y + r < h; ++r) {
+      for (int r = 0; r < kRows && y + r < h; ++r) {
         const float* base = b.src_row(*b.near_src, c, y + r) + x0;
         if (active) {
           V8 nbv[kVecs];
           load_seg(b.near_blur->row(0, y + r), x0, n, nbv);
           for (int v = 0; v < kVecs; ++v) {
-            const V8 g = gathered ? acc[r][v] * inv_taps : splat(job.near_alpha[r]);
+            const V8 g = gathered ? acc[r][v] * inv_taps : splat(job.near_alpha[r & 1]);
             res[v] = nbv[v] > zero ? g : load8(base + 8 * v);
           }
         } else {
@@ -329,10 +388,10 @@ __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int
       }
     }
   // Far field: the denominator Σ far_h first (kept as 1/den per texel), then the channels.
-  for (int y = 0; y < h; y += 2) {
+  for (int y = 0; y < h; y += kRows) {
     const bool active = seg_has(b, y / kTile, tx0, tx1, kFarBit);
     if (active) run(*b.far_src, 4, y);
-    for (int r = 0; r < 2 && y + r < h; ++r) {
+    for (int r = 0; r < kRows && y + r < h; ++r) {
       float* id = inv_den + static_cast<std::size_t>(y + r) * kSeg;
       if (active) {
         V8 m[kVecs];
@@ -352,10 +411,10 @@ __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int
     }
   }
   for (int c = 0; c < (job.far_alpha_is_den ? 3 : 4); ++c)
-    for (int y = 0; y < h; y += 2) {
+    for (int y = 0; y < h; y += kRows) {
       const bool active = seg_has(b, y / kTile, tx0, tx1, kFarBit);
       if (active) run(*b.far_src, c, y);
-      for (int r = 0; r < 2 && y + r < h; ++r) {
+      for (int r = 0; r < kRows && y + r < h; ++r) {
         if (active) {
           const float* fr = b.far_h_row(y + r) + x0;  // padded plane: whole vectors are readable
           const float* id = inv_den + static_cast<std::size_t>(y + r) * kSeg;

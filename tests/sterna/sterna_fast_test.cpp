@@ -136,18 +136,24 @@ TEST(SternaFast, EqualsPlainOnEveryCoveredSetting) {
   }
 }
 
+// test_frame(203, 117) with every alpha set to `alpha` (colour rescaled: premultiplied).
+static Frame constant_alpha_frame(float alpha) {
+  Frame f = test_frame(203, 117);
+  for (int y = 0; y < f.color.height(); ++y)
+    for (int x = 0; x < f.color.width(); ++x) {
+      const float a = f.color.at(x, y, 3);
+      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) *= alpha / a;
+      f.color.at(x, y, 3) = alpha;
+    }
+  return f;
+}
+
 TEST(SternaFast, EqualsPlainOnOpaqueFrames) {
   // Alpha 1 everywhere: the fast gather then derives the near and far alpha planes without
   // gathering them (fast_gather.cpp); a frame whose alpha is constant but not 1 takes the
   // near shortcut only. Both must still equal plain within the bound.
   for (float alpha : {1.0f, 0.5f}) {
-    Frame f = test_frame(203, 117);
-    for (int y = 0; y < f.color.height(); ++y)
-      for (int x = 0; x < f.color.width(); ++x) {
-        const float a = f.color.at(x, y, 3);
-        for (int c = 0; c < 3; ++c) f.color.at(x, y, c) *= alpha / a;
-        f.color.at(x, y, 3) = alpha;
-      }
+    const Frame f = constant_alpha_frame(alpha);
     for (const auto& p : std::vector<std::map<std::string, std::string>>{{}, {{"firefly", "karis"}}, {{"strength", "0.1"}}})
       expect_fast_equals_plain(f, blur_at_infinity(2.0, 9.0, p),
                                "alpha=" + std::to_string(alpha) + (p.empty() ? "" : " " + p.begin()->first));
@@ -167,13 +173,7 @@ TEST(SternaFast, OpaqueShortcutsEqualTheFullGather) {
   // even rows' value goes unseen (the 3×3 max fill takes the larger neighbour anyway), but
   // giving even rows the odd rows' value changes ~3300-3900 samples and fails this test.
   for (float alpha : {1.0f, 0.5f, 0.7f, 0.3f}) {
-    Frame f = test_frame(203, 117);
-    for (int y = 0; y < f.color.height(); ++y)
-      for (int x = 0; x < f.color.width(); ++x) {
-        const float a = f.color.at(x, y, 3);
-        for (int c = 0; c < 3; ++c) f.color.at(x, y, c) *= alpha / a;
-        f.color.at(x, y, 3) = alpha;
-      }
+    const Frame f = constant_alpha_frame(alpha);
     Frame g = f;
     const int cx = f.color.width() - 1;
     for (int c = 0; c < 4; ++c) g.color.at(cx, 0, c) *= 0.5f;  // premultiplied: scale all four

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <sstream>
 
-#include "dofkit/error.hpp"
 #include "core/clones.hpp"
+#include "dofkit/error.hpp"
 
 namespace dofkit {
 

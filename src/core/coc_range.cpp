@@ -4,8 +4,8 @@
 #include <cstring>
 #include <vector>
 
-#include "core/parallel.hpp"
 #include "core/clones.hpp"
+#include "core/parallel.hpp"
 
 namespace dofkit::core {
 

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <vector>
 
-
 #include "core/parallel.hpp"
 #include "core/strip.hpp"
 

@@ -4,18 +4,17 @@
 #include <cstddef>
 #include <vector>
 
-
+#include "core/clones.hpp"
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
 #include "core/strip.hpp"
-#include "core/clones.hpp"
 
 namespace dofkit::core {
 
-// Strip layout (as in core/filters.cpp): kLanes independent 1-D signals interleaved,
-// buf[(i + pad) · kLanes + j] = sample i of signal j, i in [−pad, n + pad). Horizontal sweep:
-// the signals are kLanes rows (transposed in with SSE 4×4 transposes); vertical sweep: kLanes
-// adjacent columns (plain copies). The pad holds the replicated edge sample (clamp-to-edge).
+// Horizontal sweep in strips (core/strip.hpp, as in core/filters.cpp): kLanes rows
+// interleaved, buf[(i + pad) · kLanes + j] = sample i of row j, i in [−pad, n + pad), moved in
+// and out by the shared 8×8 transposes; the pad holds the replicated edge sample
+// (clamp-to-edge). Vertical sweep: row by row over blocks of columns (box_row), no strips.
 //
 // The horizontal passes are strip::strip_passes, the very function gaussian_blur_plane runs
 // (core/strip.cpp, where their precision is derived); the vertical sweeps below repeat

@@ -7,10 +7,10 @@
 #include <optional>
 #include <sstream>
 
+#include "core/clones.hpp"
 #include "core/parallel.hpp"
 #include "methods/method.hpp"
 #include "render/sanitize.hpp"
-#include "core/clones.hpp"
 
 namespace dofkit {
 

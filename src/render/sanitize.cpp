@@ -5,8 +5,8 @@
 #include <cmath>
 #include <limits>
 
-#include "core/parallel.hpp"
 #include "core/clones.hpp"
+#include "core/parallel.hpp"
 
 namespace dofkit::detail {
 

@@ -8,10 +8,10 @@
 #include <cmath>
 #include <vector>
 
+#include "core/clones.hpp"
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
 #include "methods/starcraft/starcraft.hpp"
-#include "core/clones.hpp"
 
 namespace dofkit::detail::starcraft {
 

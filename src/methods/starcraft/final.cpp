@@ -16,10 +16,10 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/clones.hpp"
 #include "core/parallel.hpp"
 #include "methods/starcraft/final_simd.hpp"
 #include "methods/starcraft/starcraft.hpp"
-#include "core/clones.hpp"
 
 namespace dofkit::detail::starcraft {
 

@@ -24,9 +24,9 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/clones.hpp"
 #include "dofkit/image.hpp"
 #include "methods/method.hpp"
-#include "core/clones.hpp"
 #include "methods/sterna/passes.hpp"
 
 #if defined(__clang__)

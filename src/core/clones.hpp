@@ -12,10 +12,17 @@
 // on every seed; core::any_positive only escaped because the fuzz inputs are too small for
 // its vector loop). Under clang the macro is therefore empty: one body for the build's own
 // target, which every machine that runs the build can execute.
+//
+// The clones compute what the baseline body computes, bit for bit: contraction of a multiply
+// and an add into one FMA is off in them (GCC's default, -ffp-contract=fast, fuses wherever
+// the target has FMA, and AVX-512F implies it: the AVX-512 copies rounded differently from
+// the AVX2 and baseline ones, on AVX-512 machines only). Several callers rely on that: the
+// strip filters' vertical sweeps must repeat the horizontal passes' sums exactly, and row
+// kernels finish their rows with scalar code of the same arithmetic.
 #pragma once
 
 #if defined(__clang__)
 #define DOFKIT_CLONES
 #else
-#define DOFKIT_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#define DOFKIT_CLONES __attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
 #endif

@@ -35,12 +35,25 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
         src[-i * kLanes + j] = src[j];
         src[(n - 1 + i) * kLanes + j] = src[(n - 1) * kLanes + j];
       }
-    // The window sums are recomputed from scratch at every kResync-th output. When the
-    // window is no longer than kResync, the samples of the next fresh sum all enter the window
-    // as `hi` during the last 2r + 1 outputs of the current block, so the fresh sum is built
-    // there (from 0, in the same order) instead of re-reading them: same value, bit for bit.
-    const bool carry = 2 * r + 1 <= kResync;
-    Vec8 s0 = zero, s1 = zero, f0 = zero, f1 = zero;  // window sums / next fresh sums, lanes 0-7, 8-15
+    // The window sums are recomputed from scratch at every kResync-th output R. The samples of
+    // that fresh sum, R − r … R + r, all enter the window as `hi` during the 2r + 1 outputs
+    // before R, so the fresh sum is built there (from 0, in the same order) instead of
+    // re-reading them: the same value, bit for bit. Up to a window of kResync samples this
+    // starts inside the block before R (one pending sum, f); up to 2·kResync it starts in the
+    // block before that (a second pending sum, g, for the resync point after next) — the
+    // medium level of starcraft at 4K (2r + 1 ≈ 43), where re-summing 43 samples per 32
+    // outputs as one dependent chain of adds cost ~40 % of the pass. Wider windows re-sum.
+    const int span = 2 * r + 1;
+    const bool carry = span <= 2 * kResync;
+    Vec8 s0 = zero, s1 = zero;  // window sums, lanes 0-7, 8-15
+    Vec8 f0 = zero, f1 = zero;  // pending fresh sum of the next resync point
+    Vec8 g0 = zero, g1 = zero;  // ... and of the one after it (span > kResync only)
+    if (carry)  // the samples of the first pending sum that enter before output 0
+      for (int k = kResync - r; k <= r; ++k) {
+        const float* q = src + static_cast<std::ptrdiff_t>(k) * kLanes;
+        f0 += SP_LOAD8(q);
+        f1 += SP_LOAD8(q + 8);
+      }
     for (int i0 = 0; i0 < n; i0 += kResync) {
       if (i0 == 0 || !carry) {
         s0 = zero;
@@ -53,22 +66,28 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
       } else {
         s0 = f0;
         s1 = f1;
+        f0 = g0;
+        f1 = g1;
+        g0 = zero;
+        g1 = zero;
       }
+      // Outputs [i0, from_f) update the window only, [from_f, from_g) also f, [from_g, i1)
+      // also g: hi = sample i + r + 1 belongs to the fresh sum of R when R − r <= i + r + 1.
       const int i1 = std::min(n, i0 + kResync);
-      const int acc_from = carry ? std::min(i1, i0 + kResync - 2 * r - 1) : i1;
+      const int from_f = carry ? std::clamp(i0 + kResync - span, i0, i1) : i1;
+      const int from_g = carry ? std::clamp(i0 + 2 * kResync - span, i0, i1) : i1;
       const float* lo = src + static_cast<std::ptrdiff_t>(i0 - r - 1) * kLanes;  // sample i − r − 1
       const float* hi = src + static_cast<std::ptrdiff_t>(i0 + r + 1) * kLanes;  // sample i + r + 1
       float* d = dst + static_cast<std::ptrdiff_t>(i0) * kLanes;
-      for (int i = i0; i < acc_from; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
+      int i = i0;
+      for (; i < from_f; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
         const Vec8 h0 = SP_LOAD8(hi), h1 = SP_LOAD8(hi + 8);
         SP_STORE8(d, (s0 + va * (SP_LOAD8(lo) + h0)) * vn);
         SP_STORE8(d + 8, (s1 + va * (SP_LOAD8(lo + 8) + h1)) * vn);
         s0 += h0 - SP_LOAD8(lo + kLanes);  // lo + kLanes: sample i − r, leaving the window
         s1 += h1 - SP_LOAD8(lo + kLanes + 8);
       }
-      f0 = zero;
-      f1 = zero;
-      for (int i = acc_from; i < i1; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
+      for (; i < from_g; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
         const Vec8 h0 = SP_LOAD8(hi), h1 = SP_LOAD8(hi + 8);
         SP_STORE8(d, (s0 + va * (SP_LOAD8(lo) + h0)) * vn);
         SP_STORE8(d + 8, (s1 + va * (SP_LOAD8(lo + 8) + h1)) * vn);
@@ -76,6 +95,17 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
         s1 += h1 - SP_LOAD8(lo + kLanes + 8);
         f0 += h0;
         f1 += h1;
+      }
+      for (; i < i1; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
+        const Vec8 h0 = SP_LOAD8(hi), h1 = SP_LOAD8(hi + 8);
+        SP_STORE8(d, (s0 + va * (SP_LOAD8(lo) + h0)) * vn);
+        SP_STORE8(d + 8, (s1 + va * (SP_LOAD8(lo + 8) + h1)) * vn);
+        s0 += h0 - SP_LOAD8(lo + kLanes);
+        s1 += h1 - SP_LOAD8(lo + kLanes + 8);
+        f0 += h0;
+        f1 += h1;
+        g0 += h0;
+        g1 += h1;
       }
     }
     std::swap(a, b);

@@ -4,6 +4,7 @@
 #include "methods/starcraft/final_simd.hpp"
 #include "render/sanitize.hpp"
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -165,10 +166,19 @@ int LevelsRow(const float* r, float* c, int x0, int x1, float vs, float vm, floa
   return x;
 }
 
+// The 4×4 reduction walks one source row at a time over a chunk of up to 512 blocks (a whole
+// 1080p row), keeping the blocks' partial sums in a 20 KiB buffer: 5 row streams in flight
+// (the row's 4 colour planes and its level) instead of 20 (4 rows × 5 planes, 128 bytes
+// each before switching), which the memory system served at about half the rate even with
+// software prefetches. With the long runs the hardware prefetchers do better than the
+// prefetches did. Measured (1080p bench frame, the large level incl. its quarter-res blur):
+// 5.0 → 3.4 ms on one thread, 2.6 → 1.9 ms on two. Each partial sum is the per-row term of
+// the former loop, added in the same row order onto the same zero start, so the sums are the
+// same bit for bit.
 template <bool kCheck>
 int LargeReduceT(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1,
                  bool& alpha_one, bool& sanitary) {
-  constexpr int kAhead = 256;  // floats (1 KiB) ahead of the current position
+  constexpr int kChunk = 512;  // blocks per chunk (a multiple of every target's lane count)
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
   const auto zero = hn::Zero(d), inv16 = hn::Set(d, 1.0f / 16.0f);
@@ -183,45 +193,55 @@ int LargeReduceT(const float* const rows[4][5], bool reduce_max, float* const ou
     const auto ok = hn::Or(hn::Eq(v, zero), hn::And(hn::Ge(m, min_normal), hn::Le(m, alpha ? one : max_colour)));
     clean = hn::And(clean, ok);
   };
+  // Partial sums of the chunk's blocks: 0 Σc, 1 max c, 2-5 Σ c·colour, 6-9 Σ colour.
+  HWY_ALIGN float acc[10][kChunk];
   int i = i0;
-  for (; i + n <= i1; i += n) {
-    // LoadInterleaved4 splits 4n consecutive pixels into the 4 columns of n blocks.
-    auto csum = zero, cmax = zero;
-    decltype(csum) wsum[4] = {zero, zero, zero, zero}, psum[4] = {zero, zero, zero, zero};
-    // 20 row streams at once (4 rows × 5 planes) are more than the hardware prefetchers
-    // follow: ask for each a few cache lines ahead (a hint; reading past the row is harmless).
-    for (int k = 0; k < 4; ++k)
-      for (int ch = 0; ch < 5; ++ch) hwy::Prefetch(rows[k][ch] + 4 * static_cast<std::ptrdiff_t>(i) + kAhead);
+  while (i + n <= i1) {
+    const int m = std::min(kChunk, (i1 - i) / n * n);  // whole vectors of blocks
+    for (int q = 0; q < 10; ++q)
+      for (int b = 0; b < m; b += n) hn::Store(zero, d, acc[q] + b);
     for (int k = 0; k < 4; ++k) {
-      decltype(csum) c0, c1, c2, c3;
-      hn::LoadInterleaved4(d, rows[k][4] + 4 * static_cast<std::ptrdiff_t>(i), c0, c1, c2, c3);
-      csum = hn::Add(csum, hn::Add(hn::Add(c0, c1), hn::Add(c2, c3)));
-      cmax = hn::Max(cmax, hn::Max(hn::Max(c0, c1), hn::Max(c2, c3)));
-      for (int ch = 0; ch < 4; ++ch) {
-        decltype(csum) s0, s1, s2, s3;
-        hn::LoadInterleaved4(d, rows[k][ch] + 4 * static_cast<std::ptrdiff_t>(i), s0, s1, s2, s3);
-        wsum[ch] = hn::Add(wsum[ch], hn::Add(hn::Add(hn::Mul(c0, s0), hn::Mul(c1, s1)),
-                                             hn::Add(hn::Mul(c2, s2), hn::Mul(c3, s3))));
-        psum[ch] = hn::Add(psum[ch], hn::Add(hn::Add(s0, s1), hn::Add(s2, s3)));
-        if (ch == 3)
-          opaque = hn::And(opaque, hn::And(hn::And(hn::Eq(s0, one), hn::Eq(s1, one)),
-                                           hn::And(hn::Eq(s2, one), hn::Eq(s3, one))));
-        if (kCheck) {
-          check(s0, ch == 3);
-          check(s1, ch == 3);
-          check(s2, ch == 3);
-          check(s3, ch == 3);
+      const float* const cr = rows[k][4];
+      const float* const sr[4] = {rows[k][0], rows[k][1], rows[k][2], rows[k][3]};
+      for (int b = 0; b < m; b += n) {
+        const std::ptrdiff_t px = 4 * static_cast<std::ptrdiff_t>(i + b);
+        // LoadInterleaved4 splits 4n consecutive pixels into the 4 columns of n blocks.
+        auto c0 = zero, c1 = zero, c2 = zero, c3 = zero;
+        hn::LoadInterleaved4(d, cr + px, c0, c1, c2, c3);
+        hn::Store(hn::Add(hn::Load(d, acc[0] + b), hn::Add(hn::Add(c0, c1), hn::Add(c2, c3))), d, acc[0] + b);
+        hn::Store(hn::Max(hn::Load(d, acc[1] + b), hn::Max(hn::Max(c0, c1), hn::Max(c2, c3))), d, acc[1] + b);
+        for (int ch = 0; ch < 4; ++ch) {
+          auto s0 = zero, s1 = zero, s2 = zero, s3 = zero;
+          hn::LoadInterleaved4(d, sr[ch] + px, s0, s1, s2, s3);
+          hn::Store(hn::Add(hn::Load(d, acc[2 + ch] + b),
+                            hn::Add(hn::Add(hn::Mul(c0, s0), hn::Mul(c1, s1)), hn::Add(hn::Mul(c2, s2), hn::Mul(c3, s3)))),
+                    d, acc[2 + ch] + b);
+          hn::Store(hn::Add(hn::Load(d, acc[6 + ch] + b), hn::Add(hn::Add(s0, s1), hn::Add(s2, s3))), d, acc[6 + ch] + b);
+          if (ch == 3)
+            opaque = hn::And(opaque, hn::And(hn::And(hn::Eq(s0, one), hn::Eq(s1, one)),
+                                             hn::And(hn::Eq(s2, one), hn::Eq(s3, one))));
+          if (kCheck) {
+            check(s0, ch == 3);
+            check(s1, ch == 3);
+            check(s2, ch == 3);
+            check(s3, ch == 3);
+          }
         }
       }
     }
-    const auto cb = reduce_max ? cmax : hn::Mul(csum, inv16);
-    const auto has = hn::Gt(csum, zero);
-    const auto den = hn::IfThenElse(has, csum, hn::Set(d, 1.0f));
-    for (int ch = 0; ch < 4; ++ch) {
-      const auto col = hn::IfThenElse(has, hn::Div(wsum[ch], den), hn::Mul(psum[ch], inv16));
-      hn::StoreU(hn::Mul(cb, col), d, out[ch] + i);
+    for (int b = 0; b < m; b += n) {
+      const auto csum = hn::Load(d, acc[0] + b);
+      const auto cb = reduce_max ? hn::Load(d, acc[1] + b) : hn::Mul(csum, inv16);
+      const auto has = hn::Gt(csum, zero);
+      const auto den = hn::IfThenElse(has, csum, hn::Set(d, 1.0f));
+      for (int ch = 0; ch < 4; ++ch) {
+        const auto col = hn::IfThenElse(has, hn::Div(hn::Load(d, acc[2 + ch] + b), den),
+                                        hn::Mul(hn::Load(d, acc[6 + ch] + b), inv16));
+        hn::StoreU(hn::Mul(cb, col), d, out[ch] + i + b);
+      }
+      hn::StoreU(cb, d, out[4] + i + b);
     }
-    hn::StoreU(cb, d, out[4] + i);
+    i += m;
   }
   if (!hn::AllTrue(d, opaque)) alpha_one = false;
   if (kCheck && !hn::AllTrue(d, clean)) sanitary = false;

@@ -229,6 +229,11 @@ STERNA_SIMD bool downsample_row(const float* const* r0, const float* const* r1, 
   return clean;
 }
 
+// v = 0 where v < 1e-6 (the box sums' residue of a zero neighbourhood), as a select.
+STERNA_SIMD void flush_residue(float* __restrict v, int n) {
+  for (int x = 0; x < n; ++x) v[x] = v[x] < 1e-6f ? 0.0f : v[x];
+}
+
 // Thread-local scratch rows (grown once, reused every frame).
 std::vector<float>& scratch(int slot, std::size_t n) {
   thread_local std::vector<float> bufs[4];
@@ -428,10 +433,13 @@ void dilate(const Settings& s, Buffers& b) {
       }
     }, 16);
   }
-  // P5/P6: box mean over the same window, then flush the running-sum residue (as plain).
+  // P5/P6: box mean over the same window, then flush the running-sum residue (as plain), row
+  // by row in parallel (as one serial loop over the plane it took 0.24 ms of a 1080p frame on
+  // either thread count).
   core::box_blur_plane(nb, nb, w, h, r, r);
-  for (std::size_t i = 0; i < b.near_blur->plane_size(); ++i)
-    if (nb[i] < 1e-6f) nb[i] = 0.0f;
+  core::parallel_for(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) flush_residue(nb + static_cast<std::size_t>(y) * w, w);
+  }, 16);
 }
 
 }  // namespace dofkit::detail::sterna::fast

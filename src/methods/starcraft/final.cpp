@@ -268,6 +268,7 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
       const float* med[4] = {medium.row(0, y), medium.row(1, y), medium.row(2, y), medium.row(3, y)};
       final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass);
     }
+    flush_streams();  // the mix's non-temporal stores are globally visible before the task ends
   }, 8);
 }
 

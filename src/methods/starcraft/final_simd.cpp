@@ -128,7 +128,8 @@ int FinalMix(const MixRow& r, int x0, int x1) {
                                hn::Mul(wsrc, s));
     store(hn::IfThenElse(focus, s, mixed), x);
   }
-  if (stream) hwy::FlushStream();  // order the non-temporal stores before the row is handed on
+  // (The caller orders the non-temporal stores, with flush_streams(), before its task ends:
+  // a fence here, per row and channel, waited for the write-combining buffers every time.)
   return x;
 }
 
@@ -272,6 +273,7 @@ int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any) {
   return HWY_DYNAMIC_DISPATCH(FinalWeights)(r, x0, x1, any);
 }
 int final_mix_simd(const MixRow& r, int x0, int x1) { return HWY_DYNAMIC_DISPATCH(FinalMix)(r, x0, x1); }
+void flush_streams() { hwy::FlushStream(); }
 int final_hlerp_simd(const float* v, float* out, int i0, int i1) {
   return HWY_DYNAMIC_DISPATCH(FinalHlerp)(v, out, i0, i1);
 }

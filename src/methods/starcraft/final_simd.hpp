@@ -44,6 +44,9 @@ struct MixRow {
   float* out;
 };
 int final_mix_simd(const MixRow& r, int x0, int x1);
+/// Orders the non-temporal stores final_mix_simd made on this thread before later stores
+/// (a store fence): every task that calls final_mix_simd calls it before it ends.
+void flush_streams();
 
 /// Horizontal up-sampling of one quarter-res row `v` to full res: cell i writes columns
 /// 4i … 4i + 3 (see final.cpp). Reads v[i − 1 … i + 1]: valid for 1 <= i < lw − 1.

@@ -11,6 +11,7 @@
 #include "core/filters.hpp"
 #include "core/weighted_gaussian.hpp"
 #include "core/parallel.hpp"
+#include "methods/starcraft/final_simd.hpp"
 #include "methods/starcraft/starcraft.hpp"
 
 namespace dofkit::detail::starcraft {
@@ -98,6 +99,7 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
             final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass, wt);
           },
           false);
+      flush_streams();  // the mix's non-temporal stores are globally visible before the task ends
     }
   });
 }

@@ -21,6 +21,35 @@ constexpr int kLanes = kStripLanes;
 #define SP_LOAD8(p) (*reinterpret_cast<const Vec8u*>(p))
 #define SP_STORE8(p, v) (*reinterpret_cast<Vec8u*>(p) = (v))
 
+namespace {
+
+// Outputs i … end − 1 of one box pass over a strip (two vectors of 8 lanes): out = (sum +
+// alpha·(lo + hi))·norm, then the window slides, sum += hi − (sample i − r); kFresh >= 1 also
+// adds hi to the next resync point's pending sum (f), kFresh == 2 to the one after it (g).
+// (Inlined into each clone of strip_passes: vector arguments are fine there.)
+template <int kFresh>
+__attribute__((always_inline)) inline void box_steps(int& i, int end, const float*& lo, const float*& hi, float*& d,
+                                                     Vec8& s0, Vec8& s1, Vec8& f0, Vec8& f1, Vec8& g0, Vec8& g1,
+                                                     Vec8 va, Vec8 vn) {
+  for (; i < end; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
+    const Vec8 h0 = SP_LOAD8(hi), h1 = SP_LOAD8(hi + 8);
+    SP_STORE8(d, (s0 + va * (SP_LOAD8(lo) + h0)) * vn);
+    SP_STORE8(d + 8, (s1 + va * (SP_LOAD8(lo + 8) + h1)) * vn);
+    s0 += h0 - SP_LOAD8(lo + kLanes);  // lo + kLanes: sample i − r, leaving the window
+    s1 += h1 - SP_LOAD8(lo + kLanes + 8);
+    if constexpr (kFresh >= 1) {
+      f0 += h0;
+      f1 += h1;
+    }
+    if constexpr (kFresh >= 2) {
+      g0 += h0;
+      g1 += h1;
+    }
+  }
+}
+
+}  // namespace
+
 DOFKIT_CLONES
 float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
   const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
@@ -80,33 +109,9 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
       const float* hi = src + static_cast<std::ptrdiff_t>(i0 + r + 1) * kLanes;  // sample i + r + 1
       float* d = dst + static_cast<std::ptrdiff_t>(i0) * kLanes;
       int i = i0;
-      for (; i < from_f; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
-        const Vec8 h0 = SP_LOAD8(hi), h1 = SP_LOAD8(hi + 8);
-        SP_STORE8(d, (s0 + va * (SP_LOAD8(lo) + h0)) * vn);
-        SP_STORE8(d + 8, (s1 + va * (SP_LOAD8(lo + 8) + h1)) * vn);
-        s0 += h0 - SP_LOAD8(lo + kLanes);  // lo + kLanes: sample i − r, leaving the window
-        s1 += h1 - SP_LOAD8(lo + kLanes + 8);
-      }
-      for (; i < from_g; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
-        const Vec8 h0 = SP_LOAD8(hi), h1 = SP_LOAD8(hi + 8);
-        SP_STORE8(d, (s0 + va * (SP_LOAD8(lo) + h0)) * vn);
-        SP_STORE8(d + 8, (s1 + va * (SP_LOAD8(lo + 8) + h1)) * vn);
-        s0 += h0 - SP_LOAD8(lo + kLanes);
-        s1 += h1 - SP_LOAD8(lo + kLanes + 8);
-        f0 += h0;
-        f1 += h1;
-      }
-      for (; i < i1; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
-        const Vec8 h0 = SP_LOAD8(hi), h1 = SP_LOAD8(hi + 8);
-        SP_STORE8(d, (s0 + va * (SP_LOAD8(lo) + h0)) * vn);
-        SP_STORE8(d + 8, (s1 + va * (SP_LOAD8(lo + 8) + h1)) * vn);
-        s0 += h0 - SP_LOAD8(lo + kLanes);
-        s1 += h1 - SP_LOAD8(lo + kLanes + 8);
-        f0 += h0;
-        f1 += h1;
-        g0 += h0;
-        g1 += h1;
-      }
+      box_steps<0>(i, from_f, lo, hi, d, s0, s1, f0, f1, g0, g1, va, vn);
+      box_steps<1>(i, from_g, lo, hi, d, s0, s1, f0, f1, g0, g1, va, vn);
+      box_steps<2>(i, i1, lo, hi, d, s0, s1, f0, f1, g0, g1, va, vn);
     }
     std::swap(a, b);
   }

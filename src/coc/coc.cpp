@@ -168,13 +168,7 @@ namespace {
 // branch into a blend and vectorise the division (a conditional division cannot be
 // if-converted: it could trap). Compiled for AVX-512F / AVX2 / baseline, picked at run time;
 // the sequence (divide, subtract, multiply) contains no multiply-add, so every target rounds
-// alike. GCC if-converts the selects only without -ftrapping-math (an ordered comparison of a
-// NaN may raise an exception flag, which dofkit never reads); that option changes no result.
-#if defined(__GNUC__) && !defined(__clang__)
-#define DOFKIT_NO_TRAPPING_MATH __attribute__((optimize("no-trapping-math")))
-#else
-#define DOFKIT_NO_TRAPPING_MATH
-#endif
+// alike. The selects are if-converted only without -ftrapping-math (DOFKIT_NO_TRAPPING_MATH).
 DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH
 void thin_lens_row(const float* z, float* r, int n, double k, double focus, double hi) {
   const double lo = -hi;

@@ -23,14 +23,9 @@ constexpr int kBlock = 256;  // columns per block of the row passes (stack buffe
 }  // namespace
 
 // Hot row kernels, compiled for AVX-512 / AVX2 / baseline x86-64 and chosen at run time
-// (GCC target_clones). Contraction into FMAs is off so every target rounds like the plain
-// form (bit-identical); no-trapping-math lets the compiler evaluate both sides of a select.
-#if defined(__clang__)
-// clang (the fuzz build only) has no optimize() attribute: one build for the build's target.
-#define LAYERED_SIMD
-#else
-#define LAYERED_SIMD DOFKIT_CLONES __attribute__((optimize("fp-contract=off", "no-trapping-math")))
-#endif
+// (DOFKIT_CLONES: without FMA contraction, so every target rounds like the plain form,
+// bit-identical); no-trapping-math lets the compiler evaluate both sides of a select.
+#define LAYERED_SIMD DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH
 
 namespace kern {
 

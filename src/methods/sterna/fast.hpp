@@ -29,13 +29,10 @@
 #include "methods/method.hpp"
 #include "methods/sterna/passes.hpp"
 
-#if defined(__clang__)
-// clang (used only by the fuzz build) has no optimize() attribute: there the hot functions are
-// compiled once, for the build's target, with clang's own contraction setting.
-#define STERNA_SIMD
-#else
-#define STERNA_SIMD DOFKIT_CLONES __attribute__((optimize("fp-contract=off")))
-#endif
+// The hot row functions: DOFKIT_CLONES (AVX-512 / AVX2 / baseline, no FMA contraction, so
+// every copy rounds like the plain form; under clang, the fuzz build, one body for the
+// build's own target).
+#define STERNA_SIMD DOFKIT_CLONES
 
 namespace dofkit::detail::sterna::fast {
 

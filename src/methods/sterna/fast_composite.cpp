@@ -225,7 +225,7 @@ void stream_copy(const float* src, float* dst, int n) {
 }
 
 std::vector<float>& scratch(int slot, std::size_t n) {
-  thread_local std::vector<float> bufs[2];
+  thread_local std::vector<float> bufs[3];
   if (bufs[slot].size() < n) bufs[slot].resize(n);
   return bufs[slot];
 }
@@ -245,6 +245,8 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
     const std::size_t wpad = (static_cast<std::size_t>(w) + 15) / 16 * 16;
     float* fillbuf = scratch(1, 16 * wpad).data();
     int slot_row[2] = {-1, -1};
+    float* stage = scratch(2, 8 * static_cast<std::size_t>(kChunk) + 16).data();
+    stage += (16 - (reinterpret_cast<std::uintptr_t>(stage) >> 2) % 16) % 16;
     auto slot_plane = [&](int slot, int k) { return fillbuf + (static_cast<std::size_t>(slot) * 8 + k) * wpad; };
     auto filled = [&](int row, int keep) {  // slot holding `row`; the other slot than `keep` is reused
       for (int sl = 0; sl < 2; ++sl)
@@ -316,11 +318,14 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
         for (int r = 0; r < nrows; ++r) {
           for (int c = 0; c < 4; ++c) {
             R.col[r][c] = color.row(c, ys[r]) + xa;
-            R.out[r][c] = out.row(c, ys[r]) + xa;
+            R.out[r][c] = stage + static_cast<std::size_t>(r * 4 + c) * kChunk;
           }
           R.fq[r] = fqbuf + static_cast<std::size_t>(r) * W + xa;
         }
         composite_chunk(R, xa, n);
+        for (int r = 0; r < nrows; ++r)
+          for (int c = 0; c < 4; ++c)
+            stream_copy(stage + static_cast<std::size_t>(r * 4 + c) * kChunk, out.row(c, ys[r]) + xa, n);
       }
     }
     _mm_sfence();  // the streamed copies are globally visible before the task completes

@@ -10,6 +10,7 @@ int main(int argc, char** argv) {
   CLI::App app{"dofkit — camera depth of field (lens blur) from a colour image and a depth map"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "print help for every subcommand");
+  app.set_version_flag("--version", "dofkit " DOFKIT_VERSION, "print the version and exit");
   dofkit::cli::add_render_command(app);
   dofkit::cli::add_methods_command(app);
   dofkit::cli::add_demo_command(app);
@@ -22,6 +23,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::cerr << "dofkit: " << e.what() << " (see dofkit --help)\n";

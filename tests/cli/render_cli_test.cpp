@@ -489,6 +489,16 @@ TEST_F(RenderCli, EndToEndHelpDocumentsEveryFlag) {
     EXPECT_TRUE(contains(help, flag)) << flag;
 }
 
+TEST_F(RenderCli, EndToEndVersionFlag) {
+  // `dofkit --version`: the project version on stdout, exit 0, without a subcommand.
+  const std::string out_file = dir_ / "version.txt";
+  const int status = std::system((std::string(DOFKIT_BINARY_DIR) + "/dofkit --version >" + out_file).c_str());
+  ASSERT_EQ(WEXITSTATUS(status), 0);
+  const std::string text = read_bytes(out_file);
+  EXPECT_EQ(text.rfind("dofkit ", 0), 0u) << text;
+  EXPECT_TRUE(contains(text, ".")) << text;  // MAJOR.MINOR.PATCH
+}
+
 TEST_F(RenderCli, LayersFileAloneIsAFrame) {
   // Two fragments per pixel: the visible surface and a hidden one behind it.
   Frame f{color_, depth_, {}, {}};

@@ -18,7 +18,6 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
-#include <cstring>
 #include <variant>
 
 #include "core/filters.hpp"
@@ -121,10 +120,7 @@ __attribute__((always_inline)) inline void quad8(const V8 (&c)[4][4], const V8 (
     V8 wraw = splat(1000.0f);
     if (k > 0) {
       const V8 d = vabs(far[k] - far[0]);
-      std::uint64_t q[4];
-      const I8 nz = d != zero;
-      std::memcpy(q, &nz, sizeof q);
-      wraw = (q[0] | q[1] | q[2] | q[3]) ? one / (d + splat(0.001f)) : flat;
+      wraw = any(d != zero) ? one / (d + splat(0.001f)) : flat;
     }
     const V8 wb = wraw * wk[k];
     bsum += wb;

@@ -1,6 +1,7 @@
 // Fast P7: the 49-tap gather, register-blocked. Same sums as gather.cpp, same order, in the
-// baseline copy; the FMA copies (the usual case) write each bilinear tap separably and agree
-// with gather.cpp to rounding (see tap_rows2).
+// baseline copy; the FMA copies (the usual case) agree with gather.cpp to rounding and take,
+// per frame, the cheaper of two forms of the sum: each bilinear tap written separably (see
+// tap_rows2), or the kernel as texel weights (see texel_rows).
 //
 // gather.cpp accumulates tap by tap into row-length arrays: per tap and channel it loads
 // 4 source values, the accumulator, and stores the accumulator back. Here a segment of 32
@@ -22,6 +23,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <utility>
+#include <vector>
 
 #include "core/parallel.hpp"
 #include "methods/sterna/fast.hpp"
@@ -97,6 +100,29 @@ constexpr int kVecs = kSeg / 8;
 //   the FMA copies also take four rows per pass (gather_seg4: 2.5 loads per output vector
 //   instead of 3): gather ≈ 17.5 → 16.0 ms CPU per frame (perf samples, old → now), frame
 //   −4.8 % min-of-min at 1 thread, −4.9 % at 2.
+//
+// * texel form (FMA copies, chosen per frame where it needs fewer FMAs, see gather()): the
+//   taps touch a fixed set of source texels, each with a fixed weight, the sum of the bilinear
+//   weights of the taps that touch it (at kernel_scale 1: 129 texels for the 49 taps — the
+//   taps on the axes hit one or two texels, the others four, and neighbours share some). The
+//   gather is then Σ weight·texel, one FMA per texel and output vector, and rows y and y + 1
+//   share the loads of the source rows they both read: a source texel at (dx, s) relative to
+//   row y is texel (dx, s) of row y's kernel and (dx, s − 1) of row y + 1's. Terms are summed
+//   in a fixed order: first the texels both rows use (by s, then dx; one load per vector
+//   serves two FMAs), then those of row y alone, then those of row y + 1 alone. So a row's
+//   sum depends only on its parity (even rows are the first of a pair; the last row of an
+//   odd-height frame is an even row and takes the same order), and constant_near_body repeats
+//   it in scalar arithmetic. Same real-number sum as gather.cpp, rounded differently (each
+//   weight rounded once from its double sum, then one rounding per FMA).
+//   What it gains depends on how many texels the taps share. At kernel_scale 1 (rings 2 / 4 /
+//   6 texels) rows y, y + 1 read 162 texels, 96 of them both: 258 FMAs per row pair against
+//   the separable form's 2 · 2.75 · 49 ≈ 270 FMA-pipe operations (plus 220 adds and ~430 loads);
+//   in a micro-benchmark (Zen 3, one plane, the gather's walk) 92 against 161 cycles per output
+//   vector, and the 1080p render with kernel_scale=1 takes 0.92–0.93 of the time. Spread wider
+//   (the bench frame's automatic scale is 2.4, 4.8 at 4K) nearly every tap has four texels of
+//   its own: 362 FMAs per row pair at 2.4, and the texel form made the bench frame 5 % slower
+//   (micro-benchmark 147 against 158 cycles, but the render 1.05 per round): gather() takes
+//   it only where it needs no more FMAs per row pair than the separable form's FMA-pipe work.
 
 // a·b + c rounded once (vfmadd231: c ← a·b + c). Written as asm rather than the intrinsic:
 // the intrinsic's wrapper does not inline into these target-less helpers, and GCC does not
@@ -129,6 +155,91 @@ __attribute__((always_inline)) inline T fnmadd(T a, T b, T c) {
 #else
   return c - a * b;  // (never instantiated, as fmadd)
 #endif
+}
+
+// *p in all eight lanes, by vbroadcastss from memory (FMA copies only). Written as asm for the
+// reason fmadd is: left to itself, GCC built splat() of a weight that had just been loaded
+// together with its neighbour through four stores to the stack and a reload (a
+// store-forwarding stall per term, which made the gather twice as slow as the tap form).
+template <bool kFma>
+__attribute__((always_inline)) inline V8 broadcast(const float* p) {
+  static_assert(kFma, "only the FMA kernels use it");
+#if !defined(__clang__)
+  V8 r;
+  __asm__("vbroadcastss %1, %0" : "=x"(r) : "m"(*p));
+  return r;
+#else
+  return splat(*p);  // (never instantiated, as fmadd)
+#endif
+}
+
+// The texel form of the kernel (FMA copies): a texel both rows of a pair read, with its
+// weight for the first (even) row and for the second; a texel only one of them reads.
+struct TexelPair {
+  std::ptrdiff_t off;  // s·pitch + dx from the pair's first row
+  float w0, w1;
+};
+struct Texel {
+  std::ptrdiff_t off;
+  float w;
+};
+struct TexelKernel {
+  std::vector<TexelPair> both;
+  std::vector<Texel> only0, only1;
+};
+
+// Builds the texel form of the taps (offsets already scaled): each tap's bilinear weights,
+// computed as gather.cpp's split() does, are added per texel in double, in tap order, and
+// rounded once. Works in vectors kept per thread (no allocation once they have grown).
+void build_texel_kernel(const std::vector<std::pair<float, float>>& offsets, int pitch, TexelKernel& k) {
+  struct Term {
+    int dy, dx, tap;
+    double w;
+  };
+  thread_local std::vector<Term> terms, texels;
+  terms.clear();
+  for (int t = 0; t < static_cast<int>(offsets.size()); ++t) {
+    const auto [ox, oy] = offsets[t];
+    const Tap tp = split(ox, oy, pitch);
+    const float w[4] = {tp.w00, tp.w10, tp.w01, tp.w11};
+    const int x0 = static_cast<int>(std::floor(ox)), y0 = static_cast<int>(std::floor(oy));
+    for (int i = 0; i < 4; ++i)
+      if (w[i] != 0.0f) terms.push_back({y0 + i / 2, x0 + i % 2, t, w[i]});
+  }
+  // By texel (dy, then dx), the taps of a texel in tap order; then one weight per texel.
+  std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) {
+    return a.dy != b.dy ? a.dy < b.dy : (a.dx != b.dx ? a.dx < b.dx : a.tap < b.tap);
+  });
+  texels.clear();
+  for (const Term& t : terms) {
+    if (!texels.empty() && texels.back().dy == t.dy && texels.back().dx == t.dx)
+      texels.back().w += t.w;
+    else
+      texels.push_back(t);
+  }
+  // Source texel (s, dx) from the pair's first row carries weight (s, dx) for that row and
+  // (s − 1, dx) for the second: merge the texel list with itself shifted down one row, both
+  // ordered by (s, dx).
+  k.both.clear();
+  k.only0.clear();
+  k.only1.clear();
+  const std::size_t n = texels.size();
+  std::size_t i = 0, j = 0;  // i: the first row's texels (s = dy), j: the second's (s = dy + 1)
+  while (i < n || j < n) {
+    const bool take_i = i < n && (j >= n || texels[i].dy < texels[j].dy + 1 ||
+                                  (texels[i].dy == texels[j].dy + 1 && texels[i].dx <= texels[j].dx));
+    const bool take_j = j < n && (i >= n || texels[j].dy + 1 < texels[i].dy ||
+                                  (texels[j].dy + 1 == texels[i].dy && texels[j].dx <= texels[i].dx));
+    const int s = take_i ? texels[i].dy : texels[j].dy + 1, dx = take_i ? texels[i].dx : texels[j].dx;
+    const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(s) * pitch + dx;
+    const float w0 = take_i ? static_cast<float>(texels[i].w) : 0.0f;
+    const float w1 = take_j ? static_cast<float>(texels[j].w) : 0.0f;
+    if (w0 != 0.0f && w1 != 0.0f) k.both.push_back({off, w0, w1});
+    else if (w0 != 0.0f) k.only0.push_back({off, w0});
+    else if (w1 != 0.0f) k.only1.push_back({off, w1});
+    i += take_i ? 1 : 0;
+    j += take_j ? 1 : 0;
+  }
 }
 
 // One tap for one output row from source rows (a0, b0) above and (a1, b1) below.
@@ -249,33 +360,18 @@ __attribute__((always_inline)) inline void gather_seg4(const float* base, const 
   }
 }
 
-// The near gather of a plane that holds v everywhere, for an even (parity 0) or odd output
-// row: the operations of gather_seg2 / gather_seg for one lane, in scalar arithmetic (which
-// rounds exactly as the vector lanes do). With the FMA kernel h_k = v + fx·0 = v, but the
-// two row forms still round differently, so the value depends on the row's parity.
-template <bool kFma>
-__attribute__((always_inline)) inline float constant_near_body(const TapV* taps, int ntaps, float v, float inv_taps,
-                                                              int parity) {
-  float acc0 = 0.0f, acc1 = 0.0f;
-  for (int t = 0; t < ntaps; ++t) {
-    const TapV& tp = taps[t];
-    if constexpr (kFma) {
-      const float fx = tp.fx[0], fy = tp.fy[0], gy = tp.gy[0];
-      const float h = fnmadd<true>(fx, v - v, v);
-      acc0 = acc0 + fmadd<true>(fy, h - h, h);
-      acc1 = fmadd<true>(gy, h, fmadd<true>(fy, h, acc1));
-    } else {
-      acc0 += tp.w00[0] * v + tp.w10[0] * v + tp.w01[0] * v + tp.w11[0] * v;
-      acc1 = acc0;
-    }
-  }
-  return (parity ? acc1 : acc0) * inv_taps;
-}
-
 struct Job {
   const Buffers* b;
   const TapV* taps;
   int ntaps;
+  // The texel form (FMA copies, where `texel` is set).
+  bool texel;
+  const TexelPair* both;
+  int nboth;
+  const Texel* only0;
+  int nonly0;
+  const Texel* only1;
+  int nonly1;
   float inv_taps;
   // Opaque-frame shortcuts (see gather()): colour_h alpha is this one value everywhere, so its
   // near gather is one number per row parity (near_alpha[y % 2], computed once) ...
@@ -287,6 +383,77 @@ struct Job {
   // dy_max + 1 below), from column dx_min over `span` floats.
   int pf_dy, pf_dx, pf_span;
 };
+
+// The texels only one row of a pair reads, added to that row's four accumulators.
+template <bool kFma>
+__attribute__((always_inline)) inline void add_texels(const float* base, const Texel* t, int n, V8& a0, V8& a1, V8& a2,
+                                                      V8& a3) {
+  for (int k = 0; k < n; ++k) {
+    const float* p = base + t[k].off;
+    const V8 w = broadcast<kFma>(&t[k].w);
+    a0 = fmadd<kFma>(w, load8(p), a0), a1 = fmadd<kFma>(w, load8(p + 8), a1);
+    a2 = fmadd<kFma>(w, load8(p + 16), a2), a3 = fmadd<kFma>(w, load8(p + 24), a3);
+  }
+}
+
+// Texel-form sums of the segment at `base` for row y (acc0) and, with kTwo, row y + 1
+// (acc1), y even. Eight accumulators, four source vectors and two weights: 14 of the 16
+// AVX2 registers.
+template <bool kTwo>
+__attribute__((always_inline)) inline void texel_rows(const float* base, const Job& job, V8* acc0, V8* acc1) {
+  V8 a0 = splat(0.0f), a1 = a0, a2 = a0, a3 = a0, b0 = a0, b1 = a0, b2 = a0, b3 = a0;
+  for (int k = 0; k < job.nboth; ++k) {
+    const TexelPair& t = job.both[k];
+    const float* p = base + t.off;
+    const V8 s0 = load8(p), s1 = load8(p + 8), s2 = load8(p + 16), s3 = load8(p + 24);
+    const V8 w = broadcast<true>(&t.w0);
+    a0 = fmadd<true>(w, s0, a0), a1 = fmadd<true>(w, s1, a1), a2 = fmadd<true>(w, s2, a2), a3 = fmadd<true>(w, s3, a3);
+    if constexpr (kTwo) {
+      const V8 u = broadcast<true>(&t.w1);
+      b0 = fmadd<true>(u, s0, b0), b1 = fmadd<true>(u, s1, b1), b2 = fmadd<true>(u, s2, b2), b3 = fmadd<true>(u, s3, b3);
+    }
+  }
+  add_texels<true>(base, job.only0, job.nonly0, a0, a1, a2, a3);
+  acc0[0] = a0, acc0[1] = a1, acc0[2] = a2, acc0[3] = a3;
+  if constexpr (kTwo) {
+    add_texels<true>(base, job.only1, job.nonly1, b0, b1, b2, b3);
+    acc1[0] = b0, acc1[1] = b1, acc1[2] = b2, acc1[3] = b3;
+  }
+}
+
+// The near gather of a plane that holds v everywhere, for an even (parity 0) or odd output
+// row: the operations of the kernel the gather uses (gather_seg2 / gather_seg, or
+// texel_rows) for one lane, in scalar arithmetic (which rounds exactly as the vector lanes
+// do). With the FMA kernels the two row parities round differently (the separable form:
+// h_k = v + fx·0 = v, but the two row forms differ; the texel form: different weights in a
+// different order), so the value depends on the row's parity.
+template <bool kFma>
+__attribute__((always_inline)) inline float constant_near_body(const Job& job, float v, int parity) {
+  if constexpr (kFma) {
+    if (job.texel) {
+      float acc = 0.0f;
+      for (int k = 0; k < job.nboth; ++k) acc = fmadd<true>(parity ? job.both[k].w1 : job.both[k].w0, v, acc);
+      const Texel* only = parity ? job.only1 : job.only0;
+      const int n = parity ? job.nonly1 : job.nonly0;
+      for (int k = 0; k < n; ++k) acc = fmadd<true>(only[k].w, v, acc);
+      return acc * job.inv_taps;
+    }
+  }
+  float acc0 = 0.0f, acc1 = 0.0f;
+  for (int t = 0; t < job.ntaps; ++t) {
+    const TapV& tp = job.taps[t];
+    if constexpr (kFma) {
+      const float fx = tp.fx[0], fy = tp.fy[0], gy = tp.gy[0];
+      const float h = fnmadd<true>(fx, v - v, v);
+      acc0 = acc0 + fmadd<true>(fy, h - h, h);
+      acc1 = fmadd<true>(gy, h, fmadd<true>(fy, h, acc1));
+    } else {
+      acc0 += tp.w00[0] * v + tp.w10[0] * v + tp.w01[0] * v + tp.w11[0] * v;
+      acc1 = acc0;
+    }
+  }
+  return (parity ? acc1 : acc0) * job.inv_taps;
+}
 
 constexpr int kAhead = 3;  // rows of look-ahead for the prefetch
 
@@ -351,6 +518,17 @@ __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int
   auto run = [&](const Image& src, int c, int y) __attribute__((always_inline)) {
     const float* base = b.src_row(src, c, y) + x0;
     for (int r = 0; r < kRows; ++r) prefetch_ahead(job, base + r * pitch, y + r, h, pitch);
+    if constexpr (kFma) {
+      if (job.texel) {  // in pairs (an even row and the next), a last single row alone
+        for (int r = 0; r < kRows && y + r < h; r += 2) {
+          if (y + r + 1 < h)
+            texel_rows<true>(base + r * pitch, job, acc[r], acc[r + 1]);
+          else
+            texel_rows<false>(base + r * pitch, job, acc[r], nullptr);
+        }
+        return;
+      }
+    }
     if constexpr (kRows == 4) {
       if (y + 3 < h) {
         gather_seg4<kPin>(base, job.taps, job.ntaps, pitch, acc);
@@ -434,15 +612,13 @@ __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int
 // fuse exactly the operations written with fmadd, nothing else.
 struct Kernels {
   void (*strip)(const Job& job, int tx0, int tx1, float* inv_den);
-  float (*constant_near)(const TapV* taps, int ntaps, float v, float inv_taps, int parity);
+  float (*constant_near)(const Job& job, float v, int parity);
 };
 #if defined(__clang__)
 void gather_strip_base(const Job& job, int tx0, int tx1, float* inv_den) {
   gather_strip_body<false, false>(job, tx0, tx1, inv_den);
 }
-float constant_near_base(const TapV* taps, int ntaps, float v, float inv_taps, int parity) {
-  return constant_near_body<false>(taps, ntaps, v, inv_taps, parity);
-}
+float constant_near_base(const Job& job, float v, int parity) { return constant_near_body<false>(job, v, parity); }
 const Kernels& kernels() {
   static const Kernels k{gather_strip_base, constant_near_base};
   return k;
@@ -453,10 +629,9 @@ const Kernels& kernels() {
                                                                                  float* inv_den) {                  \
     gather_strip_body<pin, fma>(job, tx0, tx1, inv_den);                                                            \
   }                                                                                                                 \
-  __attribute__((attrs, optimize("fp-contract=off"))) float constant_near_##suffix(const TapV* taps, int ntaps,     \
-                                                                                   float v, float inv_taps,         \
+  __attribute__((attrs, optimize("fp-contract=off"))) float constant_near_##suffix(const Job& job, float v,         \
                                                                                    int parity) {                    \
-    return constant_near_body<fma>(taps, ntaps, v, inv_taps, parity);                                               \
+    return constant_near_body<fma>(job, v, parity);                                                                 \
   }
 STERNA_GATHER_COPY(avx512, target("avx512f,fma"), true, true)
 STERNA_GATHER_COPY(avx2, target("avx2,fma"), true, true)
@@ -537,8 +712,11 @@ void gather(const Settings& s, Buffers& b) {
   alignas(32) TapV taps[kTaps];
   const int ntaps = static_cast<int>(std::min<std::size_t>(s.offsets.size(), kTaps));
   int dx_min = 0, dx_max = 0, dy_max = 0;
+  thread_local std::vector<std::pair<float, float>> scaled;  // (per rendering thread, grown once)
+  scaled.clear();
   for (int t = 0; t < ntaps; ++t) {
     const float ox = s.offsets[t].x * s.kernel_scale, oy = s.offsets[t].y * s.kernel_scale;
+    scaled.emplace_back(ox, oy);
     const Tap tp = split(ox, oy, pitch);
     taps[t] = {splat(tp.w00), splat(tp.w10), splat(tp.w01), splat(tp.w11), splat(tp.fx), splat(tp.fy), splat(1 - tp.fy), tp.off};
     dx_min = std::min(dx_min, static_cast<int>(std::floor(ox)));
@@ -555,15 +733,36 @@ void gather(const Settings& s, Buffers& b) {
   // (==, bit patterns) and any frame that fails them takes the full gather. (Bit-identical to
   // the full gather, that is; with the FMA kernel that differs from plain by rounding.)
   // (With the FMA kernel the near alpha of a constant plane differs between even and odd rows
-  // by rounding — see tap_rows2 — so it is computed once per parity, by the same compiled
-  // copy as the gather it stands for.)
+  // by rounding — see tap_rows2 and texel_rows — so it is computed once per parity, by the
+  // same compiled copy and form as the gather it stands for.)
+  // The FMA copies' form: texel weights where a row pair needs no more FMAs that way than the
+  // separable form's FMA-pipe operations (2.75 per tap and output row; see the top).
+  thread_local TexelKernel texels;
+  build_texel_kernel(scaled, pitch, texels);
+  const long texel_fmas = 2L * static_cast<long>(texels.both.size()) + static_cast<long>(texels.only0.size()) +
+                          static_cast<long>(texels.only1.size());
+  const bool texel = 4 * texel_fmas <= 22L * ntaps;  // ≤ 2 rows × 2.75 × ntaps
   const Kernels& kern = kernels();
   const bool near_alpha_const = (alpha_bits & 1) != 0;
-  Job job{&b, taps, ntaps, inv_taps, near_alpha_const, {0.0f, 0.0f}, (alpha_bits & 2) != 0,
-          dy_max, dx_min, dx_max - dx_min + kSeg + 8};
+  Job job{&b,
+          taps,
+          ntaps,
+          texel,
+          texels.both.data(),
+          static_cast<int>(texels.both.size()),
+          texels.only0.data(),
+          static_cast<int>(texels.only0.size()),
+          texels.only1.data(),
+          static_cast<int>(texels.only1.size()),
+          inv_taps,
+          near_alpha_const,
+          {0.0f, 0.0f},
+          (alpha_bits & 2) != 0,
+          dy_max,
+          dx_min,
+          dx_max - dx_min + kSeg + 8};
   if (near_alpha_const)
-    for (int parity = 0; parity < 2; ++parity)
-      job.near_alpha[parity] = kern.constant_near(taps, ntaps, a0, inv_taps, parity);
+    for (int parity = 0; parity < 2; ++parity) job.near_alpha[parity] = kern.constant_near(job, a0, parity);
   const int strips = (b.tiles_x + kStripTiles - 1) / kStripTiles;
   core::parallel_for(strips, [&](int s0, int s1) {
     thread_local std::vector<float> inv_den;  // 1/Σ far_h of one strip, h × kSeg

@@ -126,7 +126,9 @@ TEST(SternaFast, EqualsPlainOnEveryCoveredSetting) {
            {{"strength", "0.1"}},
            {{"strength", "0.6"}},
            {{"kernel_scale", "0.3"}},
-           {{"kernel_scale", "2.5"}, {"bokeh", "polygon"}, {"blades", "5"}}}) {
+           {{"kernel_scale", "2.5"}, {"bokeh", "polygon"}, {"blades", "5"}},
+           {{"near_upsample", "bicubic"}},
+           {{"near_upsample", "bicubic"}, {"strength", "0.6"}, {"kernel_scale", "1.5"}}}) {
     std::string label = "defaults";
     if (!p.empty()) {
       label.clear();
@@ -207,29 +209,34 @@ TEST(SternaFast, EqualsPlainForTheNativeNearFarBlendModel) {
 }
 
 TEST(SternaFast, EqualsPlainOnTinyAndEvenFrames) {
+  // (bicubic: the 4 × 4 near footprint is clamped at every border of these frames.)
   for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {2, 1}, {3, 2}, {5, 7}, {17, 9}, {64, 32}, {130, 66}})
-    expect_fast_equals_plain(test_frame(w, h), blur_at_infinity(2.0, 6.0), std::to_string(w) + "x" + std::to_string(h));
+    for (const char* up : {"bilinear", "bicubic"})
+      expect_fast_equals_plain(test_frame(w, h), blur_at_infinity(2.0, 6.0, {{"near_upsample", up}}),
+                               std::to_string(w) + "x" + std::to_string(h) + " " + up);
 }
 
 TEST(SternaFast, EqualsPlainWithManyTasks) {
-  // The composite computes the filled half-res rows it needs per task (two-row buffer,
-  // emptied at every task start): more threads give more, shorter tasks, each of which must
-  // recompute its first rows rather than reuse another task's or frame's. A tall narrow frame
-  // gives many row pairs per thread.
-  for (const auto& [w, h] : std::vector<std::pair<int, int>>{{203, 117}, {40, 301}}) {
-    const Frame f = test_frame(w, h);
-    RenderSettings s = blur_at_infinity(2.0, 9.0);
-    // (Bit for bit against the 1-thread fast render, within 1e-4 of plain: see the top.)
-    const Image one = expect_fast_equals_plain(f, s, std::to_string(w) + "x" + std::to_string(h));
-    for (int threads : {3, 7}) {
-      s.threads = threads;
-      Renderer r(s);
-      for (int k = 0; k < 2; ++k) {  // second frame: buffers hold the first frame's rows
-        const Diff d = compare(r.render(f).image, one);
-        EXPECT_EQ(d.differ, 0) << w << "x" << h << " threads=" << threads << " frame " << k;
+  // The composite computes the filled half-res rows it needs per task (two-row buffer, four
+  // rows for bicubic near upsampling, emptied at every task start): more threads give more,
+  // shorter tasks, each of which must recompute its first rows rather than reuse another
+  // task's or frame's. A tall narrow frame gives many row pairs per thread.
+  for (const auto& [w, h] : std::vector<std::pair<int, int>>{{203, 117}, {40, 301}})
+    for (const char* up : {"bilinear", "bicubic"}) {
+      const Frame f = test_frame(w, h);
+      RenderSettings s = blur_at_infinity(2.0, 9.0, {{"near_upsample", up}});
+      const std::string label = std::to_string(w) + "x" + std::to_string(h) + " " + up;
+      // (Bit for bit against the 1-thread fast render, within 1e-4 of plain: see the top.)
+      const Image one = expect_fast_equals_plain(f, s, label);
+      for (int threads : {3, 7}) {
+        s.threads = threads;
+        Renderer r(s);
+        for (int k = 0; k < 2; ++k) {  // second frame: buffers hold the first frame's rows
+          const Diff d = compare(r.render(f).image, one);
+          EXPECT_EQ(d.differ, 0) << label << " threads=" << threads << " frame " << k;
+        }
       }
     }
-  }
 }
 
 TEST(SternaFast, RepeatedFramesOfChangingSizeReuseTheWorkspaceCorrectly) {

@@ -27,37 +27,12 @@
 
 namespace dofkit::detail::sterna {
 
-namespace {
-
-struct Axis {
-  int i[4];     // texel indices (bilinear uses i[1], i[2])
-  float b[2];   // bilinear weights
-  float c[4];   // cubic B-spline weights
-};
-
-Axis axis(int x, int n) {
-  Axis a;
-  const int i0 = (x % 2 == 0) ? x / 2 - 1 : x / 2;
-  const float t = (x % 2 == 0) ? 0.75f : 0.25f;
-  for (int k = 0; k < 4; ++k) a.i[k] = clampi(i0 - 1 + k, 0, n - 1);
-  a.b[0] = 1.0f - t;
-  a.b[1] = t;
-  const float s = 1.0f - t;
-  a.c[0] = s * s * s / 6.0f;
-  a.c[1] = (3 * t * t * t - 6 * t * t + 4) / 6.0f;
-  a.c[2] = (-3 * t * t * t + 3 * t * t + 3 * t + 1) / 6.0f;
-  a.c[3] = t * t * t / 6.0f;
-  return a;
-}
-
-}  // namespace
-
 void composite(const Image& color, const FullCoc& full, const Settings& s, const HalfRes& h, Image& out) {
   const int W = color.width(), H = color.height();
   out.resize(W, H, 4);
-  std::vector<Axis> ax(W), ay(H);
-  for (int x = 0; x < W; ++x) ax[x] = axis(x, h.w);
-  for (int y = 0; y < H; ++y) ay[y] = axis(y, h.h);
+  std::vector<UpsampleAxis> ax(W), ay(H);
+  for (int x = 0; x < W; ++x) ax[x] = upsample_axis(x, h.w);
+  for (int y = 0; y < H; ++y) ay[y] = upsample_axis(y, h.h);
   const float blend = s.composite_blend;
   const float radius_per_far = 2.0f * kOuterRadius * s.kernel_scale;  // full-res px at far = 1
 
@@ -66,7 +41,7 @@ void composite(const Image& color, const FullCoc& full, const Settings& s, const
     for (int y = y0; y < y1; ++y) {
       for (int c = 0; c < 4; ++c) std::copy(color.row(c, y), color.row(c, y) + W, out.row(c, y));
       if (blend <= 0.0f) continue;
-      const Axis& Y = ay[y];
+      const UpsampleAxis& Y = ay[y];
       const float* ffull = full.coc.row(1, y);
       // Near can reach a pixel only from its own tile or a neighbour (filter reach <= 2
       // texels), so tiles with no near texel around them skip the near upsample entirely.
@@ -82,7 +57,7 @@ void composite(const Image& color, const FullCoc& full, const Settings& s, const
         const bool near_possible = near_tiles[std::min(x / 2, h.w - 1) / kTile] != 0;
         const float fq = ffull[x];
         if (fq <= 0.0f && !near_possible) continue;  // a copy
-        const Axis& X = ax[x];
+        const UpsampleAxis& X = ax[x];
         float res[4];
         for (int c = 0; c < 4; ++c) res[c] = out.row(c, y)[x];
         if (fq > 0.0f) {

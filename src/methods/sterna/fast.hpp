@@ -18,8 +18,8 @@
 //     (GCC target_clones). Floating-point contraction is disabled in them so an FMA never
 //     merges a multiply and an add that the plain code rounds separately (the gather's FMA
 //     kernels write their fused operations explicitly).
-// Settings the fast path does not cover (per_pixel_scale=on, near_upsample=bicubic, debug
-// views) run the plain passes.
+// Settings the fast path does not cover (per_pixel_scale=on, debug views) run the plain
+// passes.
 #pragma once
 #include <cstdint>
 #include <vector>

@@ -1,5 +1,6 @@
 // Fast P9: the composite as a vectorised loop over row pairs. Same weights, sums and blends as
-// composite.cpp (bilinear near upsampling; bicubic runs the plain pass).
+// composite.cpp, for both near upsamplings (bilinear, and the cubic B-spline of
+// near_upsample=bicubic: see taps4).
 //
 // Footprint bookkeeping. Full-res column x reads half-res columns
 //   ix1(x) = clamp(⌊(x − 1)/2⌋), ix2(x) = clamp(⌊(x + 1)/2⌋)
@@ -74,6 +75,24 @@ __attribute__((always_inline)) inline void taps(const float* P, int m, int w, bo
   t1 = __builtin_shufflevector(x, x, 1, 2, 2, 3, 5, 6, 6, 7);
 }
 
+// The four x-taps of the cubic B-spline for 8 pixels from x = 2m (composite.cpp's i[0 … 3]):
+// even x = 2(m + q) has i0 = m + q − 1, odd x = 2(m + q) + 1 has i0 = m + q, and tap k reads
+// texel i0 − 1 + k, so with X = P[m − 2 … m + 5] tap k is X[k + (0 1 1 2 2 3 3 4)].
+__attribute__((always_inline)) inline void taps4(const float* P, int m, int w, bool inner, V8* t) {
+  V8 x;
+  if (inner) {
+    x = load8(P + m - 2);
+  } else {
+    float tmp[8];
+    for (int k = 0; k < 8; ++k) tmp[k] = P[clampi(m - 2 + k, 0, w - 1)];
+    x = load8(tmp);
+  }
+  t[0] = __builtin_shufflevector(x, x, 0, 1, 1, 2, 2, 3, 3, 4);
+  t[1] = __builtin_shufflevector(x, x, 1, 2, 2, 3, 3, 4, 4, 5);
+  t[2] = __builtin_shufflevector(x, x, 2, 3, 3, 4, 4, 5, 5, 6);
+  t[3] = __builtin_shufflevector(x, x, 3, 4, 4, 5, 5, 6, 6, 7);
+}
+
 struct Pair {
   const float* P[2][kPlanes];  // half-res rows j1 (b = 0) and j2 (b = 1) of every plane
   int w = 0;
@@ -84,16 +103,21 @@ struct Pair {
   float by[2][2];              // y-weights [row][b]
   V8 wxy[2][2][2];             // bilinear weights [row][b][a] = x-weight a · y-weight b (composite.cpp
                                // X.b[a] · Y.b[b]), lanes alternating even / odd x
+  // near_upsample=bicubic: half-res rows i[0 … 3] (composite.cpp) of near_fill ×4 and
+  // near_blur, and the cubic weights [row][b][a] = x-weight a · y-weight b (X.c[a] · Y.c[b]).
+  const float* Q[4][5];
+  V8 wc[2][4][4];
   float blend = 1;
   bool far = false, near = false;  // parts some pixel of the chunk needs
 };
 
 // 8 pixels (n valid) from chunk offset i, full-res x = xa + i (even), both rows. Per row and
 // lane the operations and their order are composite.cpp's.
-template <int kRows>
+template <int kRows, bool kCubic>
 __attribute__((always_inline)) inline void group(const Pair& R, int xa, int i, int n) {
   const int m = (xa + i) >> 1;
-  const bool inner = m >= 1 && m + 4 <= R.w - 1;  // the six texels of taps() need no clamp
+  const bool inner = m >= 1 && m + 4 <= R.w - 1;   // the six texels of taps() need no clamp
+  const bool inner4 = m >= 2 && m + 5 <= R.w - 1;  // nor the eight of taps4()
   const V8 zero = splat(0.0f);
   constexpr int nr = kRows;
   V8 fq[2];
@@ -129,28 +153,41 @@ __attribute__((always_inline)) inline void group(const Pair& R, int xa, int i, i
       far_on[r] = (fq[r] > zero) & (wsum[r] > zero);
     }
   }
-  // Near: bilinear dilated CoC → blend factor; skipped where all four taps' CoC are 0.
+  // Near: bilinear (or cubic) dilated CoC → blend factor; skipped where all the footprint's
+  // CoCs are 0.
   bool near_here = false;
-  V8 tn[2];
+  V8 nb[2] = {zero, zero}, tn[2];
   I8 near_on[2];
-  if (R.near) {
+  if (R.near && kCubic) {  // 4 × 4 footprint
+    V8 nbk[4][4];  // [b][a]
+    I8 some = splat_i(0);
+    for (int b = 0; b < 4; ++b) {
+      taps4(R.Q[b][4], m, R.w, inner4, nbk[b]);
+      for (int a = 0; a < 4; ++a) some |= nbk[b][a] > zero;
+    }
+    near_here = any(some);
+    if (near_here)
+      for (int b = 0; b < 4; ++b)
+        for (int r = 0; r < nr; ++r)
+          for (int a = 0; a < 4; ++a) nb[r] += R.wc[r][b][a] * nbk[b][a];
+  } else if (R.near) {  // 2 × 2
     V8 nbk[2][2];  // [b][a]
     I8 some = splat_i(0);
     for (int b = 0; b < 2; ++b) {
       taps(R.P[b][9], m, R.w, inner, nbk[b][0], nbk[b][1]);
       some |= (nbk[b][0] > zero) | (nbk[b][1] > zero);
     }
-    if (any(some)) {
-      near_here = true;
-      V8 nb[2] = {zero, zero};
+    near_here = any(some);
+    if (near_here)
       for (int b = 0; b < 2; ++b)
         for (int r = 0; r < nr; ++r)
           for (int a = 0; a < 2; ++a) nb[r] += R.wxy[r][b][a] * nbk[b][a];
-      const V8 one = splat(1.0f);
-      for (int r = 0; r < nr; ++r) {
-        tn[r] = splat(R.blend) * (one < nb[r] ? one : nb[r]);  // std::min(nb, 1)
-        near_on[r] = tn[r] > zero;
-      }
+  }
+  if (near_here) {
+    const V8 one = splat(1.0f);
+    for (int r = 0; r < nr; ++r) {
+      tn[r] = splat(R.blend) * (one < nb[r] ? one : nb[r]);  // std::min(nb, 1)
+      near_on[r] = tn[r] > zero;
     }
   }
   // Per channel: colour, far blend, near blend, store (few live vectors: no spills).
@@ -180,11 +217,20 @@ __attribute__((always_inline)) inline void group(const Pair& R, int xa, int i, i
     }
     if (near_here) {
       V8 nf[2] = {zero, zero};
-      for (int b = 0; b < 2; ++b) {
-        V8 t[2];
-        taps(R.P[b][5 + c], m, R.w, inner, t[0], t[1]);
-        for (int r = 0; r < nr; ++r)
-          for (int a = 0; a < 2; ++a) nf[r] += R.wxy[r][b][a] * t[a];
+      if constexpr (kCubic) {
+        for (int b = 0; b < 4; ++b) {
+          V8 t[4];
+          taps4(R.Q[b][c], m, R.w, inner4, t);
+          for (int r = 0; r < nr; ++r)
+            for (int a = 0; a < 4; ++a) nf[r] += R.wc[r][b][a] * t[a];
+        }
+      } else {
+        for (int b = 0; b < 2; ++b) {
+          V8 t[2];
+          taps(R.P[b][5 + c], m, R.w, inner, t[0], t[1]);
+          for (int r = 0; r < nr; ++r)
+            for (int a = 0; a < 2; ++a) nf[r] += R.wxy[r][b][a] * t[a];
+        }
       }
       for (int r = 0; r < nr; ++r) res[r] = near_on[r] ? res[r] + (nf[r] - res[r]) * tn[r] : res[r];
     }
@@ -200,17 +246,23 @@ __attribute__((always_inline)) inline void group(const Pair& R, int xa, int i, i
   }
 }
 
-template <int kRows>
+template <int kRows, bool kCubic>
 __attribute__((always_inline)) inline void chunk_t(const Pair& R, int xa, int n) {
-  for (int i = 0; i < n; i += 8) group<kRows>(R, xa, i, std::min(8, n - i));
+  for (int i = 0; i < n; i += 8) group<kRows, kCubic>(R, xa, i, std::min(8, n - i));
 }
 
-STERNA_SIMD void composite_chunk(const Pair& R, int xa, int n) {
+STERNA_SIMD void composite_chunk(const Pair& R, int xa, int n, bool cubic) {
   // (nrows is a loop bound inside group(); two copies make it a constant.)
-  if (R.nrows == 2)
-    chunk_t<2>(R, xa, n);
-  else
-    chunk_t<1>(R, xa, n);
+  if (cubic) {
+    if (R.nrows == 2)
+      chunk_t<2, true>(R, xa, n);
+    else
+      chunk_t<1, true>(R, xa, n);
+  } else if (R.nrows == 2) {
+    chunk_t<2, false>(R, xa, n);
+  } else {
+    chunk_t<1, false>(R, xa, n);
+  }
 }
 
 // In-focus chunks are copies. Non-temporal stores (where dst is 16-byte aligned) write them
@@ -240,34 +292,54 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
   const int pairs = H / 2 + 1;
   core::parallel_for(pairs, [&](int p0, int p1) {
     float* fqbuf = scratch(0, 2 * static_cast<std::size_t>(W)).data();
-    // P8 rows: two slots of 8 filled rows (near ×4, far ×4), each holding one half-res row;
-    // pair p needs rows p − 1 and p, so consecutive pairs compute one new row each. Slots
-    // start empty in every task (rows from another task or frame are never reused).
+    // P8 rows: slots of 8 filled planes (near ×4, far ×4), each holding one half-res row;
+    // pair p needs rows p − 1 and p (bicubic near: p − 2 … p + 1), so consecutive pairs
+    // compute one new row each. Slots start empty in every task (rows from another task or
+    // frame are never reused).
+    const bool cubic = s.bicubic_near;
+    const int nslots = cubic ? 4 : 2;
     const std::size_t wpad = (static_cast<std::size_t>(w) + 15) / 16 * 16;
-    float* fillbuf = scratch(1, 16 * wpad).data();
-    int slot_row[2] = {-1, -1};
+    float* fillbuf = scratch(1, 32 * wpad).data();
+    int slot_row[4] = {-1, -1, -1, -1};
     float* stage = scratch(2, 8 * static_cast<std::size_t>(kChunk) + 16).data();
     stage += (16 - (reinterpret_cast<std::uintptr_t>(stage) >> 2) % 16) % 16;
     auto slot_plane = [&](int slot, int k) { return fillbuf + (static_cast<std::size_t>(slot) * 8 + k) * wpad; };
-    auto filled = [&](int row, int keep) {  // slot holding `row`; the other slot than `keep` is reused
-      for (int sl = 0; sl < 2; ++sl)
-        if (slot_row[sl] == row) return sl;
-      const int sl = keep == 0 ? 1 : 0;
-      float* near_out[4];
-      float* far_out[4];
-      for (int c = 0; c < 4; ++c) {
-        near_out[c] = slot_plane(sl, c);
-        far_out[c] = slot_plane(sl, 4 + c);
+    // slot[k] ← the slot holding rows[k] (n rows, possibly repeated at the borders); rows not
+    // held yet are filled into slots no row of the list holds.
+    auto fill_slots = [&](const int* rows, int n, int* slot) {
+      bool keep[4] = {};
+      for (int k = 0; k < n; ++k) {
+        slot[k] = -1;
+        for (int sl = 0; sl < nslots; ++sl)
+          if (slot_row[sl] == rows[k]) slot[k] = sl, keep[sl] = true;
       }
-      fill_rows(b, row, near_out, far_out);
-      slot_row[sl] = row;
-      return sl;
+      for (int k = 0; k < n; ++k) {
+        for (int q = 0; q < k && slot[k] < 0; ++q)
+          if (rows[q] == rows[k]) slot[k] = slot[q];
+        if (slot[k] >= 0) continue;
+        int sl = 0;
+        while (keep[sl]) ++sl;  // (n ≤ nslots distinct rows: one is free)
+        float* near_out[4];
+        float* far_out[4];
+        for (int c = 0; c < 4; ++c) {
+          near_out[c] = slot_plane(sl, c);
+          far_out[c] = slot_plane(sl, 4 + c);
+        }
+        fill_rows(b, rows[k], near_out, far_out);
+        slot_row[sl] = rows[k];
+        keep[sl] = true;
+        slot[k] = sl;
+      }
     };
     for (int p = p0; p < p1; ++p) {
-      const int j[2] = {clampi(p - 1, 0, h - 1), clampi(p, 0, h - 1)};
-      int slot[2];
-      slot[0] = filled(j[0], slot_row[0] == j[1] ? 0 : (slot_row[1] == j[1] ? 1 : -1));
-      slot[1] = filled(j[1], slot[0]);
+      // Half-res rows: j = (p − 1, p) for the far field and the bilinear near field,
+      // jq = (p − 2 … p + 1) for the cubic near field (composite.cpp's i[0 … 3]), clamped.
+      const int jq[4] = {clampi(p - 2, 0, h - 1), clampi(p - 1, 0, h - 1), clampi(p, 0, h - 1),
+                         clampi(p + 1, 0, h - 1)};
+      const int* j = jq + 1;
+      int slots[4];
+      fill_slots(cubic ? jq : j, nslots, slots);
+      const int* slot = cubic ? slots + 1 : slots;
       int ys[2], nrows = 0;
       if (2 * p - 1 >= 0) ys[nrows++] = 2 * p - 1;
       if (2 * p <= H - 1) ys[nrows++] = 2 * p;
@@ -284,6 +356,11 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
         R.P[bb][4] = b.far_h_row(j[bb]);
         R.P[bb][9] = b.near_blur->row(0, j[bb]);
       }
+      if (cubic)
+        for (int bb = 0; bb < 4; ++bb) {
+          for (int c = 0; c < 4; ++c) R.Q[bb][c] = slot_plane(slots[bb], c);
+          R.Q[bb][4] = b.near_blur->row(0, jq[bb]);
+        }
       for (int r = 0; r < nrows; ++r) {
         const float t = (ys[r] % 2 == 0) ? 0.75f : 0.25f;  // composite.cpp axis()
         R.by[r][0] = 1.0f - t;
@@ -293,6 +370,13 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
                           V8{0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f}};
         for (int bb = 0; bb < 2; ++bb)
           for (int a = 0; a < 2; ++a) R.wxy[r][bb][a] = bx[a] * splat(R.by[r][bb]);
+        if (cubic) {  // composite.cpp's X.c[a] · Y.c[b], lanes alternating even / odd x
+          const UpsampleAxis ye = upsample_axis(ys[r], h), xe = upsample_axis(0, w), xo = upsample_axis(1, w);
+          for (int a = 0; a < 4; ++a) {
+            const V8 cx = {xe.c[a], xo.c[a], xe.c[a], xo.c[a], xe.c[a], xo.c[a], xe.c[a], xo.c[a]};
+            for (int bb = 0; bb < 4; ++bb) R.wc[r][bb][a] = cx * splat(ye.c[bb]);
+          }
+        }
       }
       for (int xa = 0; xa < W; xa += kChunk) {
         const int n = std::min(kChunk, W - xa);
@@ -323,7 +407,7 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
           }
           R.fq[r] = fqbuf + static_cast<std::size_t>(r) * W + xa;
         }
-        composite_chunk(R, xa, n);
+        composite_chunk(R, xa, n, cubic);
         for (int r = 0; r < nrows; ++r)
           for (int c = 0; c < 4; ++c)
             stream_copy(stage + static_cast<std::size_t>(r * 4 + c) * kChunk, out.row(c, ys[r]) + xa, n);

@@ -79,4 +79,28 @@ inline float luma(float r, float g, float b) { return 0.2126f * r + 0.7152f * g 
 
 inline int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
 
+/// P9's footprint along one axis for full-res coordinate x (n half-res texels): the texels
+/// i0 − 1 … i0 + 2 with i0 = x/2 − 1 (x even) or ⌊x/2⌋ (x odd), clamped; the fraction t of
+/// the pixel centre past texel i0 is ¾ (even) or ¼ (odd). Shared by composite.cpp and
+/// fast_composite.cpp so that both compute the weights with the same operations.
+struct UpsampleAxis {
+  int i[4];    // texel indices (bilinear uses i[1], i[2])
+  float b[2];  // bilinear weights
+  float c[4];  // cubic B-spline weights
+};
+inline UpsampleAxis upsample_axis(int x, int n) {
+  UpsampleAxis a;
+  const int i0 = (x % 2 == 0) ? x / 2 - 1 : x / 2;
+  const float t = (x % 2 == 0) ? 0.75f : 0.25f;
+  for (int k = 0; k < 4; ++k) a.i[k] = clampi(i0 - 1 + k, 0, n - 1);
+  a.b[0] = 1.0f - t;
+  a.b[1] = t;
+  const float s = 1.0f - t;
+  a.c[0] = s * s * s / 6.0f;
+  a.c[1] = (3 * t * t * t - 6 * t * t + 4) / 6.0f;
+  a.c[2] = (-3 * t * t * t + 3 * t * t + 3 * t + 1) / 6.0f;
+  a.c[3] = t * t * t / 6.0f;
+  return a;
+}
+
 }  // namespace dofkit::detail::sterna

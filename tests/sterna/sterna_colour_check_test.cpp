@@ -2,8 +2,8 @@
 // colour first, and sterna must find a bad sample wherever it is. The fast path tests the
 // samples inside its downsample (fast_prepare.cpp: 8-texel vector quads, then a scalar tail
 // that repeats the edge column on odd widths; the last row pair repeats the edge row on odd
-// heights; near_upsample=bicubic takes it too); every other path (impl=plain, strength 0,
-// per_pixel_scale) scans the frame first. Whatever the path, a frame with one bad sample must render exactly like its
+// heights; near_upsample=bicubic and per_pixel_scale take it too); every other path
+// (impl=plain, strength 0, debug views) scans the frame first. Whatever the path, a frame with one bad sample must render exactly like its
 // sanitised copy. tests/robustness checks colour plane 1 and alpha on three sizes with the
 // default settings; this test covers every plane, every path, and sizes whose vector part
 // meets an odd last column and an odd last row.
@@ -170,13 +170,13 @@ TEST(SternaColourCheck, FastDownsampleFindsEveryBadSample) {
   for (auto [w, h] : {std::pair{37, 7}, {34, 4}, {16, 3}, {5, 5}}) expect_every_bad_sample_found({}, w, h);
   // Karis weights: the other instantiation of the row function.
   expect_every_bad_sample_found({{"firefly", "karis"}}, 37, 7);
-  // Bicubic near upsampling runs the fast path as well.
+  // Bicubic near upsampling and the per-pixel kernel scale run the fast path as well.
   expect_every_bad_sample_found({{"near_upsample", "bicubic"}}, 37, 7);
+  expect_every_bad_sample_found({{"per_pixel_scale", "on"}}, 37, 7);
 }
 
 TEST(SternaColourCheck, EveryOtherPathFindsEveryBadSample) {
   for (const auto& p : std::vector<std::map<std::string, std::string>>{{{"impl", "plain"}},
-                                                                       {{"strength", "0"}},
-                                                                       {{"per_pixel_scale", "on"}}})
+                                                                       {{"strength", "0"}}})
     expect_every_bad_sample_found(p, 19, 5);
 }

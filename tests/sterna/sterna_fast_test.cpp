@@ -128,7 +128,9 @@ TEST(SternaFast, EqualsPlainOnEveryCoveredSetting) {
            {{"kernel_scale", "0.3"}},
            {{"kernel_scale", "2.5"}, {"bokeh", "polygon"}, {"blades", "5"}},
            {{"near_upsample", "bicubic"}},
-           {{"near_upsample", "bicubic"}, {"strength", "0.6"}, {"kernel_scale", "1.5"}}}) {
+           {{"near_upsample", "bicubic"}, {"strength", "0.6"}, {"kernel_scale", "1.5"}},
+           {{"per_pixel_scale", "on"}},
+           {{"per_pixel_scale", "on"}, {"firefly", "karis"}, {"near_upsample", "bicubic"}, {"strength", "0.6"}}}) {
     std::string label = "defaults";
     if (!p.empty()) {
       label.clear();
@@ -209,11 +211,13 @@ TEST(SternaFast, EqualsPlainForTheNativeNearFarBlendModel) {
 }
 
 TEST(SternaFast, EqualsPlainOnTinyAndEvenFrames) {
-  // (bicubic: the 4 × 4 near footprint is clamped at every border of these frames.)
+  // (bicubic: the 4 × 4 near footprint is clamped at every border of these frames;
+  // per_pixel_scale: the per-texel far gather and the similar-radius far fill.)
   for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {2, 1}, {3, 2}, {5, 7}, {17, 9}, {64, 32}, {130, 66}})
-    for (const char* up : {"bilinear", "bicubic"})
-      expect_fast_equals_plain(test_frame(w, h), blur_at_infinity(2.0, 6.0, {{"near_upsample", up}}),
-                               std::to_string(w) + "x" + std::to_string(h) + " " + up);
+    for (const auto& p : std::vector<std::map<std::string, std::string>>{
+             {}, {{"near_upsample", "bicubic"}}, {{"per_pixel_scale", "on"}}})
+      expect_fast_equals_plain(test_frame(w, h), blur_at_infinity(2.0, 6.0, p),
+                               std::to_string(w) + "x" + std::to_string(h) + (p.empty() ? "" : " " + p.begin()->first));
 }
 
 TEST(SternaFast, EqualsPlainWithManyTasks) {
@@ -222,10 +226,11 @@ TEST(SternaFast, EqualsPlainWithManyTasks) {
   // shorter tasks, each of which must recompute its first rows rather than reuse another
   // task's or frame's. A tall narrow frame gives many row pairs per thread.
   for (const auto& [w, h] : std::vector<std::pair<int, int>>{{203, 117}, {40, 301}})
-    for (const char* up : {"bilinear", "bicubic"}) {
+    for (const auto& p : std::vector<std::map<std::string, std::string>>{
+             {}, {{"near_upsample", "bicubic"}}, {{"per_pixel_scale", "on"}}}) {
       const Frame f = test_frame(w, h);
-      RenderSettings s = blur_at_infinity(2.0, 9.0, {{"near_upsample", up}});
-      const std::string label = std::to_string(w) + "x" + std::to_string(h) + " " + up;
+      RenderSettings s = blur_at_infinity(2.0, 9.0, p);
+      const std::string label = std::to_string(w) + "x" + std::to_string(h) + (p.empty() ? "" : " " + p.begin()->first);
       // (Bit for bit against the 1-thread fast render, within 1e-4 of plain: see the top.)
       const Image one = expect_fast_equals_plain(f, s, label);
       for (int threads : {3, 7}) {

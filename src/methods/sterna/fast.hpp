@@ -18,8 +18,7 @@
 //     (GCC target_clones). Floating-point contraction is disabled in them so an FMA never
 //     merges a multiply and an add that the plain code rounds separately (the gather's FMA
 //     kernels write their fused operations explicitly).
-// Settings the fast path does not cover (per_pixel_scale=on, debug views) run the plain
-// passes.
+// Debug views run the plain passes (every other setting has its fast form).
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -76,7 +75,7 @@ bool prepare(const MethodContext& ctx, const Settings& s, Buffers& b);
 void dilate(const Settings& s, Buffers& b);                             // P3–P6
 void gather(const Settings& s, Buffers& b);                             // tiles + P7
 /// P8 for half-res row y: the 3×3 max fill of the near and far fields, 4 rows of w each.
-void fill_rows(const Buffers& b, int y, float* const* near_out, float* const* far_out);
+void fill_rows(const Settings& s, const Buffers& b, int y, float* const* near_out, float* const* far_out);
 void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blend, const Buffers& b,
                Image& out);                                             // P9
 

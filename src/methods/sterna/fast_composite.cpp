@@ -108,6 +108,9 @@ struct Pair {
   const float* Q[4][5];
   V8 wc[2][4][4];
   float blend = 1;
+  // per_pixel_scale: the far blend is blend · min(1, far(q) · radius_per_far / 2) (composite.cpp).
+  bool per_pixel = false;
+  float radius_per_far = 0;
   bool far = false, near = false;  // parts some pixel of the chunk needs
 };
 
@@ -149,7 +152,12 @@ __attribute__((always_inline)) inline void group(const Pair& R, int xa, int i, i
         }
     }
     for (int r = 0; r < nr; ++r) {
-      tf[r] = splat(R.blend) * fq[r];
+      if (R.per_pixel) {  // std::min(1.0f, v) = v < 1 ? v : 1
+        const V8 one = splat(1.0f), v = fq[r] * splat(R.radius_per_far) / splat(2.0f);
+        tf[r] = splat(R.blend) * (v < one ? v : one);
+      } else {
+        tf[r] = splat(R.blend) * fq[r];
+      }
       far_on[r] = (fq[r] > zero) & (wsum[r] > zero);
     }
   }
@@ -325,7 +333,7 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
           near_out[c] = slot_plane(sl, c);
           far_out[c] = slot_plane(sl, 4 + c);
         }
-        fill_rows(b, rows[k], near_out, far_out);
+        fill_rows(s, b, rows[k], near_out, far_out);
         slot_row[sl] = rows[k];
         keep[sl] = true;
         slot[k] = sl;
@@ -348,6 +356,8 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
       R.w = w;
       R.nrows = nrows;
       R.blend = cblend;
+      R.per_pixel = s.per_pixel_scale;
+      R.radius_per_far = 2.0f * kOuterRadius * s.kernel_scale;  // composite.cpp: full-res px at far = 1
       for (int bb = 0; bb < 2; ++bb) {
         for (int c = 0; c < 4; ++c) {
           R.P[bb][c] = slot_plane(slot[bb], 4 + c);

@@ -86,16 +86,39 @@ STERNA_SIMD void fill_row(const Rows& R, const float* __restrict factor, float* 
   one(w - 2, w - 1, w - 1);
 }
 
+// per_pixel_scale: fill.cpp's far fill, which takes a neighbour only if its kernel radius
+// differs from the texel's by at most one texel, |far_n − far_p|·radius_per_far <= 1 (same
+// maxima in the same order; scalar — this option's gather costs far more).
+void fill_row_similar(const Rows& R, const Rows& F, float* __restrict out, int w, float radius_per_far) {
+  const float* fr = F.r[1];
+  for (int x = 0; x < w; ++x) {
+    if (!(fr[x] > 0.0f)) {
+      out[x] = R.r[1][x];
+      continue;
+    }
+    const int xs[3] = {std::max(x - 1, 0), x, std::min(x + 1, w - 1)};
+    float m = R.r[1][x];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        if (std::abs(F.r[a][xs[b]] - fr[x]) * radius_per_far <= 1.0f) m = std::max(m, R.r[a][xs[b]]);
+    out[x] = m;
+  }
+}
+
 }  // namespace
 
-void fill_rows(const Buffers& b, int y, float* const* near_out, float* const* far_out) {
+void fill_rows(const Settings& s, const Buffers& b, int y, float* const* near_out, float* const* far_out) {
   const int w = b.w, h = b.h;
   const int ys[3] = {std::max(y - 1, 0), y, std::min(y + 1, h - 1)};
+  const Rows far_h{{b.far_h_row(ys[0]), b.far_h_row(ys[1]), b.far_h_row(ys[2])}};
   for (int c = 0; c < 4; ++c) {
     Rows rn{{b.dof_near->row(c, ys[0]), b.dof_near->row(c, ys[1]), b.dof_near->row(c, ys[2])}};
     fill_row(rn, b.near_blur->row(0, y), near_out[c], w);
     Rows rf{{b.dof_far->row(c, ys[0]), b.dof_far->row(c, ys[1]), b.dof_far->row(c, ys[2])}};
-    fill_row(rf, b.far_h_row(y), far_out[c], w);
+    if (s.per_pixel_scale)
+      fill_row_similar(rf, far_h, far_out[c], w, kOuterRadius * s.kernel_scale);
+    else
+      fill_row(rf, b.far_h_row(y), far_out[c], w);
   }
 }
 

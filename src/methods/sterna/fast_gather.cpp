@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <immintrin.h>
 #include <utility>
 #include <vector>
 
@@ -379,6 +380,8 @@ struct Job {
   float near_alpha[2];
   // ... and colourFar_h alpha equals far_h bit for bit, so its far gather is the denominator's.
   bool far_alpha_is_den;
+  // per_pixel_scale: the far field is gathered per texel afterwards (far_per_texel), not here.
+  bool skip_far;
   // Prefetch: the row that output row y + kAhead will be the first to read (its last tap row,
   // dy_max + 1 below), from column dx_min over `span` floats.
   int pf_dy, pf_dx, pf_span;
@@ -565,6 +568,7 @@ __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int
         store_seg(b.dof_near->row(c, y + r), x0, n, res);
       }
     }
+  if (job.skip_far) return;
   // Far field: the denominator Σ far_h first (kept as 1/den per texel), then the channels.
   for (int y = 0; y < h; y += kRows) {
     const bool active = seg_has(b, y / kTile, tx0, tx1, kFarBit);
@@ -679,6 +683,134 @@ STERNA_SIMD void classify_row(const float* __restrict nb, const float* __restric
   }
 }
 
+// gather.cpp's bilinear lookup of padded plane `plane` at (x, y) (texel units, centres at
+// integer + ½), the position's split given: the same operations in the same order.
+struct Lookup {
+  std::ptrdiff_t off;  // row y0, column x0 of the padded plane, from the origin
+  float tx, ty;
+};
+inline Lookup lookup_at(float x, float y, std::ptrdiff_t pitch) {
+  const float fx = x - 0.5f, fy = y - 0.5f;
+  const float x0 = std::floor(fx), y0 = std::floor(fy);
+  return {static_cast<std::ptrdiff_t>(y0) * pitch + static_cast<std::ptrdiff_t>(x0), fx - x0, fy - y0};
+}
+inline float bilinear_at(const float* origin, const Lookup& l, std::ptrdiff_t pitch) {
+  const float* r0 = origin + l.off;
+  const float* r1 = r0 + pitch;
+  const float tx = l.tx, ty = l.ty;
+  return (1 - ty) * ((1 - tx) * r0[0] + tx * r0[1]) + ty * ((1 - tx) * r1[0] + tx * r1[1]);
+}
+
+// per_pixel_scale (algorithms.md §3.5, gather.cpp): the far field of texel p with its offsets
+// scaled by kernel_scale · far_h(p), so every texel has its own bilinear splits. gather.cpp's
+// per-texel loop with the same sums in the same order (Σ over taps of each channel's lookup,
+// then num / den), except that a tap's position is split once for the five planes instead of
+// once per plane (the same values). Texels with far_h = 0 get the early-out 0.
+// far_texels does texels x0 … x1 − 1 of row y one at a time; far_texels_avx2 eight at a time
+// (the lookups by vgatherdps, the arithmetic lane by lane the same operations: multiplies and
+// adds stay separate, AVX2 without FMA).
+struct PerTexel {
+  const float* origin[5];  // far_src planes at texel (0, 0)
+  float* out[4];           // dof_far row y
+  const float* fr;         // far_h row y
+  std::ptrdiff_t pitch;
+  float ks;
+  const std::vector<Offset>* off;
+};
+
+void far_texels(const PerTexel& P, int y, int x0, int x1) {
+  const std::ptrdiff_t pitch = P.pitch;
+  const float ks = P.ks;
+  const float* fr = P.fr;
+  for (int x = x0; x < x1; ++x) {
+    if (!(fr[x] > 0.0f)) {
+      for (int c = 0; c < 4; ++c) P.out[c][x] = 0.0f;
+      continue;
+    }
+    const float sc = ks * fr[x];
+    const float cx = x + 0.5f, cy = y + 0.5f;
+    float num[4] = {0, 0, 0, 0}, den = 0.0f;
+    for (const Offset& o : *P.off) {
+      const Lookup l = lookup_at(cx + o.x * sc, cy + o.y * sc, pitch);
+      for (int c = 0; c < 4; ++c) num[c] += bilinear_at(P.origin[c], l, pitch);
+      den += bilinear_at(P.origin[4], l, pitch);
+    }
+    for (int c = 0; c < 4; ++c) P.out[c][x] = num[c] / den;
+  }
+}
+
+#if !defined(__clang__)
+// Returns the first texel it left to far_texels (the tail of the row).
+__attribute__((target("avx2"))) int far_texels_avx2(const PerTexel& P, int y, int w) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f);
+  const __m256 ks = _mm256_set1_ps(P.ks), cy = _mm256_set1_ps(y + 0.5f);
+  const __m256i pitch = _mm256_set1_epi32(static_cast<int>(P.pitch));
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    const __m256 fr = _mm256_loadu_ps(P.fr + x);
+    const __m256 on = _mm256_cmp_ps(fr, zero, _CMP_GT_OQ);
+    if (_mm256_movemask_ps(on) == 0) {
+      for (int c = 0; c < 4; ++c) _mm256_storeu_ps(P.out[c] + x, zero);
+      continue;
+    }
+    const __m256 sc = _mm256_mul_ps(ks, fr);
+    // x + 0.5f per lane: the integer column converted exactly, then the same add.
+    const __m256 cx = _mm256_add_ps(
+        _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))), half);
+    __m256 num[4] = {zero, zero, zero, zero}, den = zero;
+    for (const Offset& o : *P.off) {
+      const __m256 px = _mm256_add_ps(cx, _mm256_mul_ps(_mm256_set1_ps(o.x), sc));
+      const __m256 py = _mm256_add_ps(cy, _mm256_mul_ps(_mm256_set1_ps(o.y), sc));
+      const __m256 fx = _mm256_sub_ps(px, half), fy = _mm256_sub_ps(py, half);
+      const __m256 x0 = _mm256_floor_ps(fx), y0 = _mm256_floor_ps(fy);
+      const __m256 tx = _mm256_sub_ps(fx, x0), ty = _mm256_sub_ps(fy, y0);
+      const __m256 ux = _mm256_sub_ps(one, tx), uy = _mm256_sub_ps(one, ty);
+      const __m256i idx =
+          _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(y0), pitch), _mm256_cvttps_epi32(x0));
+      for (int c = 0; c < 5; ++c) {
+        const float* r0 = P.origin[c];
+        const float* r1 = r0 + P.pitch;
+        const __m256 a = _mm256_i32gather_ps(r0, idx, 4), bb = _mm256_i32gather_ps(r0 + 1, idx, 4);
+        const __m256 cc = _mm256_i32gather_ps(r1, idx, 4), d = _mm256_i32gather_ps(r1 + 1, idx, 4);
+        // (1 − ty)·((1 − tx)·a + tx·b) + ty·((1 − tx)·c + tx·d), as bilinear_at
+        const __m256 top = _mm256_add_ps(_mm256_mul_ps(ux, a), _mm256_mul_ps(tx, bb));
+        const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ux, cc), _mm256_mul_ps(tx, d));
+        const __m256 v = _mm256_add_ps(_mm256_mul_ps(uy, top), _mm256_mul_ps(ty, bot));
+        if (c < 4)
+          num[c] = _mm256_add_ps(num[c], v);
+        else
+          den = _mm256_add_ps(den, v);
+      }
+    }
+    for (int c = 0; c < 4; ++c) _mm256_storeu_ps(P.out[c] + x, _mm256_and_ps(on, _mm256_div_ps(num[c], den)));
+  }
+  return x;
+}
+#endif
+
+void far_per_texel(const Settings& s, Buffers& b) {
+  const int w = b.w, h = b.h;
+#if !defined(__clang__)  // (clang, the fuzz build: far_texels only)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+#endif
+  core::parallel_for(h, [&](int y0, int y1) {
+    PerTexel P;
+    for (int c = 0; c < 5; ++c) P.origin[c] = b.src_row(*b.far_src, c, 0);
+    P.pitch = b.far_src->width();
+    P.ks = s.kernel_scale;
+    P.off = &s.offsets;
+    for (int y = y0; y < y1; ++y) {
+      P.fr = b.far_h_row(y);
+      for (int c = 0; c < 4; ++c) P.out[c] = b.dof_far->row(c, y);
+      int x = 0;
+#if !defined(__clang__)
+      if (avx2) x = far_texels_avx2(P, y, w);
+#endif
+      far_texels(P, y, x, w);
+    }
+  }, 4);
+}
+
 }  // namespace
 
 void gather(const Settings& s, Buffers& b) {
@@ -758,6 +890,7 @@ void gather(const Settings& s, Buffers& b) {
           near_alpha_const,
           {0.0f, 0.0f},
           (alpha_bits & 2) != 0,
+          s.per_pixel_scale,
           dy_max,
           dx_min,
           dx_max - dx_min + kSeg + 8};
@@ -770,6 +903,7 @@ void gather(const Settings& s, Buffers& b) {
     for (int st = s0; st < s1; ++st)
       kern.strip(job, st * kStripTiles, std::min(b.tiles_x, (st + 1) * kStripTiles), inv_den.data());
   });
+  if (s.per_pixel_scale) far_per_texel(s, b);
 }
 
 }  // namespace dofkit::detail::sterna::fast

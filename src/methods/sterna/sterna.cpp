@@ -109,7 +109,7 @@ void render_sterna(const MethodContext& ctx, Image& out) {
   const bool strength_zero = s.composite_blend <= 0.0f && !want_view;
   // impl=fast (default) runs the optimised passes of fast_*.cpp, which give the same output
   // as the plain passes below (the oracle, impl=plain); settings they do not cover run plain.
-  const bool fast_path = !strength_zero && fast && !s.per_pixel_scale && !want_view;
+  const bool fast_path = !strength_zero && fast && !want_view;
   // checks_colour: when render() leaves the sanitation check to us (ctx.colour_dirty), the
   // fast path makes it inside its downsample; every other path scans the colour first.
   if (ctx.colour_dirty && !fast_path && !color_is_sanitary(ctx.frame.color)) {
@@ -161,7 +161,7 @@ const MethodDef& sterna_method() {
           {"anamorphic", "1", "bokeh width/height ratio 0.5-2 (area preserving)"},
           {"firefly", "off", "HDR firefly suppression in the downsample: off or karis (weights 1/(1+luma))"},
           {"impl", "fast",
-           "fast (optimised passes; per_pixel_scale=on and debug views use plain) or plain "
+           "fast (optimised passes; debug views use plain) or plain "
            "(the reference passes, the test oracle); same output"},
       },
       {

@@ -1,16 +1,25 @@
-// `dofkit render`: one colour image + depth → depth of field, written to a file.
+// `dofkit render`: one colour image + depth → depth of field, written to a file; with
+// --frames, a numbered sequence of them in one process.
 //
 // Order of work, so that a mistake costs as little as possible and never a file:
-//   1. check every flag and path (usage errors, exit 2) before reading anything;
+//   1. check every flag and path (usage errors, exit 2) before reading anything — with
+//      --frames, every frame's paths, and that every frame's inputs exist;
 //   2. read and validate the inputs (bad input, exit 3);
 //   3. render completely in memory;
 //   4. encode every output into a temporary file beside its target, then rename them all.
-// An error at any step leaves every output path as it was.
+// An error at any step leaves every output path of the frame as it was; with --frames,
+// steps 2–4 run frame by frame (one Renderer, its buffers reused), so the frames before a
+// failing one stay written.
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <iostream>
+#include <cctype>
+#include <cstdio>
+#include <iterator>
 #include <memory>
+#include <optional>
+#include <set>
 
 #include "cli_common.hpp"
 #include "commands.hpp"
@@ -26,6 +35,7 @@ namespace {
 struct RenderArgs {
   std::string color, depth, layers, mask, mask_depth;
   std::string output, output_coc, debug_output;
+  std::string frames;
   std::string method = "reference";
   std::string debug_view;
   std::vector<std::string> sets;
@@ -55,9 +65,84 @@ Examples:
   # list a method's debug views
   dofkit render --method reference --debug-view list
 
+  # a sequence in one process (paths carry #### or %04d; one Renderer for all frames)
+  dofkit render --color beauty.####.exr --depth depth.####.exr --frames 1001-1100 \
+      --blur-at-infinity 24 --focus 4 --method sterna --output dof.####.exr
+
 Exit codes: 0 success, 2 usage error, 3 bad input (missing, corrupt or inconsistent files),
-1 internal error. On any error no output file is created or changed.
+1 internal error. On any error no output file is created or changed (with --frames: none of
+the failing frame's; the frames before it stay written).
 See docs/cli.md for the full reference.)";
+
+// --frames and the frame patterns of the paths. A pattern is a run of '#' (the frame number
+// zero-padded to the run's length: shot.####.exr → shot.0012.exr) or printf's %d / %0Nd.
+struct FramePattern {
+  std::size_t pos = 0, len = 0;  // the pattern's characters in the path
+  int width = 0;                 // zero-padded to this many digits
+};
+
+std::optional<FramePattern> find_frame_pattern(const std::string& flag, const std::string& path) {
+  std::optional<FramePattern> found;
+  auto add = [&](FramePattern p) {
+    if (found) throw_usage(flag + " " + path + ": more than one frame pattern (#### or %04d)");
+    found = p;
+  };
+  for (std::size_t i = 0; i < path.size();) {
+    if (path[i] == '#') {
+      std::size_t j = i;
+      while (j < path.size() && path[j] == '#') ++j;
+      add({i, j - i, static_cast<int>(j - i)});
+      i = j;
+    } else if (path[i] == '%') {
+      std::size_t j = i + 1;
+      int width = 0;
+      if (j < path.size() && path[j] == '0') {
+        ++j;
+        while (j < path.size() && std::isdigit(static_cast<unsigned char>(path[j])) && width < 10)
+          width = width * 10 + (path[j++] - '0');
+      }
+      if (j < path.size() && path[j] == 'd') {
+        add({i, j + 1 - i, width});
+        i = j + 1;
+      } else {
+        ++i;  // a literal '%'
+      }
+    } else {
+      ++i;
+    }
+  }
+  return found;
+}
+
+std::string expand_frame(const std::string& path, const FramePattern& p, int frame) {
+  std::string n = std::to_string(frame);
+  if (static_cast<int>(n.size()) < p.width) n.insert(0, static_cast<std::size_t>(p.width) - n.size(), '0');
+  return path.substr(0, p.pos) + n + path.substr(p.pos + p.len);
+}
+
+// FIRST-LAST or FIRST-LASTxSTEP (inclusive, FIRST >= 0), or one frame number.
+std::vector<int> parse_frames(const std::string& text) {
+  auto bad = [&] {
+    throw_usage("--frames " + text + ": expected FIRST-LAST or FIRST-LASTxSTEP (e.g. 1001-1100, 1-99x2), frame numbers >= 0");
+  };
+  long first = 0, last = 0, step = 1;
+  char dash = 0, x = 0;
+  int used = 0;
+  const char* s = text.c_str();
+  if (std::sscanf(s, "%ld%n", &first, &used) == 1 && s[used] == '\0') {
+    last = first;
+  } else if (std::sscanf(s, "%ld%c%ld%n", &first, &dash, &last, &used) == 3 && dash == '-' && s[used] == '\0') {
+  } else if (std::sscanf(s, "%ld%c%ld%c%ld%n", &first, &dash, &last, &x, &step, &used) == 5 && dash == '-' &&
+             x == 'x' && s[used] == '\0') {
+  } else {
+    bad();
+  }
+  if (first < 0 || last < first || step < 1 || last > 999999999) bad();
+  if ((last - first) / step + 1 > 1000000) throw_usage("--frames " + text + ": more than 1000000 frames");
+  std::vector<int> frames;
+  for (long f = first; f <= last; f += step) frames.push_back(static_cast<int>(f));
+  return frames;
+}
 
 void list_debug_views(const std::string& method) {
   for (const auto& m : methods()) {
@@ -101,6 +186,75 @@ void check_method(const std::string& method, const std::map<std::string, std::st
   list_debug_views(method);  // throws the "unknown method" usage error
 }
 
+// The paths of one frame (the flags' own paths without --frames).
+struct FramePaths {
+  std::string color, depth, layers, mask, mask_depth, output, output_coc, debug_output;
+};
+
+// Steps 2–4 for one frame. `renderer` (kept across the frames of a sequence) is made on the
+// first call; masked renders go through render_masked.
+void render_frame(const RenderArgs& a, const FramePaths& p, const io::DepthOptions& depth_opt, RenderSettings& settings,
+                  std::optional<Renderer>& renderer, const io::WriteOptions& out_opt,
+                  const io::WriteOptions& coc_opt) {
+  // 2. Inputs.
+  Frame frame;
+  if (p.layers.empty()) {
+    frame = io::load_frame(p.color, p.depth, depth_opt);
+  } else {
+    if (!p.color.empty()) frame.color = io::read_color(p.color);
+    if (!p.depth.empty()) frame.depth = io::read_depth(p.depth, depth_opt);
+    io::read_layers(p.layers, frame, a.max_layers);
+    if (frame.depth.empty() && !p.color.empty()) {
+      // --color without --depth: its own Z channel if it has one, else the layers' depth.
+      if (io::has_depth_channel(p.color)) frame.depth = io::read_depth(p.color, depth_opt);
+    }
+    if (!frame.depth.same_size(frame.color))
+      throw_bad_input((p.depth.empty() ? p.layers : p.depth) + ": depth is " + std::to_string(frame.depth.width()) + "x" +
+                      std::to_string(frame.depth.height()) + " but colour is " + std::to_string(frame.color.width()) +
+                      "x" + std::to_string(frame.color.height()));
+    validate_frame(frame, (p.color.empty() ? p.layers : p.color).c_str());
+  }
+  Image mask, mask_depth;
+  if (!p.mask.empty()) {
+    mask = io::read_mask(p.mask);
+    // Outside the mask this depth is never used, so files may hold 0 or NaN there; inside,
+    // an invalid value is taken as infinitely far.
+    io::DepthOptions mopt = depth_opt;
+    mopt.invalid_as_far = true;
+    mask_depth = io::read_depth(p.mask_depth, mopt);
+    if (!mask.same_size(frame.color) || !mask_depth.same_size(frame.color))
+      throw_bad_input((mask.same_size(frame.color) ? p.mask_depth : p.mask) + ": is " +
+                      std::to_string((mask.same_size(frame.color) ? mask_depth : mask).width()) + "x" +
+                      std::to_string((mask.same_size(frame.color) ? mask_depth : mask).height()) + " but colour is " +
+                      std::to_string(frame.color.width()) + "x" + std::to_string(frame.color.height()));
+  }
+  settings.camera = a.camera.build(&frame.depth);
+
+  // 3. Render.
+  const auto t0 = std::chrono::steady_clock::now();
+  RenderResult masked;
+  const RenderResult* result = &masked;
+  if (!p.mask.empty()) {
+    masked = render_masked(frame, mask, mask_depth, settings);
+  } else {
+    if (!renderer)
+      renderer.emplace(settings);
+    else
+      renderer->set_camera(settings.camera);
+    result = &renderer->render(frame);
+  }
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+
+  // 4. Outputs, all or nothing.
+  OutputWriter out;
+  out.add_image(p.output, result->image, out_opt);
+  if (!p.output_coc.empty()) out.add_image(p.output_coc, result->coc, coc_opt);
+  if (!p.debug_output.empty()) out.add_image(p.debug_output, result->debug);
+  out.commit();
+  std::cerr << "dofkit: wrote " << p.output << " (" << frame.width() << "x" << frame.height() << ", method " << a.method
+            << ", " << describe(settings.camera) << ", render " << static_cast<long>(ms + 0.5) << " ms)\n";
+}
+
 void run_render(RenderArgs& a) {
   // 1. Flags and paths.
   if (a.debug_view == "list") {
@@ -137,58 +291,79 @@ void run_render(RenderArgs& a) {
       throw_usage("--output-coc " + a.output_coc + ": the CoC map is signed float; write it as .exr");
   }
   if (!a.debug_output.empty()) io::check_output_format(a.debug_output, {}, "--debug-output");
-  check_paths({{"--color", a.color}, {"--depth", a.depth}, {"--layers", a.layers}, {"--mask", a.mask},
-               {"--mask-depth", a.mask_depth}},
-              {{"--output", a.output}, {"--output-coc", a.output_coc}, {"--debug-output", a.debug_output}});
 
-  // 2. Inputs.
-  Frame frame;
-  if (a.layers.empty()) {
-    frame = io::load_frame(a.color, a.depth, depth_opt);
-  } else {
-    if (!a.color.empty()) frame.color = io::read_color(a.color);
-    if (!a.depth.empty()) frame.depth = io::read_depth(a.depth, depth_opt);
-    io::read_layers(a.layers, frame, a.max_layers);
-    if (frame.depth.empty() && !a.color.empty()) {
-      // --color without --depth: its own Z channel if it has one, else the layers' depth.
-      if (io::has_depth_channel(a.color)) frame.depth = io::read_depth(a.color, depth_opt);
+  // The frames: without --frames one, with the flags' paths as given (a '#' or '%' in them
+  // is just a character); with --frames every path's pattern takes the frame number. The
+  // outputs need one (each frame its own files), and so does --color or --layers (else every
+  // frame would render the same input); a depth, mask or mask depth without one serves every
+  // frame.
+  const std::vector<int> frames = a.frames.empty() ? std::vector<int>{-1} : parse_frames(a.frames);
+  struct Named {
+    const char* flag;
+    std::string* path;
+    bool output;
+  };
+  const Named named[] = {{"--color", &a.color, false},     {"--depth", &a.depth, false},
+                         {"--layers", &a.layers, false},   {"--mask", &a.mask, false},
+                         {"--mask-depth", &a.mask_depth, false}, {"--output", &a.output, true},
+                         {"--output-coc", &a.output_coc, true},  {"--debug-output", &a.debug_output, true}};
+  std::optional<FramePattern> pattern[std::size(named)];
+  if (!a.frames.empty()) {
+    for (std::size_t k = 0; k < std::size(named); ++k) {
+      if (named[k].path->empty()) continue;
+      pattern[k] = find_frame_pattern(named[k].flag, *named[k].path);
+      if (named[k].output && !pattern[k])
+        throw_usage(std::string(named[k].flag) + " " + *named[k].path +
+                    ": needs a frame pattern (#### or %04d) with --frames, so that every frame has its own file");
     }
-    if (!frame.depth.same_size(frame.color))
-      throw_bad_input((a.depth.empty() ? a.layers : a.depth) + ": depth is " + std::to_string(frame.depth.width()) + "x" +
-                      std::to_string(frame.depth.height()) + " but colour is " + std::to_string(frame.color.width()) +
-                      "x" + std::to_string(frame.color.height()));
-    validate_frame(frame, (a.color.empty() ? a.layers : a.color).c_str());
+    if (!pattern[0] && !pattern[2])
+      throw_usage(std::string(a.layers.empty() ? "--color " + a.color : "--layers " + a.layers) +
+                  ": needs a frame pattern (#### or %04d) with --frames");
   }
-  Image mask, mask_depth;
-  if (!a.mask.empty()) {
-    mask = io::read_mask(a.mask);
-    // Outside the mask this depth is never used, so files may hold 0 or NaN there; inside,
-    // an invalid value is taken as infinitely far.
-    io::DepthOptions mopt = depth_opt;
-    mopt.invalid_as_far = true;
-    mask_depth = io::read_depth(a.mask_depth, mopt);
-    if (!mask.same_size(frame.color) || !mask_depth.same_size(frame.color))
-      throw_bad_input((mask.same_size(frame.color) ? a.mask_depth : a.mask) + ": is " +
-                      std::to_string((mask.same_size(frame.color) ? mask_depth : mask).width()) + "x" +
-                      std::to_string((mask.same_size(frame.color) ? mask_depth : mask).height()) + " but colour is " +
-                      std::to_string(frame.color.width()) + "x" + std::to_string(frame.color.height()));
+  auto paths_of = [&](int frame) {
+    std::string p[std::size(named)];
+    for (std::size_t k = 0; k < std::size(named); ++k)
+      p[k] = pattern[k] ? expand_frame(*named[k].path, *pattern[k], frame) : *named[k].path;
+    return FramePaths{p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]};
+  };
+  // Every frame's paths are checked before the first frame is read: no output may be an
+  // input or another output of any frame, and with --frames every input must exist (so a
+  // missing frame stops the run before anything is written).
+  std::set<std::filesystem::path> inputs_seen, outputs_seen;
+  for (const int f : frames) {
+    const FramePaths p = paths_of(f);
+    check_paths({{"--color", p.color}, {"--depth", p.depth}, {"--layers", p.layers}, {"--mask", p.mask},
+                 {"--mask-depth", p.mask_depth}},
+                {{"--output", p.output}, {"--output-coc", p.output_coc}, {"--debug-output", p.debug_output}});
+    if (a.frames.empty()) continue;
+    for (const auto& [flag, path] : {std::pair{"--color", &p.color}, {"--depth", &p.depth}, {"--layers", &p.layers},
+                                     {"--mask", &p.mask}, {"--mask-depth", &p.mask_depth}}) {
+      if (path->empty()) continue;
+      std::error_code ec;
+      if (!std::filesystem::exists(*path, ec))
+        throw_bad_input(std::string(flag) + " " + *path + ": does not exist (frame " + std::to_string(f) + " of --frames " +
+                        a.frames + ")");
+      inputs_seen.insert(std::filesystem::weakly_canonical(std::filesystem::absolute(*path), ec));
+    }
+    for (const auto& [flag, path] :
+         {std::pair{"--output", &p.output}, {"--output-coc", &p.output_coc}, {"--debug-output", &p.debug_output}}) {
+      if (path->empty()) continue;
+      std::error_code ec;
+      outputs_seen.insert(std::filesystem::weakly_canonical(std::filesystem::absolute(*path), ec));
+    }
   }
-  settings.camera = a.camera.build(&frame.depth);
+  for (const auto& out : outputs_seen)
+    if (inputs_seen.count(out))
+      throw_usage("--frames " + a.frames + ": output " + out.string() + " is the input of another frame");
 
-  // 3. Render.
+  // 2–4, frame by frame.
+  std::optional<Renderer> renderer;
   const auto t0 = std::chrono::steady_clock::now();
-  const RenderResult result =
-      a.mask.empty() ? render(frame, settings) : render_masked(frame, mask, mask_depth, settings);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-
-  // 4. Outputs, all or nothing.
-  OutputWriter out;
-  out.add_image(a.output, result.image, out_opt);
-  if (!a.output_coc.empty()) out.add_image(a.output_coc, result.coc, coc_opt);
-  if (!a.debug_output.empty()) out.add_image(a.debug_output, result.debug);
-  out.commit();
-  std::cerr << "dofkit: wrote " << a.output << " (" << frame.width() << "x" << frame.height() << ", method " << a.method
-            << ", " << describe(settings.camera) << ", render " << static_cast<long>(ms + 0.5) << " ms)\n";
+  for (const int f : frames) render_frame(a, paths_of(f), depth_opt, settings, renderer, out_opt, coc_opt);
+  if (!a.frames.empty())
+    std::cerr << "dofkit: " << frames.size() << " frames in "
+              << static_cast<long>(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1000 + 0.5)
+              << " ms\n";
 }
 
 }  // namespace
@@ -244,6 +419,13 @@ void add_render_command(CLI::App& app) {
                   "also write the signed CoC radius used, pixels (> 0 near, < 0 far), as a single-channel float EXR")
       ->group(outg);
   cmd->add_option("--debug-output", args->debug_output, "file for --debug-view (EXR keeps exact values)")->group(outg);
+  cmd->add_option("--frames", args->frames,
+                  "FIRST-LAST[xSTEP]: render a numbered sequence in one process (one Renderer, buffers reused); "
+                  "the frame number replaces a #### run (zero-padded to its length) or %d / %04d in the paths. "
+                  "--output (and --output-coc, --debug-output) and --color or --layers need one; a path without one "
+                  "serves every frame. Every frame's inputs must exist before the first is rendered; an error stops "
+                  "the run and keeps the frames written before it")
+      ->group(in);
   cmd->callback([args] { run_render(*args); });
 }
 

@@ -51,6 +51,10 @@ class Renderer {
   Renderer& operator=(Renderer&&) noexcept;
   /// Renders one frame; the returned reference stays valid until the next call.
   const RenderResult& render(const Frame& frame);
+  /// Replaces the camera for the frames that follow (a focus pulled from frame to frame);
+  /// the buffers are kept. Throws like the constructor if the camera is inconsistent (and
+  /// then keeps the previous one).
+  void set_camera(const CameraModel& camera);
   const RenderSettings& settings() const;
 
  private:

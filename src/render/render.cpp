@@ -227,6 +227,10 @@ Renderer::~Renderer() = default;
 Renderer::Renderer(Renderer&&) noexcept = default;
 Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 const RenderSettings& Renderer::settings() const { return impl_->settings; }
+void Renderer::set_camera(const CameraModel& camera) {
+  validate(camera);
+  impl_->settings.camera = camera;
+}
 
 const RenderResult& Renderer::render(const Frame& frame_in) {
   const RenderSettings& settings = impl_->settings;

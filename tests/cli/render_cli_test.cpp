@@ -484,7 +484,7 @@ TEST_F(RenderCli, EndToEndHelpDocumentsEveryFlag) {
        {"--color", "--depth", "--output", "--method", "--focus", "--f-number", "--focal-length", "--sensor-width",
         "--blur-at-infinity", "--planes", "--near-radius", "--far-radius", "--starcraft", "--max-radius", "--near-far",
         "--max-coc", "--focus-at", "--depth-kind", "--fov-deg", "--disparity-scale", "--clip", "--invalid-depth",
-        "--output-coc", "--threads", "--set", "--debug-view", "--debug-output", "--layers", "--mask", "--mask-depth",
+        "--output-coc", "--threads", "--set", "--debug-view", "--debug-output", "--layers", "--mask", "--mask-depth", "--frames",
         "Examples:", "Exit codes"})
     EXPECT_TRUE(contains(help, flag)) << flag;
 }
@@ -545,4 +545,97 @@ TEST_F(RenderCli, FlagErrorsAreFoundBeforeReadingInputs) {
   a.insert(a.end(), {"--focus", "4", "--blur-at-infinity", "8"});
   a[5] = dir_ / "o.gif";
   expect_failure(a, 2, {"o.gif"});
+}
+
+// --frames: a numbered sequence in one process (one Renderer, its buffers reused).
+namespace {
+// Frames k = 1, 2, 3: the fixture's colour scaled by k and its depth scaled by 1 + k/10
+// (so --focus-at pulls a different focus for every frame), as c.000k.exr / z.000k.exr.
+void write_sequence(const ScratchDir& dir, const Image& color, const Image& depth) {
+  for (int k = 1; k <= 3; ++k) {
+    Image c = color, z = depth;
+    for (float& v : c.data()) v *= static_cast<float>(k);
+    for (float& v : z.data()) v *= 1.0f + 0.1f * static_cast<float>(k);
+    const std::string n = "000" + std::to_string(k);
+    io::write_image(dir / ("c." + n + ".exr"), c);
+    io::WriteOptions zo;
+    zo.channel_name = "Z";
+    io::write_image(dir / ("z." + n + ".exr"), z, zo);
+  }
+}
+}  // namespace
+
+TEST_F(RenderCli, FramesRenderLikeOneCallPerFrame) {
+  write_sequence(dir_, color_, depth_);
+  const std::vector<std::string> common = {"--blur-at-infinity", "24", "--focus-at", "80,45", "--max-coc", "40",
+                                           "--method", "sterna"};
+  auto seq = std::vector<std::string>{"--color", dir_ / "c.####.exr", "--depth", dir_ / "z.%04d.exr", "--frames", "1-3",
+                                      "--output", dir_ / "o.####.exr", "--output-coc", dir_ / "coc.%d.exr"};
+  seq.insert(seq.end(), common.begin(), common.end());
+  const CliResult r = run_render(seq);
+  ASSERT_EQ(r.code, 0) << r.message;
+  for (int k = 1; k <= 3; ++k) {
+    const std::string n = "000" + std::to_string(k);
+    auto one = std::vector<std::string>{"--color", dir_ / ("c." + n + ".exr"), "--depth", dir_ / ("z." + n + ".exr"),
+                                        "--output", dir_ / ("single." + n + ".exr")};
+    one.insert(one.end(), common.begin(), common.end());
+    ASSERT_EQ(run_render(one).code, 0);
+    const Image a = io::read_color(dir_ / ("o." + n + ".exr")), b = io::read_color(dir_ / ("single." + n + ".exr"));
+    EXPECT_EQ(a.data(), b.data()) << "frame " << k;  // float EXR: bit for bit
+    EXPECT_TRUE(std::filesystem::exists(dir_ / "coc." + std::to_string(k) + ".exr")) << k;
+  }
+  // The frames differ (different inputs and focus), so a stale frame would have been seen.
+  EXPECT_NE(io::read_color(dir_ / "o.0001.exr").data(), io::read_color(dir_ / "o.0002.exr").data());
+}
+
+TEST_F(RenderCli, FramesStepAndSingleFrame) {
+  write_sequence(dir_, color_, depth_);
+  auto a = std::vector<std::string>{"--color", dir_ / "c.####.exr", "--depth", dir_ / "z.####.exr", "--frames", "1-3x2",
+                                    "--focus", "4", "--blur-at-infinity", "24", "--method", "starcraft",
+                                    "--output", dir_ / "s.##.exr"};
+  ASSERT_EQ(run_render(a).code, 0);
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "s.01.exr"));
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "s.02.exr"));
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "s.03.exr"));
+  a[5] = "2";
+  ASSERT_EQ(run_render(a).code, 0);
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "s.02.exr"));
+}
+
+TEST_F(RenderCli, FramesUsageErrors) {
+  write_sequence(dir_, color_, depth_);
+  const std::vector<std::string> keep = {"c.0001.exr", "c.0002.exr", "c.0003.exr",
+                                         "z.0001.exr", "z.0002.exr", "z.0003.exr"};
+  auto base = [&](const std::string& frames, const std::string& color, const std::string& out) {
+    return std::vector<std::string>{"--color", dir_ / color, "--depth", dir_ / "z.####.exr", "--frames", frames,
+                                    "--focus", "4", "--blur-at-infinity", "24", "--output", dir_ / out};
+  };
+  expect_failure(base("1-3", "c.####.exr", "o.exr"), 2, {"--output", "frame pattern"}, keep);
+  expect_failure(base("1-3", "c.0001.exr", "o.####.exr"), 2, {"--color", "frame pattern"}, keep);
+  expect_failure(base("1-3", "c.####.exr", "o.##.%04d.exr"), 2, {"--output", "more than one frame pattern"}, keep);
+  for (const char* bad : {"3-1", "a-b", "1-", "-1", "1-3x0", "1:3", "1-3x2y"})
+    expect_failure(base(bad, "c.####.exr", "o.####.exr"), 2, {"--frames", bad}, keep);
+  // An output of one frame that is the input of another.
+  expect_failure(base("1-3", "c.####.exr", "c.####.exr"), 2, {"c.0001.exr"}, keep);
+}
+
+TEST_F(RenderCli, FramesMissingInputStopsBeforeAnyFrameIsWritten) {
+  write_sequence(dir_, color_, depth_);
+  std::filesystem::remove(std::string(dir_ / "z.0003.exr"));
+  expect_failure({"--color", dir_ / "c.####.exr", "--depth", dir_ / "z.####.exr", "--frames", "1-3", "--focus", "4",
+                  "--blur-at-infinity", "24", "--output", dir_ / "o.####.exr"},
+                 3, {"z.0003.exr", "does not exist", "frame 3"},
+                 {"c.0001.exr", "c.0002.exr", "c.0003.exr", "z.0001.exr", "z.0002.exr"});
+}
+
+TEST_F(RenderCli, FramesCorruptFrameKeepsTheFramesBeforeIt) {
+  write_sequence(dir_, color_, depth_);
+  write_bytes(dir_ / "c.0002.exr", std::string(500, 'x'));
+  const CliResult r =
+      run_render({"--color", dir_ / "c.####.exr", "--depth", dir_ / "z.####.exr", "--frames", "1-3", "--focus", "4",
+                  "--blur-at-infinity", "24", "--method", "mcguire", "--output", dir_ / "o.####.exr"});
+  EXPECT_EQ(r.code, 3) << r.message;
+  EXPECT_TRUE(contains(r.message, "c.0002.exr")) << r.message;
+  EXPECT_EQ(dir_.entries(), (std::vector<std::string>{"c.0001.exr", "c.0002.exr", "c.0003.exr", "c.exr", "o.0001.exr",
+                                                      "z.0001.exr", "z.0002.exr", "z.0003.exr", "z.exr"}));
 }

@@ -252,6 +252,31 @@ TEST_P(Hostile, RendererReusedAcrossSizes) {
   }
 }
 
+// Renderer::set_camera between frames (a focus pull): each frame equals a fresh one-shot
+// render with that camera, the buffers are kept, and an inconsistent camera is refused
+// without replacing the one in use.
+TEST_P(Hostile, RendererSetCameraBetweenFrames) {
+  RenderSettings s = default_settings(GetParam());
+  Renderer renderer(s);
+  const Frame f = textured_frame(33, 17);
+  for (double focus : {1.0, 3.0, 0.7}) {
+    RenderSettings t = s;
+    t.camera.model = BlurAtInfinity{focus, 6.0};
+    renderer.set_camera(t.camera);
+    const Outcome fresh = try_render(f, t);
+    ASSERT_TRUE(fresh.rendered) << fresh.message;
+    const RenderResult& r = renderer.render(f);
+    ASSERT_EQ(r.image.data().size(), fresh.result.image.data().size());
+    EXPECT_EQ(std::memcmp(r.image.data().data(), fresh.result.image.data().data(), r.image.data().size() * sizeof(float)), 0)
+        << "focus " << focus;
+  }
+  CameraModel bad;
+  bad.model = ThinLens{50.0, -2.0, 4.0, 36.0};  // f-number <= 0
+  EXPECT_THROW(renderer.set_camera(bad), Error);
+  EXPECT_NO_THROW(renderer.render(f));
+  EXPECT_EQ(std::get<BlurAtInfinity>(renderer.settings().camera.model).focus_distance_m, 0.7);
+}
+
 // Every declared debug view on tiny and degenerate frames: produced, right size, no crash.
 TEST_P(Hostile, DebugViewsOnTinyFrames) {
   for (const auto& m : methods()) {

@@ -36,6 +36,7 @@ struct RenderArgs {
   std::string color, depth, layers, mask, mask_depth;
   std::string output, output_coc, debug_output;
   std::string frames;
+  std::string compression;
   std::string method = "reference";
   std::string debug_view;
   std::vector<std::string> sets;
@@ -194,8 +195,8 @@ struct FramePaths {
 // Steps 2–4 for one frame. `renderer` (kept across the frames of a sequence) is made on the
 // first call; masked renders go through render_masked.
 void render_frame(const RenderArgs& a, const FramePaths& p, const io::DepthOptions& depth_opt, RenderSettings& settings,
-                  std::optional<Renderer>& renderer, const io::WriteOptions& out_opt,
-                  const io::WriteOptions& coc_opt) {
+                  std::optional<Renderer>& renderer, const io::WriteOptions& out_opt, const io::WriteOptions& coc_opt,
+                  const io::WriteOptions& debug_opt) {
   // 2. Inputs.
   Frame frame;
   if (p.layers.empty()) {
@@ -249,7 +250,7 @@ void render_frame(const RenderArgs& a, const FramePaths& p, const io::DepthOptio
   OutputWriter out;
   out.add_image(p.output, result->image, out_opt);
   if (!p.output_coc.empty()) out.add_image(p.output_coc, result->coc, coc_opt);
-  if (!p.debug_output.empty()) out.add_image(p.debug_output, result->debug);
+  if (!p.debug_output.empty()) out.add_image(p.debug_output, result->debug, debug_opt);
   out.commit();
   std::cerr << "dofkit: wrote " << p.output << " (" << frame.width() << "x" << frame.height() << ", method " << a.method
             << ", " << describe(settings.camera) << ", render " << static_cast<long>(ms + 0.5) << " ms)\n";
@@ -280,17 +281,30 @@ void run_render(RenderArgs& a) {
   settings.threads = a.threads;
   settings.debug_view = a.debug_view;
 
+  // --compression: every EXR output of the run (at least one must be EXR).
+  auto is_exr = [](const std::string& p) {
+    std::string e = std::filesystem::path(p).extension().string();
+    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return e == ".exr";
+  };
+  if (!a.compression.empty() && !is_exr(a.output) && !is_exr(a.output_coc) && !is_exr(a.debug_output))
+    throw_usage("--compression " + a.compression + ": applies to .exr outputs, and none is given");
+  auto exr_compression = [&](const std::string& p) { return is_exr(p) ? a.compression : std::string(); };
   io::WriteOptions out_opt;
   out_opt.bits = a.bits;
+  out_opt.compression = exr_compression(a.output);
   io::check_output_format(a.output, out_opt, "--output");
   io::WriteOptions coc_opt;
   coc_opt.channel_name = "Y";
+  coc_opt.compression = exr_compression(a.output_coc);
   if (!a.output_coc.empty()) {
     io::check_output_format(a.output_coc, coc_opt, "--output-coc");
     if (std::filesystem::path(a.output_coc).extension() != ".exr")
       throw_usage("--output-coc " + a.output_coc + ": the CoC map is signed float; write it as .exr");
   }
-  if (!a.debug_output.empty()) io::check_output_format(a.debug_output, {}, "--debug-output");
+  io::WriteOptions debug_opt;
+  debug_opt.compression = exr_compression(a.debug_output);
+  if (!a.debug_output.empty()) io::check_output_format(a.debug_output, debug_opt, "--debug-output");
 
   // The frames: without --frames one, with the flags' paths as given (a '#' or '%' in them
   // is just a character); with --frames every path's pattern takes the frame number. The
@@ -359,7 +373,7 @@ void run_render(RenderArgs& a) {
   // 2–4, frame by frame.
   std::optional<Renderer> renderer;
   const auto t0 = std::chrono::steady_clock::now();
-  for (const int f : frames) render_frame(a, paths_of(f), depth_opt, settings, renderer, out_opt, coc_opt);
+  for (const int f : frames) render_frame(a, paths_of(f), depth_opt, settings, renderer, out_opt, coc_opt, debug_opt);
   if (!a.frames.empty())
     std::cerr << "dofkit: " << frames.size() << " frames in "
               << static_cast<long>(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1000 + 0.5)
@@ -414,6 +428,10 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--bits", args->bits,
                   "bits per channel of --output: EXR 32 (default) or 16 (half); PNG/TIFF 8 (default) or 16; TIFF 32 "
                   "(float)")
+      ->group(outg);
+  cmd->add_option("--compression", args->compression,
+                  "compression of every .exr output: none, rle, zips, zip (default), piz, or the lossy pxr24, b44, "
+                  "b44a, dwaa, dwab. none writes a 1080p float frame ~10x faster than zip and ~40 % larger")
       ->group(outg);
   cmd->add_option("--output-coc", args->output_coc,
                   "also write the signed CoC radius used, pixels (> 0 near, < 0 far), as a single-channel float EXR")

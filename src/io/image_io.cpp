@@ -502,6 +502,17 @@ void check_output_format(const std::string& path, const WriteOptions& opt, const
     throw_usage(flag + " " + path + ": " + std::to_string(bits) +
                 " bits per channel is not available for this format (EXR 16/32, PNG 8/16, JPEG 8, TIFF 8/16/32)");
   if (opt.jpeg_quality < 1 || opt.jpeg_quality > 100) throw_usage(flag + ": JPEG quality must be 1..100");
+  if (!opt.compression.empty()) {
+    if (fmt != Format::exr)
+      throw_usage(flag + " " + path + ": --compression " + opt.compression + " applies to .exr files only");
+    std::string known;
+    bool ok_name = false;
+    for (const char* c : kExrCompressions) {
+      known += (known.empty() ? "" : ", ") + std::string(c);
+      ok_name = ok_name || opt.compression == c;
+    }
+    if (!ok_name) throw_usage("--compression " + opt.compression + ": unknown EXR compression (known: " + known + ")");
+  }
 }
 
 void encode_image(const std::string& file, const std::string& format_path, const Image& img, const WriteOptions& opt) {
@@ -541,6 +552,7 @@ void encode_image(const std::string& file, const std::string& format_path, const
   }
   if (straight) spec.attribute("oiio:UnassociatedAlpha", 1);
   if (fmt == Format::jpeg) spec.attribute("Compression", "jpeg:" + std::to_string(opt.jpeg_quality));
+  if (fmt == Format::exr && !opt.compression.empty()) spec.attribute("Compression", opt.compression);
   if (!float_file) spec.attribute("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
 
   // Interleave (and encode) into one buffer.

@@ -68,7 +68,13 @@ struct WriteOptions {
   std::string channel_name = "Y";       ///< for single-channel EXR
   bool keep_alpha = true;               ///< write A (else RGB only)
   int jpeg_quality = 95;                ///< JPEG quality, 1..100
+  /// EXR compression (kExrCompressions; "" = zip, OpenImageIO's default). Other formats: "".
+  std::string compression;
 };
+/// The EXR compressions write_image accepts (OpenEXR's, by OpenImageIO's names); pxr24, b44,
+/// b44a, dwaa and dwab are lossy.
+inline constexpr const char* kExrCompressions[] = {"none", "rle",  "zips", "zip",  "piz",
+                                                   "pxr24", "b44", "b44a", "dwaa", "dwab"};
 void write_image(const std::string& path, const Image& img, const WriteOptions& opt = {});
 
 /// Like write_image but writes straight into `file` (no temporary file), choosing the

@@ -484,7 +484,7 @@ TEST_F(RenderCli, EndToEndHelpDocumentsEveryFlag) {
        {"--color", "--depth", "--output", "--method", "--focus", "--f-number", "--focal-length", "--sensor-width",
         "--blur-at-infinity", "--planes", "--near-radius", "--far-radius", "--starcraft", "--max-radius", "--near-far",
         "--max-coc", "--focus-at", "--depth-kind", "--fov-deg", "--disparity-scale", "--clip", "--invalid-depth",
-        "--output-coc", "--threads", "--set", "--debug-view", "--debug-output", "--layers", "--mask", "--mask-depth", "--frames",
+        "--output-coc", "--threads", "--set", "--debug-view", "--debug-output", "--layers", "--mask", "--mask-depth", "--frames", "--compression",
         "Examples:", "Exit codes"})
     EXPECT_TRUE(contains(help, flag)) << flag;
 }
@@ -638,4 +638,30 @@ TEST_F(RenderCli, FramesCorruptFrameKeepsTheFramesBeforeIt) {
   EXPECT_TRUE(contains(r.message, "c.0002.exr")) << r.message;
   EXPECT_EQ(dir_.entries(), (std::vector<std::string>{"c.0001.exr", "c.0002.exr", "c.0003.exr", "c.exr", "o.0001.exr",
                                                       "z.0001.exr", "z.0002.exr", "z.0003.exr", "z.exr"}));
+}
+
+TEST_F(RenderCli, CompressionOfExrOutputs) {
+  auto a = exact_call("zip.exr");
+  ASSERT_EQ(run_render(a).code, 0);
+  for (const char* c : {"none", "piz", "rle"}) {
+    auto b = exact_call(std::string(c) + ".exr");
+    b.insert(b.end(), {"--compression", c, "--output-coc", dir_ / (std::string("coc_") + c + ".exr")});
+    const CliResult r = run_render(b);
+    ASSERT_EQ(r.code, 0) << r.message;
+    for (const std::string f : {std::string(c) + ".exr", std::string("coc_") + c + ".exr"}) {
+      auto in = OIIO::ImageInput::open(dir_ / f);
+      ASSERT_TRUE(in) << f;
+      EXPECT_EQ(in->spec().get_string_attribute("compression"), c) << f;
+    }
+    // Lossless: the same floats as the default (zip) file.
+    EXPECT_EQ(io::read_color(dir_ / (std::string(c) + ".exr")).data(), io::read_color(dir_ / "zip.exr").data()) << c;
+  }
+  auto png = exact_call("o.png");
+  png.insert(png.end(), {"--compression", "none"});
+  expect_failure(png, 2, {"--compression", ".exr"}, {"zip.exr", "none.exr", "piz.exr", "rle.exr", "coc_none.exr",
+                                                     "coc_piz.exr", "coc_rle.exr"});
+  auto unknown = exact_call("o.exr");
+  unknown.insert(unknown.end(), {"--compression", "lzw"});
+  expect_failure(unknown, 2, {"--compression lzw", "unknown EXR compression", "piz"},
+                 {"zip.exr", "none.exr", "piz.exr", "rle.exr", "coc_none.exr", "coc_piz.exr", "coc_rle.exr"});
 }

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <future>
 #include <iostream>
 #include <cctype>
 #include <cstdio>
@@ -192,13 +193,14 @@ struct FramePaths {
   std::string color, depth, layers, mask, mask_depth, output, output_coc, debug_output;
 };
 
-// Steps 2–4 for one frame. `renderer` (kept across the frames of a sequence) is made on the
-// first call; masked renders go through render_masked.
-void render_frame(const RenderArgs& a, const FramePaths& p, const io::DepthOptions& depth_opt, RenderSettings& settings,
-                  std::optional<Renderer>& renderer, const io::WriteOptions& out_opt, const io::WriteOptions& coc_opt,
-                  const io::WriteOptions& debug_opt) {
-  // 2. Inputs.
+// Step 2 for one frame: the inputs, read and validated.
+struct FrameInputs {
   Frame frame;
+  Image mask, mask_depth;
+};
+FrameInputs read_inputs(const RenderArgs& a, const FramePaths& p, const io::DepthOptions& depth_opt) {
+  FrameInputs in;
+  Frame& frame = in.frame;
   if (p.layers.empty()) {
     frame = io::load_frame(p.color, p.depth, depth_opt);
   } else {
@@ -215,7 +217,8 @@ void render_frame(const RenderArgs& a, const FramePaths& p, const io::DepthOptio
                       "x" + std::to_string(frame.color.height()));
     validate_frame(frame, (p.color.empty() ? p.layers : p.color).c_str());
   }
-  Image mask, mask_depth;
+  Image& mask = in.mask;
+  Image& mask_depth = in.mask_depth;
   if (!p.mask.empty()) {
     mask = io::read_mask(p.mask);
     // Outside the mask this depth is never used, so files may hold 0 or NaN there; inside,
@@ -229,6 +232,15 @@ void render_frame(const RenderArgs& a, const FramePaths& p, const io::DepthOptio
                       std::to_string((mask.same_size(frame.color) ? mask_depth : mask).height()) + " but colour is " +
                       std::to_string(frame.color.width()) + "x" + std::to_string(frame.color.height()));
   }
+  return in;
+}
+
+// Steps 3–4 for one frame. `renderer` (kept across the frames of a sequence) is made on the
+// first call; masked renders go through render_masked.
+void render_frame(const RenderArgs& a, const FramePaths& p, const FrameInputs& in, RenderSettings& settings,
+                  std::optional<Renderer>& renderer, const io::WriteOptions& out_opt, const io::WriteOptions& coc_opt,
+                  const io::WriteOptions& debug_opt) {
+  const Frame& frame = in.frame;
   settings.camera = a.camera.build(&frame.depth);
 
   // 3. Render.
@@ -236,7 +248,7 @@ void render_frame(const RenderArgs& a, const FramePaths& p, const io::DepthOptio
   RenderResult masked;
   const RenderResult* result = &masked;
   if (!p.mask.empty()) {
-    masked = render_masked(frame, mask, mask_depth, settings);
+    masked = render_masked(frame, in.mask, in.mask_depth, settings);
   } else {
     if (!renderer)
       renderer.emplace(settings);
@@ -370,10 +382,25 @@ void run_render(RenderArgs& a) {
     if (inputs_seen.count(out))
       throw_usage("--frames " + a.frames + ": output " + out.string() + " is the input of another frame");
 
-  // 2–4, frame by frame.
+  // 2–4, frame by frame. In a sequence the next frame's inputs are read on another thread
+  // while this frame renders and is written; a read error is reported when that frame's turn
+  // comes, after the frames before it are written.
   std::optional<Renderer> renderer;
   const auto t0 = std::chrono::steady_clock::now();
-  for (const int f : frames) render_frame(a, paths_of(f), depth_opt, settings, renderer, out_opt, coc_opt, debug_opt);
+  if (a.frames.empty()) {
+    const FramePaths p = paths_of(frames[0]);
+    render_frame(a, p, read_inputs(a, p, depth_opt), settings, renderer, out_opt, coc_opt, debug_opt);
+  } else {
+    auto read_async = [&](int f) {
+      return std::async(std::launch::async, [&a, &depth_opt, p = paths_of(f)] { return read_inputs(a, p, depth_opt); });
+    };
+    std::future<FrameInputs> next = read_async(frames[0]);
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      const FrameInputs in = next.get();
+      if (i + 1 < frames.size()) next = read_async(frames[i + 1]);
+      render_frame(a, paths_of(frames[i]), in, settings, renderer, out_opt, coc_opt, debug_opt);
+    }
+  }
   if (!a.frames.empty())
     std::cerr << "dofkit: " << frames.size() << " frames in "
               << static_cast<long>(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1000 + 0.5)

@@ -353,34 +353,40 @@ void run_render(RenderArgs& a) {
     return FramePaths{p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]};
   };
   // Every frame's paths are checked before the first frame is read: no output may be an
-  // input or another output of any frame, and with --frames every input must exist (so a
-  // missing frame stops the run before anything is written).
+  // input or another output of any frame (usage errors first), and with --frames every input
+  // must exist (so a missing frame stops the run before anything is written).
   std::set<std::filesystem::path> inputs_seen, outputs_seen;
+  auto canonical = [](const std::string& path) {
+    std::error_code ec;
+    return std::filesystem::weakly_canonical(std::filesystem::absolute(path), ec);
+  };
   for (const int f : frames) {
     const FramePaths p = paths_of(f);
     check_paths({{"--color", p.color}, {"--depth", p.depth}, {"--layers", p.layers}, {"--mask", p.mask},
                  {"--mask-depth", p.mask_depth}},
                 {{"--output", p.output}, {"--output-coc", p.output_coc}, {"--debug-output", p.debug_output}});
     if (a.frames.empty()) continue;
-    for (const auto& [flag, path] : {std::pair{"--color", &p.color}, {"--depth", &p.depth}, {"--layers", &p.layers},
-                                     {"--mask", &p.mask}, {"--mask-depth", &p.mask_depth}}) {
-      if (path->empty()) continue;
-      std::error_code ec;
-      if (!std::filesystem::exists(*path, ec))
-        throw_bad_input(std::string(flag) + " " + *path + ": does not exist (frame " + std::to_string(f) + " of --frames " +
-                        a.frames + ")");
-      inputs_seen.insert(std::filesystem::weakly_canonical(std::filesystem::absolute(*path), ec));
-    }
+    for (const std::string* path : {&p.color, &p.depth, &p.layers, &p.mask, &p.mask_depth})
+      if (!path->empty()) inputs_seen.insert(canonical(*path));
     for (const auto& [flag, path] :
-         {std::pair{"--output", &p.output}, {"--output-coc", &p.output_coc}, {"--debug-output", &p.debug_output}}) {
-      if (path->empty()) continue;
-      std::error_code ec;
-      outputs_seen.insert(std::filesystem::weakly_canonical(std::filesystem::absolute(*path), ec));
-    }
+         {std::pair{"--output", &p.output}, {"--output-coc", &p.output_coc}, {"--debug-output", &p.debug_output}})
+      if (!path->empty() && !outputs_seen.insert(canonical(*path)).second)
+        throw_usage(std::string(flag) + " " + *path + ": is also an output of another frame of --frames " + a.frames);
   }
   for (const auto& out : outputs_seen)
     if (inputs_seen.count(out))
       throw_usage("--frames " + a.frames + ": output " + out.string() + " is the input of another frame");
+  if (!a.frames.empty())
+    for (const int f : frames) {
+      const FramePaths p = paths_of(f);
+      for (const auto& [flag, path] : {std::pair{"--color", &p.color}, {"--depth", &p.depth}, {"--layers", &p.layers},
+                                       {"--mask", &p.mask}, {"--mask-depth", &p.mask_depth}}) {
+        std::error_code ec;
+        if (!path->empty() && !std::filesystem::exists(*path, ec))
+          throw_bad_input(std::string(flag) + " " + *path + ": does not exist (frame " + std::to_string(f) +
+                          " of --frames " + a.frames + ")");
+      }
+    }
 
   // 2–4, frame by frame. In a sequence the next frame's inputs are read on another thread
   // while this frame renders and is written; a read error is reported when that frame's turn

@@ -615,8 +615,11 @@ TEST_F(RenderCli, FramesUsageErrors) {
   expect_failure(base("1-3", "c.####.exr", "o.##.%04d.exr"), 2, {"--output", "more than one frame pattern"}, keep);
   for (const char* bad : {"3-1", "a-b", "1-", "-1", "1-3x0", "1:3", "1-3x2y"})
     expect_failure(base(bad, "c.####.exr", "o.####.exr"), 2, {"--frames", bad}, keep);
-  // An output of one frame that is the input of another.
+  // An output of one frame that is the input of another, or another frame's output.
   expect_failure(base("1-3", "c.####.exr", "c.####.exr"), 2, {"c.0001.exr"}, keep);
+  auto two = base("1-12", "c.#.exr", "x%d.exr");
+  two.insert(two.end(), {"--output-coc", dir_ / "x%d0.exr"});  // frame 1's CoC is frame 10's output
+  expect_failure(two, 2, {"x10.exr", "another frame"}, keep);
 }
 
 TEST_F(RenderCli, FramesMissingInputStopsBeforeAnyFrameIsWritten) {

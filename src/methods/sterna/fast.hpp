@@ -2,9 +2,10 @@
 // (coc.cpp … composite.cpp) stay as the test oracle; every fast pass performs the same
 // floating-point operations in the same order per output value — except the gather's tap
 // sums on CPUs with FMA (fast_gather.cpp: a separable form with fused multiply-adds that
-// balances the multiply and add pipes), so the two agree bit for bit on a CPU without FMA
-// and to ~3e-6 relative on one with it (tests/sterna/sterna_fast_test.cpp). Otherwise what
-// changes is only the organisation:
+// balances the multiply and add pipes, or for small kernels the kernel as texel weights), so
+// the two agree bit for bit on a CPU without FMA and to ~3e-6 relative on one with it
+// (tests/sterna/sterna_fast_test.cpp). per_pixel_scale's far field is gathered per texel
+// (far_per_texel, plain's arithmetic). Otherwise what changes is only the organisation:
 //   * no full-resolution near/far planes: the blend factors are recomputed from the CoC (or z)
 //     row wherever they are needed (a few flops instead of 16 MB of traffic at 1080p);
 //   * the downsample writes straight into the edge-padded planes the gather reads;

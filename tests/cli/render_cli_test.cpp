@@ -668,3 +668,34 @@ TEST_F(RenderCli, CompressionOfExrOutputs) {
   expect_failure(unknown, 2, {"--compression lzw", "unknown EXR compression", "piz"},
                  {"zip.exr", "none.exr", "piz.exr", "rle.exr", "coc_none.exr", "coc_piz.exr", "coc_rle.exr"});
 }
+
+TEST_F(RenderCli, FramesWithAMaskAndAFixedMaskDepth) {
+  // The masked path (render_masked per frame) in a sequence: the mask changes per frame, its
+  // depth is one file for every frame (no pattern); each frame equals its single call.
+  write_sequence(dir_, color_, depth_);
+  for (int k = 1; k <= 3; ++k) {
+    Image m(W, H, 1, 0.0f);
+    for (int y = 0; y < H; ++y)
+      for (int x = 30 * k; x < W; ++x) m.at(x, y) = 1.0f;
+    io::write_image(dir_ / ("m.000" + std::to_string(k) + ".exr"), m);
+  }
+  io::WriteOptions zo;
+  zo.channel_name = "Z";
+  io::write_image(dir_ / "mz.exr", Image(W, H, 1, 4.0f), zo);
+  const std::vector<std::string> common = {"--focus", "4", "--blur-at-infinity", "24", "--method", "starcraft",
+                                           "--mask-depth", dir_ / "mz.exr"};
+  auto seq = std::vector<std::string>{"--color", dir_ / "c.####.exr", "--depth", dir_ / "z.####.exr", "--mask",
+                                      dir_ / "m.####.exr", "--frames", "1-3", "--output", dir_ / "o.####.exr"};
+  seq.insert(seq.end(), common.begin(), common.end());
+  const CliResult r = run_render(seq);
+  ASSERT_EQ(r.code, 0) << r.message;
+  for (int k = 1; k <= 3; ++k) {
+    const std::string n = "000" + std::to_string(k);
+    auto one = std::vector<std::string>{"--color", dir_ / ("c." + n + ".exr"), "--depth", dir_ / ("z." + n + ".exr"),
+                                        "--mask", dir_ / ("m." + n + ".exr"), "--output", dir_ / ("single." + n + ".exr")};
+    one.insert(one.end(), common.begin(), common.end());
+    ASSERT_EQ(run_render(one).code, 0);
+    EXPECT_EQ(io::read_color(dir_ / ("o." + n + ".exr")).data(), io::read_color(dir_ / ("single." + n + ".exr")).data())
+        << "frame " << k;
+  }
+}

@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <limits>
 #include <sstream>
 
@@ -563,6 +564,20 @@ void write_sequence(const ScratchDir& dir, const Image& color, const Image& dept
     io::write_image(dir / ("z." + n + ".exr"), z, zo);
   }
 }
+// Runs `seq` (a --frames 1-3 call writing o.####.exr) and, for k = 1 … 3, `single(k)` (the
+// same frame alone, writing single.000k.exr); every frame of the sequence must equal its
+// single call bit for bit (float EXR).
+void expect_frames_match_single_calls(const ScratchDir& dir, const std::vector<std::string>& seq,
+                                      const std::function<std::vector<std::string>(const std::string&)>& single) {
+  const CliResult r = run_render(seq);
+  ASSERT_EQ(r.code, 0) << r.message;
+  for (int k = 1; k <= 3; ++k) {
+    const std::string n = "000" + std::to_string(k);
+    ASSERT_EQ(run_render(single(n)).code, 0) << "frame " << k;
+    EXPECT_EQ(io::read_color(dir / ("o." + n + ".exr")).data(), io::read_color(dir / ("single." + n + ".exr")).data())
+        << "frame " << k;
+  }
+}
 }  // namespace
 
 TEST_F(RenderCli, FramesRenderLikeOneCallPerFrame) {
@@ -572,18 +587,14 @@ TEST_F(RenderCli, FramesRenderLikeOneCallPerFrame) {
   auto seq = std::vector<std::string>{"--color", dir_ / "c.####.exr", "--depth", dir_ / "z.%04d.exr", "--frames", "1-3",
                                       "--output", dir_ / "o.####.exr", "--output-coc", dir_ / "coc.%d.exr"};
   seq.insert(seq.end(), common.begin(), common.end());
-  const CliResult r = run_render(seq);
-  ASSERT_EQ(r.code, 0) << r.message;
-  for (int k = 1; k <= 3; ++k) {
-    const std::string n = "000" + std::to_string(k);
+  expect_frames_match_single_calls(dir_, seq, [&](const std::string& n) {
     auto one = std::vector<std::string>{"--color", dir_ / ("c." + n + ".exr"), "--depth", dir_ / ("z." + n + ".exr"),
                                         "--output", dir_ / ("single." + n + ".exr")};
     one.insert(one.end(), common.begin(), common.end());
-    ASSERT_EQ(run_render(one).code, 0);
-    const Image a = io::read_color(dir_ / ("o." + n + ".exr")), b = io::read_color(dir_ / ("single." + n + ".exr"));
-    EXPECT_EQ(a.data(), b.data()) << "frame " << k;  // float EXR: bit for bit
+    return one;
+  });
+  for (int k = 1; k <= 3; ++k)
     EXPECT_TRUE(std::filesystem::exists(dir_ / "coc." + std::to_string(k) + ".exr")) << k;
-  }
   // The frames differ (different inputs and focus), so a stale frame would have been seen.
   EXPECT_NE(io::read_color(dir_ / "o.0001.exr").data(), io::read_color(dir_ / "o.0002.exr").data());
 }
@@ -687,15 +698,10 @@ TEST_F(RenderCli, FramesWithAMaskAndAFixedMaskDepth) {
   auto seq = std::vector<std::string>{"--color", dir_ / "c.####.exr", "--depth", dir_ / "z.####.exr", "--mask",
                                       dir_ / "m.####.exr", "--frames", "1-3", "--output", dir_ / "o.####.exr"};
   seq.insert(seq.end(), common.begin(), common.end());
-  const CliResult r = run_render(seq);
-  ASSERT_EQ(r.code, 0) << r.message;
-  for (int k = 1; k <= 3; ++k) {
-    const std::string n = "000" + std::to_string(k);
+  expect_frames_match_single_calls(dir_, seq, [&](const std::string& n) {
     auto one = std::vector<std::string>{"--color", dir_ / ("c." + n + ".exr"), "--depth", dir_ / ("z." + n + ".exr"),
                                         "--mask", dir_ / ("m." + n + ".exr"), "--output", dir_ / ("single." + n + ".exr")};
     one.insert(one.end(), common.begin(), common.end());
-    ASSERT_EQ(run_render(one).code, 0);
-    EXPECT_EQ(io::read_color(dir_ / ("o." + n + ".exr")).data(), io::read_color(dir_ / ("single." + n + ".exr")).data())
-        << "frame " << k;
-  }
+    return one;
+  });
 }

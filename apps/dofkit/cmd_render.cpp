@@ -11,12 +11,12 @@
 // steps 2–4 run frame by frame (one Renderer, its buffers reused), so the frames before a
 // failing one stay written.
 #include <algorithm>
+#include <cctype>
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <future>
 #include <iostream>
-#include <cctype>
-#include <cstdio>
 #include <iterator>
 #include <memory>
 #include <optional>
@@ -191,6 +191,12 @@ void check_method(const std::string& method, const std::map<std::string, std::st
 // The paths of one frame (the flags' own paths without --frames).
 struct FramePaths {
   std::string color, depth, layers, mask, mask_depth, output, output_coc, debug_output;
+  std::vector<NamedPath> inputs() const {
+    return {{"--color", color}, {"--depth", depth}, {"--layers", layers}, {"--mask", mask}, {"--mask-depth", mask_depth}};
+  }
+  std::vector<NamedPath> outputs() const {
+    return {{"--output", output}, {"--output-coc", output_coc}, {"--debug-output", debug_output}};
+  }
 };
 
 // Step 2 for one frame: the inputs, read and validated.
@@ -294,14 +300,10 @@ void run_render(RenderArgs& a) {
   settings.debug_view = a.debug_view;
 
   // --compression: every EXR output of the run (at least one must be EXR).
-  auto is_exr = [](const std::string& p) {
-    std::string e = std::filesystem::path(p).extension().string();
-    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    return e == ".exr";
-  };
-  if (!a.compression.empty() && !is_exr(a.output) && !is_exr(a.output_coc) && !is_exr(a.debug_output))
+  if (!a.compression.empty() && !io::is_exr_path(a.output) && !io::is_exr_path(a.output_coc) &&
+      !io::is_exr_path(a.debug_output))
     throw_usage("--compression " + a.compression + ": applies to .exr outputs, and none is given");
-  auto exr_compression = [&](const std::string& p) { return is_exr(p) ? a.compression : std::string(); };
+  auto exr_compression = [&](const std::string& p) { return io::is_exr_path(p) ? a.compression : std::string(); };
   io::WriteOptions out_opt;
   out_opt.bits = a.bits;
   out_opt.compression = exr_compression(a.output);
@@ -326,7 +328,7 @@ void run_render(RenderArgs& a) {
   const std::vector<int> frames = a.frames.empty() ? std::vector<int>{-1} : parse_frames(a.frames);
   struct Named {
     const char* flag;
-    std::string* path;
+    const std::string* path;
     bool output;
   };
   const Named named[] = {{"--color", &a.color, false},     {"--depth", &a.depth, false},
@@ -352,6 +354,9 @@ void run_render(RenderArgs& a) {
       p[k] = pattern[k] ? expand_frame(*named[k].path, *pattern[k], frame) : *named[k].path;
     return FramePaths{p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]};
   };
+  std::vector<FramePaths> paths;
+  paths.reserve(frames.size());
+  for (const int f : frames) paths.push_back(paths_of(f));
   // Every frame's paths are checked before the first frame is read: no output may be an
   // input or another output of any frame (usage errors first), and with --frames every input
   // must exist (so a missing frame stops the run before anything is written).
@@ -360,33 +365,26 @@ void run_render(RenderArgs& a) {
     std::error_code ec;
     return std::filesystem::weakly_canonical(std::filesystem::absolute(path), ec);
   };
-  for (const int f : frames) {
-    const FramePaths p = paths_of(f);
-    check_paths({{"--color", p.color}, {"--depth", p.depth}, {"--layers", p.layers}, {"--mask", p.mask},
-                 {"--mask-depth", p.mask_depth}},
-                {{"--output", p.output}, {"--output-coc", p.output_coc}, {"--debug-output", p.debug_output}});
+  for (const FramePaths& p : paths) {
+    check_paths(p.inputs(), p.outputs());
     if (a.frames.empty()) continue;
-    for (const std::string* path : {&p.color, &p.depth, &p.layers, &p.mask, &p.mask_depth})
-      if (!path->empty()) inputs_seen.insert(canonical(*path));
-    for (const auto& [flag, path] :
-         {std::pair{"--output", &p.output}, {"--output-coc", &p.output_coc}, {"--debug-output", &p.debug_output}})
-      if (!path->empty() && !outputs_seen.insert(canonical(*path)).second)
-        throw_usage(std::string(flag) + " " + *path + ": is also an output of another frame of --frames " + a.frames);
+    for (const NamedPath& in : p.inputs())
+      if (!in.path.empty()) inputs_seen.insert(canonical(in.path));
+    for (const NamedPath& out : p.outputs())
+      if (!out.path.empty() && !outputs_seen.insert(canonical(out.path)).second)
+        throw_usage(out.flag + " " + out.path + ": is also an output of another frame of --frames " + a.frames);
   }
   for (const auto& out : outputs_seen)
     if (inputs_seen.count(out))
       throw_usage("--frames " + a.frames + ": output " + out.string() + " is the input of another frame");
   if (!a.frames.empty())
-    for (const int f : frames) {
-      const FramePaths p = paths_of(f);
-      for (const auto& [flag, path] : {std::pair{"--color", &p.color}, {"--depth", &p.depth}, {"--layers", &p.layers},
-                                       {"--mask", &p.mask}, {"--mask-depth", &p.mask_depth}}) {
+    for (std::size_t i = 0; i < frames.size(); ++i)
+      for (const NamedPath& in : paths[i].inputs()) {
         std::error_code ec;
-        if (!path->empty() && !std::filesystem::exists(*path, ec))
-          throw_bad_input(std::string(flag) + " " + *path + ": does not exist (frame " + std::to_string(f) +
+        if (!in.path.empty() && !std::filesystem::exists(in.path, ec))
+          throw_bad_input(in.flag + " " + in.path + ": does not exist (frame " + std::to_string(frames[i]) +
                           " of --frames " + a.frames + ")");
       }
-    }
 
   // 2–4, frame by frame. In a sequence the next frame's inputs are read on another thread
   // while this frame renders and is written; a read error is reported when that frame's turn
@@ -394,17 +392,16 @@ void run_render(RenderArgs& a) {
   std::optional<Renderer> renderer;
   const auto t0 = std::chrono::steady_clock::now();
   if (a.frames.empty()) {
-    const FramePaths p = paths_of(frames[0]);
-    render_frame(a, p, read_inputs(a, p, depth_opt), settings, renderer, out_opt, coc_opt, debug_opt);
+    render_frame(a, paths[0], read_inputs(a, paths[0], depth_opt), settings, renderer, out_opt, coc_opt, debug_opt);
   } else {
-    auto read_async = [&](int f) {
-      return std::async(std::launch::async, [&a, &depth_opt, p = paths_of(f)] { return read_inputs(a, p, depth_opt); });
+    auto read_async = [&](std::size_t i) {
+      return std::async(std::launch::async, [&a, &depth_opt, &p = paths[i]] { return read_inputs(a, p, depth_opt); });
     };
-    std::future<FrameInputs> next = read_async(frames[0]);
+    std::future<FrameInputs> next = read_async(0);
     for (std::size_t i = 0; i < frames.size(); ++i) {
       const FrameInputs in = next.get();
-      if (i + 1 < frames.size()) next = read_async(frames[i + 1]);
-      render_frame(a, paths_of(frames[i]), in, settings, renderer, out_opt, coc_opt, debug_opt);
+      if (i + 1 < frames.size()) next = read_async(i + 1);
+      render_frame(a, paths[i], in, settings, renderer, out_opt, coc_opt, debug_opt);
     }
   }
   if (!a.frames.empty())

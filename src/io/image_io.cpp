@@ -515,6 +515,8 @@ void check_output_format(const std::string& path, const WriteOptions& opt, const
   }
 }
 
+bool is_exr_path(const std::string& path) { return format_of(path) == Format::exr; }
+
 void encode_image(const std::string& file, const std::string& format_path, const Image& img, const WriteOptions& opt) {
   check_output_format(format_path, opt, "output");
   if (img.empty() || img.width() <= 0 || img.height() <= 0) throw_internal(format_path + ": cannot write an empty image");

@@ -86,6 +86,9 @@ void encode_image(const std::string& file, const std::string& format_path, const
 /// `opt.bits` does not suit it. Lets a command reject an output name before rendering.
 void check_output_format(const std::string& path, const WriteOptions& opt, const std::string& flag);
 
+/// Whether write_image would write `path` as OpenEXR (its extension, in any case).
+bool is_exr_path(const std::string& path);
+
 /// Reads a mask (1 plane, 0..1): a single-channel file whatever its name, or the A channel
 /// of a multi-channel file. 8/16-bit values are taken as linear coverage (no sRGB decode).
 Image read_mask(const std::string& path);

@@ -23,6 +23,7 @@
 
 #include "dofkit/error.hpp"
 #include "io/atomic_write.hpp"
+#include "io/exr_direct.hpp"
 #include "io/header_check.hpp"
 
 namespace fs = std::filesystem;
@@ -534,6 +535,29 @@ void encode_image(const std::string& file, const std::string& format_path, const
   // Straight alpha in integer files (PNG's definition; TIFF written as "unassociated").
   const bool straight = out_alpha && !float_file;
   const int out_c = colour ? (out_alpha ? 4 : 3) : C;
+
+  if (fmt == Format::exr && (colour || C == 1) && exr::writes_compression(opt.compression)) {
+    // The common EXR outputs skip OpenImageIO (exr_direct.hpp: ~2x faster, both cores).
+    std::vector<exr::OutChannel> ch;
+    std::vector<Image> encoded;  // sRGB-encoded copies, only when asked for
+    const auto plane = [&](int c) -> const float* {
+      if (!srgb || c == 3) return img.plane(c);
+      Image e(img.width(), img.height(), 1);
+      const float* s = img.plane(c);
+      for (std::size_t i = 0; i < img.plane_size(); ++i) e.plane(0)[i] = encode_srgb(s[i]);
+      encoded.push_back(std::move(e));
+      return encoded.back().plane(0);
+    };
+    if (colour) {
+      encoded.reserve(3);
+      ch = {{"R", plane(0)}, {"G", plane(1)}, {"B", plane(2)}};
+      if (out_alpha) ch.push_back({"A", plane(3)});
+    } else {
+      ch = {{opt.channel_name, img.plane(0)}};
+    }
+    exr::write_scanline(file, format_path, img.width(), img.height(), ch, bits == 16, opt.compression);
+    return;
+  }
 
   OIIO::TypeDesc type = fmt == Format::exr ? (bits == 16 ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT)
                         : bits == 32       ? OIIO::TypeDesc::FLOAT

@@ -16,9 +16,12 @@
 #include <Imath/half.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cctype>
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <string_view>
 
 #include "dofkit/error.hpp"
 
@@ -90,6 +93,59 @@ void reorder_and_delta(const std::uint8_t* in, std::size_t n, std::uint8_t* out)
     prev = cur;
   }
 }
+
+// Inverse of reorder_and_delta: undo the deltas in place in `coded`, then interleave the
+// halves into `out`.
+void undelta_and_interleave(std::uint8_t* coded, std::size_t n, std::uint8_t* out) {
+  for (std::size_t k = 1; k < n; ++k) coded[k] = static_cast<std::uint8_t>(coded[k - 1] + coded[k] - 128);
+  const std::uint8_t* lo = coded;
+  const std::uint8_t* hi = coded + (n + 1) / 2;
+  std::size_t i = 0;
+  for (; i + 1 < n; i += 2) {
+    out[i] = *lo++;
+    out[i + 1] = *hi++;
+  }
+  if (i < n) out[i] = *lo;
+}
+
+struct DecompressorDeleter {
+  void operator()(libdeflate_decompressor* d) const { libdeflate_free_decompressor(d); }
+};
+
+bool iequals(std::string_view a, std::string_view b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
+         });
+}
+
+// OpenImageIO's presentation order of EXR channels: by layer (the name up to its last '.'),
+// then the well-known suffixes in this order, then the others by name.
+struct PresentedName {
+  std::string_view layer, suffix;
+  int special = 10000;
+  int file_index = 0;
+  explicit PresentedName(std::string_view full, int index) : file_index(index) {
+    const std::size_t dot = full.find_last_of('.');
+    if (dot == std::string_view::npos) {
+      suffix = full;
+    } else {
+      layer = full.substr(0, dot + 1);
+      suffix = full.substr(dot + 1);
+    }
+    static constexpr const char* kSpecial[] = {"R",  "Red", "G",  "Green", "B",  "Blue", "Y",     "real",  "imag", "A",
+                                               "Alpha", "AR", "RA", "AG",  "GA", "AB",   "BA",    "Z",     "Depth", "Zback"};
+    for (int i = 0; i < static_cast<int>(std::size(kSpecial)); ++i)
+      if (iequals(suffix, kSpecial[i])) {
+        special = i;
+        break;
+      }
+  }
+  bool operator<(const PresentedName& o) const {
+    if (layer != o.layer) return layer < o.layer;
+    if (special != o.special) return special < o.special;
+    return suffix < o.suffix;
+  }
+};
 
 }  // namespace
 
@@ -185,6 +241,160 @@ void write_scanline(const std::string& file, const std::string& display_path, in
   exr_context_t done = ctx.ctxt;
   ctx.ctxt = nullptr;
   if ((rc = exr_finish(&done)) != EXR_ERR_SUCCESS) fail("close", rc);
+}
+
+// --- reading ------------------------------------------------------------------------------
+
+struct ScanlineReader::Impl {
+  exr_context_t ctxt = nullptr;
+  struct Channel {
+    bool half = false;
+    std::size_t offset = 0;  // byte offset of this channel's samples within a stored row
+  };
+  std::vector<Channel> file_channels;    // in file (sorted) order
+  std::vector<int> presented_to_file;    // presentation index → file index
+  std::size_t row_bytes = 0;
+  int min_y = 0, lines = 1, chunks = 0;
+  exr_compression_t compression = EXR_COMPRESSION_NONE;
+  ~Impl() {
+    if (ctxt) exr_finish(&ctxt);
+  }
+};
+
+ScanlineReader::~ScanlineReader() = default;
+
+std::unique_ptr<ScanlineReader> ScanlineReader::open(const std::string& path) {
+  exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+  init.error_handler_fn = &capture_error;
+  init.flags |= EXR_CONTEXT_FLAG_SILENT_HEADER_PARSE;
+  auto impl = std::make_unique<Impl>();
+  if (exr_start_read(&impl->ctxt, path.c_str(), &init) != EXR_ERR_SUCCESS) {
+    impl->ctxt = nullptr;
+    return nullptr;
+  }
+  exr_context_t c = impl->ctxt;
+  int parts = 0;
+  exr_storage_t storage{};
+  const exr_attr_chlist_t* chlist = nullptr;
+  exr_attr_box2i_t dw{};
+  int32_t lines = 0, chunks = 0;
+  if (exr_get_count(c, &parts) != EXR_ERR_SUCCESS || parts != 1) return nullptr;
+  if (exr_get_storage(c, 0, &storage) != EXR_ERR_SUCCESS || storage != EXR_STORAGE_SCANLINE) return nullptr;
+  if (exr_get_compression(c, 0, &impl->compression) != EXR_ERR_SUCCESS) return nullptr;
+  if (impl->compression != EXR_COMPRESSION_NONE && impl->compression != EXR_COMPRESSION_ZIPS &&
+      impl->compression != EXR_COMPRESSION_ZIP)
+    return nullptr;
+  if (exr_get_channels(c, 0, &chlist) != EXR_ERR_SUCCESS || !chlist || chlist->num_channels <= 0) return nullptr;
+  if (exr_get_data_window(c, 0, &dw) != EXR_ERR_SUCCESS) return nullptr;
+  if (exr_get_scanlines_per_chunk(c, 0, &lines) != EXR_ERR_SUCCESS || lines <= 0) return nullptr;
+  if (exr_get_chunk_count(c, 0, &chunks) != EXR_ERR_SUCCESS || chunks <= 0) return nullptr;
+  const long long w = static_cast<long long>(dw.max.x) - dw.min.x + 1;
+  const long long h = static_cast<long long>(dw.max.y) - dw.min.y + 1;
+  if (w <= 0 || h <= 0 || w > (1LL << 30) || h > (1LL << 30)) return nullptr;
+  if (static_cast<long long>(chunks) != (h + lines - 1) / lines) return nullptr;
+
+  std::unique_ptr<ScanlineReader> r(new ScanlineReader());
+  r->width_ = static_cast<int>(w);
+  r->height_ = static_cast<int>(h);
+  impl->min_y = dw.min.y;
+  impl->lines = lines;
+  impl->chunks = chunks;
+  std::vector<PresentedName> order;
+  std::vector<std::string> file_names;
+  for (int i = 0; i < chlist->num_channels; ++i) {
+    const exr_attr_chlist_entry_t& e = chlist->entries[i];
+    if (e.x_sampling != 1 || e.y_sampling != 1) return nullptr;
+    if (e.pixel_type != EXR_PIXEL_HALF && e.pixel_type != EXR_PIXEL_FLOAT) return nullptr;
+    if (!e.name.str || e.name.length <= 0) return nullptr;
+    file_names.emplace_back(e.name.str, static_cast<std::size_t>(e.name.length));
+    const bool half = e.pixel_type == EXR_PIXEL_HALF;
+    impl->file_channels.push_back({half, impl->row_bytes});
+    impl->row_bytes += static_cast<std::size_t>(w) * (half ? 2 : 4);
+  }
+  for (int i = 0; i < chlist->num_channels; ++i) order.emplace_back(file_names[i], i);
+  std::sort(order.begin(), order.end());
+  for (const PresentedName& p : order) {
+    const int k = static_cast<int>(r->names_.size());
+    r->names_.push_back(file_names[p.file_index]);
+    impl->presented_to_file.push_back(p.file_index);
+    if (r->alpha_ < 0 && (iequals(p.suffix, "A") || iequals(p.suffix, "Alpha"))) r->alpha_ = k;
+    if (r->z_ < 0 && (iequals(p.suffix, "Z") || iequals(p.suffix, "Depth"))) r->z_ = k;
+  }
+  r->impl_ = std::move(impl);
+  return r;
+}
+
+bool ScanlineReader::read(int cb, int ce, float* out) const {
+  const Impl& m = *impl_;
+  if (cb < 0 || ce > static_cast<int>(names_.size()) || cb >= ce) return false;
+  const int nc = ce - cb;
+  const std::size_t W = static_cast<std::size_t>(width_);
+  std::atomic<bool> ok{true};
+  struct Buffers {
+    std::vector<std::uint8_t> packed, coded, raw;
+    std::unique_ptr<libdeflate_decompressor, DecompressorDeleter> inflater;
+  };
+  tbb::enumerable_thread_specific<Buffers> buffers;
+  tbb::parallel_for(tbb::blocked_range<int>(0, m.chunks), [&](const tbb::blocked_range<int>& range) {
+    Buffers& b = buffers.local();
+    for (int k = range.begin(); k < range.end() && ok.load(std::memory_order_relaxed); ++k) {
+      const int row0 = k * m.lines;  // first row of the chunk, counted from the data window's top
+      const int n = std::min(m.lines, height_ - row0);
+      const std::size_t expected = m.row_bytes * static_cast<std::size_t>(n);
+      exr_chunk_info_t ci{};
+      if (exr_read_scanline_chunk_info(m.ctxt, 0, m.min_y + row0, &ci) != EXR_ERR_SUCCESS || ci.start_y != m.min_y + row0 ||
+          ci.height != n || ci.packed_size == 0 || ci.packed_size > expected) {
+        ok = false;
+        return;
+      }
+      b.packed.resize(ci.packed_size);
+      if (exr_read_chunk(m.ctxt, 0, &ci, b.packed.data()) != EXR_ERR_SUCCESS) {
+        ok = false;
+        return;
+      }
+      const std::uint8_t* raw = b.packed.data();
+      if (ci.packed_size != expected) {
+        if (m.compression == EXR_COMPRESSION_NONE) {
+          ok = false;
+          return;
+        }
+        if (!b.inflater) b.inflater.reset(libdeflate_alloc_decompressor());
+        b.coded.resize(expected);
+        b.raw.resize(expected);
+        std::size_t got = 0;
+        if (!b.inflater ||
+            libdeflate_zlib_decompress(b.inflater.get(), b.packed.data(), ci.packed_size, b.coded.data(), expected, &got) !=
+                LIBDEFLATE_SUCCESS ||
+            got != expected) {
+          ok = false;
+          return;
+        }
+        undelta_and_interleave(b.coded.data(), expected, b.raw.data());
+        raw = b.raw.data();
+      }
+      for (int j = 0; j < n; ++j) {
+        const std::uint8_t* row = raw + m.row_bytes * j;
+        float* dst = out + (static_cast<std::size_t>(row0 + j) * W) * nc;
+        for (int c = cb; c < ce; ++c) {
+          const Impl::Channel& ch = m.file_channels[m.presented_to_file[c]];
+          const std::uint8_t* src = row + ch.offset;
+          float* o = dst + (c - cb);
+          if (ch.half) {
+            for (std::size_t x = 0; x < W; ++x) {
+              std::uint16_t bits;
+              std::memcpy(&bits, src + 2 * x, 2);
+              Imath::half hv;
+              hv.setBits(bits);
+              o[x * nc] = static_cast<float>(hv);
+            }
+          } else {
+            for (std::size_t x = 0; x < W; ++x) std::memcpy(o + x * nc, src + 4 * x, 4);
+          }
+        }
+      }
+    }
+  });
+  return ok.load();
 }
 
 }  // namespace dofkit::io::exr

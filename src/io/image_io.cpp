@@ -98,12 +98,58 @@ bool is_integer_format(OIIO::TypeDesc t) {
          t.basetype != OIIO::TypeDesc::DOUBLE;
 }
 
+// What the readers need from a file's header, from either reader.
+struct FileSpec {
+  int width = 0, height = 0, nchannels = 0;
+  std::vector<std::string> channelnames;
+  int alpha_channel = -1, z_channel = -1;
+};
+
+FileSpec spec_of(const OIIO::ImageSpec& s) {
+  return {s.width, s.height, s.nchannels, s.channelnames, s.alpha_channel, s.z_channel};
+}
+FileSpec spec_of(const exr::ScanlineReader& r) {
+  return {r.width(), r.height(), static_cast<int>(r.names().size()), r.names(), r.alpha_channel(), r.z_channel()};
+}
+
 struct OpenedFile {
-  std::unique_ptr<OIIO::ImageInput> in;
-  OIIO::ImageSpec spec;
+  std::unique_ptr<exr::ScanlineReader> exr;  // common EXR files (exr_direct.hpp), else
+  std::unique_ptr<OIIO::ImageInput> in;      // OpenImageIO
+  FileSpec spec;
   bool integer = false;       // 8/16-bit (or other integer) samples, normalised to [0, 1]
   bool unassociated = false;  // alpha is straight (not premultiplied) in the file
 };
+
+void check_declared_size(const FileSpec& spec, const std::string& path, const char* role) {
+  const long long w = spec.width, h = spec.height;
+  if (w <= 0 || h <= 0) throw_bad_input(path + ": " + role + " image has an empty size");
+  const long long budget = pixel_budget();
+  if (w > budget || h > budget || w * h > budget)
+    throw_bad_input(path + ": " + role + " image declares " + std::to_string(w) + "x" + std::to_string(h) +
+                    " pixels, more than the limit of " + std::to_string(budget) + " (--max-pixels)");
+  if (spec.nchannels <= 0 || spec.nchannels > kMaxChannels)
+    throw_bad_input(path + ": " + role + " image declares " + std::to_string(spec.nchannels) + " channels (limit " +
+                    std::to_string(kMaxChannels) + ")");
+}
+
+// Opens `path` with OpenImageIO into `f` (replacing any spec it had).
+void open_oiio(OpenedFile& f, const std::string& path, const char* role) {
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  try {
+    f.in = OIIO::ImageInput::open(path, &config);
+  } catch (const std::exception& e) {
+    throw_bad_input(path + ": cannot read " + role + " image: " + e.what());
+  }
+  if (!f.in) throw_bad_input(path + ": cannot read " + role + " image: " + oiio_error(nullptr));
+  const OIIO::ImageSpec& spec = f.in->spec();
+  f.spec = spec_of(spec);
+  check_declared_size(f.spec, path, role);
+  if (spec.depth > 1) throw_bad_input(path + ": " + role + " is a volume image (depth > 1), not supported");
+  if (spec.deep) throw_bad_input(path + ": " + role + " is a deep image; read it with --layers");
+  f.integer = is_integer_format(spec.format);
+  f.unassociated = spec.get_int_attribute("oiio:UnassociatedAlpha", 0) != 0;
+}
 
 OpenedFile open_checked(const std::string& path, const char* role) {
   std::error_code ec;
@@ -111,29 +157,14 @@ OpenedFile open_checked(const std::string& path, const char* role) {
   if (ec || !fs::exists(st)) throw_bad_input(path + ": " + role + " file does not exist");
   if (fs::is_directory(st)) throw_bad_input(path + ": " + role + " path is a folder, not an image");
   check_file_header(path, role);
-  OIIO::ImageSpec config;
-  config.attribute("oiio:UnassociatedAlpha", 1);
   OpenedFile f;
-  try {
-    f.in = OIIO::ImageInput::open(path, &config);
-  } catch (const std::exception& e) {
-    throw_bad_input(path + ": cannot read " + role + " image: " + e.what());
+  f.exr = exr::ScanlineReader::open(path);
+  if (f.exr) {
+    f.spec = spec_of(*f.exr);
+    check_declared_size(f.spec, path, role);
+    return f;
   }
-  if (!f.in) throw_bad_input(path + ": cannot read " + role + " image: " + oiio_error(nullptr));
-  f.spec = f.in->spec();
-  const long long w = f.spec.width, h = f.spec.height;
-  if (w <= 0 || h <= 0) throw_bad_input(path + ": " + role + " image has an empty size");
-  const long long budget = pixel_budget();
-  if (w > budget || h > budget || w * h > budget)
-    throw_bad_input(path + ": " + role + " image declares " + std::to_string(w) + "x" + std::to_string(h) +
-                    " pixels, more than the limit of " + std::to_string(budget) + " (--max-pixels)");
-  if (f.spec.nchannels <= 0 || f.spec.nchannels > kMaxChannels)
-    throw_bad_input(path + ": " + role + " image declares " + std::to_string(f.spec.nchannels) +
-                    " channels (limit " + std::to_string(kMaxChannels) + ")");
-  if (f.spec.depth > 1) throw_bad_input(path + ": " + role + " is a volume image (depth > 1), not supported");
-  if (f.spec.deep) throw_bad_input(path + ": " + role + " is a deep image; read it with --layers");
-  f.integer = is_integer_format(f.spec.format);
-  f.unassociated = f.spec.get_int_attribute("oiio:UnassociatedAlpha", 0) != 0;
+  open_oiio(f, path, role);
   return f;
 }
 
@@ -141,6 +172,16 @@ OpenedFile open_checked(const std::string& path, const char* role) {
 std::vector<float> read_channels(OpenedFile& f, const std::string& path, const char* role, int cb, int ce) {
   const std::size_t n = static_cast<std::size_t>(f.spec.width) * f.spec.height * (ce - cb);
   std::vector<float> buf(n);
+  if (f.exr) {
+    if (f.exr->read(cb, ce, buf.data())) return buf;
+    // Missing, truncated or undecodable chunks: OpenImageIO reads the file again and gives
+    // its error (or reads what this reader could not).
+    const std::vector<std::string> names = f.spec.channelnames;
+    f.exr.reset();
+    open_oiio(f, path, role);
+    if (f.spec.channelnames != names)
+      throw_bad_input(path + ": cannot read " + role + " pixels: the EXR readers disagree on its channels");
+  }
   bool ok = false;
   try {
     ok = f.in->read_image(0, 0, cb, ce, OIIO::TypeDesc::FLOAT, buf.data());
@@ -153,7 +194,7 @@ std::vector<float> read_channels(OpenedFile& f, const std::string& path, const c
 
 // Index of the channel named `want` (exact), else of a layer-qualified "<layer>.<want>";
 // -1 if none.
-int find_channel(const OIIO::ImageSpec& spec, const std::string& want) {
+int find_channel(const FileSpec& spec, const std::string& want) {
   for (int c = 0; c < spec.nchannels; ++c)
     if (spec.channelnames[c] == want) return c;
   const std::string suffix = "." + want;
@@ -164,7 +205,7 @@ int find_channel(const OIIO::ImageSpec& spec, const std::string& want) {
   return -1;
 }
 
-int find_depth_channel(const OIIO::ImageSpec& spec) {
+int find_depth_channel(const FileSpec& spec) {
   if (spec.nchannels == 1) return 0;
   int c = find_channel(spec, "Z");
   if (c < 0) {
@@ -174,7 +215,7 @@ int find_depth_channel(const OIIO::ImageSpec& spec) {
   return c;
 }
 
-std::string channel_list(const OIIO::ImageSpec& spec) {
+std::string channel_list(const FileSpec& spec) {
   std::string s;
   for (int c = 0; c < spec.nchannels && c < 12; ++c) s += (c ? "," : "") + spec.channelnames[c];
   if (spec.nchannels > 12) s += ",…";
@@ -193,7 +234,7 @@ std::string fmt_num(double v) {
 
 Image read_color(const std::string& path) {
   OpenedFile f = open_checked(path, "colour");
-  const OIIO::ImageSpec& spec = f.spec;
+  const FileSpec& spec = f.spec;
   int r = find_channel(spec, "R"), g = find_channel(spec, "G"), b = find_channel(spec, "B");
   int a = find_channel(spec, "A");
   if (a < 0 && spec.alpha_channel >= 0) a = spec.alpha_channel;
@@ -349,7 +390,7 @@ const char* valid_range_text(DepthKind k) {
 Image read_depth(const std::string& path, const DepthOptions& opt) {
   check_depth_options(opt);
   OpenedFile f = open_checked(path, "depth");
-  const OIIO::ImageSpec& spec = f.spec;
+  const FileSpec& spec = f.spec;
   int c = find_depth_channel(spec);
   bool grey_rgb = false;
   if (c < 0) {
@@ -417,12 +458,17 @@ bool has_depth_channel(const std::string& path) {
   } catch (const Error&) {
     return false;  // the colour read that follows reports it
   }
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) {
-    OIIO::geterror();  // clear the pending message
-    return false;
+  FileSpec spec;
+  if (auto r = exr::ScanlineReader::open(path)) {
+    spec = spec_of(*r);
+  } else {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) {
+      OIIO::geterror();  // clear the pending message
+      return false;
+    }
+    spec = spec_of(in->spec());
   }
-  const OIIO::ImageSpec& spec = in->spec();
   return spec.nchannels > 1 && find_channel(spec, "Z") >= 0;
 }
 

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@
 
 #include "commands.hpp"
 #include "core/parallel.hpp"
+#include "io/image_io.hpp"
 #include "quality_run.hpp"
 #include "scene/bench_frame.hpp"
 #include "dofkit/render.hpp"
@@ -155,6 +157,7 @@ void add_bench_command(CLI::App& app) {
     int iterations = 7;
     bool json = false;
     std::string child;
+    std::string write_frame;
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("bench",
@@ -168,6 +171,9 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--iterations", opts->iterations, "timed runs per method after one warm-up (default 7)")
       ->check(CLI::Range(1, 1000));
   cmd->add_flag("--json", opts->json, "print a JSON list instead of a table");
+  cmd->add_option("--write-frame", opts->write_frame,
+                  "write the synthetic frame of the first --size (default 1920x1080) as DIR/color.exr and "
+                  "DIR/depth.exr (float) and print the render flags of its camera, instead of timing");
   cmd->add_option("--child", opts->child, "internal: run one measurement")->group("");
   cmd->callback([opts] {
     std::vector<Size> sizes;
@@ -181,6 +187,23 @@ void add_bench_command(CLI::App& app) {
     const int threads = opts->threads > 0 ? opts->threads : core::hardware_threads();
     if (!opts->child.empty()) {
       run_child(opts->child, sizes.front(), threads, opts->iterations);
+      return;
+    }
+    if (!opts->write_frame.empty()) {
+      const Size z = opts->sizes.empty() ? Size{1920, 1080} : sizes.front();
+      const Frame frame = scene::bench_frame(z.w, z.h);
+      std::error_code ec;
+      std::filesystem::create_directories(opts->write_frame, ec);
+      if (ec) throw_bad_input(opts->write_frame + ": cannot create the folder: " + ec.message());
+      const std::string dir = opts->write_frame + "/";
+      io::write_image(dir + "color.exr", frame.color);
+      io::WriteOptions depth;
+      depth.channel_name = "Z";
+      io::write_image(dir + "depth.exr", frame.depth, depth);
+      const CameraModel cam = scene::bench_camera(z.w);
+      const auto& lens = std::get<BlurAtInfinity>(cam.model);
+      std::cout << fmt::format("--focus {:g} --blur-at-infinity {:g} --max-coc {:g}\n", lens.focus_distance_m,
+                               lens.blur_at_infinity_px, cam.max_coc_px);
       return;
     }
     std::vector<std::string> names;

@@ -10,7 +10,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "io/image_io.hpp"
 #include "io/io_test_util.hpp"
+#include "scene/bench_frame.hpp"
 
 using dofkit::test::ScratchDir;
 
@@ -66,4 +68,23 @@ TEST(BenchCli, RejectsAnUnknownMethodWithOneLine) {
   std::string line;
   std::getline(f, line);
   EXPECT_NE(line.find("nosuch"), std::string::npos) << line;
+}
+
+TEST(BenchCli, WriteFrameWritesTheTimedFrameAndItsCameraFlags) {
+  ScratchDir dir;
+  const std::string out = (dir.path() / "flags.txt").string();
+  const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit bench --size 64x36 --write-frame " +
+                          (dir.path() / "f").string() + " >" + out + " 2>/dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream f(out);
+  std::string line;
+  std::getline(f, line);
+  // K = 1.5 % and the clamp 3 % of the width.
+  EXPECT_EQ(line, "--focus 4 --blur-at-infinity 0.96 --max-coc 1.92");
+  const dofkit::Frame want = dofkit::scene::bench_frame(64, 36);
+  const dofkit::Image color = dofkit::io::read_color((dir.path() / "f/color.exr").string());
+  ASSERT_TRUE(color.same_size(want.color));
+  EXPECT_EQ(color.data(), want.color.data());
+  const dofkit::Image depth = dofkit::io::read_depth((dir.path() / "f/depth.exr").string(), {});
+  EXPECT_EQ(depth.data(), want.depth.data());
 }

@@ -1,4 +1,5 @@
-// Image IO through OpenImageIO 2.4 (see image_io.hpp for the conventions).
+// Image IO (see image_io.hpp for the conventions): the common EXRs through exr_direct.hpp,
+// everything else through OpenImageIO 2.4 in its module (oiio_module.hpp).
 //
 // Reading: the header is opened first and its size checked against kMaxPixels /
 // kMaxChannels before any pixel buffer is allocated; pixels are read as float (OIIO maps
@@ -9,8 +10,6 @@
 #include "io/image_io.hpp"
 
 #include <atomic>
-
-#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <array>
@@ -25,6 +24,7 @@
 #include "io/atomic_write.hpp"
 #include "io/exr_direct.hpp"
 #include "io/header_check.hpp"
+#include "io/oiio_module.hpp"
 
 namespace fs = std::filesystem;
 
@@ -84,40 +84,24 @@ std::string lower(std::string s) {
 
 std::string extension_of(const std::string& path) { return lower(fs::path(path).extension().string()); }
 
-std::string oiio_error(const OIIO::ImageInput* in) {
-  std::string e = in ? in->geterror() : OIIO::geterror();
-  if (e.empty()) e = OIIO::geterror();
-  // OIIO messages can span lines; the CLI promises one.
-  std::replace(e.begin(), e.end(), '\n', ' ');
-  while (!e.empty() && e.back() == ' ') e.pop_back();
-  return e.empty() ? "unknown error" : e;
-}
-
-bool is_integer_format(OIIO::TypeDesc t) {
-  return t.basetype != OIIO::TypeDesc::FLOAT && t.basetype != OIIO::TypeDesc::HALF &&
-         t.basetype != OIIO::TypeDesc::DOUBLE;
-}
-
 // What the readers need from a file's header, from either reader.
-struct FileSpec {
-  int width = 0, height = 0, nchannels = 0;
-  std::vector<std::string> channelnames;
-  int alpha_channel = -1, z_channel = -1;
-};
+using FileSpec = oiio::Spec;
 
-FileSpec spec_of(const OIIO::ImageSpec& s) {
-  return {s.width, s.height, s.nchannels, s.channelnames, s.alpha_channel, s.z_channel};
-}
 FileSpec spec_of(const exr::ScanlineReader& r) {
-  return {r.width(), r.height(), static_cast<int>(r.names().size()), r.names(), r.alpha_channel(), r.z_channel()};
+  FileSpec s;
+  s.width = r.width();
+  s.height = r.height();
+  s.nchannels = static_cast<int>(r.names().size());
+  s.channelnames = r.names();
+  s.alpha_channel = r.alpha_channel();
+  s.z_channel = r.z_channel();
+  return s;
 }
 
 struct OpenedFile {
   std::unique_ptr<exr::ScanlineReader> exr;  // common EXR files (exr_direct.hpp), else
-  std::unique_ptr<OIIO::ImageInput> in;      // OpenImageIO
+  std::unique_ptr<oiio::Input> in;           // OpenImageIO (oiio_module.hpp)
   FileSpec spec;
-  bool integer = false;       // 8/16-bit (or other integer) samples, normalised to [0, 1]
-  bool unassociated = false;  // alpha is straight (not premultiplied) in the file
 };
 
 void check_declared_size(const FileSpec& spec, const std::string& path, const char* role) {
@@ -134,21 +118,13 @@ void check_declared_size(const FileSpec& spec, const std::string& path, const ch
 
 // Opens `path` with OpenImageIO into `f` (replacing any spec it had).
 void open_oiio(OpenedFile& f, const std::string& path, const char* role) {
-  OIIO::ImageSpec config;
-  config.attribute("oiio:UnassociatedAlpha", 1);
-  try {
-    f.in = OIIO::ImageInput::open(path, &config);
-  } catch (const std::exception& e) {
-    throw_bad_input(path + ": cannot read " + role + " image: " + e.what());
-  }
-  if (!f.in) throw_bad_input(path + ": cannot read " + role + " image: " + oiio_error(nullptr));
-  const OIIO::ImageSpec& spec = f.in->spec();
-  f.spec = spec_of(spec);
+  std::string error;
+  f.in = oiio::module().open(path, /*straight_alpha=*/true, error);
+  if (!f.in) throw_bad_input(path + ": cannot read " + role + " image: " + error);
+  f.spec = f.in->spec();
   check_declared_size(f.spec, path, role);
-  if (spec.depth > 1) throw_bad_input(path + ": " + role + " is a volume image (depth > 1), not supported");
-  if (spec.deep) throw_bad_input(path + ": " + role + " is a deep image; read it with --layers");
-  f.integer = is_integer_format(spec.format);
-  f.unassociated = spec.get_int_attribute("oiio:UnassociatedAlpha", 0) != 0;
+  if (f.spec.depth > 1) throw_bad_input(path + ": " + role + " is a volume image (depth > 1), not supported");
+  if (f.spec.deep) throw_bad_input(path + ": " + role + " is a deep image; read it with --layers");
 }
 
 OpenedFile open_checked(const std::string& path, const char* role) {
@@ -182,13 +158,8 @@ std::vector<float> read_channels(OpenedFile& f, const std::string& path, const c
     if (f.spec.channelnames != names)
       throw_bad_input(path + ": cannot read " + role + " pixels: the EXR readers disagree on its channels");
   }
-  bool ok = false;
-  try {
-    ok = f.in->read_image(0, 0, cb, ce, OIIO::TypeDesc::FLOAT, buf.data());
-  } catch (const std::exception& e) {
-    throw_bad_input(path + ": cannot read " + role + " pixels: " + e.what());
-  }
-  if (!ok) throw_bad_input(path + ": cannot read " + role + " pixels (corrupt or truncated?): " + oiio_error(f.in.get()));
+  if (!f.in->read(cb, ce, buf.data()))
+    throw_bad_input(path + ": cannot read " + role + " pixels (corrupt or truncated?): " + f.in->error());
   return buf;
 }
 
@@ -264,14 +235,14 @@ Image read_color(const std::string& path) {
     out[3][i] = alpha;
     for (int c = 0; c < 3; ++c) {
       float v = p[src[c]];
-      if (f.integer) {
+      if (f.spec.integer) {
         // Integer files hold sRGB-encoded colour. With straight alpha the stored value is the
         // encoded colour itself; with associated alpha it is encoded·α (the encoder's
         // premultiplication), so divide α out before decoding and multiply it back after.
-        if (has_alpha && !f.unassociated) v = alpha > 0 ? v / alpha : 0.0f;
+        if (has_alpha && !f.spec.unassociated) v = alpha > 0 ? v / alpha : 0.0f;
         v = decode_srgb(v);
         if (has_alpha) v *= alpha;
-      } else if (has_alpha && f.unassociated) {
+      } else if (has_alpha && f.spec.unassociated) {
         v *= alpha;  // a float file that declares straight alpha
       }
       out[c][i] = v;
@@ -462,12 +433,10 @@ bool has_depth_channel(const std::string& path) {
   if (auto r = exr::ScanlineReader::open(path)) {
     spec = spec_of(*r);
   } else {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) {
-      OIIO::geterror();  // clear the pending message
-      return false;
-    }
-    spec = spec_of(in->spec());
+    std::string error;
+    auto in = oiio::module().open(path, /*straight_alpha=*/false, error);
+    if (!in) return false;
+    spec = in->spec();
   }
   return spec.nchannels > 1 && find_channel(spec, "Z") >= 0;
 }
@@ -605,11 +574,14 @@ void encode_image(const std::string& file, const std::string& format_path, const
     return;
   }
 
-  OIIO::TypeDesc type = fmt == Format::exr ? (bits == 16 ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT)
-                        : bits == 32       ? OIIO::TypeDesc::FLOAT
-                        : bits == 16       ? OIIO::TypeDesc::UINT16
-                                           : OIIO::TypeDesc::UINT8;
-  OIIO::ImageSpec spec(img.width(), img.height(), out_c, type);
+  oiio::OutSpec spec;
+  spec.width = img.width();
+  spec.height = img.height();
+  spec.nchannels = out_c;
+  spec.type = fmt == Format::exr ? (bits == 16 ? oiio::PixelType::half : oiio::PixelType::float32)
+              : bits == 32       ? oiio::PixelType::float32
+              : bits == 16       ? oiio::PixelType::uint16
+                                 : oiio::PixelType::uint8;
   if (colour) {
     spec.channelnames = {"R", "G", "B"};
     if (out_alpha) {
@@ -618,14 +590,11 @@ void encode_image(const std::string& file, const std::string& format_path, const
     }
   } else if (C == 1) {
     spec.channelnames = {fmt == Format::exr ? opt.channel_name : std::string("Y")};
-    spec.alpha_channel = -1;
-  } else {
-    spec.alpha_channel = -1;
   }
-  if (straight) spec.attribute("oiio:UnassociatedAlpha", 1);
-  if (fmt == Format::jpeg) spec.attribute("Compression", "jpeg:" + std::to_string(opt.jpeg_quality));
-  if (fmt == Format::exr && !opt.compression.empty()) spec.attribute("Compression", opt.compression);
-  if (!float_file) spec.attribute("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
+  if (straight) spec.int_attributes.emplace_back("oiio:UnassociatedAlpha", 1);
+  if (fmt == Format::jpeg) spec.string_attributes.emplace_back("Compression", "jpeg:" + std::to_string(opt.jpeg_quality));
+  if (fmt == Format::exr && !opt.compression.empty()) spec.string_attributes.emplace_back("Compression", opt.compression);
+  if (!float_file) spec.string_attributes.emplace_back("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
 
   // Interleave (and encode) into one buffer.
   const std::size_t n = img.plane_size();
@@ -646,18 +615,11 @@ void encode_image(const std::string& file, const std::string& format_path, const
     if (out_alpha) o[3] = alpha;
   }
 
-  std::unique_ptr<OIIO::ImageOutput> out;
-  try {
-    out = OIIO::ImageOutput::create(format_path);
-  } catch (const std::exception& e) {
-    throw_internal(format_path + ": no writer for this format: " + e.what());
-  }
-  if (!out) throw_internal(format_path + ": no writer for this format: " + oiio_error(nullptr));
-  bool ok = out->open(file, spec) && out->write_image(OIIO::TypeDesc::FLOAT, buf.data()) && out->close();
-  if (!ok) {
-    std::string e = out->geterror();
-    std::replace(e.begin(), e.end(), '\n', ' ');
-    throw_bad_input(format_path + ": cannot write: " + (e.empty() ? oiio_error(nullptr) : e));
+  std::string error;
+  switch (oiio::module().write(file, format_path, spec, buf.data(), error)) {
+    case oiio::WriteResult::ok: return;
+    case oiio::WriteResult::no_writer: throw_internal(format_path + ": no writer for this format: " + error);
+    case oiio::WriteResult::failed: throw_bad_input(format_path + ": cannot write: " + error);
   }
 }
 

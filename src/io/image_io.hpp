@@ -1,4 +1,6 @@
-// Image IO through OpenImageIO (library target dofkit_io; the core library has no IO).
+// Image IO (library target dofkit_io; the core library has no IO): single-part scanline
+// EXRs with none / zips / zip compression directly (exr_direct.hpp), every other file
+// through OpenImageIO, loaded on first use (oiio_module.hpp).
 //
 // Colour from 8/16-bit files (PNG, JPEG, TIFF) is sRGB-decoded to linear; EXR (and float
 // TIFF) is taken as linear. Colour is returned RGBA premultiplied (alpha 1 if the file has

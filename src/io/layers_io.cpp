@@ -3,14 +3,15 @@
 // Both readers end in the same place: per pixel, a front-to-back list of fragments
 // (premultiplied RGBA + z), padded with empty fragments (alpha 0, z = +inf) up to the largest
 // count found, capped at `max_layers`. Deep files are read through OpenImageIO's DeepData
-// (which wraps OpenEXR's deep scanline / tiled readers), so dofkit_io needs no direct OpenEXR
-// link.
+// (which wraps OpenEXR's deep scanline / tiled readers), in the OpenImageIO module
+// (oiio_module.hpp); the layered EXR is written by exr_direct.
 #include "io/layers_io.hpp"
 
 #include "io/header_check.hpp"
 
-#include <OpenImageIO/deepdata.h>
-#include <OpenImageIO/imageio.h>
+#include "io/atomic_write.hpp"
+#include "io/exr_direct.hpp"
+#include "io/oiio_module.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -97,14 +98,17 @@ void fill_visible(Frame& frame, const std::string& path) {
   }
 }
 
-void read_deep(OIIO::ImageInput& in, const std::string& path, Frame& frame, int max_layers) {
-  const OIIO::ImageSpec& spec = in.spec();
-  OIIO::DeepData dd;
-  if (!in.read_native_deep_image(0, 0, dd))
-    throw_bad_input(path + ": cannot read deep data: " + in.geterror());
+void read_deep(oiio::Input& in, const std::string& path, Frame& frame, int max_layers) {
+  const oiio::Spec& spec = in.spec();
+  oiio::DeepSamples dd;
+  if (!in.read_deep(dd)) throw_bad_input(path + ": cannot read deep data: " + in.error());
+  const int nc = static_cast<int>(dd.channelnames.size());
+  const std::int64_t npix = static_cast<std::int64_t>(spec.width) * spec.height;
+  if (static_cast<std::int64_t>(dd.counts.size()) != npix)
+    throw_bad_input(path + ": deep data covers " + std::to_string(dd.counts.size()) + " pixels, not " + std::to_string(npix));
   int ch[5] = {-1, -1, -1, -1, -1};  // R G B A Z
-  for (int c = 0; c < dd.channels(); ++c) {
-    const std::string b = base_name(std::string(dd.channelname(c)));
+  for (int c = 0; c < nc; ++c) {
+    const std::string b = base_name(dd.channelnames[c]);
     const char* names[5] = {"R", "G", "B", "A", "Z"};
     for (int k = 0; k < 5; ++k)
       if (b == names[k] && ch[k] < 0) ch[k] = c;
@@ -116,8 +120,7 @@ void read_deep(OIIO::ImageInput& in, const std::string& path, Frame& frame, int 
   const int ox = spec.x - (spec.full_width > 0 ? spec.full_x : spec.x);
   const int oy = spec.y - (spec.full_height > 0 ? spec.full_y : spec.y);
   int most = 0;
-  const int64_t npix = static_cast<int64_t>(spec.width) * spec.height;
-  for (int64_t p = 0; p < npix; ++p) most = std::max(most, dd.samples(p));
+  for (std::int64_t p = 0; p < npix; ++p) most = std::max(most, dd.counts[p]);
   const int nl = std::min(std::max(most, 1), max_layers);
   allocate_layers(frame, nl, fw, fh);
   std::vector<Fragment> frags;
@@ -128,16 +131,17 @@ void read_deep(OIIO::ImageInput& in, const std::string& path, Frame& frame, int 
     for (int x = 0; x < spec.width; ++x) {
       const int fx = x + ox;
       if (fx < 0 || fx >= fw) continue;
-      const int64_t p = static_cast<int64_t>(y) * spec.width + x;
-      const int ns = dd.samples(p);
+      const std::int64_t p = static_cast<std::int64_t>(y) * spec.width + x;
+      const int ns = dd.counts[p];
       frags.clear();
       for (int s = 0; s < ns; ++s) {
+        const float* v = dd.values.data() + (dd.first[p] + s) * nc;
         Fragment f;
-        f.r = ch[0] >= 0 ? dd.deep_value(p, ch[0], s) : 0.0f;
-        f.g = ch[1] >= 0 ? dd.deep_value(p, ch[1], s) : 0.0f;
-        f.b = ch[2] >= 0 ? dd.deep_value(p, ch[2], s) : 0.0f;
-        f.a = ch[3] >= 0 ? dd.deep_value(p, ch[3], s) : 1.0f;
-        f.z = dd.deep_value(p, ch[4], s);
+        f.r = ch[0] >= 0 ? v[ch[0]] : 0.0f;
+        f.g = ch[1] >= 0 ? v[ch[1]] : 0.0f;
+        f.b = ch[2] >= 0 ? v[ch[2]] : 0.0f;
+        f.a = ch[3] >= 0 ? v[ch[3]] : 1.0f;
+        f.z = v[ch[4]];
         if (!(f.z > 0) || std::isnan(f.z))
           throw_bad_input(path + ": deep sample " + std::to_string(s) + " of pixel (" + std::to_string(fx) + ", " +
                           std::to_string(fy) + ") has invalid Z " + std::to_string(f.z));
@@ -161,8 +165,8 @@ void read_deep(OIIO::ImageInput& in, const std::string& path, Frame& frame, int 
   }
 }
 
-void read_flat_layers(OIIO::ImageInput& in, const std::string& path, Frame& frame, int max_layers) {
-  const OIIO::ImageSpec& spec = in.spec();
+void read_flat_layers(oiio::Input& in, const std::string& path, Frame& frame, int max_layers) {
+  const oiio::Spec& spec = in.spec();
   int most = -1;
   std::vector<std::pair<int, char>> map(spec.nchannels, {-1, 0});
   for (int c = 0; c < spec.nchannels; ++c) {
@@ -184,8 +188,7 @@ void read_flat_layers(OIIO::ImageInput& in, const std::string& path, Frame& fram
   }
   const int w = spec.width, h = spec.height, nc = spec.nchannels;
   std::vector<float> buf(static_cast<std::size_t>(w) * h * nc);
-  if (!in.read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data()))
-    throw_bad_input(path + ": cannot read pixels: " + in.geterror());
+  if (!in.read(0, nc, buf.data())) throw_bad_input(path + ": cannot read pixels: " + in.error());
   allocate_layers(frame, nl, w, h);
   for (int l = 0; l < nl; ++l) {
     bool has_a = false;
@@ -214,13 +217,13 @@ void read_flat_layers(OIIO::ImageInput& in, const std::string& path, Frame& fram
 void read_layers(const std::string& path, Frame& frame, int max_layers) {
   if (max_layers < 1) throw_usage("read_layers: max_layers must be >= 1 (got " + std::to_string(max_layers) + ")");
   check_file_header(path, "layered input");
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) throw_bad_input(path + ": cannot open layered input: " + OIIO::geterror());
+  std::string error;
+  auto in = oiio::module().open(path, /*straight_alpha=*/false, error);
+  if (!in) throw_bad_input(path + ": cannot open layered input: " + error);
   if (in->spec().deep)
     read_deep(*in, path, frame, max_layers);
   else
     read_flat_layers(*in, path, frame, max_layers);
-  in->close();
   fill_visible(frame, path);
 }
 
@@ -239,45 +242,18 @@ void write_layers_exr(const std::string& path, const Frame& frame) {
       throw_usage(path + ": layer " + std::to_string(l) + " is not a " + std::to_string(w) + "x" +
                   std::to_string(h) + " RGBA + Z pair");
   }
-  const int nc = 5 * nl;
-  OIIO::ImageSpec spec(w, h, nc, OIIO::TypeDesc::FLOAT);
-  spec.channelnames.clear();
-  for (int l = 0; l < nl; ++l)
-    for (const char* comp : {".R", ".G", ".B", ".A", ".Z"}) {
-      std::string name = "L";
-      name += std::to_string(l);
-      name += comp;
-      spec.channelnames.push_back(name);
-    }
-  spec.alpha_channel = -1;
-  spec.z_channel = -1;
-  spec.attribute("compression", "zip");
-  std::vector<float> buf(static_cast<std::size_t>(w) * h * nc);
+  std::vector<exr::OutChannel> channels;
   for (int l = 0; l < nl; ++l) {
-    for (int k = 0; k < 5; ++k) {
-      const float* src = k < 4 ? frame.layer_color[l].plane(k) : frame.layer_depth[l].plane(0);
-      const int c = 5 * l + k;
-      for (std::size_t i = 0, n = static_cast<std::size_t>(w) * h; i < n; ++i) buf[i * nc + c] = src[i];
-    }
+    const char* comps[5] = {".R", ".G", ".B", ".A", ".Z"};
+    for (int k = 0; k < 5; ++k)
+      channels.push_back({"L" + std::to_string(l) + comps[k],
+                          k < 4 ? frame.layer_color[l].plane(k) : frame.layer_depth[l].plane(0)});
   }
-  // Write next to the target and rename, so a failure never leaves a partial file.
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path tmp = target.parent_path() / (target.filename().string() + ".tmp-dofkit");
-  auto out = OIIO::ImageOutput::create("openexr");
-  if (!out) throw_internal("OpenImageIO has no OpenEXR writer: " + OIIO::geterror());
-  if (!out->open(tmp.string(), spec) || !out->write_image(OIIO::TypeDesc::FLOAT, buf.data()) || !out->close()) {
-    const std::string err = out->geterror();
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw_bad_input(path + ": cannot write layered EXR: " + err);
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw_bad_input(path + ": cannot rename the written file into place: " + ec.message());
-  }
+  // Written to a temporary next to the target and renamed, so a failure never leaves a
+  // partial file.
+  write_atomically(path, [&](const std::string& temp) {
+    exr::write_scanline(temp, path, w, h, channels, /*half=*/false, "zip");
+  });
 }
 
 }  // namespace dofkit::io

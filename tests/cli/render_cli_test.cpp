@@ -435,9 +435,10 @@ struct ProcResult {
   int code;
   std::string err;
 };
-ProcResult spawn(const std::string& args, const ScratchDir& dir) {
+// `env`: NAME=VALUE assignments put before the command (shell syntax), or "".
+ProcResult spawn(const std::string& args, const ScratchDir& dir, const std::string& env = "") {
   const std::string err_file = dir / "stderr.txt";
-  const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit " + args + " 2>" + err_file + " >/dev/null";
+  const std::string cmd = env + " " + std::string(DOFKIT_BINARY_DIR) + "/dofkit " + args + " 2>" + err_file + " >/dev/null";
   const int status = std::system(cmd.c_str());
   ProcResult r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_bytes(err_file)};
   std::filesystem::remove(err_file);
@@ -456,6 +457,33 @@ TEST_F(RenderCli, EndToEndExactCall) {
   EXPECT_EQ(out.width(), W);
   EXPECT_EQ(out.height(), H);
   EXPECT_EQ(dir_.entries(), (std::vector<std::string>{"c.exr", "out.exr", "z.exr"}));
+}
+
+TEST_F(RenderCli, EndToEndOpenImageIOIsLoadedOnlyForFilesThatNeedIt) {
+  // A "module" that cannot load: any use of OpenImageIO fails, and says so on one line.
+  write_bytes(dir_ / "broken.so", "not a shared library");
+  const std::string broken = "DOFKIT_OIIO_MODULE=" + q(dir_ / "broken.so");
+  const std::string camera = " --focus 4 --blur-at-infinity 24 --max-coc 40 --method sterna";
+  // EXR in, EXR out (the common kinds): OpenImageIO is never needed.
+  ProcResult r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera + " --output " +
+                           q(dir_ / "out.exr"),
+                       dir_, broken);
+  EXPECT_EQ(r.code, 0) << r.err;
+  // A PNG output needs it: exit 1 (internal), nothing written.
+  r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera + " --output " +
+                q(dir_ / "out.png"),
+            dir_, broken);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_TRUE(contains(r.err, "OpenImageIO module")) << r.err;
+  EXPECT_TRUE(contains(r.err, "broken.so does not load")) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "out.png"));
+  // The same call finds the real module by itself.
+  r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera + " --output " +
+                q(dir_ / "out.png"),
+            dir_);
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "out.png"));
 }
 
 TEST_F(RenderCli, EndToEndErrorsAreOneLineWithExitCodes) {

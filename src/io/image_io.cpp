@@ -20,6 +20,9 @@
 #include <numbers>
 #include <sstream>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "dofkit/error.hpp"
 #include "io/atomic_write.hpp"
 #include "io/exr_direct.hpp"
@@ -596,24 +599,27 @@ void encode_image(const std::string& file, const std::string& format_path, const
   if (fmt == Format::exr && !opt.compression.empty()) spec.string_attributes.emplace_back("Compression", opt.compression);
   if (!float_file) spec.string_attributes.emplace_back("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
 
-  // Interleave (and encode) into one buffer.
+  // Interleave (and encode) into one buffer; both cores (the sRGB encoding's pow was ~10 % of
+  // a 1080p PNG-out call on one).
   const std::size_t n = img.plane_size();
   std::vector<float> buf(n * out_c);
-  for (std::size_t i = 0; i < n; ++i) {
-    float* o = buf.data() + i * out_c;
-    if (!colour) {
-      for (int c = 0; c < C; ++c) o[c] = img.plane(c)[i];
-      continue;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 14), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i < r.end(); ++i) {
+      float* o = buf.data() + i * out_c;
+      if (!colour) {
+        for (int c = 0; c < C; ++c) o[c] = img.plane(c)[i];
+        continue;
+      }
+      const float alpha = in_alpha ? img.plane(3)[i] : 1.0f;
+      for (int c = 0; c < 3; ++c) {
+        float v = img.plane(c)[i];
+        if (straight) v = alpha > 0 ? v / alpha : 0.0f;
+        if (srgb) v = encode_srgb(v);
+        o[c] = v;
+      }
+      if (out_alpha) o[3] = alpha;
     }
-    const float alpha = in_alpha ? img.plane(3)[i] : 1.0f;
-    for (int c = 0; c < 3; ++c) {
-      float v = img.plane(c)[i];
-      if (straight) v = alpha > 0 ? v / alpha : 0.0f;
-      if (srgb) v = encode_srgb(v);
-      o[c] = v;
-    }
-    if (out_alpha) o[3] = alpha;
-  }
+  });
 
   std::string error;
   switch (oiio::module().write(file, format_path, spec, buf.data(), error)) {

@@ -1,9 +1,10 @@
 # Extra test wiring, included by the top CMakeLists.txt after the per-folder GoogleTest
 # executables are defined.
 
-# test_cli runs `dofkit render` in-process (OpenImageIO start-up makes one process per case
-# slow): it compiles the command's sources itself rather than spawning the binary, except for
-# a few end-to-end cases that run the built `dofkit` (DOFKIT_BINARY_DIR/dofkit).
+# test_cli runs `dofkit render` in-process (chosen while the CLI linked OpenImageIO and each
+# process took ~0.25 s to start; it also keeps failures debuggable in one process): it
+# compiles the command's sources itself rather than spawning the binary, except for a few
+# end-to-end cases that run the built `dofkit` (DOFKIT_BINARY_DIR/dofkit).
 if(TARGET test_cli)
   target_sources(test_cli PRIVATE
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cmd_render.cpp

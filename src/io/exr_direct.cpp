@@ -325,9 +325,26 @@ std::unique_ptr<ScanlineReader> ScanlineReader::open(const std::string& path) {
 }
 
 bool ScanlineReader::read(int cb, int ce, float* out) const {
-  const Impl& m = *impl_;
   if (cb < 0 || ce > static_cast<int>(names_.size()) || cb >= ce) return false;
-  const int nc = ce - cb;
+  std::vector<int> channels;
+  std::vector<float*> bases;
+  for (int c = cb; c < ce; ++c) {
+    channels.push_back(c);
+    bases.push_back(out + (c - cb));
+  }
+  return read_strided(channels, bases, static_cast<std::size_t>(ce - cb));
+}
+
+bool ScanlineReader::read_planes(const std::vector<int>& channels, const std::vector<float*>& planes) const {
+  if (channels.size() != planes.size() || channels.empty()) return false;
+  for (int c : channels)
+    if (c < 0 || c >= static_cast<int>(names_.size())) return false;
+  return read_strided(channels, planes, 1);
+}
+
+bool ScanlineReader::read_strided(const std::vector<int>& channels, const std::vector<float*>& bases,
+                                  std::size_t stride) const {
+  const Impl& m = *impl_;
   const std::size_t W = static_cast<std::size_t>(width_);
   std::atomic<bool> ok{true};
   struct Buffers {
@@ -374,21 +391,23 @@ bool ScanlineReader::read(int cb, int ce, float* out) const {
       }
       for (int j = 0; j < n; ++j) {
         const std::uint8_t* row = raw + m.row_bytes * j;
-        float* dst = out + (static_cast<std::size_t>(row0 + j) * W) * nc;
-        for (int c = cb; c < ce; ++c) {
-          const Impl::Channel& ch = m.file_channels[m.presented_to_file[c]];
+        const std::size_t first = static_cast<std::size_t>(row0 + j) * W * stride;
+        for (std::size_t k = 0; k < channels.size(); ++k) {
+          const Impl::Channel& ch = m.file_channels[m.presented_to_file[channels[k]]];
           const std::uint8_t* src = row + ch.offset;
-          float* o = dst + (c - cb);
+          float* o = bases[k] + first;
           if (ch.half) {
             for (std::size_t x = 0; x < W; ++x) {
               std::uint16_t bits;
               std::memcpy(&bits, src + 2 * x, 2);
               Imath::half hv;
               hv.setBits(bits);
-              o[x * nc] = static_cast<float>(hv);
+              o[x * stride] = static_cast<float>(hv);
             }
+          } else if (stride == 1) {
+            std::memcpy(o, src, 4 * W);
           } else {
-            for (std::size_t x = 0; x < W; ++x) std::memcpy(o + x * nc, src + 4 * x, 4);
+            for (std::size_t x = 0; x < W; ++x) std::memcpy(o + x * stride, src + 4 * x, 4);
           }
         }
       }

@@ -59,9 +59,14 @@ class ScanlineReader {
   /// Reads channels [cb, ce) of the presentation order as float, pixel-interleaved
   /// (W·H·(ce − cb) values). False if any chunk is missing, truncated or does not decode.
   bool read(int cb, int ce, float* out) const;
+  /// Reads channel channels[k] (presentation order) into planes[k] (W·H floats, row-major),
+  /// without an interleaved copy. False as for read().
+  bool read_planes(const std::vector<int>& channels, const std::vector<float*>& planes) const;
 
  private:
   ScanlineReader() = default;
+  // Channel channels[k] goes to bases[k] + (y·W + x)·stride.
+  bool read_strided(const std::vector<int>& channels, const std::vector<float*>& bases, std::size_t stride) const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
   int width_ = 0, height_ = 0;

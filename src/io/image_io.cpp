@@ -147,19 +147,24 @@ OpenedFile open_checked(const std::string& path, const char* role) {
   return f;
 }
 
+// After the direct EXR reader failed on the pixels (missing, truncated or undecodable
+// chunks): OpenImageIO reads the file again and gives its error (or reads what that reader
+// could not).
+void fall_back_to_oiio(OpenedFile& f, const std::string& path, const char* role) {
+  const std::vector<std::string> names = f.spec.channelnames;
+  f.exr.reset();
+  open_oiio(f, path, role);
+  if (f.spec.channelnames != names)
+    throw_bad_input(path + ": cannot read " + role + " pixels: the EXR readers disagree on its channels");
+}
+
 // Reads channels [cb, ce) as float, interleaved, W·H·(ce − cb) values.
 std::vector<float> read_channels(OpenedFile& f, const std::string& path, const char* role, int cb, int ce) {
   const std::size_t n = static_cast<std::size_t>(f.spec.width) * f.spec.height * (ce - cb);
   std::vector<float> buf(n);
   if (f.exr) {
     if (f.exr->read(cb, ce, buf.data())) return buf;
-    // Missing, truncated or undecodable chunks: OpenImageIO reads the file again and gives
-    // its error (or reads what this reader could not).
-    const std::vector<std::string> names = f.spec.channelnames;
-    f.exr.reset();
-    open_oiio(f, path, role);
-    if (f.spec.channelnames != names)
-      throw_bad_input(path + ": cannot read " + role + " pixels: the EXR readers disagree on its channels");
+    fall_back_to_oiio(f, path, role);
   }
   if (!f.in->read(cb, ce, buf.data()))
     throw_bad_input(path + ": cannot read " + role + " pixels (corrupt or truncated?): " + f.in->error());
@@ -221,6 +226,24 @@ Image read_color(const std::string& path) {
     if (plain.empty()) throw_bad_input(path + ": colour image has no colour channel (channels " + channel_list(spec) + ")");
     if (plain.size() < 3) r = g = b = plain[0];
     else r = plain[0], g = plain[1], b = plain[2];
+  }
+  if (f.exr) {
+    // The direct EXR reader fills the planes itself (float, premultiplied: as the loop below
+    // would leave them), without an interleaved copy.
+    Image img(spec.width, spec.height, 4);
+    std::vector<int> channels = {r};
+    std::vector<float*> planes = {img.plane(0)};
+    if (g != r) channels.push_back(g), planes.push_back(img.plane(1));
+    if (b != r) channels.push_back(b), planes.push_back(img.plane(2));
+    if (a >= 0) channels.push_back(a), planes.push_back(img.plane(3));
+    if (f.exr->read_planes(channels, planes)) {
+      const std::size_t n = img.plane_size();
+      if (g == r) std::copy(img.plane(0), img.plane(0) + n, img.plane(1));
+      if (b == r) std::copy(img.plane(0), img.plane(0) + n, img.plane(2));
+      if (a < 0) std::fill(img.plane(3), img.plane(3) + n, 1.0f);
+      return img;
+    }
+    fall_back_to_oiio(f, path, "colour");
   }
   const int cb = std::min({r, g, b, a < 0 ? r : a});
   const int ce = std::max({r, g, b, a < 0 ? r : a}) + 1;

@@ -38,6 +38,7 @@ struct RenderArgs {
   std::string output, output_coc, debug_output;
   std::string frames;
   std::string compression;
+  int png_level = -1;
   std::string method = "reference";
   std::string debug_view;
   std::vector<std::string> sets;
@@ -304,9 +305,14 @@ void run_render(RenderArgs& a) {
       !io::is_exr_path(a.debug_output))
     throw_usage("--compression " + a.compression + ": applies to .exr outputs, and none is given");
   auto exr_compression = [&](const std::string& p) { return io::is_exr_path(p) ? a.compression : std::string(); };
+  // --png-level: every PNG output of the run (at least one must be PNG).
+  if (a.png_level != -1 && !io::is_png_path(a.output) && !io::is_png_path(a.debug_output))
+    throw_usage("--png-level " + std::to_string(a.png_level) + ": applies to .png outputs, and none is given");
+  auto png_level = [&](const std::string& p) { return io::is_png_path(p) ? a.png_level : -1; };
   io::WriteOptions out_opt;
   out_opt.bits = a.bits;
   out_opt.compression = exr_compression(a.output);
+  out_opt.png_level = png_level(a.output);
   io::check_output_format(a.output, out_opt, "--output");
   io::WriteOptions coc_opt;
   coc_opt.channel_name = "Y";
@@ -318,6 +324,7 @@ void run_render(RenderArgs& a) {
   }
   io::WriteOptions debug_opt;
   debug_opt.compression = exr_compression(a.debug_output);
+  debug_opt.png_level = png_level(a.debug_output);
   if (!a.debug_output.empty()) io::check_output_format(a.debug_output, debug_opt, "--debug-output");
 
   // The frames: without --frames one, with the flags' paths as given (a '#' or '%' in them
@@ -461,7 +468,11 @@ void add_render_command(CLI::App& app) {
       ->group(outg);
   cmd->add_option("--compression", args->compression,
                   "compression of every .exr output: none, rle, zips, zip (default), piz, or the lossy pxr24, b44, "
-                  "b44a, dwaa, dwab. none writes a 1080p float frame ~10x faster than zip and ~40 % larger")
+                  "b44a, dwaa, dwab. none writes a 1080p float frame ~4x faster than zip and ~40 % larger")
+      ->group(outg);
+  cmd->add_option("--png-level", args->png_level,
+                  "zlib level of every .png output, 0 (stored, fastest) to 9 (smallest); default 6. A 1080p call with "
+                  "a PNG out takes ~0.76 s at level 1 against ~1.38 s at 6, for a ~13 % larger file")
       ->group(outg);
   cmd->add_option("--output-coc", args->output_coc,
                   "also write the signed CoC radius used, pixels (> 0 near, < 0 far), as a single-channel float EXR")

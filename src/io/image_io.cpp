@@ -555,9 +555,16 @@ void check_output_format(const std::string& path, const WriteOptions& opt, const
     }
     if (!ok_name) throw_usage("--compression " + opt.compression + ": unknown EXR compression (known: " + known + ")");
   }
+  if (opt.png_level != -1) {
+    if (fmt != Format::png)
+      throw_usage(flag + " " + path + ": --png-level " + std::to_string(opt.png_level) + " applies to .png files only");
+    if (opt.png_level < 0 || opt.png_level > 9)
+      throw_usage("--png-level " + std::to_string(opt.png_level) + ": must be 0 (fastest) to 9 (smallest)");
+  }
 }
 
 bool is_exr_path(const std::string& path) { return format_of(path) == Format::exr; }
+bool is_png_path(const std::string& path) { return format_of(path) == Format::png; }
 
 void encode_image(const std::string& file, const std::string& format_path, const Image& img, const WriteOptions& opt) {
   check_output_format(format_path, opt, "output");
@@ -619,6 +626,7 @@ void encode_image(const std::string& file, const std::string& format_path, const
   }
   if (straight) spec.int_attributes.emplace_back("oiio:UnassociatedAlpha", 1);
   if (fmt == Format::jpeg) spec.string_attributes.emplace_back("Compression", "jpeg:" + std::to_string(opt.jpeg_quality));
+  if (fmt == Format::png) spec.int_attributes.emplace_back("png:compressionLevel", opt.png_level < 0 ? 6 : opt.png_level);
   if (fmt == Format::exr && !opt.compression.empty()) spec.string_attributes.emplace_back("Compression", opt.compression);
   if (!float_file) spec.string_attributes.emplace_back("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
 

@@ -72,6 +72,9 @@ struct WriteOptions {
   int jpeg_quality = 95;                ///< JPEG quality, 1..100
   /// EXR compression (kExrCompressions; "" = zip, OpenImageIO's default). Other formats: "".
   std::string compression;
+  /// PNG zlib level, 0 (stored, fastest) … 9 (smallest); -1 = 6, libpng's usual default.
+  /// Other formats: -1.
+  int png_level = -1;
 };
 /// The EXR compressions write_image accepts (OpenEXR's, by OpenImageIO's names); pxr24, b44,
 /// b44a, dwaa and dwab are lossy.
@@ -90,6 +93,8 @@ void check_output_format(const std::string& path, const WriteOptions& opt, const
 
 /// Whether write_image would write `path` as OpenEXR (its extension, in any case).
 bool is_exr_path(const std::string& path);
+/// Whether write_image would write `path` as PNG (its extension, in any case).
+bool is_png_path(const std::string& path);
 
 /// Reads a mask (1 plane, 0..1): a single-channel file whatever its name, or the A channel
 /// of a multi-channel file. 8/16-bit values are taken as linear coverage (no sRGB decode).

@@ -514,7 +514,7 @@ TEST_F(RenderCli, EndToEndHelpDocumentsEveryFlag) {
         "--blur-at-infinity", "--planes", "--near-radius", "--far-radius", "--starcraft", "--max-radius", "--near-far",
         "--max-coc", "--focus-at", "--depth-kind", "--fov-deg", "--disparity-scale", "--clip", "--invalid-depth",
         "--output-coc", "--threads", "--set", "--debug-view", "--debug-output", "--layers", "--mask", "--mask-depth", "--frames", "--compression",
-        "Examples:", "Exit codes"})
+        "--png-level", "Examples:", "Exit codes"})
     EXPECT_TRUE(contains(help, flag)) << flag;
 }
 
@@ -706,6 +706,31 @@ TEST_F(RenderCli, CompressionOfExrOutputs) {
   unknown.insert(unknown.end(), {"--compression", "lzw"});
   expect_failure(unknown, 2, {"--compression lzw", "unknown EXR compression", "piz"},
                  {"zip.exr", "none.exr", "piz.exr", "rle.exr", "coc_none.exr", "coc_piz.exr", "coc_rle.exr"});
+}
+
+TEST_F(RenderCli, PngLevelOfPngOutputs) {
+  // Lossless at every level: the same 8-bit pixels; level 0 stores (largest), 9 is smallest.
+  std::vector<std::uintmax_t> sizes;
+  for (const char* level : {"0", "1", "6", "9"}) {
+    auto a = exact_call(std::string("l") + level + ".png");
+    a.insert(a.end(), {"--png-level", level});
+    const CliResult r = run_render(a);
+    ASSERT_EQ(r.code, 0) << r.message;
+    sizes.push_back(std::filesystem::file_size(dir_ / (std::string("l") + level + ".png")));
+    EXPECT_EQ(io::read_color(dir_ / (std::string("l") + level + ".png")).data(), io::read_color(dir_ / "l0.png").data())
+        << level;
+  }
+  EXPECT_GT(sizes[0], sizes[1]);
+  EXPECT_GE(sizes[1], sizes[3]);
+  ASSERT_EQ(run_render(exact_call("default.png")).code, 0);
+  EXPECT_EQ(std::filesystem::file_size(dir_ / "default.png"), sizes[2]);  // the default is level 6
+  const std::vector<std::string> made = {"default.png", "l0.png", "l1.png", "l6.png", "l9.png"};
+  auto exr = exact_call("o.exr");
+  exr.insert(exr.end(), {"--png-level", "1"});
+  expect_failure(exr, 2, {"--png-level 1", ".png"}, made);
+  auto bad = exact_call("o.png");
+  bad.insert(bad.end(), {"--png-level", "10"});
+  expect_failure(bad, 2, {"--png-level 10", "0 (fastest) to 9"}, made);
 }
 
 TEST_F(RenderCli, FramesWithAMaskAndAFixedMaskDepth) {

@@ -192,13 +192,32 @@ void check_method(const std::string& method, const std::map<std::string, std::st
 // The paths of one frame (the flags' own paths without --frames).
 struct FramePaths {
   std::string color, depth, layers, mask, mask_depth, output, output_coc, debug_output;
-  std::vector<NamedPath> inputs() const {
-    return {{"--color", color}, {"--depth", depth}, {"--layers", layers}, {"--mask", mask}, {"--mask-depth", mask_depth}};
-  }
-  std::vector<NamedPath> outputs() const {
-    return {{"--output", output}, {"--output-coc", output_coc}, {"--debug-output", debug_output}};
-  }
+  std::vector<NamedPath> inputs() const { return named(false); }
+  std::vector<NamedPath> outputs() const { return named(true); }
+
+ private:
+  std::vector<NamedPath> named(bool outputs) const;
 };
+
+// Every path of a frame with its flag: the one list the path checks and the frame-pattern
+// expansion both walk.
+struct FrameField {
+  const char* flag;
+  std::string FramePaths::*path;
+  bool output;
+};
+constexpr FrameField kFrameFields[] = {
+    {"--color", &FramePaths::color, false},       {"--depth", &FramePaths::depth, false},
+    {"--layers", &FramePaths::layers, false},     {"--mask", &FramePaths::mask, false},
+    {"--mask-depth", &FramePaths::mask_depth, false}, {"--output", &FramePaths::output, true},
+    {"--output-coc", &FramePaths::output_coc, true},  {"--debug-output", &FramePaths::debug_output, true}};
+
+std::vector<NamedPath> FramePaths::named(bool outputs) const {
+  std::vector<NamedPath> v;
+  for (const FrameField& f : kFrameFields)
+    if (f.output == outputs) v.push_back({f.flag, this->*f.path});
+  return v;
+}
 
 // Step 2 for one frame: the inputs, read and validated.
 struct FrameInputs {
@@ -333,33 +352,32 @@ void run_render(RenderArgs& a) {
   // frame would render the same input); a depth, mask or mask depth without one serves every
   // frame.
   const std::vector<int> frames = a.frames.empty() ? std::vector<int>{-1} : parse_frames(a.frames);
-  struct Named {
-    const char* flag;
-    const std::string* path;
-    bool output;
-  };
-  const Named named[] = {{"--color", &a.color, false},     {"--depth", &a.depth, false},
-                         {"--layers", &a.layers, false},   {"--mask", &a.mask, false},
-                         {"--mask-depth", &a.mask_depth, false}, {"--output", &a.output, true},
-                         {"--output-coc", &a.output_coc, true},  {"--debug-output", &a.debug_output, true}};
-  std::optional<FramePattern> pattern[std::size(named)];
+  const FramePaths given{a.color, a.depth, a.layers, a.mask, a.mask_depth, a.output, a.output_coc, a.debug_output};
+  std::optional<FramePattern> pattern[std::size(kFrameFields)];
   if (!a.frames.empty()) {
-    for (std::size_t k = 0; k < std::size(named); ++k) {
-      if (named[k].path->empty()) continue;
-      pattern[k] = find_frame_pattern(named[k].flag, *named[k].path);
-      if (named[k].output && !pattern[k])
-        throw_usage(std::string(named[k].flag) + " " + *named[k].path +
+    for (std::size_t k = 0; k < std::size(kFrameFields); ++k) {
+      const FrameField& f = kFrameFields[k];
+      const std::string& path = given.*f.path;
+      if (path.empty()) continue;
+      pattern[k] = find_frame_pattern(f.flag, path);
+      if (f.output && !pattern[k])
+        throw_usage(std::string(f.flag) + " " + path +
                     ": needs a frame pattern (#### or %04d) with --frames, so that every frame has its own file");
     }
-    if (!pattern[0] && !pattern[2])
+    auto has_pattern = [&](std::string FramePaths::*path) {
+      for (std::size_t k = 0; k < std::size(kFrameFields); ++k)
+        if (kFrameFields[k].path == path) return pattern[k].has_value();
+      return false;
+    };
+    if (!has_pattern(&FramePaths::color) && !has_pattern(&FramePaths::layers))
       throw_usage(std::string(a.layers.empty() ? "--color " + a.color : "--layers " + a.layers) +
                   ": needs a frame pattern (#### or %04d) with --frames");
   }
   auto paths_of = [&](int frame) {
-    std::string p[std::size(named)];
-    for (std::size_t k = 0; k < std::size(named); ++k)
-      p[k] = pattern[k] ? expand_frame(*named[k].path, *pattern[k], frame) : *named[k].path;
-    return FramePaths{p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]};
+    FramePaths p = given;
+    for (std::size_t k = 0; k < std::size(kFrameFields); ++k)
+      if (pattern[k]) p.*kFrameFields[k].path = expand_frame(given.*kFrameFields[k].path, *pattern[k], frame);
+    return p;
   };
   std::vector<FramePaths> paths;
   paths.reserve(frames.size());

@@ -1,4 +1,4 @@
-// Scanline EXR writer (see exr_direct.hpp).
+// Scanline EXR writer and reader (see exr_direct.hpp).
 //
 // A scanline chunk holds `lines` rows (1 for none / zips, 16 for zip); within it, row by row,
 // each channel's W samples in the header's channel order, little-endian. ZIP / ZIPS chunks
@@ -176,8 +176,8 @@ void write_scanline(const std::string& file, const std::string& display_path, in
   const std::size_t row_bytes = static_cast<std::size_t>(width) * ch.size() * (half ? 2 : 4);
 
   // Pack and compress every chunk (in parallel), then write them in order.
+  // (An exception in a task reaches this caller: TBB rethrows it from parallel_for.)
   std::vector<std::vector<std::uint8_t>> chunks(nchunks);
-  std::vector<std::uint8_t> failed(nchunks, 0);
   tbb::enumerable_thread_specific<Scratch> scratch;
   tbb::parallel_for(tbb::blocked_range<int>(0, nchunks), [&](const tbb::blocked_range<int>& r) {
     Scratch& s = scratch.local();
@@ -196,10 +196,7 @@ void write_scanline(const std::string& file, const std::string& display_path, in
       pack_rows(ch, width, y0, n, half, s.raw.data());
       reorder_and_delta(s.raw.data(), bytes, s.coded.data());
       if (!s.compressor) s.compressor.reset(libdeflate_alloc_compressor(kZipLevel));
-      if (!s.compressor) {
-        failed[k] = 1;
-        continue;
-      }
+      if (!s.compressor) throw_internal(display_path + ": cannot allocate a deflate compressor");
       out.resize(libdeflate_zlib_compress_bound(s.compressor.get(), bytes));
       const std::size_t packed = libdeflate_zlib_compress(s.compressor.get(), s.coded.data(), bytes, out.data(), out.size());
       if (packed == 0 || packed >= bytes) {
@@ -209,8 +206,6 @@ void write_scanline(const std::string& file, const std::string& display_path, in
       }
     }
   });
-  if (std::find(failed.begin(), failed.end(), 1) != failed.end())
-    throw_internal(display_path + ": cannot allocate a deflate compressor");
 
   t_last_error.clear();
   exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
@@ -228,7 +223,6 @@ void write_scanline(const std::string& file, const std::string& display_path, in
   for (const OutChannel& c : ch) {
     rc = exr_add_channel(ctx.ctxt, part, c.name.c_str(), half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
                          EXR_PERCEPTUALLY_LOGARITHMIC,  // pLinear = 0, OpenEXR's default
-                        
                          1, 1);
     if (rc != EXR_ERR_SUCCESS) fail("channel list", rc);
   }

@@ -26,6 +26,7 @@
 #include "dofkit/error.hpp"
 #include "io/atomic_write.hpp"
 #include "io/exr_direct.hpp"
+#include "io/png_direct.hpp"
 #include "io/header_check.hpp"
 #include "io/oiio_module.hpp"
 
@@ -651,6 +652,13 @@ void encode_image(const std::string& file, const std::string& format_path, const
       if (out_alpha) o[3] = alpha;
     }
   });
+
+  if (fmt == Format::png) {
+    // PNG is written here (png_direct.hpp: parallel deflate, no OpenImageIO).
+    png::write(file, format_path, png::Layout{img.width(), img.height(), out_c, bits}, buf.data(),
+               opt.png_level < 0 ? 6 : opt.png_level, srgb);
+    return;
+  }
 
   std::string error;
   switch (oiio::module().write(file, format_path, spec, buf.data(), error)) {

@@ -1,0 +1,283 @@
+// PNG writer (see png_direct.hpp).
+//
+// A PNG is a signature and a list of chunks (length, type, data, CRC-32 of type + data). The
+// pixels are one zlib stream, split over IDAT chunks at any byte, of the image's rows, each
+// preceded by a filter-type byte: the row as bytes, or its difference from the bytes to its
+// left (Sub), above (Up), their mean (Average) or the Paeth predictor of the three.
+//
+// Here: (1) every row is quantised to big-endian samples, (2) every row gets the filter whose
+// output has the smallest sum of |signed byte| (libpng's default heuristic), (3) the filtered
+// rows are cut into blocks of ~256 KiB that are deflated in parallel — each block a raw
+// deflate stream primed with the 32 KiB before it (the deflate window, so matches may reach
+// back across the cut) and ended with a sync flush (an empty stored block that leaves the
+// stream byte-aligned and open), the last one finished — and (4) the blocks are written one
+// IDAT chunk each, the first behind the zlib header, the last followed by the Adler-32 of all
+// rows (combined from the blocks').
+#include "io/png_direct.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "dofkit/error.hpp"
+
+namespace dofkit::io::png {
+
+namespace {
+
+constexpr std::size_t kBlockBytes = 256 * 1024;  // filtered bytes per deflate task
+constexpr std::size_t kWindow = 32 * 1024;       // deflate's window: the dictionary of a block
+
+// OpenImageIO's float → integer rule: round(v · max) with halves away from zero, in float,
+// clamped; x − ⌊x⌋ is exact below 2^23, so this is roundf without the libm call.
+inline std::uint32_t quantise(float v, float max) {
+  const float x = v * max;
+  if (!(x > 0.0f)) return 0;  // also NaN
+  if (x >= max) return static_cast<std::uint32_t>(max);
+  const float t = std::floor(x);
+  return static_cast<std::uint32_t>(t) + (x - t >= 0.5f ? 1u : 0u);
+}
+
+void put32(std::uint8_t* p, std::uint32_t v) {
+  p[0] = static_cast<std::uint8_t>(v >> 24);
+  p[1] = static_cast<std::uint8_t>(v >> 16);
+  p[2] = static_cast<std::uint8_t>(v >> 8);
+  p[3] = static_cast<std::uint8_t>(v);
+}
+
+inline std::uint8_t paeth(int a, int b, int c) {
+  const int p = a + b - c;
+  const int pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
+  if (pa <= pb && pa <= pc) return static_cast<std::uint8_t>(a);
+  return static_cast<std::uint8_t>(pb <= pc ? b : c);
+}
+
+// Σ |byte as signed| of a filtered row (libpng's measure for choosing the filter).
+inline std::uint64_t cost(const std::uint8_t* f, std::size_t n) {
+  std::uint64_t s = 0;
+  for (std::size_t i = 0; i < n; ++i) s += f[i] < 128 ? f[i] : 256u - f[i];
+  return s;
+}
+
+// Filters row `cur` (the one above: `prev`, nullptr for the first) into out[0] (type) and
+// out[1 … n]; `bpp` bytes per pixel. With `adaptive` false: filter None.
+void filter_row(const std::uint8_t* cur, const std::uint8_t* prev, std::size_t n, std::size_t bpp, bool adaptive,
+                std::uint8_t* out, std::array<std::vector<std::uint8_t>, 4>& scratch) {
+  if (!adaptive) {
+    out[0] = 0;
+    std::memcpy(out + 1, cur, n);
+    return;
+  }
+  for (auto& s : scratch) s.resize(n);
+  std::uint8_t* sub = scratch[0].data();
+  std::uint8_t* up = scratch[1].data();
+  std::uint8_t* avg = scratch[2].data();
+  std::uint8_t* pae = scratch[3].data();
+  const std::size_t head = std::min(bpp, n);
+  for (std::size_t i = 0; i < head; ++i) {  // no pixel to the left: a = c = 0
+    const int b = prev ? prev[i] : 0;
+    sub[i] = cur[i];
+    up[i] = static_cast<std::uint8_t>(cur[i] - b);
+    avg[i] = static_cast<std::uint8_t>(cur[i] - (b >> 1));
+    pae[i] = static_cast<std::uint8_t>(cur[i] - b);  // Paeth(0, b, 0) = b
+  }
+  if (prev) {
+    for (std::size_t i = head; i < n; ++i) {
+      sub[i] = static_cast<std::uint8_t>(cur[i] - cur[i - bpp]);
+      up[i] = static_cast<std::uint8_t>(cur[i] - prev[i]);
+      avg[i] = static_cast<std::uint8_t>(cur[i] - ((cur[i - bpp] + prev[i]) >> 1));
+      pae[i] = static_cast<std::uint8_t>(cur[i] - paeth(cur[i - bpp], prev[i], prev[i - bpp]));
+    }
+  } else {  // first row: b = c = 0, so Up = None, Average = a/2, Paeth = a = Sub
+    for (std::size_t i = head; i < n; ++i) {
+      sub[i] = static_cast<std::uint8_t>(cur[i] - cur[i - bpp]);
+      up[i] = cur[i];
+      avg[i] = static_cast<std::uint8_t>(cur[i] - (cur[i - bpp] >> 1));
+      pae[i] = sub[i];
+    }
+  }
+  const std::uint8_t* rows[5] = {cur, sub, up, avg, pae};
+  int best = 0;
+  std::uint64_t best_cost = cost(cur, n);
+  for (int t = 1; t < 5; ++t) {
+    const std::uint64_t c = cost(rows[t], n);
+    if (c < best_cost) best = t, best_cost = c;
+  }
+  out[0] = static_cast<std::uint8_t>(best);
+  std::memcpy(out + 1, rows[best], n);
+}
+
+struct FileCloser {
+  void operator()(std::FILE* f) const {
+    if (f) std::fclose(f);
+  }
+};
+
+}  // namespace
+
+void write(const std::string& file, const std::string& display_path, const Layout& lay, const float* pixels, int level,
+           bool srgb) {
+  const int C = lay.channels;
+  if (lay.width <= 0 || lay.height <= 0 || C < 1 || C > 4 || (lay.bits != 8 && lay.bits != 16) || !pixels ||
+      level < 0 || level > 9 || lay.width > 0x7fffffff || lay.height > 0x7fffffff)
+    throw_internal(display_path + ": PNG layout not written here");
+  const std::size_t W = static_cast<std::size_t>(lay.width), H = static_cast<std::size_t>(lay.height);
+  const std::size_t bytes_per_sample = lay.bits / 8;
+  const std::size_t bpp = C * bytes_per_sample;
+  const std::size_t row_bytes = W * bpp;
+  const std::size_t stride = row_bytes + 1;  // filtered row: type byte + row
+  const float max = lay.bits == 8 ? 255.0f : 65535.0f;
+
+  // (1) quantise
+  std::vector<std::uint8_t> raw(H * row_bytes);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, H), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t y = r.begin(); y < r.end(); ++y) {
+      const float* s = pixels + y * W * C;
+      std::uint8_t* d = raw.data() + y * row_bytes;
+      const std::size_t n = W * C;
+      if (bytes_per_sample == 1) {
+        for (std::size_t i = 0; i < n; ++i) d[i] = static_cast<std::uint8_t>(quantise(s[i], max));
+      } else {
+        for (std::size_t i = 0; i < n; ++i) {
+          const std::uint32_t q = quantise(s[i], max);
+          d[2 * i] = static_cast<std::uint8_t>(q >> 8);
+          d[2 * i + 1] = static_cast<std::uint8_t>(q);
+        }
+      }
+    }
+  });
+
+  // (2) filter (level 0 stores the data: filtering would only cost time)
+  std::vector<std::uint8_t> filtered(H * stride);
+  const bool adaptive = level > 0;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, H, 16), [&](const tbb::blocked_range<std::size_t>& r) {
+    std::array<std::vector<std::uint8_t>, 4> scratch;
+    for (std::size_t y = r.begin(); y < r.end(); ++y)
+      filter_row(raw.data() + y * row_bytes, y ? raw.data() + (y - 1) * row_bytes : nullptr, row_bytes, bpp, adaptive,
+                 filtered.data() + y * stride, scratch);
+  });
+  std::vector<std::uint8_t>().swap(raw);
+
+  // (3) deflate blocks of whole rows
+  const std::size_t rows_per_block = std::max<std::size_t>(1, kBlockBytes / stride);
+  const std::size_t nblocks = (H + rows_per_block - 1) / rows_per_block;
+  std::vector<std::vector<std::uint8_t>> packed(nblocks);
+  std::vector<uLong> adler(nblocks), length(nblocks);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nblocks, 1), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t k = r.begin(); k < r.end(); ++k) {
+      const std::size_t begin = k * rows_per_block * stride;
+      const std::size_t end = std::min(H, (k + 1) * rows_per_block) * stride;
+      const std::size_t n = end - begin;
+      z_stream z{};
+      // Raw deflate (no zlib header: the stream's one header is written below), zlib's
+      // default window and memory; Z_FILTERED as libpng uses for filtered rows.
+      if (deflateInit2(&z, level, Z_DEFLATED, -15, 8, adaptive ? Z_FILTERED : Z_DEFAULT_STRATEGY) != Z_OK)
+        throw_internal(display_path + ": cannot start a deflate stream");
+      std::unique_ptr<z_stream, int (*)(z_stream*)> guard(&z, deflateEnd);
+      if (k > 0) {
+        const std::size_t dict = std::min(kWindow, begin);
+        if (deflateSetDictionary(&z, filtered.data() + begin - dict, static_cast<uInt>(dict)) != Z_OK)
+          throw_internal(display_path + ": cannot prime a deflate stream");
+      }
+      std::vector<std::uint8_t>& out = packed[k];
+      out.resize(deflateBound(&z, n) + 16);  // + the sync flush's empty stored block
+      z.next_in = filtered.data() + begin;
+      z.avail_in = static_cast<uInt>(n);
+      z.next_out = out.data();
+      z.avail_out = static_cast<uInt>(out.size());
+      const bool last = k + 1 == nblocks;
+      const int rc = deflate(&z, last ? Z_FINISH : Z_SYNC_FLUSH);
+      if (rc != (last ? Z_STREAM_END : Z_OK) || z.avail_in != 0)
+        throw_internal(display_path + ": deflate failed (" + std::to_string(rc) + ")");
+      out.resize(out.size() - z.avail_out);
+      adler[k] = adler32(1, filtered.data() + begin, static_cast<uInt>(n));
+      length[k] = static_cast<uLong>(n);
+    }
+  });
+  uLong sum = adler[0];
+  for (std::size_t k = 1; k < nblocks; ++k) sum = adler32_combine(sum, adler[k], static_cast<z_off_t>(length[k]));
+
+  // (4) the file
+  std::unique_ptr<std::FILE, FileCloser> f(std::fopen(file.c_str(), "wb"));
+  const auto fail = [&](const char* what) {
+    throw_bad_input(display_path + ": cannot write: " + what + (errno ? std::string(": ") + std::strerror(errno) : ""));
+  };
+  if (!f) fail("cannot create the file");
+  // Writes one chunk whose data is the concatenation of the given pieces.
+  const auto chunk = [&](const char* type, std::initializer_list<std::pair<const std::uint8_t*, std::size_t>> parts) {
+    std::size_t n = 0;
+    for (const auto& p : parts) n += p.second;
+    if (n > 0x7fffffffu) throw_internal(display_path + ": PNG chunk too large");
+    std::uint8_t head[8];
+    put32(head, static_cast<std::uint32_t>(n));
+    std::memcpy(head + 4, type, 4);
+    uLong crc = crc32(0, head + 4, 4);
+    bool ok = std::fwrite(head, 1, 8, f.get()) == 8;
+    for (const auto& p : parts) {
+      if (!p.second) continue;
+      crc = crc32(crc, p.first, static_cast<uInt>(p.second));
+      ok = ok && std::fwrite(p.first, 1, p.second, f.get()) == p.second;
+    }
+    std::uint8_t tail[4];
+    put32(tail, static_cast<std::uint32_t>(crc));
+    ok = ok && std::fwrite(tail, 1, 4, f.get()) == 4;
+    if (!ok) fail("pixels");
+  };
+  errno = 0;
+  static const std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (std::fwrite(kSignature, 1, 8, f.get()) != 8) fail("header");
+  std::uint8_t ihdr[13];
+  put32(ihdr, static_cast<std::uint32_t>(W));
+  put32(ihdr + 4, static_cast<std::uint32_t>(H));
+  ihdr[8] = static_cast<std::uint8_t>(lay.bits);
+  ihdr[9] = C == 1 ? 0 : C == 2 ? 4 : C == 3 ? 2 : 6;  // grey, grey + alpha, RGB, RGBA
+  ihdr[10] = ihdr[11] = ihdr[12] = 0;                  // deflate, adaptive filtering, no interlace
+  chunk("IHDR", {{ihdr, 13}});
+  if (srgb) {
+    // The chunks OpenImageIO's writer gives an sRGB file: gamma 1/2.2, sRGB (absolute
+    // colorimetric), the sRGB primaries and white point (× 100000).
+    std::uint8_t gama[4], srgb_chunk[1] = {3}, chrm[32];
+    put32(gama, 45455);
+    const std::uint32_t c[8] = {31270, 32900, 64000, 33000, 30000, 60000, 15000, 6000};
+    for (int i = 0; i < 8; ++i) put32(chrm + 4 * i, c[i]);
+    chunk("gAMA", {{gama, 4}});
+    chunk("sRGB", {{srgb_chunk, 1}});
+    chunk("cHRM", {{chrm, 32}});
+  } else {
+    std::uint8_t gama[4];
+    put32(gama, 100000);  // linear
+    chunk("gAMA", {{gama, 4}});
+  }
+  // zlib header: deflate with a 32 KiB window, the level class zlib itself would write, and
+  // the check bits that make the 16-bit header a multiple of 31.
+  const int flevel = level < 2 ? 0 : level < 6 ? 1 : level == 6 ? 2 : 3;
+  std::uint8_t zhead[2] = {0x78, static_cast<std::uint8_t>(flevel << 6)};
+  zhead[1] = static_cast<std::uint8_t>(zhead[1] + (31 - (zhead[0] * 256 + zhead[1]) % 31) % 31);
+  std::uint8_t ztail[4];
+  put32(ztail, static_cast<std::uint32_t>(sum));
+  for (std::size_t k = 0; k < nblocks; ++k) {
+    const bool first = k == 0, last = k + 1 == nblocks;
+    chunk("IDAT", {{zhead, first ? 2u : 0u}, {packed[k].data(), packed[k].size()}, {ztail, last ? 4u : 0u}});
+    std::vector<std::uint8_t>().swap(packed[k]);
+  }
+  chunk("IEND", {});
+  std::FILE* raw_file = f.release();
+  if (std::fflush(raw_file) != 0) {
+    std::fclose(raw_file);
+    fail("flush");
+  }
+  if (std::fclose(raw_file) != 0) fail("close");
+}
+
+}  // namespace dofkit::io::png

@@ -102,8 +102,21 @@ FileSpec spec_of(const exr::ScanlineReader& r) {
   return s;
 }
 
+FileSpec spec_of(const png::Reader& r) {
+  FileSpec s;
+  s.width = r.width();
+  s.height = r.height();
+  s.nchannels = static_cast<int>(r.names().size());
+  s.channelnames = r.names();
+  s.alpha_channel = r.alpha_channel();
+  s.integer = true;
+  s.unassociated = r.alpha_channel() >= 0;  // PNG alpha is straight (OpenImageIO says so too)
+  return s;
+}
+
 struct OpenedFile {
-  std::unique_ptr<exr::ScanlineReader> exr;  // common EXR files (exr_direct.hpp), else
+  std::unique_ptr<exr::ScanlineReader> exr;  // common EXR files (exr_direct.hpp),
+  std::unique_ptr<png::Reader> png;          // common PNG files (png_direct.hpp), else
   std::unique_ptr<oiio::Input> in;           // OpenImageIO (oiio_module.hpp)
   FileSpec spec;
 };
@@ -144,19 +157,26 @@ OpenedFile open_checked(const std::string& path, const char* role) {
     check_declared_size(f.spec, path, role);
     return f;
   }
+  f.png = png::Reader::open(path);
+  if (f.png) {
+    f.spec = spec_of(*f.png);
+    check_declared_size(f.spec, path, role);
+    return f;
+  }
   open_oiio(f, path, role);
   return f;
 }
 
-// After the direct EXR reader failed on the pixels (missing, truncated or undecodable
-// chunks): OpenImageIO reads the file again and gives its error (or reads what that reader
-// could not).
+// After a direct reader failed on the pixels (EXR: missing, truncated or undecodable
+// chunks; PNG: a stream that does not inflate to the declared rows): OpenImageIO reads the
+// file again and gives its error (or reads what that reader could not).
 void fall_back_to_oiio(OpenedFile& f, const std::string& path, const char* role) {
   const std::vector<std::string> names = f.spec.channelnames;
   f.exr.reset();
+  f.png.reset();
   open_oiio(f, path, role);
   if (f.spec.channelnames != names)
-    throw_bad_input(path + ": cannot read " + role + " pixels: the EXR readers disagree on its channels");
+    throw_bad_input(path + ": cannot read " + role + " pixels: the readers disagree on its channels");
 }
 
 // Reads channels [cb, ce) as float, interleaved, W·H·(ce − cb) values.
@@ -165,6 +185,10 @@ std::vector<float> read_channels(OpenedFile& f, const std::string& path, const c
   std::vector<float> buf(n);
   if (f.exr) {
     if (f.exr->read(cb, ce, buf.data())) return buf;
+    fall_back_to_oiio(f, path, role);
+  }
+  if (f.png) {
+    if (f.png->read(cb, ce, buf.data())) return buf;
     fall_back_to_oiio(f, path, role);
   }
   if (!f.in->read(cb, ce, buf.data()))

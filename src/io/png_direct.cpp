@@ -15,18 +15,21 @@
 // rows (combined from the blocks').
 #include "io/png_direct.hpp"
 
+#include <libdeflate.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <zlib.h>
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <memory>
 #include <vector>
 
@@ -278,6 +281,147 @@ void write(const std::string& file, const std::string& display_path, const Layou
     fail("flush");
   }
   if (std::fclose(raw_file) != 0) fail("close");
+}
+
+// --- reading ------------------------------------------------------------------------------
+
+namespace {
+
+std::uint32_t get32(const std::uint8_t* p) {
+  return (static_cast<std::uint32_t>(p[0]) << 24) | (static_cast<std::uint32_t>(p[1]) << 16) |
+         (static_cast<std::uint32_t>(p[2]) << 8) | p[3];
+}
+
+}  // namespace
+
+std::unique_ptr<Reader> Reader::open(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return nullptr;
+  std::uint8_t sig[8];
+  static const std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (!f.read(reinterpret_cast<char*>(sig), 8) || std::memcmp(sig, kSignature, 8) != 0) return nullptr;
+  std::unique_ptr<Reader> r(new Reader());
+  bool header = false, ended = false, idat_done = false;
+  std::vector<std::uint8_t> data;
+  while (!ended) {
+    std::uint8_t head[8];
+    if (!f.read(reinterpret_cast<char*>(head), 8)) return nullptr;  // no IEND
+    const std::uint32_t n = get32(head);
+    if (n > 0x7fffffffu) return nullptr;
+    char type[5] = {static_cast<char>(head[4]), static_cast<char>(head[5]), static_cast<char>(head[6]),
+                    static_cast<char>(head[7]), 0};
+    for (int i = 0; i < 4; ++i)
+      if (!std::isalpha(static_cast<unsigned char>(type[i]))) return nullptr;
+    const std::string t(type);
+    // Chunk data: IDAT straight into the stream, the others into `data` (small ones only;
+    // a large ancillary chunk is left to OpenImageIO, which skips or reads it).
+    std::uint8_t* dst;
+    if (t == "IDAT") {
+      if (!header || idat_done) return nullptr;  // IDAT chunks must be consecutive
+      const std::size_t at = r->stream_.size();
+      r->stream_.resize(at + n);
+      dst = r->stream_.data() + at;
+    } else {
+      if (!r->stream_.empty()) idat_done = true;
+      if (n > (1u << 20)) return nullptr;
+      data.resize(n);
+      dst = data.data();
+    }
+    std::uint8_t crc_bytes[4];
+    if ((n && !f.read(reinterpret_cast<char*>(dst), n)) || !f.read(reinterpret_cast<char*>(crc_bytes), 4)) return nullptr;
+    const uLong crc = crc32(crc32(0, head + 4, 4), dst, n);
+    if (static_cast<std::uint32_t>(crc) != get32(crc_bytes)) return nullptr;
+    if (!header) {
+      // IHDR first: size, bit depth, colour type, compression 0, filter 0, no interlace.
+      if (t != "IHDR" || n != 13) return nullptr;
+      const std::uint32_t w = get32(dst), h = get32(dst + 4);
+      const int depth = dst[8], ctype = dst[9];
+      if (w == 0 || h == 0 || w > 0x7fffffffu || h > 0x7fffffffu) return nullptr;
+      if ((depth != 8 && depth != 16) || dst[10] != 0 || dst[11] != 0 || dst[12] != 0) return nullptr;
+      switch (ctype) {
+        case 0: r->names_ = {"Y"}; break;
+        case 4: r->names_ = {"Y", "A"}; break;
+        case 2: r->names_ = {"R", "G", "B"}; break;
+        case 6: r->names_ = {"R", "G", "B", "A"}; break;
+        default: return nullptr;  // palette
+      }
+      r->width_ = static_cast<int>(w);
+      r->height_ = static_cast<int>(h);
+      r->bits_ = depth;
+      r->channels_ = static_cast<int>(r->names_.size());
+      header = true;
+    } else if (t == "IEND") {
+      ended = true;
+    } else if (t != "IDAT" && (t == "tRNS" || t == "sBIT" || std::isupper(static_cast<unsigned char>(type[0])))) {
+      // transparency (libpng expands it into alpha), significant bits, a palette, a second
+      // header or an unknown critical chunk: OpenImageIO's business
+      return nullptr;
+    }
+  }
+  if (!header || r->stream_.empty()) return nullptr;
+  char extra;
+  if (f.read(&extra, 1)) return nullptr;  // bytes after IEND
+  return r;
+}
+
+bool Reader::read(int cb, int ce, float* out) const {
+  if (cb < 0 || ce > channels_ || cb >= ce) return false;
+  const std::size_t W = static_cast<std::size_t>(width_), H = static_cast<std::size_t>(height_);
+  const std::size_t bps = bits_ / 8, bpp = channels_ * bps, row_bytes = W * bpp, stride = row_bytes + 1;
+  std::vector<std::uint8_t> rows(H * stride);
+  {
+    std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> d(libdeflate_alloc_decompressor(),
+                                                                                 libdeflate_free_decompressor);
+    if (!d) return false;
+    // Exactly the declared rows (no actual-size argument: a shorter or longer stream fails),
+    // Adler-32 checked.
+    if (libdeflate_zlib_decompress(d.get(), stream_.data(), stream_.size(), rows.data(), rows.size(), nullptr) !=
+        LIBDEFLATE_SUCCESS)
+      return false;
+  }
+  // Unfilter in place (each row depends on the one above, already unfiltered).
+  for (std::size_t y = 0; y < H; ++y) {
+    std::uint8_t* cur = rows.data() + y * stride + 1;
+    const std::uint8_t* up = y ? rows.data() + (y - 1) * stride + 1 : nullptr;
+    const std::size_t head = std::min(bpp, row_bytes);
+    switch (cur[-1]) {
+      case 0: break;
+      case 1:
+        for (std::size_t i = head; i < row_bytes; ++i) cur[i] = static_cast<std::uint8_t>(cur[i] + cur[i - bpp]);
+        break;
+      case 2:
+        if (up)
+          for (std::size_t i = 0; i < row_bytes; ++i) cur[i] = static_cast<std::uint8_t>(cur[i] + up[i]);
+        break;
+      case 3:
+        for (std::size_t i = 0; i < head; ++i) cur[i] = static_cast<std::uint8_t>(cur[i] + (up ? up[i] >> 1 : 0));
+        for (std::size_t i = head; i < row_bytes; ++i)
+          cur[i] = static_cast<std::uint8_t>(cur[i] + ((cur[i - bpp] + (up ? up[i] : 0)) >> 1));
+        break;
+      case 4:
+        for (std::size_t i = 0; i < head; ++i) cur[i] = static_cast<std::uint8_t>(cur[i] + (up ? up[i] : 0));
+        for (std::size_t i = head; i < row_bytes; ++i)
+          cur[i] = static_cast<std::uint8_t>(cur[i] + (up ? paeth(cur[i - bpp], up[i], up[i - bpp]) : cur[i - bpp]));
+        break;
+      default: return false;
+    }
+  }
+  // Samples → float as OpenImageIO gives them: code · (1 / max).
+  const int n = ce - cb;
+  const float scale = 1.0f / (bits_ == 8 ? 255.0f : 65535.0f);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, H), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t y = r.begin(); y < r.end(); ++y) {
+      const std::uint8_t* s = rows.data() + y * stride + 1;
+      float* o = out + y * W * n;
+      for (std::size_t x = 0; x < W; ++x)
+        for (int c = 0; c < n; ++c) {
+          const std::uint8_t* p = s + x * bpp + (cb + c) * bps;
+          const unsigned code = bps == 1 ? p[0] : (static_cast<unsigned>(p[0]) << 8) | p[1];
+          o[x * n + c] = static_cast<float>(code) * scale;
+        }
+    }
+  });
+  return true;
 }
 
 }  // namespace dofkit::io::png

@@ -26,6 +26,7 @@
 #include "dofkit/error.hpp"
 #include "io/atomic_write.hpp"
 #include "io/exr_direct.hpp"
+#include "io/jpeg_direct.hpp"
 #include "io/png_direct.hpp"
 #include "io/header_check.hpp"
 #include "io/oiio_module.hpp"
@@ -114,9 +115,20 @@ FileSpec spec_of(const png::Reader& r) {
   return s;
 }
 
+FileSpec spec_of(const jpeg::Reader& r) {
+  FileSpec s;
+  s.width = r.width();
+  s.height = r.height();
+  s.nchannels = static_cast<int>(r.names().size());
+  s.channelnames = r.names();
+  s.integer = true;
+  return s;
+}
+
 struct OpenedFile {
   std::unique_ptr<exr::ScanlineReader> exr;  // common EXR files (exr_direct.hpp),
-  std::unique_ptr<png::Reader> png;          // common PNG files (png_direct.hpp), else
+  std::unique_ptr<png::Reader> png;          // common PNG files (png_direct.hpp),
+  std::unique_ptr<jpeg::Reader> jpg;         // common JPEG files (jpeg_direct.hpp), else
   std::unique_ptr<oiio::Input> in;           // OpenImageIO (oiio_module.hpp)
   FileSpec spec;
 };
@@ -163,17 +175,25 @@ OpenedFile open_checked(const std::string& path, const char* role) {
     check_declared_size(f.spec, path, role);
     return f;
   }
+  f.jpg = jpeg::Reader::open(path);
+  if (f.jpg) {
+    f.spec = spec_of(*f.jpg);
+    check_declared_size(f.spec, path, role);
+    return f;
+  }
   open_oiio(f, path, role);
   return f;
 }
 
 // After a direct reader failed on the pixels (EXR: missing, truncated or undecodable
-// chunks; PNG: a stream that does not inflate to the declared rows): OpenImageIO reads the
+// chunks; PNG: a stream that does not inflate to the declared rows; JPEG: any libjpeg error
+// or warning): OpenImageIO reads the
 // file again and gives its error (or reads what that reader could not).
 void fall_back_to_oiio(OpenedFile& f, const std::string& path, const char* role) {
   const std::vector<std::string> names = f.spec.channelnames;
   f.exr.reset();
   f.png.reset();
+  f.jpg.reset();
   open_oiio(f, path, role);
   if (f.spec.channelnames != names)
     throw_bad_input(path + ": cannot read " + role + " pixels: the readers disagree on its channels");
@@ -189,6 +209,10 @@ std::vector<float> read_channels(OpenedFile& f, const std::string& path, const c
   }
   if (f.png) {
     if (f.png->read(cb, ce, buf.data())) return buf;
+    fall_back_to_oiio(f, path, role);
+  }
+  if (f.jpg) {
+    if (f.jpg->read(cb, ce, buf.data())) return buf;
     fall_back_to_oiio(f, path, role);
   }
   if (!f.in->read(cb, ce, buf.data()))
@@ -681,6 +705,11 @@ void encode_image(const std::string& file, const std::string& format_path, const
     // PNG is written here (png_direct.hpp: parallel deflate, no OpenImageIO).
     png::write(file, format_path, png::Layout{img.width(), img.height(), out_c, bits}, buf.data(),
                opt.png_level < 0 ? 6 : opt.png_level, srgb);
+    return;
+  }
+  if (fmt == Format::jpeg) {
+    // JPEG through libjpeg directly (jpeg_direct.hpp: OpenImageIO's settings, no loading it).
+    jpeg::write(file, format_path, img.width(), img.height(), out_c, buf.data(), opt.jpeg_quality);
     return;
   }
 

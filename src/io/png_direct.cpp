@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "dofkit/error.hpp"
+#include "io/quantise.hpp"
 
 namespace dofkit::io::png {
 
@@ -41,16 +42,6 @@ namespace {
 
 constexpr std::size_t kBlockBytes = 256 * 1024;  // filtered bytes per deflate task
 constexpr std::size_t kWindow = 32 * 1024;       // deflate's window: the dictionary of a block
-
-// OpenImageIO's float → integer rule: round(v · max) with halves away from zero, in float,
-// clamped; x − ⌊x⌋ is exact below 2^23, so this is roundf without the libm call.
-inline std::uint32_t quantise(float v, float max) {
-  const float x = v * max;
-  if (!(x > 0.0f)) return 0;  // also NaN
-  if (x >= max) return static_cast<std::uint32_t>(max);
-  const float t = std::floor(x);
-  return static_cast<std::uint32_t>(t) + (x - t >= 0.5f ? 1u : 0u);
-}
 
 void put32(std::uint8_t* p, std::uint32_t v) {
   p[0] = static_cast<std::uint8_t>(v >> 24);

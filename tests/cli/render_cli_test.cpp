@@ -464,30 +464,37 @@ TEST_F(RenderCli, EndToEndOpenImageIOIsLoadedOnlyForFilesThatNeedIt) {
   write_bytes(dir_ / "broken.so", "not a shared library");
   const std::string broken = "DOFKIT_OIIO_MODULE=" + q(dir_ / "broken.so");
   const std::string camera = " --focus 4 --blur-at-infinity 24 --max-coc 40 --method sterna";
-  // EXR in, EXR or PNG out (the common kinds, png_direct.hpp / exr_direct.hpp): OpenImageIO
+  // EXR in, EXR / PNG / JPEG out (the common kinds, *_direct.hpp): OpenImageIO
   // is never needed.
-  for (const char* out : {"out.exr", "out.png"}) {
+  for (const char* out : {"out.exr", "out.png", "out.jpg"}) {
     const ProcResult ok = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera +
                                     " --output " + q(dir_ / out),
                                 dir_, broken);
     EXPECT_EQ(ok.code, 0) << out << ": " << ok.err;
     EXPECT_TRUE(std::filesystem::exists(dir_ / out)) << out;
   }
-  // A JPEG output needs it: exit 1 (internal), nothing written.
+  // ... nor for those PNG and JPEG files as inputs.
+  for (const char* in : {"out.png", "out.jpg"}) {
+    const ProcResult ok = spawn("render --color " + q(dir_ / in) + " --depth " + q(dir_ / "z.exr") + camera +
+                                    " --output " + q(dir_ / (std::string(in) + ".exr")),
+                                dir_, broken);
+    EXPECT_EQ(ok.code, 0) << in << ": " << ok.err;
+  }
+  // A TIFF output needs it: exit 1 (internal), nothing written.
   ProcResult r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera + " --output " +
-                           q(dir_ / "out.jpg"),
+                           q(dir_ / "out.tif"),
                        dir_, broken);
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_TRUE(contains(r.err, "OpenImageIO module")) << r.err;
   EXPECT_TRUE(contains(r.err, "broken.so does not load")) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(dir_ / "out.jpg"));
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "out.tif"));
   // The same call finds the real module by itself.
   r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera + " --output " +
-                q(dir_ / "out.jpg"),
+                q(dir_ / "out.tif"),
             dir_);
   EXPECT_EQ(r.code, 0) << r.err;
-  EXPECT_TRUE(std::filesystem::exists(dir_ / "out.jpg"));
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "out.tif"));
 }
 
 TEST_F(RenderCli, EndToEndErrorsAreOneLineWithExitCodes) {

@@ -1,0 +1,188 @@
+// JPEG reader and writer on libjpeg (see jpeg_direct.hpp).
+//
+// libjpeg reports a fatal error by calling error_exit, which must not return: here it
+// longjmps back to the function that set the jump (the libjpeg convention; everything with a
+// destructor is created before setjmp, and nothing the error path uses is changed after it).
+// Warnings (corrupt data that libjpeg decodes anyway) are counted, not printed.
+#include "io/jpeg_direct.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <cerrno>
+#include <csetjmp>
+#include <cstdio>
+#include <cstring>
+
+extern "C" {
+#include <jpeglib.h>
+}
+
+#include "dofkit/error.hpp"
+#include "io/quantise.hpp"
+
+namespace dofkit::io::jpeg {
+
+namespace {
+
+struct ErrorManager {
+  jpeg_error_mgr pub;
+  std::jmp_buf jump;
+  char message[JMSG_LENGTH_MAX];
+};
+
+extern "C" void on_error(j_common_ptr cinfo) {
+  auto* e = reinterpret_cast<ErrorManager*>(cinfo->err);
+  (*cinfo->err->format_message)(cinfo, e->message);
+  std::longjmp(e->jump, 1);
+}
+
+extern "C" void on_output_message(j_common_ptr) {}  // warnings: counted in num_warnings only
+
+void install(ErrorManager& e) {
+  jpeg_std_error(&e.pub);
+  e.pub.error_exit = on_error;
+  e.pub.output_message = on_output_message;
+  e.message[0] = 0;
+}
+
+// What open() accepts: 8-bit samples, one grey or three YCbCr / RGB components.
+bool supported(const jpeg_decompress_struct& c) {
+  if (c.data_precision != 8) return false;
+  if (c.num_components == 1) return c.jpeg_color_space == JCS_GRAYSCALE;
+  return c.num_components == 3 && (c.jpeg_color_space == JCS_YCbCr || c.jpeg_color_space == JCS_RGB);
+}
+
+}  // namespace
+
+std::unique_ptr<Reader> Reader::open(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return nullptr;
+  unsigned char magic[3] = {0, 0, 0};
+  const bool is_jpeg = std::fread(magic, 1, 3, f) == 3 && magic[0] == 0xff && magic[1] == 0xd8 && magic[2] == 0xff;
+  if (!is_jpeg || std::fseek(f, 0, SEEK_SET) != 0) {
+    std::fclose(f);
+    return nullptr;
+  }
+  std::unique_ptr<Reader> r(new Reader());
+  jpeg_decompress_struct cinfo;
+  ErrorManager err;
+  install(err);
+  cinfo.err = &err.pub;
+  if (setjmp(err.jump)) {
+    jpeg_destroy_decompress(&cinfo);
+    std::fclose(f);
+    return nullptr;
+  }
+  jpeg_create_decompress(&cinfo);
+  jpeg_stdio_src(&cinfo, f);
+  const bool ok = jpeg_read_header(&cinfo, TRUE) == JPEG_HEADER_OK && supported(cinfo) && cinfo.image_width > 0 &&
+                  cinfo.image_height > 0 && err.pub.num_warnings == 0;
+  if (ok) {
+    r->path_ = path;
+    r->width_ = static_cast<int>(cinfo.image_width);
+    r->height_ = static_cast<int>(cinfo.image_height);
+    r->names_ = cinfo.num_components == 1 ? std::vector<std::string>{"Y"} : std::vector<std::string>{"R", "G", "B"};
+  }
+  jpeg_destroy_decompress(&cinfo);
+  std::fclose(f);
+  return ok ? std::move(r) : nullptr;
+}
+
+bool Reader::read(int cb, int ce, float* out) const {
+  const int C = static_cast<int>(names_.size());
+  if (cb < 0 || ce > C || cb >= ce) return false;
+  const std::size_t W = static_cast<std::size_t>(width_), H = static_cast<std::size_t>(height_);
+  std::vector<JSAMPLE> samples(W * H * C);  // allocated before the jump is set
+  std::FILE* f = std::fopen(path_.c_str(), "rb");
+  if (!f) return false;
+  jpeg_decompress_struct cinfo;
+  ErrorManager err;
+  install(err);
+  cinfo.err = &err.pub;
+  if (setjmp(err.jump)) {
+    jpeg_destroy_decompress(&cinfo);
+    std::fclose(f);
+    return false;
+  }
+  jpeg_create_decompress(&cinfo);
+  jpeg_stdio_src(&cinfo, f);
+  bool ok = jpeg_read_header(&cinfo, TRUE) == JPEG_HEADER_OK && supported(cinfo) &&
+            static_cast<int>(cinfo.image_width) == width_ && static_cast<int>(cinfo.image_height) == height_ &&
+            cinfo.num_components == C;
+  if (ok) {
+    cinfo.out_color_space = C == 1 ? JCS_GRAYSCALE : JCS_RGB;  // libjpeg's defaults otherwise
+    jpeg_start_decompress(&cinfo);
+    ok = static_cast<int>(cinfo.output_width) == width_ && static_cast<int>(cinfo.output_height) == height_ &&
+         cinfo.output_components == C;
+    while (ok && cinfo.output_scanline < cinfo.output_height) {
+      JSAMPROW row = samples.data() + static_cast<std::size_t>(cinfo.output_scanline) * W * C;
+      if (jpeg_read_scanlines(&cinfo, &row, 1) != 1) ok = false;
+    }
+    if (ok) jpeg_finish_decompress(&cinfo);
+  }
+  ok = ok && err.pub.num_warnings == 0;  // corrupt data decoded anyway: OpenImageIO decides
+  jpeg_destroy_decompress(&cinfo);
+  std::fclose(f);
+  if (!ok) return false;
+  const int n = ce - cb;
+  const float scale = 1.0f / 255.0f;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, H), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t y = r.begin(); y < r.end(); ++y) {
+      const JSAMPLE* s = samples.data() + y * W * C + cb;
+      float* o = out + y * W * n;
+      for (std::size_t x = 0; x < W; ++x)
+        for (int c = 0; c < n; ++c) o[x * n + c] = static_cast<float>(s[x * C + c]) * scale;
+    }
+  });
+  return true;
+}
+
+void write(const std::string& file, const std::string& display_path, int width, int height, int channels,
+           const float* pixels, int quality) {
+  if (width <= 0 || height <= 0 || (channels != 1 && channels != 3) || !pixels || quality < 1 || quality > 100 ||
+      width > JPEG_MAX_DIMENSION || height > JPEG_MAX_DIMENSION)
+    throw_internal(display_path + ": JPEG layout not written here");
+  const std::size_t W = static_cast<std::size_t>(width), H = static_cast<std::size_t>(height);
+  std::vector<JSAMPLE> samples(W * H * channels);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, H), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin() * W * channels; i < r.end() * W * channels; ++i)
+      samples[i] = static_cast<JSAMPLE>(quantise(pixels[i], 255.0f));
+  });
+
+  errno = 0;
+  std::FILE* f = std::fopen(file.c_str(), "wb");
+  if (!f)
+    throw_bad_input(display_path + ": cannot write: cannot create the file" +
+                    (errno ? std::string(": ") + std::strerror(errno) : ""));
+  jpeg_compress_struct cinfo;
+  ErrorManager err;
+  install(err);
+  cinfo.err = &err.pub;
+  if (setjmp(err.jump)) {
+    jpeg_destroy_compress(&cinfo);
+    std::fclose(f);
+    throw_bad_input(display_path + ": cannot write: " + err.message);
+  }
+  jpeg_create_compress(&cinfo);
+  jpeg_stdio_dest(&cinfo, f);
+  cinfo.image_width = static_cast<JDIMENSION>(width);
+  cinfo.image_height = static_cast<JDIMENSION>(height);
+  cinfo.input_components = channels;
+  cinfo.in_color_space = channels == 1 ? JCS_GRAYSCALE : JCS_RGB;
+  jpeg_set_defaults(&cinfo);               // JFIF, 4:2:0 chroma, accurate integer DCT, Huffman tables
+  jpeg_set_quality(&cinfo, quality, TRUE);  // baseline-limited quantisation tables
+  jpeg_start_compress(&cinfo, TRUE);
+  while (cinfo.next_scanline < cinfo.image_height) {
+    JSAMPROW row = samples.data() + static_cast<std::size_t>(cinfo.next_scanline) * W * channels;
+    jpeg_write_scanlines(&cinfo, &row, 1);
+  }
+  jpeg_finish_compress(&cinfo);  // flushes through jpeg_stdio_dest (a short write is an error)
+  jpeg_destroy_compress(&cinfo);
+  const bool flushed = std::fflush(f) == 0 && !std::ferror(f);
+  const bool closed = std::fclose(f) == 0;
+  if (!flushed || !closed)
+    throw_bad_input(display_path + ": cannot write: " + (errno ? std::strerror(errno) : "close failed"));
+}
+
+}  // namespace dofkit::io::jpeg

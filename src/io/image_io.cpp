@@ -189,14 +189,21 @@ OpenedFile open_checked(const std::string& path, const char* role) {
 // chunks; PNG: a stream that does not inflate to the declared rows; JPEG: any libjpeg error
 // or warning): OpenImageIO reads the
 // file again and gives its error (or reads what that reader could not).
+// The callers sized their buffers from the first reader's header, so OpenImageIO must see the
+// same size and channels, else the file is refused (the fuzzer found an EXR whose header the
+// two EXR libraries parse as 5×1835012 and 5×4 pixels: the buffers then overflowed).
 void fall_back_to_oiio(OpenedFile& f, const std::string& path, const char* role) {
-  const std::vector<std::string> names = f.spec.channelnames;
+  const FileSpec before = f.spec;
   f.exr.reset();
   f.png.reset();
   f.jpg.reset();
   open_oiio(f, path, role);
-  if (f.spec.channelnames != names)
+  if (f.spec.channelnames != before.channelnames || f.spec.nchannels != before.nchannels)
     throw_bad_input(path + ": cannot read " + role + " pixels: the readers disagree on its channels");
+  if (f.spec.width != before.width || f.spec.height != before.height)
+    throw_bad_input(path + ": cannot read " + role + " pixels: the readers disagree on its size (" +
+                    std::to_string(before.width) + "x" + std::to_string(before.height) + " or " +
+                    std::to_string(f.spec.width) + "x" + std::to_string(f.spec.height) + ")");
 }
 
 // Reads channels [cb, ce) as float, interleaved, W·H·(ce − cb) values.

@@ -79,6 +79,8 @@ TEST(BadCorpus, EachFileGivesItsErrorClassAndMessage) {
         io::read_depth(path, {});
       } else if (c.op == "frame") {
         io::load_frame(path, depth, {});
+      } else if (c.op == "mask") {
+        io::read_mask(path);
       } else {
         FAIL() << "unknown op " << c.op;
       }

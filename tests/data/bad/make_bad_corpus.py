@@ -179,6 +179,21 @@ def main():
                                                         struct.pack("<HHII", 273, LONG, 0, 0)).replace(
         struct.pack("<HHII", 279, LONG, 1, 48), struct.pack("<HHII", 279, LONG, 0, 0))
     # JPEG that stops right after its start-of-image and a partial APP0 segment.
+    # Found by the fuzzer (2026-11-23): an EXR header that OpenEXR's core library (dofkit's
+    # direct reader) parses as 5 x 1835012 pixels and its C++ library (OpenImageIO) as 5 x 4; the
+    # direct reader cannot decode the chunks, so the file falls back to OpenImageIO, and the
+    # buffers sized from the first header overflowed. Kept byte for byte.
+    files["readers_disagree.exr"] = bytes.fromhex(
+        "762f3101020000006361704461746500737472696e670013000000323032363a31313a32322030333a34313a35386368"
+        "616e6e656c730063686c697374001300000059000100000000000000010000000100000000636f6d7072657373696f6e"
+        "00636f6d7072657373696f6e0001000000036461746157696e646f7700626f7832690010000000000000000000000004"
+        "00000003001c00646973706c617957696e646f3a32322030333a34313a35386368616e6e656c730063686c6973740013"
+        "00000059000100000000000000010000000100000000636f6d70ffff72657373696f6e00636f6d7072657373696f406e"
+        "0001000000036461746157696e646f7700626f783269001000000000000000000000000400000003000000646973706c"
+        "617957000000000000350000000000000000000000000000000000000000000000000000000000000000000000000000"
+        "637265656e57696e646f7743656e7465720076326600000000000000000000000002736372659b91a896919b90805769"
+        "64746800666c6f617400040000000000803f0043010000000000000000000028000000007c3241b3449a3f0044cd3c9a"
+        "4200383341007c9a3f0044cd3c007c0038696f6e00636f6d70cd3c")
     files["jpeg_soi_only.jpg"] = b"\xff\xd8\xff\xe0\x00\x10JFIF\x00"
     # Frame-level defects: colour and depth of different sizes, invalid depth values.
     files["color_8x6.exr"] = exr(8, 6, ["R", "G", "B", "A"], rgba_pixel)

@@ -28,6 +28,7 @@
 #include "io/exr_direct.hpp"
 #include "io/jpeg_direct.hpp"
 #include "io/png_direct.hpp"
+#include "io/srgb.hpp"
 #include "io/header_check.hpp"
 #include "io/oiio_module.hpp"
 
@@ -51,34 +52,6 @@ long long pixel_budget() { return g_pixel_budget.load(); }
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
-
-// --- sRGB transfer (IEC 61966-2-1) ------------------------------------------------------
-
-double srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
-double linear_to_srgb(double v) { return v <= 0.0031308 ? v * 12.92 : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055; }
-
-// Every 8- and 16-bit code is k/65535 for an integer k (8-bit: k = 257·v), so one 65536-entry
-// table decodes both exactly.
-const std::vector<float>& srgb_decode_table() {
-  static const std::vector<float> table = [] {
-    std::vector<float> t(65536);
-    for (int k = 0; k < 65536; ++k) t[k] = static_cast<float>(srgb_to_linear(k / 65535.0));
-    return t;
-  }();
-  return table;
-}
-
-float decode_srgb(float v) {
-  if (!(v > 0)) return 0.0f;
-  if (v >= 1) return 1.0f;
-  return srgb_decode_table()[static_cast<std::size_t>(std::lround(v * 65535.0f))];
-}
-
-float encode_srgb(float v) {
-  if (!(v > 0)) return 0.0f;
-  if (v >= 1) return 1.0f;
-  return static_cast<float>(linear_to_srgb(v));
-}
 
 // --- opening files ----------------------------------------------------------------------
 
@@ -310,26 +283,30 @@ Image read_color(const std::string& path) {
   float* out[4] = {img.plane(0), img.plane(1), img.plane(2), img.plane(3)};
   const int src[3] = {r - cb, g - cb, b - cb};
   const bool has_alpha = a >= 0;
-  const std::size_t n = img.plane_size();
-  for (std::size_t i = 0; i < n; ++i) {
-    const float* p = buf.data() + i * stride;
-    const float alpha = has_alpha ? p[a - cb] : 1.0f;
-    out[3][i] = alpha;
-    for (int c = 0; c < 3; ++c) {
-      float v = p[src[c]];
-      if (f.spec.integer) {
-        // Integer files hold sRGB-encoded colour. With straight alpha the stored value is the
-        // encoded colour itself; with associated alpha it is encoded·α (the encoder's
-        // premultiplication), so divide α out before decoding and multiply it back after.
-        if (has_alpha && !f.spec.unassociated) v = alpha > 0 ? v / alpha : 0.0f;
-        v = decode_srgb(v);
-        if (has_alpha) v *= alpha;
-      } else if (has_alpha && f.spec.unassociated) {
-        v *= alpha;  // a float file that declares straight alpha
+  const bool integer = f.spec.integer, unassociated = f.spec.unassociated;
+  // Per pixel, independent: both cores (a 1080p JPEG's serial loop was ~6 % of its call).
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, img.plane_size(), 1 << 14),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t i = range.begin(); i < range.end(); ++i) {
+      const float* p = buf.data() + i * stride;
+      const float alpha = has_alpha ? p[a - cb] : 1.0f;
+      out[3][i] = alpha;
+      for (int c = 0; c < 3; ++c) {
+        float v = p[src[c]];
+        if (integer) {
+          // Integer files hold sRGB-encoded colour. With straight alpha the stored value is
+          // the encoded colour itself; with associated alpha it is encoded·α (the encoder's
+          // premultiplication), so divide α out before decoding and multiply it back after.
+          if (has_alpha && !unassociated) v = alpha > 0 ? v / alpha : 0.0f;
+          v = decode_srgb(v);
+          if (has_alpha) v *= alpha;
+        } else if (has_alpha && unassociated) {
+          v *= alpha;  // a float file that declares straight alpha
+        }
+        out[c][i] = v;
       }
-      out[c][i] = v;
     }
-  }
+  });
   return img;
 }
 
@@ -690,6 +667,7 @@ void encode_image(const std::string& file, const std::string& format_path, const
   // a 1080p PNG-out call on one).
   const std::size_t n = img.plane_size();
   std::vector<float> buf(n * out_c);
+  const bool eight_bit = bits == 8 && !float_file;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 14), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i < r.end(); ++i) {
       float* o = buf.data() + i * out_c;
@@ -701,7 +679,9 @@ void encode_image(const std::string& file, const std::string& format_path, const
       for (int c = 0; c < 3; ++c) {
         float v = img.plane(c)[i];
         if (straight) v = alpha > 0 ? v / alpha : 0.0f;
-        if (srgb) v = encode_srgb(v);
+        // 8-bit files: the code itself (srgb8_code, the same code as quantising
+        // encode_srgb(v), ~4× faster), stored as code / 255, which quantises back to it.
+        if (srgb) v = eight_bit ? srgb8_code(v) * (1.0f / 255.0f) : encode_srgb(v);
         o[c] = v;
       }
       if (out_alpha) o[3] = alpha;

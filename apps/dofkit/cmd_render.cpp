@@ -338,7 +338,7 @@ void run_render(RenderArgs& a) {
   coc_opt.compression = exr_compression(a.output_coc);
   if (!a.output_coc.empty()) {
     io::check_output_format(a.output_coc, coc_opt, "--output-coc");
-    if (std::filesystem::path(a.output_coc).extension() != ".exr")
+    if (!io::is_exr_path(a.output_coc))
       throw_usage("--output-coc " + a.output_coc + ": the CoC map is signed float; write it as .exr");
   }
   io::WriteOptions debug_opt;

@@ -119,6 +119,24 @@ TEST_F(RenderCli, ExactCallMatchesLibraryRender) {
   EXPECT_EQ(dir_.entries(), (std::vector<std::string>{"c.exr", "out.exr", "z.exr"}));
 }
 
+// The CoC map's extension check is case-insensitive, like every other output's: COC.EXR is
+// an EXR (it was refused), coc.png is refused.
+TEST_F(RenderCli, OutputCocExtensionIgnoresCase) {
+  auto args = exact_call();
+  args.insert(args.end(), {"--output-coc", dir_ / "COC.EXR"});
+  const auto ok = run_render(args);
+  ASSERT_EQ(ok.code, 0) << ok.message;
+  auto in = OIIO::ImageInput::open(dir_ / "COC.EXR");
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().format, OIIO::TypeDesc::FLOAT);
+  in.reset();
+  std::filesystem::remove(dir_ / "COC.EXR");
+  std::filesystem::remove(dir_ / "out.exr");
+  auto bad = exact_call();
+  bad.insert(bad.end(), {"--output-coc", dir_ / "coc.png"});
+  expect_failure(bad, 2, {"--output-coc", "write it as .exr"});
+}
+
 TEST_F(RenderCli, OutputCocIsSignedFloatPixels) {
   auto args = exact_call();
   args.insert(args.end(), {"--output-coc", dir_ / "coc.exr", "--threads", "2"});

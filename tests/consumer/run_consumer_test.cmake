@@ -1,5 +1,8 @@
 # cmake -P script: install a dofkit build into WORK_DIR/prefix, build the consumer project in
-# tests/consumer against it with find_package(dofkit), and run it.
+# tests/consumer against it with find_package(dofkit), and run it; then run the installed
+# `dofkit` on a call that needs the OpenImageIO module (a TIFF output) and check, through the
+# dynamic loader's own log (LD_DEBUG=files), that it loaded the installed module from
+# <prefix>/<libdir>/dofkit/, not the build tree's.
 # Inputs: DOFKIT_BUILD_DIR, CONSUMER_SOURCE_DIR, WORK_DIR, CMAKE_GENERATOR, CMAKE_BUILD_TYPE.
 cmake_minimum_required(VERSION 3.20)
 foreach(var DOFKIT_BUILD_DIR CONSUMER_SOURCE_DIR WORK_DIR)
@@ -42,3 +45,23 @@ run_step("configure consumer" ${CMAKE_COMMAND} -S "${CONSUMER_SOURCE_DIR}" -B "$
 run_step("build consumer" ${CMAKE_COMMAND} --build "${WORK_DIR}/build")
 run_step("run consumer" "${WORK_DIR}/build/consumer")
 message(STATUS "${step_output}")
+
+set(dofkit_exe "${prefix}/bin/dofkit")
+file(GLOB installed_module "${prefix}/*/dofkit/libdofkit_oiio.so")
+if(NOT installed_module)
+  message(FATAL_ERROR "install has no <libdir>/dofkit/libdofkit_oiio.so")
+endif()
+run_step("installed dofkit writes a frame" "${dofkit_exe}" bench --size 64x36 --write-frame "${WORK_DIR}/frame")
+execute_process(
+  COMMAND ${CMAKE_COMMAND} -E env LD_DEBUG=files "${dofkit_exe}" render --color "${WORK_DIR}/frame/color.exr"
+          --depth "${WORK_DIR}/frame/depth.exr" --focus 4 --blur-at-infinity 2 --output "${WORK_DIR}/frame/out.tif"
+  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT EXISTS "${WORK_DIR}/frame/out.tif")
+  message(FATAL_ERROR "installed dofkit could not write a TIFF (${rc}):\n${err}")
+endif()
+string(REGEX MATCH "file=[^ \n]*libdofkit_oiio\\.so" loaded "${err}")
+if(NOT loaded STREQUAL "file=${installed_module}")
+  message(FATAL_ERROR "installed dofkit loaded '${loaded}', expected file=${installed_module}")
+endif()
+message(STATUS "installed dofkit loaded ${installed_module}: ok")
+

@@ -65,23 +65,27 @@ std::string extension_of(const std::string& path) { return lower(fs::path(path).
 // What the readers need from a file's header, from either reader.
 using FileSpec = oiio::Spec;
 
-FileSpec spec_of(const exr::ScanlineReader& r) {
+// The spec of a file opened by a direct reader: its size and names (what every reader has),
+// then what differs.
+template <typename Reader>
+FileSpec size_and_names(const Reader& r) {
   FileSpec s;
   s.width = r.width();
   s.height = r.height();
   s.nchannels = static_cast<int>(r.names().size());
   s.channelnames = r.names();
+  return s;
+}
+
+FileSpec spec_of(const exr::ScanlineReader& r) {
+  FileSpec s = size_and_names(r);
   s.alpha_channel = r.alpha_channel();
   s.z_channel = r.z_channel();
   return s;
 }
 
 FileSpec spec_of(const png::Reader& r) {
-  FileSpec s;
-  s.width = r.width();
-  s.height = r.height();
-  s.nchannels = static_cast<int>(r.names().size());
-  s.channelnames = r.names();
+  FileSpec s = size_and_names(r);
   s.alpha_channel = r.alpha_channel();
   s.integer = true;
   s.unassociated = r.alpha_channel() >= 0;  // PNG alpha is straight (OpenImageIO says so too)
@@ -89,11 +93,7 @@ FileSpec spec_of(const png::Reader& r) {
 }
 
 FileSpec spec_of(const jpeg::Reader& r) {
-  FileSpec s;
-  s.width = r.width();
-  s.height = r.height();
-  s.nchannels = static_cast<int>(r.names().size());
-  s.channelnames = r.names();
+  FileSpec s = size_and_names(r);
   s.integer = true;
   return s;
 }
@@ -136,24 +136,16 @@ OpenedFile open_checked(const std::string& path, const char* role) {
   if (fs::is_directory(st)) throw_bad_input(path + ": " + role + " path is a folder, not an image");
   check_file_header(path, role);
   OpenedFile f;
-  f.exr = exr::ScanlineReader::open(path);
-  if (f.exr) {
-    f.spec = spec_of(*f.exr);
+  // The direct readers first (each gives nullptr for a file it does not take), then OpenImageIO.
+  const auto taken = [&](const auto& reader) {
+    if (!reader) return false;
+    f.spec = spec_of(*reader);
     check_declared_size(f.spec, path, role);
+    return true;
+  };
+  if (taken(f.exr = exr::ScanlineReader::open(path)) || taken(f.png = png::Reader::open(path)) ||
+      taken(f.jpg = jpeg::Reader::open(path)))
     return f;
-  }
-  f.png = png::Reader::open(path);
-  if (f.png) {
-    f.spec = spec_of(*f.png);
-    check_declared_size(f.spec, path, role);
-    return f;
-  }
-  f.jpg = jpeg::Reader::open(path);
-  if (f.jpg) {
-    f.spec = spec_of(*f.jpg);
-    check_declared_size(f.spec, path, role);
-    return f;
-  }
   open_oiio(f, path, role);
   return f;
 }
@@ -183,16 +175,9 @@ void fall_back_to_oiio(OpenedFile& f, const std::string& path, const char* role)
 std::vector<float> read_channels(OpenedFile& f, const std::string& path, const char* role, int cb, int ce) {
   const std::size_t n = static_cast<std::size_t>(f.spec.width) * f.spec.height * (ce - cb);
   std::vector<float> buf(n);
-  if (f.exr) {
-    if (f.exr->read(cb, ce, buf.data())) return buf;
-    fall_back_to_oiio(f, path, role);
-  }
-  if (f.png) {
-    if (f.png->read(cb, ce, buf.data())) return buf;
-    fall_back_to_oiio(f, path, role);
-  }
-  if (f.jpg) {
-    if (f.jpg->read(cb, ce, buf.data())) return buf;
+  const auto read_by = [&](const auto& reader) { return reader && reader->read(cb, ce, buf.data()); };
+  if (f.exr || f.png || f.jpg) {
+    if (read_by(f.exr) || read_by(f.png) || read_by(f.jpg)) return buf;
     fall_back_to_oiio(f, path, role);
   }
   if (!f.in->read(cb, ce, buf.data()))

@@ -22,11 +22,6 @@ using namespace dofkit::test;
 
 namespace {
 
-std::uint32_t bits_of(float v) {
-  std::uint32_t b;
-  std::memcpy(&b, &v, 4);
-  return b;
-}
 
 // A plane with smooth parts (compressible), random bit patterns (incompressible: their chunks
 // are stored raw) and the special values.

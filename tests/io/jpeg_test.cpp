@@ -28,11 +28,6 @@ using namespace dofkit::test;
 
 namespace {
 
-std::uint32_t bits_of(float v) {
-  std::uint32_t b;
-  std::memcpy(&b, &v, 4);
-  return b;
-}
 
 // A photograph-like test image in [0, 1]: smooth gradients, edges and noise.
 std::vector<float> picture(int w, int h, int c, int seed) {
@@ -126,10 +121,6 @@ void expect_reads_as_oiio(const std::string& path) {
     }
 }
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
 
 }  // namespace
 

@@ -24,11 +24,6 @@ using namespace dofkit::test;
 
 namespace {
 
-std::uint32_t bits_of(float v) {
-  std::uint32_t b;
-  std::memcpy(&b, &v, 4);
-  return b;
-}
 
 void put32(std::string& s, std::uint32_t v) {
   for (int k = 3; k >= 0; --k) s.push_back(static_cast<char>((v >> (8 * k)) & 0xff));
@@ -68,10 +63,6 @@ void write_file(const std::string& path, const std::string& bytes) {
   f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
 }
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
 
 // Codes that make every row filter win somewhere: flat rows (None / Up), horizontal ramps
 // (Sub), vertical ramps (Up), smooth 2-D ramps (Average / Paeth), noise.

@@ -1,5 +1,7 @@
-// Image IO (see image_io.hpp for the conventions): the common EXRs through exr_direct.hpp,
-// everything else through OpenImageIO 2.4 in its module (oiio_module.hpp).
+// Image IO (see image_io.hpp for the conventions): the common EXRs, PNGs and JPEGs through
+// exr_direct.hpp, png_direct.hpp and jpeg_direct.hpp, everything else through OpenImageIO 2.4
+// in its module (oiio_module.hpp). The direct readers give what OpenImageIO gives (tested),
+// so the code below does not care which reader opened a file.
 //
 // Reading: the header is opened first and its size checked against kMaxPixels /
 // kMaxChannels before any pixel buffer is allocated; pixels are read as float (OIIO maps

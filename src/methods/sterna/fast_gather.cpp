@@ -893,24 +893,24 @@ void gather(const Settings& s, Buffers& b) {
   const bool texel = 4 * texel_fmas <= 22L * ntaps;  // ≤ 2 rows × 2.75 × ntaps
   const Kernels& kern = kernels();
   const bool near_alpha_const = (alpha_bits & 1) != 0;
-  Job job{&b,
-          taps,
-          ntaps,
-          texel,
-          texels.both.data(),
-          static_cast<int>(texels.both.size()),
-          texels.only0.data(),
-          static_cast<int>(texels.only0.size()),
-          texels.only1.data(),
-          static_cast<int>(texels.only1.size()),
-          inv_taps,
-          near_alpha_const,
-          {0.0f, 0.0f},
-          (alpha_bits & 2) != 0,
-          s.per_pixel_scale,
-          dy_max,
-          dx_min,
-          dx_max - dx_min + kSeg + 8};
+  Job job{.b = &b,
+          .taps = taps,
+          .ntaps = ntaps,
+          .texel = texel,
+          .both = texels.both.data(),
+          .nboth = static_cast<int>(texels.both.size()),
+          .only0 = texels.only0.data(),
+          .nonly0 = static_cast<int>(texels.only0.size()),
+          .only1 = texels.only1.data(),
+          .nonly1 = static_cast<int>(texels.only1.size()),
+          .inv_taps = inv_taps,
+          .near_alpha_const = near_alpha_const,
+          .near_alpha = {0.0f, 0.0f},
+          .far_alpha_is_den = (alpha_bits & 2) != 0,
+          .skip_far = s.per_pixel_scale,
+          .pf_dy = dy_max,
+          .pf_dx = dx_min,
+          .pf_span = dx_max - dx_min + kSeg + 8};
   if (near_alpha_const)
     for (int parity = 0; parity < 2; ++parity) job.near_alpha[parity] = kern.constant_near(job, a0, parity);
   const int strips = (b.tiles_x + kStripTiles - 1) / kStripTiles;

@@ -131,6 +131,10 @@ void write(const std::string& file, const std::string& display_path, const Layou
   const std::size_t bpp = C * bytes_per_sample;
   const std::size_t row_bytes = W * bpp;
   const std::size_t stride = row_bytes + 1;  // filtered row: type byte + row
+  // A block (at least one row) must fit zlib's 32-bit counts and a PNG chunk's 31-bit length.
+  if (stride > (std::size_t{1} << 30))
+    throw_bad_input(display_path + ": cannot write: a PNG row of " + std::to_string(stride) +
+                    " bytes is more than this writer takes (1 GiB; write .exr)");
   const float max = lay.bits == 8 ? 255.0f : 65535.0f;
 
   // (1) quantise

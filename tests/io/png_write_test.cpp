@@ -290,4 +290,15 @@ TEST(PngDirect, WriteImageUsesItAndErrorsNameTheFile) {
     EXPECT_NE(m.find("shown.png"), std::string::npos) << m;
     EXPECT_EQ(m.find('\n'), std::string::npos) << m;
   }
+  // A row longer than 1 GiB (2^27 RGBA 16-bit pixels) is refused before any pixel is read
+  // (the buffer passed here is far too small for the layout: reading it would be caught by
+  // the sanitizer build).
+  const std::vector<float> tiny(4);
+  try {
+    io::png::write(dir / "wide.png", "wide.png", io::png::Layout{1 << 27, 1, 4, 16}, tiny.data(), 6, true);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::bad_input);
+    EXPECT_NE(std::string(e.what()).find("1 GiB"), std::string::npos) << e.what();
+  }
 }

@@ -131,6 +131,18 @@ void open_oiio(OpenedFile& f, const std::string& path, const char* role) {
   if (f.spec.deep) throw_bad_input(path + ": " + role + " is a deep image; read it with --layers");
 }
 
+// The direct readers in turn (each gives nullptr for a file it does not take): true, with
+// f.spec set, if one took the file.
+bool open_direct(OpenedFile& f, const std::string& path) {
+  const auto taken = [&](const auto& reader) {
+    if (!reader) return false;
+    f.spec = spec_of(*reader);
+    return true;
+  };
+  return taken(f.exr = exr::ScanlineReader::open(path)) || taken(f.png = png::Reader::open(path)) ||
+         taken(f.jpg = jpeg::Reader::open(path));
+}
+
 OpenedFile open_checked(const std::string& path, const char* role) {
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
@@ -138,16 +150,10 @@ OpenedFile open_checked(const std::string& path, const char* role) {
   if (fs::is_directory(st)) throw_bad_input(path + ": " + role + " path is a folder, not an image");
   check_file_header(path, role);
   OpenedFile f;
-  // The direct readers first (each gives nullptr for a file it does not take), then OpenImageIO.
-  const auto taken = [&](const auto& reader) {
-    if (!reader) return false;
-    f.spec = spec_of(*reader);
+  if (open_direct(f, path)) {
     check_declared_size(f.spec, path, role);
-    return true;
-  };
-  if (taken(f.exr = exr::ScanlineReader::open(path)) || taken(f.png = png::Reader::open(path)) ||
-      taken(f.jpg = jpeg::Reader::open(path)))
     return f;
+  }
   open_oiio(f, path, role);
   return f;
 }
@@ -475,16 +481,16 @@ bool has_depth_channel(const std::string& path) {
   } catch (const Error&) {
     return false;  // the colour read that follows reports it
   }
-  FileSpec spec;
-  if (auto r = exr::ScanlineReader::open(path)) {
-    spec = spec_of(*r);
-  } else {
+  // The readers read_depth will use: a PNG or JPEG (never a Z channel) no longer loads
+  // OpenImageIO just to be asked.
+  OpenedFile f;
+  if (!open_direct(f, path)) {
     std::string error;
     auto in = oiio::module().open(path, /*straight_alpha=*/false, error);
     if (!in) return false;
-    spec = in->spec();
+    f.spec = in->spec();
   }
-  return spec.nchannels > 1 && find_channel(spec, "Z") >= 0;
+  return f.spec.nchannels > 1 && find_channel(f.spec, "Z") >= 0;
 }
 
 Image read_mask(const std::string& path) {

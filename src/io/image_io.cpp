@@ -633,29 +633,6 @@ void encode_image(const std::string& file, const std::string& format_path, const
     return;
   }
 
-  oiio::OutSpec spec;
-  spec.width = img.width();
-  spec.height = img.height();
-  spec.nchannels = out_c;
-  spec.type = fmt == Format::exr ? (bits == 16 ? oiio::PixelType::half : oiio::PixelType::float32)
-              : bits == 32       ? oiio::PixelType::float32
-              : bits == 16       ? oiio::PixelType::uint16
-                                 : oiio::PixelType::uint8;
-  if (colour) {
-    spec.channelnames = {"R", "G", "B"};
-    if (out_alpha) {
-      spec.channelnames.push_back("A");
-      spec.alpha_channel = 3;
-    }
-  } else if (C == 1) {
-    spec.channelnames = {fmt == Format::exr ? opt.channel_name : std::string("Y")};
-  }
-  if (straight) spec.int_attributes.emplace_back("oiio:UnassociatedAlpha", 1);
-  if (fmt == Format::jpeg) spec.string_attributes.emplace_back("Compression", "jpeg:" + std::to_string(opt.jpeg_quality));
-  if (fmt == Format::png) spec.int_attributes.emplace_back("png:compressionLevel", opt.png_level < 0 ? 6 : opt.png_level);
-  if (fmt == Format::exr && !opt.compression.empty()) spec.string_attributes.emplace_back("Compression", opt.compression);
-  if (!float_file) spec.string_attributes.emplace_back("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
-
   // Interleave (and encode) into one buffer; both cores (the sRGB encoding's pow was ~10 % of
   // a 1080p PNG-out call on one).
   const std::size_t n = img.plane_size();
@@ -692,6 +669,28 @@ void encode_image(const std::string& file, const std::string& format_path, const
     jpeg::write(file, format_path, img.width(), img.height(), out_c, buf.data(), opt.jpeg_quality);
     return;
   }
+
+  // TIFF, and the EXR compressions exr_direct.hpp does not write: OpenImageIO.
+  oiio::OutSpec spec;
+  spec.width = img.width();
+  spec.height = img.height();
+  spec.nchannels = out_c;
+  spec.type = fmt == Format::exr ? (bits == 16 ? oiio::PixelType::half : oiio::PixelType::float32)
+              : bits == 32       ? oiio::PixelType::float32
+              : bits == 16       ? oiio::PixelType::uint16
+                                 : oiio::PixelType::uint8;
+  if (colour) {
+    spec.channelnames = {"R", "G", "B"};
+    if (out_alpha) {
+      spec.channelnames.push_back("A");
+      spec.alpha_channel = 3;
+    }
+  } else if (C == 1) {
+    spec.channelnames = {fmt == Format::exr ? opt.channel_name : std::string("Y")};
+  }
+  if (straight) spec.int_attributes.emplace_back("oiio:UnassociatedAlpha", 1);
+  if (fmt == Format::exr && !opt.compression.empty()) spec.string_attributes.emplace_back("Compression", opt.compression);
+  if (!float_file) spec.string_attributes.emplace_back("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
 
   std::string error;
   switch (oiio::module().write(file, format_path, spec, buf.data(), error)) {

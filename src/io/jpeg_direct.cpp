@@ -53,48 +53,17 @@ bool supported(const jpeg_decompress_struct& c) {
   return c.num_components == 3 && (c.jpeg_color_space == JCS_YCbCr || c.jpeg_color_space == JCS_RGB);
 }
 
-}  // namespace
+struct Header {
+  int width = 0, height = 0, components = 0;
+  bool operator==(const Header&) const = default;
+};
 
-std::unique_ptr<Reader> Reader::open(const std::string& path) {
+// The one place that sets libjpeg's jump. Reads the header of `path` into `got`; with
+// `samples`, also decodes every sample into it (W·H·C, RGB or grey) provided the header is
+// still `expect`. False on a file this reader does not take and on any libjpeg error or
+// warning (corrupt data that libjpeg would decode anyway: OpenImageIO decides then).
+bool decode(const std::string& path, Header& got, JSAMPLE* samples = nullptr, const Header* expect = nullptr) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return nullptr;
-  unsigned char magic[3] = {0, 0, 0};
-  const bool is_jpeg = std::fread(magic, 1, 3, f) == 3 && magic[0] == 0xff && magic[1] == 0xd8 && magic[2] == 0xff;
-  if (!is_jpeg || std::fseek(f, 0, SEEK_SET) != 0) {
-    std::fclose(f);
-    return nullptr;
-  }
-  std::unique_ptr<Reader> r(new Reader());
-  jpeg_decompress_struct cinfo;
-  ErrorManager err;
-  install(err);
-  cinfo.err = &err.pub;
-  if (setjmp(err.jump)) {
-    jpeg_destroy_decompress(&cinfo);
-    std::fclose(f);
-    return nullptr;
-  }
-  jpeg_create_decompress(&cinfo);
-  jpeg_stdio_src(&cinfo, f);
-  const bool ok = jpeg_read_header(&cinfo, TRUE) == JPEG_HEADER_OK && supported(cinfo) && cinfo.image_width > 0 &&
-                  cinfo.image_height > 0 && err.pub.num_warnings == 0;
-  if (ok) {
-    r->path_ = path;
-    r->width_ = static_cast<int>(cinfo.image_width);
-    r->height_ = static_cast<int>(cinfo.image_height);
-    r->names_ = cinfo.num_components == 1 ? std::vector<std::string>{"Y"} : std::vector<std::string>{"R", "G", "B"};
-  }
-  jpeg_destroy_decompress(&cinfo);
-  std::fclose(f);
-  return ok ? std::move(r) : nullptr;
-}
-
-bool Reader::read(int cb, int ce, float* out) const {
-  const int C = static_cast<int>(names_.size());
-  if (cb < 0 || ce > C || cb >= ce) return false;
-  const std::size_t W = static_cast<std::size_t>(width_), H = static_cast<std::size_t>(height_);
-  std::vector<JSAMPLE> samples(W * H * C);  // allocated before the jump is set
-  std::FILE* f = std::fopen(path_.c_str(), "rb");
   if (!f) return false;
   jpeg_decompress_struct cinfo;
   ErrorManager err;
@@ -107,24 +76,58 @@ bool Reader::read(int cb, int ce, float* out) const {
   }
   jpeg_create_decompress(&cinfo);
   jpeg_stdio_src(&cinfo, f);
-  bool ok = jpeg_read_header(&cinfo, TRUE) == JPEG_HEADER_OK && supported(cinfo) &&
-            static_cast<int>(cinfo.image_width) == width_ && static_cast<int>(cinfo.image_height) == height_ &&
-            cinfo.num_components == C;
-  if (ok) {
-    cinfo.out_color_space = C == 1 ? JCS_GRAYSCALE : JCS_RGB;  // libjpeg's defaults otherwise
-    jpeg_start_decompress(&cinfo);
-    ok = static_cast<int>(cinfo.output_width) == width_ && static_cast<int>(cinfo.output_height) == height_ &&
-         cinfo.output_components == C;
-    while (ok && cinfo.output_scanline < cinfo.output_height) {
-      JSAMPROW row = samples.data() + static_cast<std::size_t>(cinfo.output_scanline) * W * C;
-      if (jpeg_read_scanlines(&cinfo, &row, 1) != 1) ok = false;
+  bool ok = jpeg_read_header(&cinfo, TRUE) == JPEG_HEADER_OK && supported(cinfo) && cinfo.image_width > 0 &&
+            cinfo.image_height > 0;
+  got = {static_cast<int>(cinfo.image_width), static_cast<int>(cinfo.image_height), cinfo.num_components};
+  if (ok && samples) {
+    ok = expect && got == *expect;
+    if (ok) {
+      cinfo.out_color_space = got.components == 1 ? JCS_GRAYSCALE : JCS_RGB;  // libjpeg's defaults otherwise
+      jpeg_start_decompress(&cinfo);
+      ok = static_cast<int>(cinfo.output_width) == got.width && static_cast<int>(cinfo.output_height) == got.height &&
+           cinfo.output_components == got.components;
+      const std::size_t row_samples = static_cast<std::size_t>(got.width) * got.components;
+      while (ok && cinfo.output_scanline < cinfo.output_height) {
+        JSAMPROW row = samples + static_cast<std::size_t>(cinfo.output_scanline) * row_samples;
+        if (jpeg_read_scanlines(&cinfo, &row, 1) != 1) ok = false;
+      }
+      if (ok) jpeg_finish_decompress(&cinfo);
     }
-    if (ok) jpeg_finish_decompress(&cinfo);
   }
-  ok = ok && err.pub.num_warnings == 0;  // corrupt data decoded anyway: OpenImageIO decides
+  ok = ok && err.pub.num_warnings == 0;
   jpeg_destroy_decompress(&cinfo);
   std::fclose(f);
-  if (!ok) return false;
+  return ok;
+}
+
+}  // namespace
+
+std::unique_ptr<Reader> Reader::open(const std::string& path) {
+  unsigned char magic[3] = {0, 0, 0};
+  if (std::FILE* f = std::fopen(path.c_str(), "rb")) {
+    const std::size_t got = std::fread(magic, 1, 3, f);
+    std::fclose(f);
+    if (got != 3) return nullptr;
+  }
+  if (magic[0] != 0xff || magic[1] != 0xd8 || magic[2] != 0xff) return nullptr;  // no JPEG start of image
+  Header h;
+  if (!decode(path, h)) return nullptr;
+  std::unique_ptr<Reader> r(new Reader());
+  r->path_ = path;
+  r->width_ = h.width;
+  r->height_ = h.height;
+  r->names_ = h.components == 1 ? std::vector<std::string>{"Y"} : std::vector<std::string>{"R", "G", "B"};
+  return r;
+}
+
+bool Reader::read(int cb, int ce, float* out) const {
+  const int C = static_cast<int>(names_.size());
+  if (cb < 0 || ce > C || cb >= ce) return false;
+  const std::size_t W = static_cast<std::size_t>(width_), H = static_cast<std::size_t>(height_);
+  std::vector<JSAMPLE> samples(W * H * C);
+  const Header expect{width_, height_, C};
+  Header got;
+  if (!decode(path_, got, samples.data(), &expect)) return false;
   const int n = ce - cb;
   const float scale = 1.0f / 255.0f;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, H), [&](const tbb::blocked_range<std::size_t>& r) {

@@ -42,6 +42,7 @@ namespace {
 
 constexpr std::size_t kBlockBytes = 256 * 1024;  // filtered bytes per deflate task
 constexpr std::size_t kWindow = 32 * 1024;       // deflate's window: the dictionary of a block
+constexpr std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
 
 void put32(std::uint8_t* p, std::uint32_t v) {
   p[0] = static_cast<std::uint8_t>(v >> 24);
@@ -170,13 +171,12 @@ void write(const std::string& file, const std::string& display_path, const Layou
   // (3) deflate blocks of whole rows
   const std::size_t rows_per_block = std::max<std::size_t>(1, kBlockBytes / stride);
   const std::size_t nblocks = (H + rows_per_block - 1) / rows_per_block;
+  const auto block_begin = [&](std::size_t k) { return std::min(H, k * rows_per_block) * stride; };  // bytes
   std::vector<std::vector<std::uint8_t>> packed(nblocks);
-  std::vector<uLong> adler(nblocks), length(nblocks);
+  std::vector<uLong> adler(nblocks);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nblocks, 1), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t k = r.begin(); k < r.end(); ++k) {
-      const std::size_t begin = k * rows_per_block * stride;
-      const std::size_t end = std::min(H, (k + 1) * rows_per_block) * stride;
-      const std::size_t n = end - begin;
+      const std::size_t begin = block_begin(k), n = block_begin(k + 1) - begin;
       z_stream z{};
       // Raw deflate (no zlib header: the stream's one header is written below), zlib's
       // default window and memory; Z_FILTERED as libpng uses for filtered rows.
@@ -200,11 +200,11 @@ void write(const std::string& file, const std::string& display_path, const Layou
         throw_internal(display_path + ": deflate failed (" + std::to_string(rc) + ")");
       out.resize(out.size() - z.avail_out);
       adler[k] = adler32(1, filtered.data() + begin, static_cast<uInt>(n));
-      length[k] = static_cast<uLong>(n);
     }
   });
   uLong sum = adler[0];
-  for (std::size_t k = 1; k < nblocks; ++k) sum = adler32_combine(sum, adler[k], static_cast<z_off_t>(length[k]));
+  for (std::size_t k = 1; k < nblocks; ++k)
+    sum = adler32_combine(sum, adler[k], static_cast<z_off_t>(block_begin(k + 1) - block_begin(k)));
 
   // (4) the file
   std::unique_ptr<std::FILE, FileCloser> f(std::fopen(file.c_str(), "wb"));
@@ -230,10 +230,9 @@ void write(const std::string& file, const std::string& display_path, const Layou
     std::uint8_t tail[4];
     put32(tail, static_cast<std::uint32_t>(crc));
     ok = ok && std::fwrite(tail, 1, 4, f.get()) == 4;
-    if (!ok) fail("pixels");
+    if (!ok) fail(type);
   };
   errno = 0;
-  static const std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (std::fwrite(kSignature, 1, 8, f.get()) != 8) fail("header");
   std::uint8_t ihdr[13];
   put32(ihdr, static_cast<std::uint32_t>(W));
@@ -293,7 +292,6 @@ std::unique_ptr<Reader> Reader::open(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   if (!f) return nullptr;
   std::uint8_t sig[8];
-  static const std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (!f.read(reinterpret_cast<char*>(sig), 8) || std::memcmp(sig, kSignature, 8) != 0) return nullptr;
   std::unique_ptr<Reader> r(new Reader());
   bool header = false, ended = false, idat_done = false;

@@ -10,6 +10,7 @@
 #include <cctype>
 #include <cstring>
 #include <fstream>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -103,9 +104,15 @@ class Walker {
  private:
   // Reads one header; returns true if it was empty (a lone 0 byte).
   bool read_header(Part& part, std::size_t max_name) {
+    std::set<std::string> names;
     for (int n = 0;; ++n) {
       const std::string name = read_string(max_name, "attribute name");
       if (name.empty()) return n == 0;
+      // Names are unique within a header. OpenEXR's core library (the direct reader) keeps
+      // the first of two, its C++ library (OpenImageIO) the last, and this walk the last: the
+      // fuzzer found two dataWindows of 6778373×20 and 5×4 px, so the readers disagreed on the
+      // size (a buffer overflow, then a 2 GB allocation past the checks above).
+      if (!names.insert(name).second) fail("attribute '" + name + "' appears twice in one header");
       const std::string type = read_string(max_name, "attribute type");
       need(4, "attribute size");
       const std::int32_t size = le32(b_.data() + pos_);

@@ -58,6 +58,10 @@ class Reader {
   /// straight, as stored), pixel-interleaved: W·H·(ce − cb) values. False if the stream does
   /// not inflate to exactly the rows the header declares or a row has an unknown filter.
   bool read(int cb, int ce, float* out) const;
+  /// True if the file's compressed stream is too short to inflate to the declared rows
+  /// (deflate expands at most 1032:1): a truncated or corrupt file, known before any pixel
+  /// memory is allocated.
+  bool data_too_short() const;
 
  private:
   Reader() = default;

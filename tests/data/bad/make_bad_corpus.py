@@ -61,11 +61,11 @@ def exr(width, height, channels, pixel, ptype=FLOAT, data_window=None, chlist_ov
     return head + b"".join(struct.pack("<Q", o) for o in offsets) + b"".join(chunks)
 
 
-def huge_exr(width, height):
-    """Header + offset table only, PIZ compression (32 scanlines per chunk)."""
+def huge_exr(width, height, compression=4, lines=32):
+    """Header + offset table only; PIZ compression (4, 32 scanlines per chunk) by default."""
     chl = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", HALF, 0, 1, 1) for n in "BGR") + b"\0"
-    head = exr_head(chl, 4, (0, 0, width - 1, height - 1))
-    n = (height + 31) // 32
+    head = exr_head(chl, compression, (0, 0, width - 1, height - 1))
+    n = (height + lines - 1) // lines
     end = len(head) + 8 * n
     return head + b"".join(struct.pack("<Q", end) for _ in range(n))
 
@@ -148,6 +148,12 @@ def main():
     # no pixel data: OpenEXR opens it, so only dofkit's pixel budget stands between a 5 KB file
     # and a 6.4 GB float buffer.
     files["huge_declared.exr"] = huge_exr(20000, 20000)
+    # Within the pixel budget, but more pixels than the file could hold even at deflate's
+    # largest ratio (1032:1): refused before the pixels are allocated. The fuzzer's case: a
+    # 2,000,000 x 60 PNG (libpng, so OpenImageIO, refuses widths over 10^6) whose 13-byte
+    # zlib stream made the loader allocate 1.3 GB before it failed to inflate.
+    files["png_too_short.png"] = png(1, 1, 0, rows=b"\0" * 100, ihdr_size=(2000000, 60))
+    files["zip_too_short.exr"] = huge_exr(8000, 8000, compression=3, lines=16)
     files["huge.tif"] = tiff(2, 2, declared=(1000000, 1000000))
     files["huge_wide.tif"] = tiff(2, 2, declared=(300000000, 1))
     files["overflow_window.exr"] = exr(2, 2, ["R", "G", "B"], rgba_pixel).replace(

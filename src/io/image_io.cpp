@@ -132,15 +132,16 @@ void open_oiio(OpenedFile& f, const std::string& path, const char* role) {
 }
 
 // The direct readers in turn (each gives nullptr for a file it does not take): true, with
-// f.spec set, if one took the file.
-bool open_direct(OpenedFile& f, const std::string& path) {
+// f.spec set, if one took the file. `broken` is set, and false returned, for a PNG that
+// libpng would refuse too (png_direct.hpp: reported here, without libpng's stderr line).
+bool open_direct(OpenedFile& f, const std::string& path, std::string& broken) {
   const auto taken = [&](const auto& reader) {
     if (!reader) return false;
     f.spec = spec_of(*reader);
     return true;
   };
-  return taken(f.exr = exr::ScanlineReader::open(path)) || taken(f.png = png::Reader::open(path)) ||
-         taken(f.jpg = jpeg::Reader::open(path));
+  return taken(f.exr = exr::ScanlineReader::open(path)) || taken(f.png = png::Reader::open(path, &broken)) ||
+         (broken.empty() && taken(f.jpg = jpeg::Reader::open(path)));
 }
 
 OpenedFile open_checked(const std::string& path, const char* role) {
@@ -150,7 +151,8 @@ OpenedFile open_checked(const std::string& path, const char* role) {
   if (fs::is_directory(st)) throw_bad_input(path + ": " + role + " path is a folder, not an image");
   check_file_header(path, role);
   OpenedFile f;
-  if (open_direct(f, path)) {
+  std::string broken;
+  if (open_direct(f, path, broken)) {
     check_declared_size(f.spec, path, role);
     if ((f.exr && f.exr->data_too_short()) || (f.png && f.png->data_too_short()))
       throw_bad_input(path + ": " + role + " image declares " + std::to_string(f.spec.width) + "x" +
@@ -158,6 +160,7 @@ OpenedFile open_checked(const std::string& path, const char* role) {
                       " bytes can hold (truncated or corrupt)");
     return f;
   }
+  if (!broken.empty()) throw_bad_input(path + ": cannot read " + role + " image: " + broken);
   open_oiio(f, path, role);
   return f;
 }
@@ -189,7 +192,9 @@ std::vector<float> read_channels(OpenedFile& f, const std::string& path, const c
   std::vector<float> buf(n);
   const auto read_by = [&](const auto& reader) { return reader && reader->read(cb, ce, buf.data()); };
   if (f.exr || f.png || f.jpg) {
-    if (read_by(f.exr) || read_by(f.png) || read_by(f.jpg)) return buf;
+    std::string broken;
+    if (read_by(f.exr) || (f.png && f.png->read(cb, ce, buf.data(), &broken)) || read_by(f.jpg)) return buf;
+    if (!broken.empty()) throw_bad_input(path + ": cannot read " + role + " pixels: " + broken);
     fall_back_to_oiio(f, path, role);
   }
   if (!f.in->read(cb, ce, buf.data()))
@@ -488,7 +493,9 @@ bool has_depth_channel(const std::string& path) {
   // The readers read_depth will use: a PNG or JPEG (never a Z channel) no longer loads
   // OpenImageIO just to be asked.
   OpenedFile f;
-  if (!open_direct(f, path)) {
+  std::string broken;
+  if (!open_direct(f, path, broken)) {
+    if (!broken.empty()) return false;  // the colour read that follows reports it
     std::string error;
     auto in = oiio::module().open(path, /*straight_alpha=*/false, error);
     if (!in) return false;

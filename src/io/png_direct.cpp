@@ -31,6 +31,7 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "dofkit/error.hpp"
@@ -289,13 +290,17 @@ std::uint32_t get32(const std::uint8_t* p) {
 
 }  // namespace
 
-std::unique_ptr<Reader> Reader::open(const std::string& path) {
+std::unique_ptr<Reader> Reader::open(const std::string& path, std::string* broken) {
+  const auto refuse = [&](std::string why) -> std::unique_ptr<Reader> {
+    if (broken) *broken = std::move(why);
+    return nullptr;
+  };
   std::ifstream f(path, std::ios::binary);
   if (!f) return nullptr;
   std::uint8_t sig[8];
   if (!f.read(reinterpret_cast<char*>(sig), 8) || std::memcmp(sig, kSignature, 8) != 0) return nullptr;
   std::unique_ptr<Reader> r(new Reader());
-  bool header = false, ended = false, idat_done = false;
+  bool header = false, ended = false, idat_done = false, other = false;
   std::vector<std::uint8_t> data;
   while (!ended) {
     std::uint8_t head[8];
@@ -307,6 +312,7 @@ std::unique_ptr<Reader> Reader::open(const std::string& path) {
     for (int i = 0; i < 4; ++i)
       if (!std::isalpha(static_cast<unsigned char>(type[i]))) return nullptr;
     const std::string t(type);
+    const bool critical = std::isupper(static_cast<unsigned char>(type[0])) != 0;
     // Chunk data: IDAT straight into the stream, the others into `data` (small ones only;
     // a large ancillary chunk is left to OpenImageIO, which skips or reads it).
     std::uint8_t* dst;
@@ -324,20 +330,37 @@ std::unique_ptr<Reader> Reader::open(const std::string& path) {
     std::uint8_t crc_bytes[4];
     if ((n && !f.read(reinterpret_cast<char*>(dst), n)) || !f.read(reinterpret_cast<char*>(crc_bytes), 4)) return nullptr;
     const uLong crc = crc32(crc32(0, head + 4, 4), dst, n);
-    if (static_cast<std::uint32_t>(crc) != get32(crc_bytes)) return nullptr;
+    if (static_cast<std::uint32_t>(crc) != get32(crc_bytes)) {
+      // libpng's default: an error for a critical chunk, a warning (the chunk is dropped) for
+      // an ancillary one. OpenImageIO may never reach IEND, so that one is left to it.
+      if (!critical) continue;
+      if (t == "IEND") return nullptr;
+      return refuse("chunk '" + t + "' fails its CRC check");
+    }
     if (!header) {
-      // IHDR first: size, bit depth, colour type, compression 0, filter 0, no interlace.
-      if (t != "IHDR" || n != 13) return nullptr;
+      // IHDR first, within the PNG rules (libpng refuses the file otherwise); this reader takes
+      // 8 / 16-bit grey, grey + alpha, RGB and RGBA without interlacing.
+      if (t != "IHDR") return refuse("the first chunk is '" + t + "', not IHDR");
+      if (n != 13) return refuse("its IHDR chunk is " + std::to_string(n) + " bytes long, not 13");
       const std::uint32_t w = get32(dst), h = get32(dst + 4);
       const int depth = dst[8], ctype = dst[9];
-      if (w == 0 || h == 0 || w > 0x7fffffffu || h > 0x7fffffffu) return nullptr;
-      if ((depth != 8 && depth != 16) || dst[10] != 0 || dst[11] != 0 || dst[12] != 0) return nullptr;
+      if (w == 0 || h == 0) return refuse("its IHDR declares a zero width or height");
+      if (w > 0x7fffffffu || h > 0x7fffffffu) return refuse("its IHDR declares a width or height above 2^31 - 1");
+      if (dst[10] != 0) return refuse("its IHDR declares compression method " + std::to_string(dst[10]) + " (only 0 exists)");
+      if (dst[11] != 0) return refuse("its IHDR declares filter method " + std::to_string(dst[11]) + " (only 0 exists)");
+      if (dst[12] > 1) return refuse("its IHDR declares interlace method " + std::to_string(dst[12]) + " (only 0 and 1 exist)");
+      const bool valid = (ctype == 0 && (depth == 1 || depth == 2 || depth == 4 || depth == 8 || depth == 16)) ||
+                         (ctype == 3 && (depth == 1 || depth == 2 || depth == 4 || depth == 8)) ||
+                         ((ctype == 2 || ctype == 4 || ctype == 6) && (depth == 8 || depth == 16));
+      if (!valid)
+        return refuse("its IHDR declares colour type " + std::to_string(ctype) + " with bit depth " + std::to_string(depth) +
+                      ", which PNG does not allow");
+      if ((depth != 8 && depth != 16) || ctype == 3 || dst[12] != 0) return nullptr;  // OpenImageIO's
       switch (ctype) {
         case 0: r->names_ = {"Y"}; break;
         case 4: r->names_ = {"Y", "A"}; break;
         case 2: r->names_ = {"R", "G", "B"}; break;
-        case 6: r->names_ = {"R", "G", "B", "A"}; break;
-        default: return nullptr;  // palette
+        default: r->names_ = {"R", "G", "B", "A"}; break;
       }
       r->width_ = static_cast<int>(w);
       r->height_ = static_cast<int>(h);
@@ -346,13 +369,14 @@ std::unique_ptr<Reader> Reader::open(const std::string& path) {
       header = true;
     } else if (t == "IEND") {
       ended = true;
-    } else if (t != "IDAT" && (t == "tRNS" || t == "sBIT" || std::isupper(static_cast<unsigned char>(type[0])))) {
+    } else if (t != "IDAT" && (t == "tRNS" || t == "sBIT" || critical)) {
       // transparency (libpng expands it into alpha), significant bits, a palette, a second
-      // header or an unknown critical chunk: OpenImageIO's business
-      return nullptr;
+      // header or an unknown critical chunk: OpenImageIO's business (checked to the end, so
+      // a broken critical chunk after it is still reported here)
+      other = true;
     }
   }
-  if (!header || r->stream_.empty()) return nullptr;
+  if (other || !header || r->stream_.empty()) return nullptr;
   char extra;
   if (f.read(&extra, 1)) return nullptr;  // bytes after IEND
   return r;
@@ -364,7 +388,7 @@ bool Reader::data_too_short() const {
   return rows > kMaxDeflateRatio * static_cast<std::uint64_t>(stream_.size());
 }
 
-bool Reader::read(int cb, int ce, float* out) const {
+bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
   if (cb < 0 || ce > channels_ || cb >= ce) return false;
   const std::size_t W = static_cast<std::size_t>(width_), H = static_cast<std::size_t>(height_);
   const std::size_t bps = bits_ / 8, bpp = channels_ * bps, row_bytes = W * bpp, stride = row_bytes + 1;
@@ -373,11 +397,18 @@ bool Reader::read(int cb, int ce, float* out) const {
     std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> d(libdeflate_alloc_decompressor(),
                                                                                  libdeflate_free_decompressor);
     if (!d) return false;
-    // Exactly the declared rows (no actual-size argument: a shorter or longer stream fails),
-    // Adler-32 checked.
-    if (libdeflate_zlib_decompress(d.get(), stream_.data(), stream_.size(), rows.data(), rows.size(), nullptr) !=
+    // Exactly the declared rows, Adler-32 checked. A stream that ends early is an error for
+    // libpng too ("Not enough image data"); a bad Adler-32 or data past the rows only a warning.
+    std::size_t got = 0;
+    if (libdeflate_zlib_decompress(d.get(), stream_.data(), stream_.size(), rows.data(), rows.size(), &got) !=
         LIBDEFLATE_SUCCESS)
       return false;
+    if (got != rows.size()) {
+      if (broken)
+        *broken = "its image data inflates to " + std::to_string(got) + " of the " + std::to_string(rows.size()) +
+                  " bytes its rows need (truncated or corrupt)";
+      return false;
+    }
   }
   // Unfilter in place (each row depends on the one above, already unfiltered).
   for (std::size_t y = 0; y < H; ++y) {
@@ -403,7 +434,10 @@ bool Reader::read(int cb, int ce, float* out) const {
         for (std::size_t i = head; i < row_bytes; ++i)
           cur[i] = static_cast<std::uint8_t>(cur[i] + (up ? paeth(cur[i - bpp], up[i], up[i - bpp]) : cur[i - bpp]));
         break;
-      default: return false;
+      default:
+        if (broken)
+          *broken = "row " + std::to_string(y) + " has filter type " + std::to_string(cur[-1]) + " (only 0-4 exist)";
+        return false;
     }
   }
   // Samples → float as OpenImageIO gives them: code · (1 / max).

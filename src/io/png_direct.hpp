@@ -42,11 +42,19 @@ void write(const std::string& file, const std::string& display_path, const Layou
            bool srgb);
 
 /// A PNG this reader takes (see above), opened: the header parsed, every chunk's CRC checked.
+///
+/// A file that libpng (so OpenImageIO) would refuse with an error is refused here, with the
+/// reason, instead of being handed on: libpng also prints its own "libpng error: …" line to
+/// stderr, so the user saw two lines for one fault. These are a critical chunk whose CRC does
+/// not match, an IHDR that breaks the PNG rules, a stream that inflates to fewer bytes than
+/// the rows and an unknown row filter. Ancillary chunks with a bad CRC are skipped, as libpng
+/// skips them.
 class Reader {
  public:
-  /// nullptr if `path` is not such a file (the caller then uses OpenImageIO). Never throws
-  /// for a bad file.
-  static std::unique_ptr<Reader> open(const std::string& path);
+  /// nullptr if `path` is not such a file (the caller then uses OpenImageIO); then `broken`
+  /// (when given) holds the reason if the file is a broken PNG that no reader can take.
+  /// Never throws for a bad file.
+  static std::unique_ptr<Reader> open(const std::string& path, std::string* broken = nullptr);
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -56,8 +64,10 @@ class Reader {
 
   /// Reads channels [cb, ce) as float (code / (2^bits − 1), as OpenImageIO gives them; alpha
   /// straight, as stored), pixel-interleaved: W·H·(ce − cb) values. False if the stream does
-  /// not inflate to exactly the rows the header declares or a row has an unknown filter.
-  bool read(int cb, int ce, float* out) const;
+  /// not inflate to exactly the rows the header declares or a row has an unknown filter;
+  /// then `broken` (when given) says why if libpng would refuse the file too (else OpenImageIO
+  /// may read it: libpng only warns about a wrong Adler-32 or extra data after the rows).
+  bool read(int cb, int ce, float* out, std::string* broken = nullptr) const;
   /// True if the file's compressed stream is too short to inflate to the declared rows
   /// (deflate expands at most 1032:1): a truncated or corrupt file, known before any pixel
   /// memory is allocated.

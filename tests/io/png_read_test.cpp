@@ -1,8 +1,8 @@
 // The direct PNG reader (io/png_direct.hpp), checked against OpenImageIO's reader (libpng):
 // channel names, alpha index and every contiguous channel range bit for bit, for 8 and 16
 // bits, every channel count and all five row filters; the files it must leave to
-// OpenImageIO (palette, low bit depths, interlaced, tRNS, sBIT, bad CRC, truncation, bytes after
-// IEND, non-PNG); a stream that does not decode falls back to OpenImageIO's error; and the
+// OpenImageIO (palette, low bit depths, interlaced, tRNS, sBIT, truncation, bytes after IEND,
+// non-PNG); the broken files it refuses itself, with the reason; what libpng tolerates; and the
 // whole read_color / read_depth path gives what it gives through OpenImageIO.
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
@@ -202,7 +202,9 @@ TEST(PngRead, LeavesOtherFilesToOpenImageIO) {
 
   const auto refused = [&](const std::string& name, const std::string& bytes) {
     write_file(dir / name, bytes);
-    EXPECT_FALSE(io::png::Reader::open(dir / name)) << name;
+    std::string broken;
+    EXPECT_FALSE(io::png::Reader::open(dir / name, &broken)) << name;
+    EXPECT_EQ(broken, "") << name << ": OpenImageIO's to judge, not broken";
   };
   refused("palette.png", make_png(2, 2, 8, 3, 0, std::string(3, '\0') + std::string(3, '\0'),
                                   {{"PLTE", std::string("\x10\x20\x30", 3)}}));
@@ -211,9 +213,6 @@ TEST(PngRead, LeavesOtherFilesToOpenImageIO) {
   refused("trns.png", make_png(2, 2, 8, 2, 0, rgb_rows, {{"tRNS", std::string(6, '\0')}}));
   refused("sbit.png", make_png(2, 2, 8, 2, 0, rgb_rows, {{"sBIT", std::string("\x08\x08\x08", 3)}}));
   refused("critical.png", make_png(2, 2, 8, 2, 0, rgb_rows, {{"ABCD", "x"}}));
-  std::string bad_crc = ok;
-  bad_crc[8 + 8 + 13] ^= 1;  // IHDR's CRC
-  refused("crc.png", bad_crc);
   refused("truncated.png", ok.substr(0, ok.size() - 5));
   refused("after_iend.png", ok + "x");
   refused("not_png.png", "GIF89a....");
@@ -223,27 +222,136 @@ TEST(PngRead, LeavesOtherFilesToOpenImageIO) {
   EXPECT_TRUE(io::png::Reader::open(dir / "text.png"));
 }
 
-// A stream that is not the declared rows (too short, an unknown filter byte): read() says
-// so, and read_color falls back to OpenImageIO, whose error names the file on one line.
-TEST(PngRead, UndecodableStreamFallsBackToOpenImageIOsError) {
+// Files libpng refuses with an error are refused here with the reason, on one line that
+// names the file, and libpng is never asked (it would print its own "libpng error" line).
+TEST(PngRead, BrokenFilesAreRefusedWithTheirReason) {
   ScratchDir dir;
+  const std::string rgb_rows = std::string(1, '\0') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
+  const std::string ok = make_png(2, 2, 8, 2, 0, rgb_rows);
+  const auto ihdr_with = [&](std::size_t at, char v) {  // `at` within IHDR's 13 data bytes
+    std::string b = ok, data = ok.substr(8 + 8, 13);
+    data[at] = v;
+    std::string fixed("\x89PNG\r\n\x1a\n", 8);
+    add_chunk(fixed, "IHDR", data);
+    return fixed + b.substr(8 + 25);
+  };
+  std::string ihdr_crc = ok, idat_crc = ok;
+  ihdr_crc[8 + 8 + 13] ^= 1;
+  idat_crc[ok.size() - 12 - 1] ^= 1;  // the last byte of IDAT's CRC (IEND is 12 bytes)
+  std::string first_text("\x89PNG\r\n\x1a\n", 8);
+  add_chunk(first_text, "tEXt", std::string("k\0v", 3));
+  first_text += ok.substr(8);
   const std::string short_rows = std::string(1, '\0') + std::string(6, '\x40');  // one row of two
-  write_file(dir / "short.png", make_png(2, 2, 8, 2, 0, short_rows));
   const std::string bad_filter = std::string(1, '\x07') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
-  write_file(dir / "filter.png", make_png(2, 2, 8, 2, 0, bad_filter));
-  for (const char* name : {"short.png", "filter.png"}) {
-    const auto r = io::png::Reader::open(dir / name);
-    ASSERT_TRUE(r) << name;
-    std::vector<float> px(2 * 2 * 3);
-    EXPECT_FALSE(r->read(0, 3, px.data())) << name;
+  struct Case {
+    const char* name;
+    std::string bytes;
+    const char* reason;
+    bool at_open;  // refused by open() (else by read())
+  };
+  const Case cases[] = {
+      {"ihdr_crc.png", ihdr_crc, "chunk 'IHDR' fails its CRC check", true},
+      {"idat_crc.png", idat_crc, "chunk 'IDAT' fails its CRC check", true},
+      {"zero_width.png", ihdr_with(3, 0), "zero width or height", true},
+      {"depth4_rgb.png", ihdr_with(8, 4), "colour type 2 with bit depth 4, which PNG does not allow", true},
+      {"ctype5.png", ihdr_with(9, 5), "colour type 5 with bit depth 8", true},
+      {"compression1.png", ihdr_with(10, 1), "compression method 1", true},
+      {"filter1.png", ihdr_with(11, 1), "filter method 1", true},
+      {"interlace2.png", ihdr_with(12, 2), "interlace method 2", true},
+      {"text_first.png", first_text, "the first chunk is 'tEXt', not IHDR", true},
+      {"short.png", make_png(2, 2, 8, 2, 0, short_rows), "inflates to 7 of the 14 bytes", false},
+      {"filter.png", make_png(2, 2, 8, 2, 0, bad_filter), "row 0 has filter type 7", false},
+  };
+  for (const Case& c : cases) {
+    write_file(dir / c.name, c.bytes);
+    std::string broken;
+    const auto r = io::png::Reader::open(dir / c.name, &broken);
+    if (c.at_open) {
+      EXPECT_FALSE(r) << c.name;
+      EXPECT_NE(broken.find(c.reason), std::string::npos) << c.name << ": " << broken;
+    } else {
+      ASSERT_TRUE(r) << c.name;
+      std::vector<float> px(2 * 2 * 3);
+      EXPECT_FALSE(r->read(0, 3, px.data(), &broken)) << c.name;
+      EXPECT_NE(broken.find(c.reason), std::string::npos) << c.name << ": " << broken;
+    }
+    testing::internal::CaptureStderr();
     try {
-      (void)io::read_color(dir / name);
-      ADD_FAILURE() << name << ": no error";
+      (void)io::read_color(dir / c.name);
+      ADD_FAILURE() << c.name << ": no error";
     } catch (const Error& e) {
       EXPECT_EQ(e.kind(), ErrorKind::bad_input) << e.what();
       const std::string m = e.what();
-      EXPECT_NE(m.find(name), std::string::npos) << m;
+      EXPECT_NE(m.find(dir / c.name), std::string::npos) << m;
+      EXPECT_NE(m.find(c.reason), std::string::npos) << m;
       EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    }
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_EQ(err, "") << c.name << ": something else printed";
+  }
+}
+
+// What libpng may tolerate stays OpenImageIO's to judge, as before: an ancillary chunk with a
+// bad CRC is dropped (here as there: even a tRNS); a stream with a wrong Adler-32 makes this
+// reader's read() fail without a reason, so the file goes to OpenImageIO (libpng errors on it
+// when it meets the checksum with the rows, warns when it meets it after the last row).
+TEST(PngRead, WhatLibpngToleratesIsStillRead) {
+  ScratchDir dir;
+  const std::string rgb_rows = std::string(1, '\0') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
+  const std::string ok = make_png(2, 2, 8, 2, 0, rgb_rows);
+  write_file(dir / "ok.png", ok);
+  const Image want = io::read_color(dir / "ok.png");
+  const auto same_as_ok = [&](const std::string& name) {
+    const Image got = io::read_color(dir / name);
+    ASSERT_EQ(got.data().size(), want.data().size()) << name;
+    for (std::size_t i = 0; i < got.data().size(); ++i)
+      ASSERT_EQ(bits_of(got.data()[i]), bits_of(want.data()[i])) << name << " sample " << i;
+  };
+  for (const char* type : {"tEXt", "tRNS"}) {
+    std::string b = make_png(2, 2, 8, 2, 0, rgb_rows, {{type, std::string(6, '\0')}});
+    b[8 + 25 + 8 + 6] ^= 1;  // the chunk's CRC
+    const std::string name = std::string(type) + "_crc.png";
+    write_file(dir / name, b);
+    EXPECT_TRUE(io::png::Reader::open(dir / name)) << name << ": the chunk is dropped, the file taken";
+    same_as_ok(name);
+    auto in = open_oiio(dir / name);  // libpng drops it too: no alpha channel from the tRNS
+    ASSERT_TRUE(in) << name;
+    EXPECT_EQ(in->spec().nchannels, 3) << name;
+  }
+  // A stream with a third row after the two declared: libpng warns ("extra compressed data")
+  // and reads the two.
+  write_file(dir / "extra.png", make_png(2, 2, 8, 2, 0, rgb_rows + std::string(1, '\0') + std::string(6, '\x20')));
+  {
+    const auto r = io::png::Reader::open(dir / "extra.png");
+    ASSERT_TRUE(r);
+    std::vector<float> px(2 * 2 * 3);
+    std::string broken;
+    EXPECT_FALSE(r->read(0, 3, px.data(), &broken));
+    EXPECT_EQ(broken, "");
+    same_as_ok("extra.png");
+  }
+  // A wrong Adler-32 (the stream's last 4 bytes, just before IDAT's CRC): rebuild IDAT with it.
+  {
+    const std::size_t idat_at = 8 + 25;
+    const std::uint32_t n = (static_cast<unsigned char>(ok[idat_at]) << 24) | (static_cast<unsigned char>(ok[idat_at + 1]) << 16) |
+                            (static_cast<unsigned char>(ok[idat_at + 2]) << 8) | static_cast<unsigned char>(ok[idat_at + 3]);
+    std::string stream = ok.substr(idat_at + 8, n);
+    stream.back() ^= 1;
+    std::string b = ok.substr(0, idat_at);
+    add_chunk(b, "IDAT", stream);
+    add_chunk(b, "IEND", "");
+    write_file(dir / "adler.png", b);
+    const auto r = io::png::Reader::open(dir / "adler.png");
+    ASSERT_TRUE(r);
+    std::vector<float> px(2 * 2 * 3);
+    std::string broken;
+    EXPECT_FALSE(r->read(0, 3, px.data(), &broken));
+    EXPECT_EQ(broken, "");
+    try {
+      (void)io::read_color(dir / "adler.png");
+      ADD_FAILURE() << "libpng errs on this file: so must read_color";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("PNG read error"), std::string::npos) << e.what();
     }
   }
 }

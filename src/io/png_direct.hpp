@@ -15,8 +15,9 @@
 // Reading: the common PNGs (8 / 16 bits, grey / grey + alpha / RGB / RGBA, not interlaced, no
 // palette or tRNS transparency) are read here too: the one zlib stream inflated by libdeflate
 // (~3× zlib's speed), the rows unfiltered, the samples converted as OpenImageIO converts them.
-// A file this reader does not take, or cannot decode, goes to OpenImageIO, which then also
-// gives the error message; the point is a PNG-in call that never loads OpenImageIO.
+// A file this reader does not take goes to OpenImageIO; a file libpng would refuse with an
+// error is refused here with the reason (see Reader); the point is a PNG-in call that never
+// loads OpenImageIO.
 #pragma once
 #include <cstdint>
 #include <memory>

@@ -20,12 +20,10 @@
 #include <cctype>
 #include <cstdint>
 #include <cstring>
-#include <filesystem>
 #include <memory>
 #include <string_view>
 
 #include "dofkit/error.hpp"
-#include "io/header_check.hpp"
 
 namespace dofkit::io::exr {
 
@@ -251,7 +249,6 @@ struct ScanlineReader::Impl {
   std::vector<int> presented_to_file;    // presentation index → file index
   std::size_t row_bytes = 0;
   int min_y = 0, lines = 1, chunks = 0;
-  std::uint64_t file_bytes = 0;
   exr_compression_t compression = EXR_COMPRESSION_NONE;
   ~Impl() {
     if (ctxt) exr_finish(&ctxt);
@@ -317,17 +314,8 @@ std::unique_ptr<ScanlineReader> ScanlineReader::open(const std::string& path) {
     if (r->alpha_ < 0 && (iequals(p.suffix, "A") || iequals(p.suffix, "Alpha"))) r->alpha_ = k;
     if (r->z_ < 0 && (iequals(p.suffix, "Z") || iequals(p.suffix, "Depth"))) r->z_ = k;
   }
-  std::error_code ec;
-  impl->file_bytes = std::filesystem::file_size(path, ec);
-  if (ec) return nullptr;
   r->impl_ = std::move(impl);
   return r;
-}
-
-bool ScanlineReader::data_too_short() const {
-  const std::uint64_t pixels = static_cast<std::uint64_t>(impl_->row_bytes) * static_cast<std::uint64_t>(height_);
-  const std::uint64_t ratio = impl_->compression == EXR_COMPRESSION_NONE ? 1 : kMaxDeflateRatio;
-  return pixels > ratio * impl_->file_bytes;
 }
 
 bool ScanlineReader::read(int cb, int ce, float* out) const {

@@ -62,10 +62,6 @@ class ScanlineReader {
   /// Reads channel channels[k] (presentation order) into planes[k] (W·H floats, row-major),
   /// without an interleaved copy. False as for read().
   bool read_planes(const std::vector<int>& channels, const std::vector<float*>& planes) const;
-  /// True if the whole file is too short to hold the declared pixels even at deflate's
-  /// largest ratio (kMaxDeflateRatio; uncompressed chunks are 1:1): a truncated or corrupt
-  /// file, known before any pixel memory is allocated.
-  bool data_too_short() const;
 
  private:
   ScanlineReader() = default;

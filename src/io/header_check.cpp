@@ -23,6 +23,33 @@ namespace {
 
 constexpr std::size_t kMaxHeaderBytes = 16u << 20;  // attributes beyond this are not a real header
 
+// Deflate expands at most 1032:1 (a 258-byte match coded in two bits), so n deflated bytes
+// decode to at most 1032·n. A payload shorter than the declared pixels need at that ratio is
+// a truncated or corrupt file, refused before any decoder allocates the pixels (the fuzzer
+// found a 380-byte PNG declaring 2,000,000 × 60 px: 1.3 GB allocated, then the inflate failed).
+constexpr std::uint64_t kMaxDeflateRatio = 1032;
+
+// The most an EXR compression can expand the bytes it stores, for the codes this check
+// covers; 0 = not bounded here (PIZ's Huffman run codes, B44's flat blocks, DWA).
+// The pixel budget (image_io.hpp), checked on the header's size (the open checks it again on
+// the size the reader reports).
+void check_budget(long long w, long long h, const std::string& path, const char* role) {
+  const long long budget = pixel_budget();
+  if (w > budget || h > budget || w * h > budget)
+    throw_bad_input(path + ": " + role + " image declares " + std::to_string(w) + "x" + std::to_string(h) +
+                    " pixels, more than the limit of " + std::to_string(budget) + " (--max-pixels)");
+}
+
+std::uint64_t exr_max_ratio(int compression) {
+  switch (compression) {
+    case 0: return 1;                              // NONE
+    case 1: return 64;                             // RLE: a 2-byte run codes at most 128 bytes
+    case 2: case 3: return kMaxDeflateRatio;       // ZIPS, ZIP
+    case 5: return kMaxDeflateRatio * 4 / 3 + 1;   // PXR24: float samples stored as 3 deflated bytes
+    default: return 0;
+  }
+}
+
 std::int32_t le32(const unsigned char* p) {
   return static_cast<std::int32_t>(static_cast<std::uint32_t>(p[0]) | static_cast<std::uint32_t>(p[1]) << 8 |
                                    static_cast<std::uint32_t>(p[2]) << 16 | static_cast<std::uint32_t>(p[3]) << 24);
@@ -42,6 +69,11 @@ struct Part {
   bool tiled = false;
   long long tile_w = 0, tile_h = 0;
   long long chunk_count = -1;
+  bool deep = false;
+  struct Channel {
+    int bytes, xs, ys;  // sample size, x / y sampling
+  };
+  std::vector<Channel> channels;  // empty if the list was missing or did not parse
 };
 
 class Walker {
@@ -80,11 +112,8 @@ class Walker {
     long long chunks = 0;
     for (const Part& p : parts) {
       if (!p.has_window) fail("a header has no dataWindow");
-      const long long budget = pixel_budget();
       if (p.w <= 0 || p.h <= 0) fail("empty or inverted dataWindow");
-      if (p.w > budget || p.h > budget || p.w * p.h > budget)
-        throw_bad_input(path_ + ": " + role_ + " image declares " + std::to_string(p.w) + "x" + std::to_string(p.h) +
-                        " pixels, more than the limit of " + std::to_string(budget) + " (--max-pixels)");
+      check_budget(p.w, p.h, path_, role_);
       if (p.chunk_count >= 0) {
         chunks += p.chunk_count;
       } else if (p.tiled) {
@@ -96,9 +125,25 @@ class Walker {
       }
     }
     const long long table_bytes = chunks * 8;
-    if (table_bytes > static_cast<long long>(file_size_ - std::min(file_size_, pos_)))
+    const long long after_header = static_cast<long long>(file_size_ - std::min(file_size_, pos_));
+    if (table_bytes > after_header)
       fail("file is truncated (its chunk table needs " + std::to_string(table_bytes) + " bytes, " +
-           std::to_string(file_size_ - std::min(file_size_, pos_)) + " remain)");
+           std::to_string(after_header) + " remain)");
+    // A single-part scanline image: its pixels must fit the bytes after the table at the
+    // compression's largest ratio.
+    if (parts.size() == 1 && !parts[0].tiled && !parts[0].deep && !parts[0].channels.empty()) {
+      const Part& p = parts[0];
+      const std::uint64_t ratio = exr_max_ratio(p.compression);
+      unsigned __int128 need = 0;  // a channel sampled every (xs, ys) px stores ≥ ⌊W/xs⌋·⌊H/ys⌋ samples
+      for (const Part::Channel& c : p.channels)
+        need += static_cast<unsigned __int128>(c.bytes) * static_cast<std::uint64_t>(p.w / c.xs) *
+                static_cast<std::uint64_t>(p.h / c.ys);
+      const std::uint64_t have = static_cast<std::uint64_t>(after_header - table_bytes);
+      if (ratio > 0 && need > static_cast<unsigned __int128>(have) * ratio)
+        throw_bad_input(path_ + ": cannot read " + role_ + " image: its " + std::to_string(p.w) + "x" +
+                        std::to_string(p.h) + " pixels need more bytes than its " +
+                        std::to_string(have) + " bytes of pixel data can hold (truncated or corrupt)");
+    }
   }
 
  private:
@@ -136,11 +181,32 @@ class Walker {
       } else if (name == "type" && type == "string") {
         const std::string t(reinterpret_cast<const char*>(v), static_cast<std::size_t>(size));
         part.tiled = t == "tiledimage" || t == "deeptile";
+        part.deep = t == "deepscanline" || t == "deeptile";
+      } else if (name == "channels" && type == "chlist") {
+        part.channels = channel_list(v, static_cast<std::size_t>(size));
       } else if (name == "chunkCount" && size == 4) {
         part.chunk_count = le32(v);
         if (part.chunk_count < 0) fail("negative chunkCount");
       }
       pos_ += static_cast<std::size_t>(size);
+    }
+  }
+
+  // The channel list: `name\0 int32 type, uint8 pLinear, 3 reserved, int32 xSampling, int32
+  // ySampling` per channel, ended by a 0 byte. Empty if malformed (OpenEXR reports that).
+  static std::vector<Part::Channel> channel_list(const unsigned char* v, std::size_t size) {
+    std::vector<Part::Channel> out;
+    std::size_t i = 0;
+    for (;;) {
+      if (i >= size) return {};
+      if (v[i] == 0) return out;
+      while (i < size && v[i] != 0) ++i;
+      if (i + 1 + 16 > size) return {};
+      const unsigned char* e = v + i + 1;
+      const std::int32_t type = le32(e), xs = le32(e + 8), ys = le32(e + 12);
+      if (type < 0 || type > 2 || xs < 1 || ys < 1) return {};
+      out.push_back({type == 1 ? 2 : 4, xs, ys});
+      i += 1 + 16;
     }
   }
 
@@ -195,27 +261,53 @@ class Walker {
 
 // PNG: 8-byte signature, then chunks `uint32 length (big-endian), type[4], data, crc`. Decoders
 // allocate a chunk's declared length before reading it (libpng: text and unknown chunks), so
-// every chunk up to IEND must fit in the file. Only the 8-byte chunk heads are read.
+// every chunk up to IEND must fit in the file. Only the chunk heads and IHDR's data are read.
+// The IDAT chunks must also be able to inflate to the pixels IHDR declares (kMaxDeflateRatio).
 void check_png(std::ifstream& f, std::size_t file_size, const std::string& path, const char* role) {
   auto fail = [&](const std::string& why) {
     throw_bad_input(path + ": cannot read " + role + " image: not a valid PNG: " + why);
   };
+  const auto be32 = [](const unsigned char* p) {
+    return static_cast<std::uint32_t>(p[0]) << 24 | static_cast<std::uint32_t>(p[1]) << 16 |
+           static_cast<std::uint32_t>(p[2]) << 8 | p[3];
+  };
   std::size_t pos = 8;
-  for (;;) {
+  std::uint64_t pixel_bits = 0, idat_bytes = 0;  // pixel_bits: 0 unless IHDR came first and parsed
+  std::uint32_t w = 0, h = 0;
+  for (bool first = true;; first = false) {
     if (file_size - pos < 12) fail("file is truncated (no IEND chunk)");
     unsigned char head[8];
     f.seekg(static_cast<std::streamoff>(pos));
     if (!f.read(reinterpret_cast<char*>(head), 8)) fail("cannot read a chunk header");
-    const std::uint32_t len = static_cast<std::uint32_t>(head[0]) << 24 | static_cast<std::uint32_t>(head[1]) << 16 |
-                              static_cast<std::uint32_t>(head[2]) << 8 | head[3];
+    const std::uint32_t len = be32(head);
     std::string type(reinterpret_cast<const char*>(head + 4), 4);
     for (char& c : type)
       if (!std::isalpha(static_cast<unsigned char>(c))) c = '?';
     if (len > file_size - pos - 12)
       fail("chunk '" + type + "' declares " + std::to_string(len) + " bytes but only " +
            std::to_string(file_size - pos - 12) + " remain in the file");
+    if (first && type == "IHDR" && len == 13) {
+      unsigned char d[13];
+      if (!f.read(reinterpret_cast<char*>(d), 13)) fail("cannot read IHDR");
+      w = be32(d);
+      h = be32(d + 4);
+      static const int samples[7] = {1, 0, 3, 1, 2, 0, 4};  // per colour type; 0 = invalid
+      if (d[9] < 7 && samples[d[9]] > 0 && d[8] >= 1 && d[8] <= 16)
+        pixel_bits = static_cast<std::uint64_t>(samples[d[9]]) * d[8];
+    }
+    if (type == "IDAT") idat_bytes += len;
     pos += 12 + static_cast<std::size_t>(len);
-    if (type == "IEND") return;
+    if (type == "IEND") break;
+  }
+  // Every pixel's bits are in the inflated stream (interlaced or not), so at least ⌈W·bits/8⌉
+  // bytes per row.
+  if (pixel_bits > 0 && w > 0 && h > 0) {
+    check_budget(w, h, path, role);
+    const unsigned __int128 need = static_cast<unsigned __int128>((static_cast<std::uint64_t>(w) * pixel_bits + 7) / 8) * h;
+    if (need > static_cast<unsigned __int128>(idat_bytes) * kMaxDeflateRatio)
+      throw_bad_input(path + ": cannot read " + role + " image: its " + std::to_string(w) + "x" + std::to_string(h) +
+                      " pixels need more bytes than its " + std::to_string(idat_bytes) +
+                      " bytes of image data can hold (truncated or corrupt)");
   }
 }
 

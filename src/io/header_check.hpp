@@ -11,7 +11,6 @@
 // strip that lies past the end of the file as zeros without an error, so every strip and
 // tile must lie inside the file.
 #pragma once
-#include <cstdint>
 #include <string>
 
 namespace dofkit::io {
@@ -20,10 +19,5 @@ namespace dofkit::io {
 /// above). Files that are not EXR, PNG or classic TIFF are left to their decoders; an unreadable path is not an
 /// error here (the caller reports it).
 void check_file_header(const std::string& path, const char* role);
-
-/// Deflate (zlib, PNG, EXR zip / zips) expands at most 1032:1 (258-byte matches at two bits
-/// each), so a deflated payload of n bytes decodes to at most 1032·n bytes. The direct
-/// readers refuse a header whose pixels need more than that before allocating them.
-inline constexpr std::uint64_t kMaxDeflateRatio = 1032;
 
 }  // namespace dofkit::io

@@ -154,10 +154,6 @@ OpenedFile open_checked(const std::string& path, const char* role) {
   std::string broken;
   if (open_direct(f, path, broken)) {
     check_declared_size(f.spec, path, role);
-    if ((f.exr && f.exr->data_too_short()) || (f.png && f.png->data_too_short()))
-      throw_bad_input(path + ": " + role + " image declares " + std::to_string(f.spec.width) + "x" +
-                      std::to_string(f.spec.height) + " pixels, more than its " + std::to_string(fs::file_size(path, ec)) +
-                      " bytes can hold (truncated or corrupt)");
     return f;
   }
   if (!broken.empty()) throw_bad_input(path + ": cannot read " + role + " image: " + broken);

@@ -35,7 +35,6 @@
 #include <vector>
 
 #include "dofkit/error.hpp"
-#include "io/header_check.hpp"
 #include "io/quantise.hpp"
 
 namespace dofkit::io::png {
@@ -380,12 +379,6 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, std::string* broke
   char extra;
   if (f.read(&extra, 1)) return nullptr;  // bytes after IEND
   return r;
-}
-
-bool Reader::data_too_short() const {
-  const std::uint64_t rows = static_cast<std::uint64_t>(height_) *
-                             (static_cast<std::uint64_t>(width_) * channels_ * (bits_ / 8) + 1);
-  return rows > kMaxDeflateRatio * static_cast<std::uint64_t>(stream_.size());
 }
 
 bool Reader::read(int cb, int ce, float* out, std::string* broken) const {

@@ -69,10 +69,6 @@ class Reader {
   /// then `broken` (when given) says why if libpng would refuse the file too (else OpenImageIO
   /// may read it: libpng only warns about a wrong Adler-32 or extra data after the rows).
   bool read(int cb, int ce, float* out, std::string* broken = nullptr) const;
-  /// True if the file's compressed stream is too short to inflate to the declared rows
-  /// (deflate expands at most 1032:1): a truncated or corrupt file, known before any pixel
-  /// memory is allocated.
-  bool data_too_short() const;
 
  private:
   Reader() = default;

@@ -2,6 +2,8 @@
 #include <OpenImageIO/imagebufalgo.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "dofkit/error.hpp"
 #include "io/image_io.hpp"
 #include "io/io_test_util.hpp"
@@ -391,6 +393,52 @@ TEST(RoundTrip, ExrLayoutsPassTheHeaderCheck) {
     double m = 0;
     for (std::size_t i = 0; i < img.data().size(); ++i) m = std::max(m, std::abs(double(img.data()[i]) - back.data()[i]));
     EXPECT_LT(m, l.name == std::string("dwab") || l.name == std::string("b44") ? 0.05 : 2e-3);
+  }
+}
+
+// The header walk refuses a file whose pixel data is too short for its declared pixels even
+// at the compression's largest ratio (deflate 1032:1, EXR RLE 64:1, PXR24 1376:1). The most
+// compressible files there are — one constant value, at the highest level — must still read:
+// a too-small bound would refuse real files. Each file's ratio is asserted to come close to
+// its bound, so the case is a real test of it.
+TEST(RoundTrip, MostCompressibleFilesPassThePayloadBound) {
+  ScratchDir dir;
+  const int W = 2048, H = 1024;
+  Image zero(W, H, 4);  // all 0: the longest runs
+  struct Case {
+    const char* name;
+    io::WriteOptions opt;
+    double min_ratio;  // raw pixel bytes / file bytes, at least
+  };
+  const auto png = [](int bits) {
+    io::WriteOptions o;
+    o.bits = bits;
+    o.png_level = 9;
+    return o;
+  };
+  const auto exr = [](const char* compression, int bits) {
+    io::WriteOptions o;
+    o.bits = bits;
+    o.compression = compression;
+    return o;
+  };
+  const Case cases[] = {
+      // measured: 899, 903, 1.0, 60, 62, 296 (one row per chunk: the chunk heads dominate), 927, 1231
+      {"p8.png", png(8), 850},          {"p16.png", png(16), 850},          {"none.exr", exr("none", 32), 0.9},
+      {"rle.exr", exr("rle", 16), 55},  {"rle32.exr", exr("rle", 32), 55},  {"zips.exr", exr("zips", 16), 250},
+      {"zip.exr", exr("zip", 32), 850}, {"pxr24.exr", exr("pxr24", 32), 1100},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::string path = dir / c.name;
+    io::write_image(path, zero, c.opt);
+    const double raw = double(W) * H * 4 * (c.opt.bits / 8);
+    const double ratio = raw / static_cast<double>(std::filesystem::file_size(path));
+    EXPECT_GT(ratio, c.min_ratio) << "not close enough to the bound to test it";
+    Image back;
+    ASSERT_NO_THROW(back = io::read_color(path));
+    EXPECT_EQ(back.width(), W);
+    EXPECT_EQ(back.height(), H);
   }
 }
 

@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -113,6 +115,80 @@ inline std::uint32_t bits_of(float v) {
 inline std::string slurp(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+/// Samples for the writers' tests: smooth ramps (what filters and deflate are for), noise, and values a few ulps
+/// either side of every rounding boundary k + ½ of the 8-bit and 16-bit scales, plus
+/// out-of-range values and ±∞.
+inline std::vector<float> boundary_samples(int w, int h, int c, int seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<float> v(static_cast<std::size_t>(w) * h * c);
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const std::size_t px = i / c;
+    const int x = static_cast<int>(px % w), y = static_cast<int>(px / w);
+    v[i] = (y % 3 == 2) ? u(rng) : 0.5f + 0.5f * std::sin(0.013f * x + 0.029f * y + static_cast<float>(i % c));
+  }
+  std::vector<float> edges;
+  for (int scale : {255, 65535})
+    for (int k = 0; k < scale; k += scale == 255 ? 1 : 257) {
+      const float centre = (k + 0.5f) / scale;
+      float lo = centre, hi = centre;
+      for (int d = 0; d < 3; ++d) {
+        lo = std::nextafter(lo, 0.0f);
+        hi = std::nextafter(hi, 1.0f);
+        edges.push_back(lo);
+        edges.push_back(hi);
+      }
+      edges.push_back(centre);
+    }
+  for (float s : {-1.0f, -1e-9f, -0.0f, 0.0f, 1.0f, 1.0000001f, 2.0f, 1e30f, std::numeric_limits<float>::infinity(),
+                  -std::numeric_limits<float>::infinity()})
+    edges.push_back(s);
+  for (std::size_t i = 0; i < edges.size() && i * 5 < v.size(); ++i) v[i * 5] = edges[i];
+  return v;
+}
+
+/// OpenImageIO's float → integer rule (io/quantise.hpp) written out, independently of the writer: round half away from zero of v·max in
+/// float (0.49999997 stores 0), clamped to [0, max]; NaN stores 0.
+inline std::vector<long> quantise_rule(const std::vector<float>& v, int bits) {
+  const float max = bits == 8 ? 255.0f : 65535.0f;
+  std::vector<long> q;
+  q.reserve(v.size());
+  for (float f : v) {
+    const float x = f * max;
+    q.push_back(std::isnan(x) ? 0 : static_cast<long>(std::clamp(std::round(x), 0.0f, max)));
+  }
+  return q;
+}
+
+/// A file's samples as OpenImageIO reads them into T (uint8 or uint16), straight alpha.
+template <typename T>
+std::vector<T> read_oiio(const std::string& path, int* w = nullptr, int* h = nullptr, int* c = nullptr) {
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);  // the stored values, not premultiplied
+  auto in = OIIO::ImageInput::open(path, &config);
+  if (!in) ADD_FAILURE() << path << ": " << OIIO::geterror();
+  if (!in) return {};
+  const OIIO::ImageSpec& s = in->spec();
+  if (w) *w = s.width;
+  if (h) *h = s.height;
+  if (c) *c = s.nchannels;
+  std::vector<T> px(static_cast<std::size_t>(s.width) * s.height * s.nchannels);
+  const OIIO::TypeDesc t = sizeof(T) == 1 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
+  EXPECT_TRUE(in->read_image(0, 0, 0, s.nchannels, t, px.data())) << in->geterror();
+  return px;
+}
+
+/// The same, 8 or 16 bits, as long.
+inline std::vector<long> read_as_long(const std::string& path, int bits, int* w = nullptr, int* h = nullptr, int* c = nullptr) {
+  std::vector<long> out;
+  if (bits == 8) {
+    for (auto q : read_oiio<std::uint8_t>(path, w, h, c)) out.push_back(q);
+  } else {
+    for (auto q : read_oiio<std::uint16_t>(path, w, h, c)) out.push_back(q);
+  }
+  return out;
 }
 
 }  // namespace dofkit::test

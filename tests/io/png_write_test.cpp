@@ -27,55 +27,6 @@ using namespace dofkit::test;
 
 namespace {
 
-// Samples: smooth ramps (what filters and deflate are for), noise, and values a few ulps
-// either side of every rounding boundary k + ½ of the 8-bit and 16-bit scales, plus
-// out-of-range values and ±∞.
-std::vector<float> samples(int w, int h, int c, int seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::vector<float> v(static_cast<std::size_t>(w) * h * c);
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    const std::size_t px = i / c;
-    const int x = static_cast<int>(px % w), y = static_cast<int>(px / w);
-    v[i] = (y % 3 == 2) ? u(rng) : 0.5f + 0.5f * std::sin(0.013f * x + 0.029f * y + static_cast<float>(i % c));
-  }
-  std::vector<float> edges;
-  for (int scale : {255, 65535})
-    for (int k = 0; k < scale; k += scale == 255 ? 1 : 257) {
-      const float centre = (k + 0.5f) / scale;
-      float lo = centre, hi = centre;
-      for (int d = 0; d < 3; ++d) {
-        lo = std::nextafter(lo, 0.0f);
-        hi = std::nextafter(hi, 1.0f);
-        edges.push_back(lo);
-        edges.push_back(hi);
-      }
-      edges.push_back(centre);
-    }
-  for (float s : {-1.0f, -1e-9f, -0.0f, 0.0f, 1.0f, 1.0000001f, 2.0f, 1e30f, std::numeric_limits<float>::infinity(),
-                  -std::numeric_limits<float>::infinity()})
-    edges.push_back(s);
-  for (std::size_t i = 0; i < edges.size() && i * 5 < v.size(); ++i) v[i * 5] = edges[i];
-  return v;
-}
-
-template <typename T>
-std::vector<T> read_oiio(const std::string& path, int* w = nullptr, int* h = nullptr, int* c = nullptr) {
-  OIIO::ImageSpec config;
-  config.attribute("oiio:UnassociatedAlpha", 1);  // the stored values, not premultiplied
-  auto in = OIIO::ImageInput::open(path, &config);
-  if (!in) ADD_FAILURE() << path << ": " << OIIO::geterror();
-  if (!in) return {};
-  const OIIO::ImageSpec& s = in->spec();
-  if (w) *w = s.width;
-  if (h) *h = s.height;
-  if (c) *c = s.nchannels;
-  std::vector<T> px(static_cast<std::size_t>(s.width) * s.height * s.nchannels);
-  const OIIO::TypeDesc t = sizeof(T) == 1 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
-  EXPECT_TRUE(in->read_image(0, 0, 0, s.nchannels, t, px.data())) << in->geterror();
-  return px;
-}
-
 // The same floats through OpenImageIO's PNG writer (the reference).
 void write_oiio(const std::string& path, int w, int h, int c, int bits, const std::vector<float>& v) {
   OIIO::ImageSpec spec(w, h, c, bits == 8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16);
@@ -85,30 +36,6 @@ void write_oiio(const std::string& path, int w, int h, int c, int bits, const st
   ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, v.data()));
   ASSERT_TRUE(out->close());
 }
-
-// The rule written out, independently of the writer: round half away from zero of v·max in
-// float (0.49999997 stores 0), clamped to [0, max]; NaN stores 0.
-std::vector<long> rule(const std::vector<float>& v, int bits) {
-  const float max = bits == 8 ? 255.0f : 65535.0f;
-  std::vector<long> q;
-  q.reserve(v.size());
-  for (float f : v) {
-    const float x = f * max;
-    q.push_back(std::isnan(x) ? 0 : static_cast<long>(std::clamp(std::round(x), 0.0f, max)));
-  }
-  return q;
-}
-
-std::vector<long> read_as_long(const std::string& path, int bits, int* w = nullptr, int* h = nullptr, int* c = nullptr) {
-  std::vector<long> out;
-  if (bits == 8) {
-    for (auto q : read_oiio<std::uint8_t>(path, w, h, c)) out.push_back(q);
-  } else {
-    for (auto q : read_oiio<std::uint16_t>(path, w, h, c)) out.push_back(q);
-  }
-  return out;
-}
-
 
 std::uint32_t be32(const std::string& s, std::size_t at) {
   return (static_cast<std::uint32_t>(static_cast<unsigned char>(s[at])) << 24) |
@@ -164,10 +91,10 @@ TEST(PngDirect, SamplesEqualOpenImageIOsAndTheStreamIsValid) {
       for (int bits : {8, 16}) {
         SCOPED_TRACE(std::to_string(sz.w) + "x" + std::to_string(sz.h) + " c" + std::to_string(c) + " " +
                      std::to_string(bits) + " bits");
-        const std::vector<float> v = samples(sz.w, sz.h, c, sz.w + c + bits);
+        const std::vector<float> v = boundary_samples(sz.w, sz.h, c, sz.w + c + bits);
         io::png::write(dir / "d.png", "d.png", io::png::Layout{sz.w, sz.h, c, bits}, v.data(), 6, c >= 3);
         int w = 0, h = 0, n = 0;
-        const std::vector<long> want = rule(v, bits);
+        const std::vector<long> want = quantise_rule(v, bits);
         EXPECT_EQ(read_as_long(dir / "d.png", bits, &w, &h, &n), want);
         // OpenImageIO's writer follows this rule on large images (its vector conversion; the
         // 333×517 case here, and 1080p frames) but not on small ones (1×1, 7×3, 2×3000 here),
@@ -204,7 +131,7 @@ TEST(PngDirect, SamplesEqualOpenImageIOsAndTheStreamIsValid) {
 TEST(PngDirect, EveryLevelGivesTheSameSamples) {
   ScratchDir dir;
   const int w = 640, h = 480, c = 4;
-  const std::vector<float> v = samples(w, h, c, 5);
+  const std::vector<float> v = boundary_samples(w, h, c, 5);
   write_oiio(dir / "o.png", w, h, c, 8, v);
   const std::vector<std::uint8_t> want = read_oiio<std::uint8_t>(dir / "o.png");
   std::uintmax_t previous = 0;
@@ -232,10 +159,10 @@ TEST(PngDirect, RoundingAtEveryBoundaryAndNaN) {
     }
     const int w = static_cast<int>(v.size());
     io::png::write(dir / "d.png", "d.png", io::png::Layout{w, 1, 1, bits}, v.data(), 1, false);
-    EXPECT_EQ(read_as_long(dir / "d.png", bits), rule(v, bits));
+    EXPECT_EQ(read_as_long(dir / "d.png", bits), quantise_rule(v, bits));
     if (bits == 16) {  // a large image: OpenImageIO's writer follows the rule (see above)
       write_oiio(dir / "o.png", w, 1, 1, bits, v);
-      EXPECT_EQ(read_as_long(dir / "o.png", bits), rule(v, bits));
+      EXPECT_EQ(read_as_long(dir / "o.png", bits), quantise_rule(v, bits));
     }
     // The rule on its own examples: the largest float whose product with max is below ½ in
     // float (stores 0; v·max + ½ would round to 1), ½ / max (stores 1), NaN, < 0, > 1.

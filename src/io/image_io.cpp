@@ -30,6 +30,7 @@
 #include "io/exr_direct.hpp"
 #include "io/jpeg_direct.hpp"
 #include "io/png_direct.hpp"
+#include "io/tiff_direct.hpp"
 #include "io/srgb.hpp"
 #include "io/header_check.hpp"
 #include "io/oiio_module.hpp"
@@ -671,13 +672,19 @@ void encode_image(const std::string& file, const std::string& format_path, const
                opt.png_level < 0 ? 6 : opt.png_level, srgb);
     return;
   }
+  if (fmt == Format::tiff && tiff::writes(out_c, bits)) {
+    // TIFF as OpenImageIO writes it, strips deflated on all cores (tiff_direct.hpp).
+    tiff::write(file, format_path, tiff::Layout{img.width(), img.height(), out_c, bits, srgb}, buf.data());
+    return;
+  }
   if (fmt == Format::jpeg) {
     // JPEG through libjpeg directly (jpeg_direct.hpp: OpenImageIO's settings, no loading it).
     jpeg::write(file, format_path, img.width(), img.height(), out_c, buf.data(), opt.jpeg_quality);
     return;
   }
 
-  // TIFF, and the EXR compressions exr_direct.hpp does not write: OpenImageIO.
+  // TIFF layouts tiff_direct.hpp does not write (2 or 5+ channels), and the EXR compressions
+  // exr_direct.hpp does not write: OpenImageIO.
   oiio::OutSpec spec;
   spec.width = img.width();
   spec.height = img.height();

@@ -482,9 +482,9 @@ TEST_F(RenderCli, EndToEndOpenImageIOIsLoadedOnlyForFilesThatNeedIt) {
   write_bytes(dir_ / "broken.so", "not a shared library");
   const std::string broken = "DOFKIT_OIIO_MODULE=" + q(dir_ / "broken.so");
   const std::string camera = " --focus 4 --blur-at-infinity 24 --max-coc 40 --method sterna";
-  // EXR in, EXR / PNG / JPEG out (the common kinds, *_direct.hpp): OpenImageIO
+  // EXR in, EXR / PNG / JPEG / TIFF out (the common kinds, *_direct.hpp): OpenImageIO
   // is never needed.
-  for (const char* out : {"out.exr", "out.png", "out.jpg"}) {
+  for (const char* out : {"out.exr", "out.png", "out.jpg", "out.tif"}) {
     const ProcResult ok = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera +
                                     " --output " + q(dir_ / out),
                                 dir_, broken);
@@ -498,21 +498,24 @@ TEST_F(RenderCli, EndToEndOpenImageIOIsLoadedOnlyForFilesThatNeedIt) {
                                 dir_, broken);
     EXPECT_EQ(ok.code, 0) << in << ": " << ok.err;
   }
-  // A TIFF output needs it: exit 1 (internal), nothing written.
-  ProcResult r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera + " --output " +
-                           q(dir_ / "out.tif"),
-                       dir_, broken);
+  // A PIZ-compressed EXR output needs it (and so does any TIFF input): exit 1 (internal),
+  // nothing written.
+  const std::string piz = camera + " --compression piz --output " + q(dir_ / "piz.exr");
+  ProcResult r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + piz, dir_, broken);
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_TRUE(contains(r.err, "OpenImageIO module")) << r.err;
   EXPECT_TRUE(contains(r.err, "broken.so does not load")) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(dir_ / "out.tif"));
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "piz.exr"));
+  r = spawn("render --color " + q(dir_ / "out.tif") + " --depth " + q(dir_ / "z.exr") + camera + " --output " +
+                q(dir_ / "tif_in.exr"),
+            dir_, broken);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_TRUE(contains(r.err, "OpenImageIO module")) << r.err;
   // The same call finds the real module by itself.
-  r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera + " --output " +
-                q(dir_ / "out.tif"),
-            dir_);
+  r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + piz, dir_);
   EXPECT_EQ(r.code, 0) << r.err;
-  EXPECT_TRUE(std::filesystem::exists(dir_ / "out.tif"));
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "piz.exr"));
 }
 
 TEST_F(RenderCli, EndToEndErrorsAreOneLineWithExitCodes) {

@@ -1,6 +1,6 @@
 # cmake -P script: install a dofkit build into WORK_DIR/prefix, build the consumer project in
 # tests/consumer against it with find_package(dofkit), and run it; then run the installed
-# `dofkit` on a call that needs the OpenImageIO module (a TIFF output) and check, through the
+# `dofkit` on a call that needs the OpenImageIO module (a PIZ-compressed EXR output) and check, through the
 # dynamic loader's own log (LD_DEBUG=files), that it loaded the installed module from
 # <prefix>/<libdir>/dofkit/, not the build tree's.
 # Inputs: DOFKIT_BUILD_DIR, CONSUMER_SOURCE_DIR, WORK_DIR, CMAKE_GENERATOR, CMAKE_BUILD_TYPE.
@@ -54,10 +54,11 @@ endif()
 run_step("installed dofkit writes a frame" "${dofkit_exe}" bench --size 64x36 --write-frame "${WORK_DIR}/frame")
 execute_process(
   COMMAND ${CMAKE_COMMAND} -E env LD_DEBUG=files "${dofkit_exe}" render --color "${WORK_DIR}/frame/color.exr"
-          --depth "${WORK_DIR}/frame/depth.exr" --focus 4 --blur-at-infinity 2 --output "${WORK_DIR}/frame/out.tif"
+          --depth "${WORK_DIR}/frame/depth.exr" --focus 4 --blur-at-infinity 2 --compression piz
+          --output "${WORK_DIR}/frame/out.exr"
   RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-if(NOT rc EQUAL 0 OR NOT EXISTS "${WORK_DIR}/frame/out.tif")
-  message(FATAL_ERROR "installed dofkit could not write a TIFF (${rc}):\n${err}")
+if(NOT rc EQUAL 0 OR NOT EXISTS "${WORK_DIR}/frame/out.exr")
+  message(FATAL_ERROR "installed dofkit could not write a PIZ EXR (${rc}):\n${err}")
 endif()
 string(REGEX MATCH "file=[^ \n]*libdofkit_oiio\\.so" loaded "${err}")
 if(NOT loaded STREQUAL "file=${installed_module}")

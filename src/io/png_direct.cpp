@@ -23,10 +23,8 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
-#include <cerrno>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -35,6 +33,7 @@
 #include <vector>
 
 #include "dofkit/error.hpp"
+#include "io/out_file.hpp"
 #include "io/quantise.hpp"
 
 namespace dofkit::io::png {
@@ -113,12 +112,6 @@ void filter_row(const std::uint8_t* cur, const std::uint8_t* prev, std::size_t n
   out[0] = static_cast<std::uint8_t>(best);
   std::memcpy(out + 1, rows[best], n);
 }
-
-struct FileCloser {
-  void operator()(std::FILE* f) const {
-    if (f) std::fclose(f);
-  }
-};
 
 }  // namespace
 
@@ -208,11 +201,7 @@ void write(const std::string& file, const std::string& display_path, const Layou
     sum = adler32_combine(sum, adler[k], static_cast<z_off_t>(block_begin(k + 1) - block_begin(k)));
 
   // (4) the file
-  std::unique_ptr<std::FILE, FileCloser> f(std::fopen(file.c_str(), "wb"));
-  const auto fail = [&](const char* what) {
-    throw_bad_input(display_path + ": cannot write: " + what + (errno ? std::string(": ") + std::strerror(errno) : ""));
-  };
-  if (!f) fail("cannot create the file");
+  OutFile f(file, display_path);
   // Writes one chunk whose data is the concatenation of the given pieces.
   const auto chunk = [&](const char* type, std::initializer_list<std::pair<const std::uint8_t*, std::size_t>> parts) {
     std::size_t n = 0;
@@ -222,19 +211,17 @@ void write(const std::string& file, const std::string& display_path, const Layou
     put32(head, static_cast<std::uint32_t>(n));
     std::memcpy(head + 4, type, 4);
     uLong crc = crc32(0, head + 4, 4);
-    bool ok = std::fwrite(head, 1, 8, f.get()) == 8;
+    f.write(head, 8, type);
     for (const auto& p : parts) {
       if (!p.second) continue;
       crc = crc32(crc, p.first, static_cast<uInt>(p.second));
-      ok = ok && std::fwrite(p.first, 1, p.second, f.get()) == p.second;
+      f.write(p.first, p.second, type);
     }
     std::uint8_t tail[4];
     put32(tail, static_cast<std::uint32_t>(crc));
-    ok = ok && std::fwrite(tail, 1, 4, f.get()) == 4;
-    if (!ok) fail(type);
+    f.write(tail, 4, type);
   };
-  errno = 0;
-  if (std::fwrite(kSignature, 1, 8, f.get()) != 8) fail("header");
+  f.write(kSignature, 8, "header");
   std::uint8_t ihdr[13];
   put32(ihdr, static_cast<std::uint32_t>(W));
   put32(ihdr + 4, static_cast<std::uint32_t>(H));
@@ -270,12 +257,7 @@ void write(const std::string& file, const std::string& display_path, const Layou
     std::vector<std::uint8_t>().swap(packed[k]);
   }
   chunk("IEND", {});
-  std::FILE* raw_file = f.release();
-  if (std::fflush(raw_file) != 0) {
-    std::fclose(raw_file);
-    fail("flush");
-  }
-  if (std::fclose(raw_file) != 0) fail("close");
+  f.close();
 }
 
 // --- reading ------------------------------------------------------------------------------

@@ -7,15 +7,14 @@
 #include <zlib.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cstdint>
-#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <memory>
 #include <vector>
 
 #include "dofkit/error.hpp"
+#include "io/out_file.hpp"
 #include "io/quantise.hpp"
 
 namespace dofkit::io::tiff {
@@ -97,12 +96,6 @@ void encode_row(const float* src, std::size_t wc, int C, int bits, std::uint8_t*
       out[m] = static_cast<std::uint8_t>(m < static_cast<std::size_t>(C) ? tmp[m] : tmp[m] - tmp[m - C]);
   }
 }
-
-struct FileCloser {
-  void operator()(std::FILE* f) const {
-    if (f) std::fclose(f);
-  }
-};
 
 }  // namespace
 
@@ -246,23 +239,13 @@ void write(const std::string& file, const std::string& display_path, const Layou
   }
 
   // (4) the file
-  std::unique_ptr<std::FILE, FileCloser> f(std::fopen(file.c_str(), "wb"));
-  const auto fail = [&](const char* what) {
-    throw_bad_input(display_path + ": cannot write: " + what + (errno ? std::string(": ") + std::strerror(errno) : ""));
-  };
-  errno = 0;
-  if (!f) fail("cannot create the file");
-  if (std::fwrite(head.data(), 1, head.size(), f.get()) != head.size()) fail("header");
-  for (auto& s : strips) {
-    if (std::fwrite(s.data(), 1, s.size(), f.get()) != s.size()) fail("pixels");
-    std::vector<std::uint8_t>().swap(s);
+  OutFile f(file, display_path);
+  f.write(head.data(), head.size(), "header");
+  for (auto& strip : strips) {
+    f.write(strip.data(), strip.size(), "pixels");
+    std::vector<std::uint8_t>().swap(strip);
   }
-  std::FILE* raw_file = f.release();
-  if (std::fflush(raw_file) != 0) {
-    std::fclose(raw_file);
-    fail("flush");
-  }
-  if (std::fclose(raw_file) != 0) fail("close");
+  f.close();
 }
 
 }  // namespace dofkit::io::tiff

@@ -29,8 +29,6 @@ constexpr std::size_t kMaxHeaderBytes = 16u << 20;  // attributes beyond this ar
 // found a 380-byte PNG declaring 2,000,000 × 60 px: 1.3 GB allocated, then the inflate failed).
 constexpr std::uint64_t kMaxDeflateRatio = 1032;
 
-// The most an EXR compression can expand the bytes it stores, for the codes this check
-// covers; 0 = not bounded here (PIZ's Huffman run codes, B44's flat blocks, DWA).
 // The pixel budget (image_io.hpp), checked on the header's size (the open checks it again on
 // the size the reader reports).
 void check_budget(long long w, long long h, const std::string& path, const char* role) {
@@ -40,6 +38,8 @@ void check_budget(long long w, long long h, const std::string& path, const char*
                     " pixels, more than the limit of " + std::to_string(budget) + " (--max-pixels)");
 }
 
+// The most an EXR compression can expand the bytes it stores, for the codes this check
+// covers; 0 = not bounded here (PIZ's Huffman run codes, B44's flat blocks, DWA).
 std::uint64_t exr_max_ratio(int compression) {
   switch (compression) {
     case 0: return 1;                              // NONE

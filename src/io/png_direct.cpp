@@ -294,6 +294,8 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, std::string* broke
       if (!std::isalpha(static_cast<unsigned char>(type[i]))) return nullptr;
     const std::string t(type);
     const bool critical = std::isupper(static_cast<unsigned char>(type[0])) != 0;
+    // IHDR first (libpng refuses any other chunk there, before it looks at the CRC).
+    if (!header && t != "IHDR") return refuse("the first chunk is '" + t + "', not IHDR");
     // Chunk data: IDAT straight into the stream, the others into `data` (small ones only;
     // a large ancillary chunk is left to OpenImageIO, which skips or reads it).
     std::uint8_t* dst;
@@ -319,9 +321,8 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, std::string* broke
       return refuse("chunk '" + t + "' fails its CRC check");
     }
     if (!header) {
-      // IHDR first, within the PNG rules (libpng refuses the file otherwise); this reader takes
+      // IHDR within the PNG rules (libpng refuses the file otherwise); this reader takes
       // 8 / 16-bit grey, grey + alpha, RGB and RGBA without interlacing.
-      if (t != "IHDR") return refuse("the first chunk is '" + t + "', not IHDR");
       if (n != 13) return refuse("its IHDR chunk is " + std::to_string(n) + " bytes long, not 13");
       const std::uint32_t w = get32(dst), h = get32(dst + 4);
       const int depth = dst[8], ctype = dst[9];

@@ -241,6 +241,8 @@ TEST(PngRead, BrokenFilesAreRefusedWithTheirReason) {
   std::string first_text("\x89PNG\r\n\x1a\n", 8);
   add_chunk(first_text, "tEXt", std::string("k\0v", 3));
   first_text += ok.substr(8);
+  std::string first_text_crc = first_text;
+  first_text_crc[8 + 8 + 3 + 3] ^= 1;  // that tEXt chunk's CRC: still not IHDR first
   const std::string short_rows = std::string(1, '\0') + std::string(6, '\x40');  // one row of two
   const std::string bad_filter = std::string(1, '\x07') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
   struct Case {
@@ -259,6 +261,7 @@ TEST(PngRead, BrokenFilesAreRefusedWithTheirReason) {
       {"filter1.png", ihdr_with(11, 1), "filter method 1", true},
       {"interlace2.png", ihdr_with(12, 2), "interlace method 2", true},
       {"text_first.png", first_text, "the first chunk is 'tEXt', not IHDR", true},
+      {"text_first_crc.png", first_text_crc, "the first chunk is 'tEXt', not IHDR", true},
       {"short.png", make_png(2, 2, 8, 2, 0, short_rows), "inflates to 7 of the 14 bytes", false},
       {"filter.png", make_png(2, 2, 8, 2, 0, bad_filter), "row 0 has filter type 7", false},
   };

@@ -65,7 +65,7 @@ Entry short_or_long(std::uint16_t tag, std::uint32_t x) {
 }
 
 // The row's samples as the file stores them after libtiff's predictor, little-endian.
-// `src`: W·C floats of the row; `codes` and `out` hold W·C·(bits/8) bytes.
+// `src`: W·C floats of the row; `out` (and the scratch `tmp`) hold W·C·(bits/8) bytes.
 void encode_row(const float* src, std::size_t wc, int C, int bits, std::uint8_t* out, std::vector<std::uint8_t>& tmp) {
   const std::size_t bps = static_cast<std::size_t>(bits) / 8, n = wc * bps;
   tmp.resize(n);

@@ -95,6 +95,14 @@ FileSpec spec_of(const png::Reader& r) {
   return s;
 }
 
+FileSpec spec_of(const tiff::Reader& r) {
+  FileSpec s = size_and_names(r);
+  s.alpha_channel = r.alpha_channel();
+  s.integer = r.integer();
+  s.unassociated = r.unassociated();  // read with straight alpha kept, as OpenImageIO is asked to
+  return s;
+}
+
 FileSpec spec_of(const jpeg::Reader& r) {
   FileSpec s = size_and_names(r);
   s.integer = true;
@@ -104,7 +112,8 @@ FileSpec spec_of(const jpeg::Reader& r) {
 struct OpenedFile {
   std::unique_ptr<exr::ScanlineReader> exr;  // common EXR files (exr_direct.hpp),
   std::unique_ptr<png::Reader> png;          // common PNG files (png_direct.hpp),
-  std::unique_ptr<jpeg::Reader> jpg;         // common JPEG files (jpeg_direct.hpp), else
+  std::unique_ptr<jpeg::Reader> jpg;         // common JPEG files (jpeg_direct.hpp),
+  std::unique_ptr<tiff::Reader> tif;         // common TIFF files (tiff_direct.hpp), else
   std::unique_ptr<oiio::Input> in;           // OpenImageIO (oiio_module.hpp)
   FileSpec spec;
 };
@@ -142,7 +151,7 @@ bool open_direct(OpenedFile& f, const std::string& path, std::string& broken) {
     return true;
   };
   return taken(f.exr = exr::ScanlineReader::open(path)) || taken(f.png = png::Reader::open(path, &broken)) ||
-         (broken.empty() && taken(f.jpg = jpeg::Reader::open(path)));
+         (broken.empty() && (taken(f.jpg = jpeg::Reader::open(path)) || taken(f.tif = tiff::Reader::open(path))));
 }
 
 OpenedFile open_checked(const std::string& path, const char* role) {
@@ -164,8 +173,9 @@ OpenedFile open_checked(const std::string& path, const char* role) {
 
 // After a direct reader failed on the pixels (EXR: missing, truncated or undecodable
 // chunks; PNG: a stream that does not inflate to the declared rows; JPEG: any libjpeg error
-// or warning): OpenImageIO reads the
-// file again and gives its error (or reads what that reader could not).
+// or warning): OpenImageIO reads the file again and gives its error (or reads what that
+// reader could not). A PNG or TIFF whose data does not decode is refused with the reason
+// instead (png::Reader::read, tiff::Reader::read).
 // The callers sized their buffers from the first reader's header, so OpenImageIO must see the
 // same size and channels, else the file is refused (the fuzzer found an EXR whose header the
 // two EXR libraries parse as 5×1835012 and 5×4 pixels: the buffers then overflowed).
@@ -174,6 +184,7 @@ void fall_back_to_oiio(OpenedFile& f, const std::string& path, const char* role)
   f.exr.reset();
   f.png.reset();
   f.jpg.reset();
+  f.tif.reset();
   open_oiio(f, path, role);
   if (f.spec.channelnames != before.channelnames || f.spec.nchannels != before.nchannels)
     throw_bad_input(path + ": cannot read " + role + " pixels: the readers disagree on its channels");
@@ -188,9 +199,11 @@ std::vector<float> read_channels(OpenedFile& f, const std::string& path, const c
   const std::size_t n = static_cast<std::size_t>(f.spec.width) * f.spec.height * (ce - cb);
   std::vector<float> buf(n);
   const auto read_by = [&](const auto& reader) { return reader && reader->read(cb, ce, buf.data()); };
-  if (f.exr || f.png || f.jpg) {
+  if (f.exr || f.png || f.jpg || f.tif) {
     std::string broken;
-    if (read_by(f.exr) || (f.png && f.png->read(cb, ce, buf.data(), &broken)) || read_by(f.jpg)) return buf;
+    if (read_by(f.exr) || (f.png && f.png->read(cb, ce, buf.data(), &broken)) || read_by(f.jpg) ||
+        (f.tif && f.tif->read(cb, ce, buf.data(), &broken)))
+      return buf;
     if (!broken.empty()) throw_bad_input(path + ": cannot read " + role + " pixels: " + broken);
     fall_back_to_oiio(f, path, role);
   }

@@ -4,7 +4,6 @@
 #include <libdeflate.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <zlib.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -113,41 +112,29 @@ void write(const std::string& file, const std::string& display_path, const Layou
   if (row_bytes * kRowsPerStrip > (std::size_t{1} << 31) || W > kLimit || H > kLimit)
     throw_bad_input(display_path + ": cannot write: the image is too large for a classic TIFF (write .exr)");
 
-  // (1) strips: samples encoded and predicted row by row, each strip one zlib stream at
-  // zlib's default level, as libtiff's deflate codec writes it for OpenImageIO
+  // (1) strips: samples encoded and predicted row by row, each strip one zlib stream made by
+  // libdeflate at level 7 — what libtiff's deflate codec writes when a write call is a whole
+  // strip (its stand-in for zlib's default level 6). OpenImageIO hands libtiff one row at a
+  // time, which libtiff compresses with zlib instead: the same samples in a stream of nearly
+  // the same size (bench frame: 3.65 vs 3.71 MB at 8 bits, 11.54 MB both at 16), made 2-3x
+  // faster.
   const std::size_t nstrips = (H + kRowsPerStrip - 1) / kRowsPerStrip;
   std::vector<std::vector<std::uint8_t>> strips(nstrips);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nstrips, 1), [&](const tbb::blocked_range<std::size_t>& r) {
     std::vector<std::uint8_t> raw, tmp;
+    std::unique_ptr<libdeflate_compressor, void (*)(libdeflate_compressor*)> c(libdeflate_alloc_compressor(7),
+                                                                               libdeflate_free_compressor);
+    if (!c) throw_internal(display_path + ": cannot start a deflate stream");
     for (std::size_t s = r.begin(); s < r.end(); ++s) {
       const std::size_t y0 = s * kRowsPerStrip, rows = std::min(kRowsPerStrip, H - y0);
       raw.resize(rows * row_bytes);
       for (std::size_t y = 0; y < rows; ++y)
         encode_row(pixels + (y0 + y) * wc, wc, C, lay.bits, raw.data() + y * row_bytes, tmp);
       std::vector<std::uint8_t>& out = strips[s];
-      if (rows == 1) {
-        // OpenImageIO hands libtiff one row at a time, and libtiff compresses a call that is a
-        // whole strip with libdeflate at level 7 (its stand-in for zlib's 6): a one-row strip.
-        std::unique_ptr<libdeflate_compressor, void (*)(libdeflate_compressor*)> c(libdeflate_alloc_compressor(7),
-                                                                                   libdeflate_free_compressor);
-        if (!c) throw_internal(display_path + ": cannot start a deflate stream");
-        out.resize(libdeflate_zlib_compress_bound(c.get(), raw.size()));
-        const std::size_t n = libdeflate_zlib_compress(c.get(), raw.data(), raw.size(), out.data(), out.size());
-        if (n == 0) throw_internal(display_path + ": deflate failed");
-        out.resize(n);
-        continue;
-      }
-      z_stream z{};
-      if (deflateInit(&z, Z_DEFAULT_COMPRESSION) != Z_OK) throw_internal(display_path + ": cannot start a deflate stream");
-      std::unique_ptr<z_stream, int (*)(z_stream*)> guard(&z, deflateEnd);
-      out.resize(deflateBound(&z, raw.size()));
-      z.next_in = raw.data();
-      z.avail_in = static_cast<uInt>(raw.size());
-      z.next_out = out.data();
-      z.avail_out = static_cast<uInt>(out.size());
-      const int rc = deflate(&z, Z_FINISH);
-      if (rc != Z_STREAM_END) throw_internal(display_path + ": deflate failed (" + std::to_string(rc) + ")");
-      out.resize(out.size() - z.avail_out);
+      out.resize(libdeflate_zlib_compress_bound(c.get(), raw.size()));
+      const std::size_t n = libdeflate_zlib_compress(c.get(), raw.data(), raw.size(), out.data(), out.size());
+      if (n == 0) throw_internal(display_path + ": deflate failed");
+      out.resize(n);
     }
   });
 

@@ -311,6 +311,18 @@ void check_png(std::ifstream& f, std::size_t file_size, const std::string& path,
   }
 }
 
+// The most a TIFF compression can expand the bytes it stores; 0 = not bounded here (JPEG,
+// zstd, LZMA, …). LZW: a code of at least 9 bits stands for a string of at most 4096 bytes.
+std::uint64_t tiff_max_ratio(std::uint32_t compression) {
+  switch (compression) {
+    case 1: return 1;                                // none
+    case 5: return 4096 * 8 / 9 + 1;                 // LZW
+    case 8: case 32946: return kMaxDeflateRatio;     // deflate (Adobe, and the old code)
+    case 32773: return 64;                           // PackBits: a 2-byte run codes 128 bytes
+    default: return 0;
+  }
+}
+
 // TIFF (classic, not BigTIFF): "II*\0" / "MM\0*", uint32 offset of the first IFD; an IFD is a
 // uint16 entry count, 12-byte entries (tag, type, count, value-or-offset) and the uint32 offset
 // of the next IFD. OIIO 2.4 reads a strip or tile that lies (partly) past the end of the file as
@@ -366,11 +378,27 @@ void check_tiff(std::ifstream& f, std::size_t file_size, bool big_endian, const 
     std::vector<unsigned char> entries(static_cast<std::size_t>(n) * 12 + 4);
     if (!read_at(ifd + 2, entries.size(), entries.data())) fail("directory runs past the end of the file");
     std::vector<std::uint64_t> offsets, counts;
+    // The first image's size, samples, bits and compression (what the readers decode).
+    std::uint64_t w = 0, h = 0, spp = 1, bits = 0, compression = 1, photometric = 0;
     for (std::uint32_t i = 0; i < n; ++i) {
       const unsigned char* e = &entries[static_cast<std::size_t>(i) * 12];
-      const std::uint32_t tag = u16(e);
+      const std::uint32_t tag = u16(e), type = u16(e + 2), count = u32(e + 4);
       if (tag == 273 || tag == 324) values(e, offsets);
       if (tag == 279 || tag == 325) values(e, counts);
+      if ((type == 3 || type == 4) && count >= 1) {
+        const std::uint64_t v = type == 3 ? u16(e + 8) : u32(e + 8);  // the first value, when inline
+        const bool inline_value = count * (type == 3 ? 2 : 4) <= 4;
+        if (tag == 256 && inline_value) w = v;
+        if (tag == 257 && inline_value) h = v;
+        if (tag == 277 && inline_value) spp = v;
+        if (tag == 259 && inline_value) compression = v;
+        if (tag == 262 && inline_value) photometric = v;
+        if (tag == 258) {
+          unsigned char b2[2];
+          if (inline_value) bits = v;
+          else if (type == 3 && read_at(u32(e + 8), 2, b2)) bits = u16(b2);
+        }
+      }
     }
     // Every directory in the main chain is an image and needs its data; OIIO reads an image
     // without strips as zeros.
@@ -381,6 +409,20 @@ void check_tiff(std::ifstream& f, std::size_t file_size, bool big_endian, const 
       if (offsets[i] > file_size || counts[i] > file_size - offsets[i])
         fail("strip/tile " + std::to_string(i) + " (" + std::to_string(counts[i]) + " bytes at offset " +
              std::to_string(offsets[i]) + ") lies past the end of the " + std::to_string(file_size) + "-byte file");
+    // Pixels that need more bytes than the strips / tiles can expand to: a truncated or
+    // corrupt file, refused before a reader allocates the pixels (as for PNG and EXR).
+    // YCbCr (6) may store subsampled chroma: fewer bytes than samples, so it is not bounded.
+    if (seen.size() == 1 && w > 0 && h > 0 && bits > 0 && spp > 0 && photometric != 6) {
+      check_budget(static_cast<long long>(w), static_cast<long long>(h), path, role);
+      const std::uint64_t ratio = tiff_max_ratio(static_cast<std::uint32_t>(compression));
+      std::uint64_t stored = 0;
+      for (std::uint64_t c : counts) stored += c;
+      const unsigned __int128 need = static_cast<unsigned __int128>(w) * spp * bits / 8 * h;
+      if (ratio > 0 && need > static_cast<unsigned __int128>(stored) * ratio)
+        throw_bad_input(path + ": cannot read " + role + " image: its " + std::to_string(w) + "x" + std::to_string(h) +
+                        " pixels need more bytes than its " + std::to_string(stored) +
+                        " bytes of image data can hold (truncated or corrupt)");
+    }
     ifd = u32(&entries[static_cast<std::size_t>(n) * 12]);
   }
 }

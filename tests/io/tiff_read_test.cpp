@@ -351,3 +351,31 @@ TEST(TiffRead, UndecodableDataIsRefusedWithLibtiffsReasonOnOneLine) {
   EXPECT_EQ(message.rfind(path + ": cannot read colour pixels: strip 0 does not decode (ZIPDecode: ", 0), 0u) << message;
   EXPECT_EQ(message.find('\n'), std::string::npos) << message;
 }
+
+TEST(TiffRead, SubsampledYCbCrPassesTheHeaderWalksPayloadBound) {
+  // Uncompressed YCbCr 4:2:0 stores 6 bytes per 2×2 block, half of width × height × 3: the
+  // header walk's bound (stored bytes × 1 for no compression) must not refuse it. It is not
+  // read here; OpenImageIO decodes it (libtiff's RGBA interface).
+  ScratchDir dir;
+  const std::string path = dir / "ycbcr.tif";
+  TIFF* t = TIFFOpen(path.c_str(), "wl");
+  ASSERT_TRUE(t);
+  TIFFSetField(t, TIFFTAG_IMAGEWIDTH, 8u);
+  TIFFSetField(t, TIFFTAG_IMAGELENGTH, 8u);
+  TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, static_cast<std::uint16_t>(3));
+  TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, static_cast<std::uint16_t>(8));
+  TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_YCBCR);
+  TIFFSetField(t, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
+  TIFFSetField(t, TIFFTAG_COMPRESSION, COMPRESSION_NONE);
+  TIFFSetField(t, TIFFTAG_YCBCRSUBSAMPLING, 2, 2);
+  TIFFSetField(t, TIFFTAG_ROWSPERSTRIP, 8u);
+  std::vector<unsigned char> blocks(16 * 6);
+  for (std::size_t i = 0; i < blocks.size(); ++i) blocks[i] = i % 6 < 4 ? static_cast<unsigned char>(40 + 10 * i % 150) : 128;
+  ASSERT_EQ(TIFFWriteRawStrip(t, 0, blocks.data(), static_cast<tmsize_t>(blocks.size())), static_cast<tmsize_t>(blocks.size()));
+  TIFFClose(t);
+  EXPECT_FALSE(io::tiff::Reader::open(path));
+  Image img;
+  ASSERT_NO_THROW(img = io::read_color(path));
+  EXPECT_EQ(img.width(), 8);
+  EXPECT_EQ(img.height(), 8);
+}

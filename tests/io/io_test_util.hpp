@@ -111,6 +111,16 @@ inline std::uint32_t bits_of(float v) {
   return b;
 }
 
+/// Samples of two images whose bits differ, over every plane (all of them if the sizes or
+/// channel counts differ).
+inline std::size_t bit_differences(const Image& a, const Image& b) {
+  if (!a.same_size(b) || a.channels() != b.channels()) return std::max(a.data().size(), b.data().size()) + 1;
+  std::size_t d = 0;
+  for (int c = 0; c < a.channels(); ++c)
+    for (std::size_t i = 0; i < a.plane_size(); ++i) d += bits_of(a.plane(c)[i]) != bits_of(b.plane(c)[i]);
+  return d;
+}
+
 /// A whole file's bytes.
 inline std::string slurp(const std::string& path) {
   std::ifstream f(path, std::ios::binary);

@@ -247,9 +247,12 @@ bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
   if (*first == nblocks) return true;
   // libtiff cannot decode a strip / tile. OpenImageIO 2.4 would read it as zeros (or as far as
   // it decodes) without an error: refused here, with libtiff's reason.
-  if (broken)
-    *broken = std::string(tiled_ ? "tile " : "strip ") + std::to_string(*first) + " does not decode (" +
-              errors[static_cast<std::size_t>(first - failed.begin())] + "): corrupt or truncated";
+  if (broken) {
+    std::string why = errors[static_cast<std::size_t>(first - failed.begin())];
+    if (why.rfind(path_ + ": ", 0) == 0) why.erase(0, path_.size() + 2);  // some codecs name the file, not themselves
+    *broken = std::string(tiled_ ? "tile " : "strip ") + std::to_string(*first) + " does not decode (" + why +
+              "): corrupt or truncated";
+  }
   return false;
 }
 

@@ -150,6 +150,12 @@ std::unique_ptr<Reader> Reader::open(const std::string& path) {
     std::uint32_t tw = 0, th = 0;
     if (!TIFFGetField(tif, TIFFTAG_TILEWIDTH, &tw) || !TIFFGetField(tif, TIFFTAG_TILELENGTH, &th)) return nullptr;
     if (tw == 0 || th == 0 || tw > INT_MAX || th > INT_MAX) return nullptr;
+    // One tile is decoded into a buffer of its own size: a tile far larger than the image
+    // (legal, but a file of a few bytes could declare 2^20 × 2^20) is left to OpenImageIO.
+    const std::uint64_t px_bytes = static_cast<std::uint64_t>(spp) * bits / 8;
+    const std::uint64_t tile_bytes = static_cast<std::uint64_t>(tw) * th * px_bytes;
+    if (tile_bytes > std::max<std::uint64_t>(std::uint64_t{16} << 20, 4 * static_cast<std::uint64_t>(w) * h * px_bytes))
+      return nullptr;
     r->block_w_ = static_cast<int>(tw);
     r->block_h_ = static_cast<int>(th);
   } else {

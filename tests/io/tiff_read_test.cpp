@@ -260,6 +260,10 @@ TEST(TiffRead, LeavesOtherLayoutsToOpenImageIO) {
       TIFFSetField(t, TIFFTAG_XPOSITION, 3.0f);
     };
   });
+  add("tile_far_larger_than_the_image", [](Make& m) {  // one 4096×4112 tile (16.1 MiB) for 5×4 px
+    m.w = 5, m.h = 4, m.spp = 1, m.photometric = PHOTOMETRIC_MINISBLACK, m.tile_w = 4096, m.tile_h = 4112;
+    m.compression = COMPRESSION_ADOBE_DEFLATE;
+  });
   add("palette", [](Make& m) {
     m.spp = 1, m.photometric = PHOTOMETRIC_PALETTE;
     m.more = [](TIFF* t) {

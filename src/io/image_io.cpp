@@ -198,12 +198,11 @@ void fall_back_to_oiio(OpenedFile& f, const std::string& path, const char* role)
 std::vector<float> read_channels(OpenedFile& f, const std::string& path, const char* role, int cb, int ce) {
   const std::size_t n = static_cast<std::size_t>(f.spec.width) * f.spec.height * (ce - cb);
   std::vector<float> buf(n);
-  const auto read_by = [&](const auto& reader) { return reader && reader->read(cb, ce, buf.data()); };
   if (f.exr || f.png || f.jpg || f.tif) {
-    std::string broken;
-    if (read_by(f.exr) || (f.png && f.png->read(cb, ce, buf.data(), &broken)) || read_by(f.jpg) ||
-        (f.tif && f.tif->read(cb, ce, buf.data(), &broken)))
-      return buf;
+    std::string broken;  // set by the PNG and TIFF readers for data no reader can decode
+    const auto read_by = [&](const auto& reader) { return reader && reader->read(cb, ce, buf.data()); };
+    const auto read_or_refuse = [&](const auto& reader) { return reader && reader->read(cb, ce, buf.data(), &broken); };
+    if (read_by(f.exr) || read_or_refuse(f.png) || read_by(f.jpg) || read_or_refuse(f.tif)) return buf;
     if (!broken.empty()) throw_bad_input(path + ": cannot read " + role + " pixels: " + broken);
     fall_back_to_oiio(f, path, role);
   }

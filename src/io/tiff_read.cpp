@@ -64,12 +64,11 @@ bool is_tiff_magic(const std::string& path) {
   return le || be;
 }
 
-/// The layout of a file's first image, as open() accepted it.
+/// What a handle opened again must show to be the file open() accepted.
 struct FileLayout {
   std::uint32_t width = 0, height = 0;
   std::uint16_t spp = 0, bits = 0;
   bool tiled = false;
-  std::uint32_t bw = 0, bh = 0;  // tile size, or width × rows per strip
 };
 
 bool same_layout(TIFF* t, const FileLayout& want) {
@@ -175,7 +174,7 @@ namespace {
 // Samples cb … cb + nc − 1 of nx pixels of `channels` samples of type T (native byte order,
 // as libtiff returns them) to float: integer codes times `scale`, floats as they are.
 template <typename T>
-void convert_row_of(const unsigned char* src, float* dst, int nx, std::size_t nc, int channels, int cb, float scale) {
+void convert_row(const unsigned char* src, float* dst, int nx, std::size_t nc, int channels, int cb, float scale) {
   for (int x = 0; x < nx; ++x)
     for (std::size_t c = 0; c < nc; ++c) {
       T q;
@@ -187,14 +186,9 @@ void convert_row_of(const unsigned char* src, float* dst, int nx, std::size_t nc
 }  // namespace
 
 bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
-  const auto convert_row = [&](const unsigned char* src, float* dst, int nx, std::size_t nc, int first, float scale,
-                               auto type) {
-    convert_row_of<decltype(type)>(src, dst, nx, nc, channels_, first, scale);
-  };
   if (cb < 0 || ce > channels_ || cb >= ce) return false;
   const FileLayout want{static_cast<std::uint32_t>(width_), static_cast<std::uint32_t>(height_),
-                    static_cast<std::uint16_t>(channels_), static_cast<std::uint16_t>(bits_), tiled_,
-                    static_cast<std::uint32_t>(block_w_), static_cast<std::uint32_t>(block_h_)};
+                        static_cast<std::uint16_t>(channels_), static_cast<std::uint16_t>(bits_), tiled_};
   const int across = tiled_ ? (width_ + block_w_ - 1) / block_w_ : 1;
   const int down = (height_ + block_h_ - 1) / block_h_;
   const long long nblocks = static_cast<long long>(across) * down;
@@ -242,9 +236,9 @@ bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
       for (int y = 0; y < ny; ++y) {
         const unsigned char* src = buf.data() + static_cast<std::size_t>(y) * block_row;
         float* dst = out + ((static_cast<std::size_t>(y0 + y) * width_ + x0) * nc);
-        if (bits_ == 8) convert_row(src, dst, nx, nc, cb, scale, std::uint8_t{});
-        else if (bits_ == 16) convert_row(src, dst, nx, nc, cb, scale, std::uint16_t{});
-        else convert_row(src, dst, nx, nc, cb, 1.0f, float{});
+        if (bits_ == 8) convert_row<std::uint8_t>(src, dst, nx, nc, channels_, cb, scale);
+        else if (bits_ == 16) convert_row<std::uint16_t>(src, dst, nx, nc, channels_, cb, scale);
+        else convert_row<float>(src, dst, nx, nc, channels_, cb, 1.0f);
       }
     }
   });

@@ -144,15 +144,8 @@ TEST(ExrDirectRead, ACorruptChunkFallsBackToOpenImageIOsError) {
   ASSERT_TRUE(r) << "the header is intact";
   std::vector<float> buf(64 * 64 * 4);
   EXPECT_FALSE(r->read(0, 4, buf.data()));
-  try {
-    io::read_color(dir / "bad.exr");
-    FAIL() << "expected an error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::bad_input);
-    const std::string m = e.what();
-    EXPECT_NE(m.find("bad.exr: cannot read colour pixels"), std::string::npos) << m;
-    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-  }
+  const std::string m = bad_input_message([&] { io::read_color(dir / "bad.exr"); });
+  EXPECT_NE(m.find("bad.exr: cannot read colour pixels"), std::string::npos) << m;
 }
 
 TEST(ExrDirectRead, ReadColorAndDepthGiveTheSameFrameThroughEitherReader) {

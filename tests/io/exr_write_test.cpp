@@ -154,14 +154,8 @@ TEST(ExrDirectWrite, WriteImageTakesTheDirectPathForItsDefaultsAndOpenImageIOFor
 TEST(ExrDirectWrite, AnUnwritableFileIsAOneLineErrorNamingIt) {
   ScratchDir dir;
   std::vector<float> p(16, 1.0f);
-  try {
-    io::exr::write_scanline(dir / "missing/o.exr", "shown/o.exr", 4, 4, {{"Y", p.data()}}, false, "zip");
-    FAIL() << "expected an error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::bad_input);
-    const std::string m = e.what();
-    EXPECT_NE(m.find("shown/o.exr: cannot write"), std::string::npos) << m;
-    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-  }
+  const std::string m = bad_input_message(
+      [&] { io::exr::write_scanline(dir / "missing/o.exr", "shown/o.exr", 4, 4, {{"Y", p.data()}}, false, "zip"); });
+  EXPECT_NE(m.find("shown/o.exr: cannot write"), std::string::npos) << m;
   EXPECT_FALSE(fs::exists(dir / "missing"));
 }

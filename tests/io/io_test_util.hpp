@@ -12,12 +12,14 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "dofkit/error.hpp"
 #include "dofkit/image.hpp"
 
 namespace dofkit::test {
@@ -109,6 +111,29 @@ inline std::uint32_t bits_of(float v) {
   std::uint32_t b;
   std::memcpy(&b, &v, 4);
   return b;
+}
+
+/// The message of the Error `fn` throws, which must be a one-line bad_input error; a test
+/// failure (and "") if it throws none.
+inline std::string bad_input_message(const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::bad_input) << e.what();
+    const std::string m = e.what();
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    return m;
+  }
+  ADD_FAILURE() << "no error thrown";
+  return {};
+}
+
+/// Values of two float arrays whose bits differ (all of them if the lengths differ).
+inline std::size_t bit_differences(const std::vector<float>& a, const std::vector<float>& b) {
+  if (a.size() != b.size()) return std::max(a.size(), b.size()) + 1;
+  std::size_t d = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) d += bits_of(a[i]) != bits_of(b[i]);
+  return d;
 }
 
 /// Samples of two images whose bits differ, over every plane (all of them if the sizes or

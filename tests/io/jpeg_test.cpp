@@ -218,13 +218,7 @@ TEST(Jpeg, LeavesOtherFilesToOpenImageIO) {
 TEST(Jpeg, WriteErrorNamesTheFile) {
   ScratchDir dir;
   const std::vector<float> v(12, 0.5f);
-  try {
-    io::jpeg::write(dir / "no/such/dir/x.jpg", "shown.jpg", 2, 2, 3, v.data(), 95);
-    ADD_FAILURE() << "no error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::bad_input);
-    const std::string m = e.what();
-    EXPECT_NE(m.find("shown.jpg"), std::string::npos) << m;
-    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-  }
+  const std::string m =
+      bad_input_message([&] { io::jpeg::write(dir / "no/such/dir/x.jpg", "shown.jpg", 2, 2, 3, v.data(), 95); });
+  EXPECT_NE(m.find("shown.jpg"), std::string::npos) << m;
 }

@@ -207,16 +207,11 @@ TEST(PngDirect, WriteImageUsesItAndErrorsNameTheFile) {
   const Chunks ch = parse(slurp(dir / "w.png"));
   EXPECT_EQ(ch.data.count("tEXt"), 0u);
   EXPECT_EQ(ch.types[1], "gAMA");
-  try {
+  const std::string m = bad_input_message([&] {
     io::png::write(dir / "no/such/dir/x.png", "shown.png", io::png::Layout{9, 5, 4, 8}, std::vector<float>(180).data(), 6,
                    true);
-    ADD_FAILURE() << "no error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::bad_input);
-    const std::string m = e.what();
-    EXPECT_NE(m.find("shown.png"), std::string::npos) << m;
-    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-  }
+  });
+  EXPECT_NE(m.find("shown.png"), std::string::npos) << m;
   // A row longer than 1 GiB (2^27 RGBA 16-bit pixels) is refused before any pixel is read
   // (the buffer passed here is far too small for the layout: reading it would be caught by
   // the sanitizer build).

@@ -145,13 +145,6 @@ std::unique_ptr<io::oiio::Input> open_oiio(const std::string& path) {
   return in;
 }
 
-std::size_t bit_differences(const std::vector<float>& a, const std::vector<float>& b) {
-  if (a.size() != b.size()) return std::max(a.size(), b.size());
-  std::size_t d = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) d += bits_of(a[i]) != bits_of(b[i]);
-  return d;
-}
-
 struct Kind {
   const char* name;
   int spp;
@@ -341,17 +334,11 @@ TEST(TiffRead, UndecodableDataIsRefusedWithLibtiffsReasonOnOneLine) {
     std::string broken;
     EXPECT_FALSE(direct->read(0, m.spp, buf.data(), &broken));
     EXPECT_NE(broken.find("strip 0 does not decode " + reason), std::string::npos) << broken;
-    std::string message;
-    try {
-      io::read_color(path);
-    } catch (const Error& e) {
-      message = e.what();
-    }
+    const std::string message = bad_input_message([&] { io::read_color(path); });
     const std::string err = testing::internal::GetCapturedStderr();
     EXPECT_EQ(err, "");
     EXPECT_EQ(message.rfind(path + ": cannot read colour pixels: strip 0 does not decode " + reason, 0), 0u) << message;
     EXPECT_EQ(message.find(path, 1), std::string::npos) << "the file named twice: " << message;
-    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
   }
 }
 

@@ -153,12 +153,6 @@ std::vector<std::string> libtiff_whole_strips(const std::string& path, int w, in
   return parse(path).strips;
 }
 
-std::vector<std::uint32_t> bits_of_all(const std::vector<float>& v) {
-  std::vector<std::uint32_t> out;
-  for (float f : v) out.push_back(bits_of(f));
-  return out;
-}
-
 }  // namespace
 
 TEST(TiffDirect, EqualsOpenImageIOsFileTagForTagAndLibtiffsStripForStrip) {
@@ -207,7 +201,7 @@ TEST(TiffDirect, EqualsOpenImageIOsFileTagForTagAndLibtiffsStripForStrip) {
             const std::vector<std::string> lt = libtiff_whole_strips(dir / "l.tif", sz.w, sz.h, c, bits, raw);
             ASSERT_EQ(lt.size(), d.strips.size());
             for (std::size_t s = 0; s < d.strips.size(); ++s) EXPECT_TRUE(d.strips[s] == lt[s]) << "strip " << s;
-            EXPECT_EQ(bits_of_all(read_floats(dir / "d.tif")), bits_of_all(read_floats(dir / "o.tif")));
+            EXPECT_EQ(bit_differences(read_floats(dir / "d.tif"), read_floats(dir / "o.tif")), 0u);
           } else {
             EXPECT_EQ(read_as_long(dir / "d.tif", bits), quantise_rule(v, bits));
           }
@@ -236,15 +230,10 @@ TEST(TiffDirect, WriteImageUsesItAndErrorsNameTheFile) {
   opt.bits = 32;
   io::write_image(dir / "two.tif", two, opt);  // OpenImageIO's
   EXPECT_EQ(read_floats(dir / "two.tif").size(), 6u * 5u * 2u);
-  try {
+  const std::string m = bad_input_message([&] {
     io::tiff::write(dir / "no/such/dir/x.tif", "shown.tif", io::tiff::Layout{9, 5, 4, 8, true}, std::vector<float>(180).data());
-    ADD_FAILURE() << "no error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::bad_input);
-    const std::string m = e.what();
-    EXPECT_NE(m.find("shown.tif"), std::string::npos) << m;
-    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-  }
+  });
+  EXPECT_NE(m.find("shown.tif"), std::string::npos) << m;
   EXPECT_FALSE(io::tiff::writes(2, 8));
   EXPECT_FALSE(io::tiff::writes(4, 12));
 }

@@ -14,7 +14,8 @@ namespace dofkit::core {
 // Horizontal sweep in strips (core/strip.hpp, as in core/filters.cpp): kLanes rows
 // interleaved, buf[(i + pad) · kLanes + j] = sample i of row j, i in [−pad, n + pad), moved in
 // and out by the shared 8×8 transposes; the pad holds the replicated edge sample
-// (clamp-to-edge). Vertical sweep: row by row over blocks of columns (box_row), no strips.
+// (clamp-to-edge). Vertical sweep: row by row over blocks of columns (box_row; the streamed form
+// a few rows at a time over the whole width, box_rows), no strips.
 //
 // The horizontal passes are strip::strip_passes, the very function gaussian_blur_plane runs
 // (core/strip.cpp, where their precision is derived); the vertical sweeps below repeat
@@ -27,6 +28,12 @@ constexpr int kLanes = strip::kStripLanes;
 using strip::kResync;
 constexpr int kBlock = 128;  // columns per block of the vertical sweep
 constexpr int kAhead = 4;    // rows prefetched ahead by the vertical sweep
+// Rows per box_rows call of the streamed form (<= kResync: at most one re-synchronisation per
+// call). Every ring grows by a group, and the working set of the bench frame's medium level
+// (~2 MB at 1080p) is already about the L2 of the machines measured, so small groups win:
+// medium level on one thread, 1080p bench frame, 4 rows 14.4 ms, 8 rows 15.0, 16 rows 15.7
+// (row by row with box_row_acc: 17.0).
+constexpr int kGroup = 4;
 
 using strip::Vec8;
 using strip::Vec8u;
@@ -55,14 +62,79 @@ void box_row(float* __restrict sum, const float* lo, const float* hi, const floa
   }
 }
 
-/// box_row that also adds hi to `fresh` (the next re-synchronised window sum, see strip_passes).
+/// Per-row steps of box_rows, in this order: the window sum is set from the pending fresh
+/// sum (kFromFresh) or re-summed from `win` (kResum); the pending sum is cleared (kZeroFresh);
+/// the row is computed, and its entering sample hi is added to the pending sum (kAccumulate).
+enum BoxRowFlags : unsigned char { kFromFresh = 1, kResum = 2, kZeroFresh = 4, kAccumulate = 8 };
+
+/// n consecutive output rows t = 0 … n − 1 of one extended-box pass over columns [0, nx):
+/// per column the steps of need()'s former row loop — flags[t] (see BoxRowFlags), then
+/// box_row's out = (sum + alpha·(lo + hi))·norm, sum += hi − out_lo, and fresh += hi where
+/// kAccumulate — in the same order, so the values are box_row's bit for bit. Row t's lo (its
+/// sample i − r − 1) is row t − 1's out_lo (sample i − 1 − r), so it stays in a register, as
+/// do the window and pending sums down the n rows of each 32-column chunk: a row costs two
+/// loads and a store per vector instead of box_row_acc's five loads and three stores.
+/// lo0: row 0's lo; win: the 2r + 1 = nwin rows of the re-sum (the row flagged kResum, at
+/// most one per call).
 DOFKIT_CLONES
-void box_row_acc(float* __restrict sum, float* __restrict fresh, const float* lo, const float* hi, const float* out_lo,
-                 float* __restrict out, int nx, float alpha, float norm) {
-  for (int j = 0; j < nx; ++j) {
-    out[j] = (sum[j] + alpha * (lo[j] + hi[j])) * norm;
-    sum[j] += hi[j] - out_lo[j];
-    fresh[j] += hi[j];
+void box_rows(float* __restrict sum, float* __restrict fresh, const float* lo0, const float* const* hi,
+              const float* const* out_lo, float* const* out, const unsigned char* flags, const float* const* win,
+              int nwin, int n, int nx, float alpha, float norm) {
+  constexpr int kV = 4;  // vectors of 8 columns per chunk: independent sums for the adders
+  const Vec8 va = alpha + Vec8{}, vn = norm + Vec8{};
+  int x = 0;
+  for (; x + 8 * kV <= nx; x += 8 * kV) {
+    Vec8 s[kV], f[kV], l[kV];
+    for (int v = 0; v < kV; ++v) {
+      s[v] = WG_LOAD8(sum + x + 8 * v);
+      f[v] = WG_LOAD8(fresh + x + 8 * v);
+      l[v] = WG_LOAD8(lo0 + x + 8 * v);
+    }
+    for (int t = 0; t < n; ++t) {
+      const unsigned char fl = flags[t];
+      if (fl & kFromFresh)
+        for (int v = 0; v < kV; ++v) s[v] = f[v];
+      if (fl & kResum) {
+        for (int v = 0; v < kV; ++v) s[v] = Vec8{};
+        for (int q = 0; q < nwin; ++q)
+          for (int v = 0; v < kV; ++v) s[v] += WG_LOAD8(win[q] + x + 8 * v);
+      }
+      if (fl & kZeroFresh)
+        for (int v = 0; v < kV; ++v) f[v] = Vec8{};
+      const float* const hr = hi[t];
+      const float* const orow = out_lo[t];
+      float* const o = out[t];
+      for (int v = 0; v < kV; ++v) {
+        const Vec8 hv = WG_LOAD8(hr + x + 8 * v), ov = WG_LOAD8(orow + x + 8 * v);
+        WG_STORE8(o + x + 8 * v, (s[v] + va * (l[v] + hv)) * vn);
+        s[v] += hv - ov;
+        if (fl & kAccumulate) f[v] += hv;
+        l[v] = ov;
+      }
+    }
+    for (int v = 0; v < kV; ++v) {
+      WG_STORE8(sum + x + 8 * v, s[v]);
+      WG_STORE8(fresh + x + 8 * v, f[v]);
+    }
+  }
+  for (; x < nx; ++x) {  // the same steps, one column at a time
+    float s = sum[x], f = fresh[x], l = lo0[x];
+    for (int t = 0; t < n; ++t) {
+      const unsigned char fl = flags[t];
+      if (fl & kFromFresh) s = f;
+      if (fl & kResum) {
+        s = 0.0f;
+        for (int q = 0; q < nwin; ++q) s += win[q][x];
+      }
+      if (fl & kZeroFresh) f = 0.0f;
+      const float hv = hi[t][x], ov = out_lo[t][x];
+      out[t][x] = (s + alpha * (l + hv)) * norm;
+      s += hv - ov;
+      if (fl & kAccumulate) f += hv;
+      l = ov;
+    }
+    sum[x] = s;
+    fresh[x] = f;
   }
 }
 
@@ -267,26 +339,27 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   const int pad = r + 1;
   const int np = nplanes + 1;  // sweep plane np − 1 = the weights
   const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
-  const int ring0 = 2 * r + 3 + kLanes;  // horizontal output: window + one strip of new rows
-  const int ring = 2 * r + 3;
+  // The vertical passes produce kGroup rows per step (box_rows), so every ring holds a
+  // pass's window (2r + 3 rows) plus one group; the horizontal output also one strip of new rows.
+  const int ring0 = 2 * r + 3 + kLanes + kGroup;
+  const int ring = 2 * r + 3 + kGroup;
   const std::size_t row = static_cast<std::size_t>(w);
   const std::size_t strip = static_cast<std::size_t>(w + 2 * pad) * kLanes;
   const std::size_t n_ring0 = static_cast<std::size_t>(np) * ring0 * row;
   const std::size_t n_rings = static_cast<std::size_t>(std::max(0, passes - 1)) * np * ring * row;
   const std::size_t n_sums = static_cast<std::size_t>(passes) * np * row;
-  const std::size_t n_last = static_cast<std::size_t>(np) * row;
-  float* base = scratch(n_ring0 + n_rings + 2 * n_sums + 2 * n_last + 3 * strip);
+  const std::size_t n_last = static_cast<std::size_t>(np) * kGroup * row;
+  const std::size_t n_outs = static_cast<std::size_t>(nplanes) * row;
+  float* base = scratch(n_ring0 + n_rings + 2 * n_sums + n_last + n_outs + 3 * strip);
   float* r0 = base;              // [np][ring0][w]
   float* rings = r0 + n_ring0;   // [passes − 1][np][ring][w]
   float* sums = rings + n_rings; // [passes][np][w]
-  float* last = sums + n_sums;   // [np][w]: the last pass's current row
+  float* last = sums + n_sums;   // [np][kGroup][w]: the last pass's latest rows (ring)
   float* outs = last + n_last;   // [nplanes][w]: the normalised row
-  float* fresh = outs + n_last;  // [passes][np][w]: next window sums being built (see strip_passes)
+  float* fresh = outs + n_outs;  // [passes][np][w]: next window sums being built (see strip_passes)
   float* cb = fresh + n_sums;    // three strip buffers of the horizontal passes
   float* sa = cb + strip;
   float* sb = sa + strip;
-  thread_local std::vector<const float*> win;
-  win.resize(2 * static_cast<std::size_t>(r) + 1);
   auto clamp_row = [&](int y) { return y < 0 ? 0 : (y >= h ? h - 1 : y); };
   auto align = [](int y) { return y - y % kResync; };
 
@@ -297,7 +370,7 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
     return rings + ((static_cast<std::size_t>(k - 1) * np + p) * ring + y % ring) * row;
   };
   auto output = [&](int k, int p, int y) -> float* {
-    if (k == passes - 1) return last + static_cast<std::size_t>(p) * row;
+    if (k == passes - 1) return last + (static_cast<std::size_t>(p) * kGroup + y % kGroup) * row;
     return rings + ((static_cast<std::size_t>(k) * np + p) * ring + y % ring) * row;
   };
 
@@ -342,7 +415,15 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
     h_done = ys + ny - 1;
   };
 
-  // Makes pass k (k = passes: the horizontal passes) produce rows up to j (clamped).
+  // Makes pass k (k = passes: the horizontal passes) produce rows up to j (clamped), at most
+  // kGroup rows per box_rows call. Each group first makes the input pass produce the rows its
+  // windows reach (i + r + 1 for its last row i).
+  thread_local std::vector<const float*> his, lows, wins;
+  thread_local std::vector<float*> outp;
+  his.resize(kGroup);
+  lows.resize(kGroup);
+  outp.resize(kGroup);
+  wins.resize(2 * static_cast<std::size_t>(r) + 1);
   auto need = [&](auto&& self, int k, int j) -> void {
     j = std::min(j, h - 1);
     if (k == passes) {
@@ -350,30 +431,34 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
       return;
     }
     while (produced[k] < j) {
-      const int i = produced[k] + 1;
-      self(self, k == 0 ? passes : k - 1, i + r + 1);
-      const int m = i % kResync;
+      const int i0 = produced[k] + 1, n = std::min(kGroup, j - i0 + 1);
+      self(self, k == 0 ? passes : k - 1, i0 + n - 1 + r + 1);
+      unsigned char flags[kGroup];
+      int resum = -1;  // the row re-summed from scratch, if any
+      for (int t = 0; t < n; ++t) {
+        const int i = i0 + t, m = i % kResync;
+        unsigned char f = 0;
+        if (m == 0) {
+          if (carry && i != first[k]) f |= kFromFresh;
+          else f |= kResum, resum = i;
+        }
+        if (carry && m >= acc_from) f |= (m == acc_from ? kZeroFresh : 0) | kAccumulate;
+        flags[t] = f;
+      }
       for (int p = 0; p < np; ++p) {
         const std::size_t sp = (static_cast<std::size_t>(k) * np + p) * row;
-        float* sum = sums + sp;
-        if (m == 0) {
-          if (carry && i != first[k]) {
-            std::copy(fresh + sp, fresh + sp + row, sum);
-          } else {
-            for (int q = -r; q <= r; ++q) win[q + r] = input(k, p, i + q);
-            sum_rows(sum, win.data(), 2 * r + 1, w);
-          }
+        for (int t = 0; t < n; ++t) {
+          const int i = i0 + t;
+          his[t] = input(k, p, i + r + 1);
+          lows[t] = input(k, p, i - r);
+          outp[t] = output(k, p, i);
         }
-        if (carry && m >= acc_from) {
-          if (m == acc_from) std::fill(fresh + sp, fresh + sp + row, 0.0f);
-          box_row_acc(sum, fresh + sp, input(k, p, i - r - 1), input(k, p, i + r + 1), input(k, p, i - r),
-                      output(k, p, i), w, alpha, norm);
-        } else {
-          box_row(sum, input(k, p, i - r - 1), input(k, p, i + r + 1), input(k, p, i - r), output(k, p, i), w,
-                  alpha, norm);
-        }
+        if (resum >= 0)
+          for (int q = -r; q <= r; ++q) wins[q + r] = input(k, p, resum + q);
+        box_rows(sums + sp, fresh + sp, input(k, p, i0 - r - 1), his.data(), lows.data(), outp.data(), flags,
+                 wins.data(), 2 * r + 1, n, w, alpha, norm);
       }
-      produced[k] = i;
+      produced[k] = i0 + n - 1;
     }
   };
 
@@ -381,28 +466,28 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   out_rows.resize(nplanes);
   raw_rows.resize(np);
   for (int p = 0; p < nplanes; ++p) out_rows[p] = outs + static_cast<std::size_t>(p) * row;
-  for (int p = 0; p < np; ++p) raw_rows[p] = last + static_cast<std::size_t>(p) * row;
   for (int y = passes > 0 ? produced[passes - 1] + 1 : y0; y < y1; ++y) {
-    const float* res_base;
     if (passes > 0) {
-      need(need, passes - 1, y);
-      res_base = last;
+      // The last pass runs a group ahead (its rows wait in `last`), up to the band's end.
+      if (produced[passes - 1] < y) need(need, passes - 1, std::min(y + kGroup - 1, y1 - 1));
+      for (int p = 0; p < np; ++p) raw_rows[p] = output(passes - 1, p, y);
     } else {
       need(need, 0, y);  // no vertical pass: the weighted rows themselves
       for (int p = 0; p < np; ++p) {
         const float* in = input(0, p, y);
-        std::copy(in, in + w, last + static_cast<std::size_t>(p) * row);
+        float* o = last + static_cast<std::size_t>(p) * row;
+        std::copy(in, in + w, o);
+        raw_rows[p] = o;
       }
-      res_base = last;
     }
     if (y < y0) continue;  // warm-up row of the band
     if (!normalise) {
       sink(ctx, y, raw_rows.data());
       continue;
     }
-    const float* wt = res_base + static_cast<std::size_t>(nplanes) * row;
+    const float* wt = raw_rows[nplanes];
     for (int p = 0; p < nplanes; ++p)
-      normalise_row(res_base + static_cast<std::size_t>(p) * row, wt, src[p] + static_cast<std::size_t>(y) * w,
+      normalise_row(raw_rows[p], wt, src[p] + static_cast<std::size_t>(y) * w,
                     outs + static_cast<std::size_t>(p) * row, w, tiny);
     sink(ctx, y, out_rows.data());
   }

@@ -32,7 +32,7 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
 /// parallel workers. Each band warms its passes up from rows above it (about
 /// passes · (r + 1) + 32 rows per pass), so the result is bit for bit that of
 /// weighted_gaussian whatever the banding. Working memory per call (kept per thread): about
-/// (passes + 1) · (2r + 19) rows of (nplanes + 1) · w floats, r ≈ sigma · sqrt(3 / passes).
+/// (passes + 1) · (2r + 23) rows of (nplanes + 1) · w floats, r ≈ sigma · sqrt(3 / passes).
 /// normalise = false: the rows are handed over before the division, rows[k] = plane k's
 /// blurred c·src (k < nplanes) and rows[nplanes] = the blurred weight, so that the consumer
 /// can divide only where it uses the result (`tiny` is then unused).

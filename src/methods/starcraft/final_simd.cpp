@@ -158,11 +158,17 @@ int LevelsRow(const float* r, float* c, int x0, int x1, float vs, float vm, floa
   for (; x + n <= x1; x += n) {
     const auto rv = hn::LoadU(d, r + x);
     const auto v = hn::Max(zero, hn::Sub(hn::Mul(rv, rv), q));
-    const auto a = hn::Div(hn::Mul(h, v), vsv);
-    const auto b = hn::Add(h, hn::Div(hn::Mul(q, hn::Sub(v, vsv)), ds));
-    const auto e = hn::Add(k75, hn::Div(hn::Mul(q, hn::Sub(v, vmv)), dl));
-    const auto out = hn::IfThenElse(hn::Le(v, vsv), a, hn::IfThenElse(hn::Le(v, vmv), b, hn::IfThenElse(hn::Le(v, vlv), e, one)));
-    hn::StoreU(out, d, c + x);
+    // Each segment is base + num / den: (0.5·v) / vs, 0.5 + (0.25·(v − vs)) / (vm − vs),
+    // 0.75 + (0.25·(v − vm)) / (vl − vm), and 1 + 0 / 1 beyond vl (0 + t = t and 1 + 0 = 1
+    // exactly). The segment's operands are selected first, so one division per pixel gives
+    // what computing all three and selecting gave, bit for bit.
+    const auto in_s = hn::Le(v, vsv), in_m = hn::Le(v, vmv), in_l = hn::Le(v, vlv);
+    const auto num = hn::IfThenElse(in_s, hn::Mul(h, v),
+                                    hn::IfThenElse(in_m, hn::Mul(q, hn::Sub(v, vsv)),
+                                                   hn::IfThenElseZero(in_l, hn::Mul(q, hn::Sub(v, vmv)))));
+    const auto den = hn::IfThenElse(in_s, vsv, hn::IfThenElse(in_m, ds, hn::IfThenElse(in_l, dl, one)));
+    const auto base = hn::IfThenElseZero(hn::Not(in_s), hn::IfThenElse(in_m, h, hn::IfThenElse(in_l, k75, one)));
+    hn::StoreU(hn::Add(base, hn::Div(num, den)), d, c + x);
   }
   return x;
 }

@@ -52,8 +52,8 @@ void flush_streams();
 /// 4i … 4i + 3 (see final.cpp). Reads v[i − 1 … i + 1]: valid for 1 <= i < lw − 1.
 int final_hlerp_simd(const float* v, float* out, int i0, int i1);
 
-/// C1 levels of one row: c[x] = LevelGeometry::level_of_radius(r[x]) (the same formulas, every
-/// branch computed and selected; measured: equal to the scalar form or 1 ulp apart);
+/// C1 levels of one row: c[x] = LevelGeometry::level_of_radius(r[x]) (the same formulas, each
+/// segment's operands selected and one division; measured: equal to the scalar form or 1 ulp apart);
 /// vs, vm, vl = r_small² − 0.25, r_medium² − 0.25, r_large² − 0.25.
 int levels_row_simd(const float* r, float* c, int x0, int x1, float vs, float vm, float vl);
 

@@ -27,6 +27,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <type_traits>
 #include <vector>
 
@@ -78,10 +79,12 @@ constexpr int kBlock = 32;  // outputs per tap-bound block
 
 /// Far gather of outputs [i0, i1) of row `row` of `dst` (planes 0-3) from the taps
 /// δ = −L … L of `taps` (2R + 1 entries pointing at output 0's sources); r_a and nearness
-/// are indexed by output from the row's start. Shared by the horizontal and vertical passes.
+/// are indexed by output from the row's start. frac: some output in [i0, i1) has a
+/// fractional nearness (else the near centres' outputs are left for the caller's box
+/// sums). Shared by the horizontal and vertical passes.
 void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_stride, std::ptrdiff_t aux_stride,
-                        int L, const float* r_a, const float* nearness, const float* table, bool occlusion, Image& dst,
-                        int row, int i0, int i1) {
+                        int L, const float* r_a, const float* nearness, bool frac, const float* table, bool occlusion,
+                        Image& dst, int row, int i0, int i1) {
   // taps[R + d] is tap δ = d for output 0 (R = (taps.size() − 1) / 2); output i0 reads i0 on.
   GatherJob job;
   job.n = i1 - i0;
@@ -92,6 +95,7 @@ void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_s
   job.aux_stride = aux_stride;
   job.r_a = r_a + i0;
   job.nearness = nearness + i0;
+  job.frac = frac;
   job.table = table;
   job.occlusion = occlusion;
   for (int c = 0; c < 4; ++c) job.out[c] = dst.row(c, row) + i0;
@@ -117,11 +121,11 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   const int P = W + 2 * R;             // padded row: x = source + R, clamped at the edges
   const int PS = P + kPrepSlack;       // padded arrays incl. slack
   const int M = (P + f - 1) / f + 64;  // phase array length (+ slack for vector over-reads)
-  // Scratch per chunk, in floats (each block rounded up to 16 floats = 64 bytes): 6 phase
+  // Scratch per chunk, in floats (each block rounded up to 16 floats = 64 bytes): 7 phase
   // planes (f·M each), 5 padded source planes, s_pad, rb_pad, reach (int), r_a, nearness;
   // then doubles: block prefix + partial sums 4·PST (PST = 2P + 4 >= 2·nb + 1), near bins 5·(wo+2).
   auto up16 = [](std::size_t n) { return (n + 15) & ~std::size_t(15); };
-  const std::size_t n_ph = up16(6 * static_cast<std::size_t>(f) * M), n_pad = up16(PS), n_wo = up16(wo + 32);
+  const std::size_t n_ph = up16(7 * static_cast<std::size_t>(f) * M), n_pad = up16(PS), n_wo = up16(wo + 32);
   const std::size_t n_lvl = up16(static_cast<std::size_t>(std::max(hbox, 0)) + 1);
   const std::size_t n_float = n_ph + 10 * n_pad + 2 * n_wo + 3 * n_lvl + n_wo;
   const std::size_t PST = 2 * static_cast<std::size_t>(P) + 4;
@@ -164,7 +168,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         const std::size_t at = static_cast<std::size_t>(q % f) * M + q / f;
         GatherTap& t = taps[R + d];
         t.col = ph + at;             // planes 0-3, stride `plane`
-        t.aux = ph + 4 * plane + at;  // planes 4-5
+        t.aux = ph + 4 * plane + at;  // planes 4-6
         t.d5 = d == 0 ? kCentreD5 : 5.0f * static_cast<float>(std::abs(d));
       }
       PrepRowJob prep;
@@ -260,7 +264,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
               L = std::min(R, m);
             }
             far_gather_outputs(taps, static_cast<std::ptrdiff_t>(plane), static_cast<std::ptrdiff_t>(plane), L, r_a,
-                               nearness, table, k.far_occlusion, t_blur, y, i0, i1);
+                               nearness, frac, table, k.far_occlusion, t_blur, y, i0, i1);
           }
           for (int i = std::max(i0, box_lo); i < std::min(i1, box_hi + 1); ++i) {
             if (nearness[i] != 1.0f) continue;
@@ -462,19 +466,22 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
   float table[16];
   load_table(k, table);
 
-  // Per t_blur row: den (0 for a near source), |r| (+ slack for vector over-reads) and the
-  // largest reach of the far sources per column block.
+  // Per t_blur row (+ slack for vector over-reads), GatherTap's aux planes: 1/den (+∞ for a
+  // near source), den (0 for a near source), |r|; and the largest reach of the far sources
+  // per column block.
   const int nblk = (W + kBlock - 1) / kBlock;
-  Image& aux = ws.image("mcguire.fast.v_aux", W + 64, H, 2);
+  Image& aux = ws.image("mcguire.fast.v_aux", W + 64, H, 3);
   Image& reach = ws.image("mcguire.fast.v_reach", nblk, H, 1);
   core::parallel_for(H, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* s = t_blur.row(4, y);
-      float* den = aux.row(0, y);
-      float* absb = aux.row(1, y);
+      float* inv = aux.row(0, y);
+      float* den = aux.row(1, y);
+      float* absb = aux.row(2, y);
       for (int i = 0; i < W; ++i) {
         const float r_b = s[i] * rmax;
         den[i] = in_near(r_b) ? 0.0f : den_of(k, r_b);  // 0: near, far weight 0 (gather.hpp)
+        inv[i] = in_near(r_b) ? std::numeric_limits<float>::infinity() : 1.0f / den[i];
         absb[i] = std::fabs(r_b);
       }
       for (int b = 0; b < nblk; ++b) {
@@ -583,7 +590,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
               L = std::min(R, static_cast<int>(m));
             }
             far_gather_outputs(taps, t_blur.row(1, 0) - t_blur.row(0, 0), aux.row(1, 0) - aux.row(0, 0), L, r_a,
-                               nearness, table, k.far_occlusion, blur, j, i0, i1);
+                               nearness, frac, table, k.far_occlusion, blur, j, i0, i1);
           }
           for (int i = i0; i < i1; ++i) {
             if (nearness[i] != 1.0f) continue;

@@ -11,12 +11,13 @@ namespace dofkit::detail::mcguire {
 /// Per tap: pointers to the first output's source values; output o reads element o. The
 /// planes of one tap lie at fixed strides (GatherJob), so a tap costs two pointer loads:
 ///   col + c·col_stride   premultiplied RGBA of tap B, c = 0..3
-///   aux                  den = 0.001 + c·|r_B| (c = 0.5 book, 0.8 demo), computed exactly as
-///                        blur_weights.hpp; 0 for a near-field B (its far weight is 0: with
-///                        d5 > 0, d5/0 = ∞ indexes the table's 0), so den != 0 is the far flag
-///   aux + aux_stride     |r_B| px (read only with the far occlusion test)
-/// d5 of the centre tap: positive so that a near source (den 0) gives ∞ → weight 0, and so
-/// small that a far source (den >= 0.001) still gives index ⌊1e-30 / den⌋ = 0, as δ = 0 does.
+///   aux                  1 / den, correctly rounded, with den = 0.001 + c·|r_B| (c = 0.5
+///                        book, 0.8 demo) computed exactly as blur_weights.hpp; +∞ for a
+///                        near-field B (its far weight is 0: d5·∞ = ∞ indexes the table's 0)
+///   aux + aux_stride     den itself (0 for a near-field B), for the exact index (below)
+///   aux + 2·aux_stride   |r_B| px (read only with the far occlusion test)
+/// d5 of the centre tap: positive so that a near source gives ∞ → weight 0, and so small
+/// that a far source (den >= 0.001) still gives index ⌊1e-30 / den⌋ = 0, as δ = 0 does.
 constexpr float kCentreD5 = 1e-30f;
 
 struct GatherTap {
@@ -35,12 +36,17 @@ struct GatherJob {
   const float* nearness = nullptr;  ///< saturate(4 r_A), n values
   const float* table = nullptr;     ///< 16 floats: the 7-entry weight table, then zeros
   bool occlusion = false;           ///< book far occlusion test: w ·= saturate(|r_A| − |r_B| + 1.5)
+  /// false: every nearness is 0 or 1, and the outputs with nearness 1 are not used (the
+  /// caller writes them from its box sums), so w = wn is summed for every lane.
+  bool frac = true;
   float* out[4] = {};               ///< blur = Σ w·col / Σ w, n values per channel
 };
 
 /// out[c][o] = Σ_t w_t,o·col_t[c][o] / Σ_t w_t,o with w = wn + (1 − wn)·nearness_o and
-/// wn = table[min(6, ⌊5|δ| / den⌋)] (× occlusion term; 0 for a near source): the formula of far_weight()
-/// for book/demo, evaluated with the same division so the table index is exact.
+/// wn = table[min(6, ⌊5|δ| / den⌋)] (× occlusion term; 0 for a near source): the formula of
+/// far_weight() for book/demo. The quotient is d5·(1/den); where that lies so close to an
+/// integer that it and the correctly rounded d5/den could floor differently, the kernel
+/// divides, so the table index is exactly far_weight()'s.
 void far_gather_simd(const GatherJob& job);
 
 /// One output row of the composite (composite.cpp's arithmetic): top/bot are two low-res
@@ -78,8 +84,9 @@ void interp_row_simd(const InterpRowJob& job);
 /// (the slack replicates the last pixel); s_pad, rb_pad, reach hold P + kPrepSlack too. Computes s exactly as pack_coc does and r_B = s·R_max, then writes
 ///   s_pad[x], rb_pad[x]                        contiguous, x < P
 ///   reach[x] = far tap ? ⌊1.2·den⌋ + 1 : 0       contiguous, x < P (int)
-///   phase planes ph[q·plane + p·M + m] for padded x = f·m + p: q = 0..3 colour, 4 den
-///   (0.001 + dc·|r_B| as far_weight(), 0 for a near source), 5 |r_B|
+///   phase planes ph[q·plane + p·M + m] for padded x = f·m + p: q = 0..3 colour, 4 1/den
+///   (+∞ for a near source), 5 den (0.001 + dc·|r_B| as far_weight(), 0 for a near
+///   source), 6 |r_B| (GatherTap's layout)
 struct PrepRowJob {
   const float* pad[5] = {};  ///< padded R, G, B, A, r
   int P = 0, f = 1;

@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <limits>
+#include <type_traits>
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "methods/mcguire/gather_simd.cpp"
@@ -20,56 +22,110 @@ namespace dofkit::detail::mcguire {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-template <bool kOcclusion>
+// The table index without a division per tap. Per source the caller stores den and
+// inv = RN(1/den). For x = d5/den (exact), q1 = RN(d5·inv) = x(1 + e) with |e| <= 2u + u²
+// (u = 2^-24), and far_weight()'s q = RN(x) = x(1 + e'), |e'| <= u. ⌊q⌋ and ⌊q1⌋ differ only
+// if an integer k lies between them, and then |q1 − k| <= |q1 − q| <= x·(3u + u²) < 1.1e-6
+// for x <= 6.0001 (larger quotients all index 6). So q1 is clamped to [0.5, 6.5] (index 0
+// below, 6 above: the clamp keeps every index) and, in a vector where some lane lies within
+// 2^-19 of an integer, q is recomputed by the division: the index is exactly the plain one.
+//
+// Index from the clamped q (16 lanes): its float bits >> 21 are the exponent and the two top
+// mantissa bits, 504 … 518 over [0.5, 6.5]: [0.5, 1) → 504-507, [1, 2) → 508-511,
+// [2, 2.5) [2.5, 3) → 512, 513, [3, 4) → 514, 515, [4, 5) → 516, [5, 6) → 517, [6, 6.5] → 518;
+// minus 504 it indexes a 16-entry table with each weight repeated over its range, one
+// shift and one subtraction instead of Floor and the bits of ⌊q⌋ + 2^23 (the rounding is
+// the longest step on the per-tap chain that bounds the kernel). Other lane counts use ⌊q⌋.
+//
+// With job.frac false the lerp by nearness is skipped (w = wn): lanes with nearness 0 get
+// w exactly as before (wn + (1 − wn)·0 = wn), the others are overwritten by the caller.
+// Two output vectors share each tap's loads of pointer and d5 where there are registers for
+// both accumulator sets (AVX-512: 32); each output's sum is in the same order as alone.
+template <bool kOcclusion, bool kFrac>
 void FarGatherT(const GatherJob& job) {
   const hn::ScalableTag<float> df;
   const hn::RebindToSigned<decltype(df)> di;
+  using VF = hn::Vec<decltype(df)>;
   const int lanes = static_cast<int>(hn::Lanes(df));
-  const auto one = hn::Set(df, 1.0f), zero = hn::Zero(df), six = hn::Set(df, 6.0f), c15 = hn::Set(df, 1.5f);
-  // ⌊q⌋ for q in [0, 6] without the range fix-ups of ConvertTo: ⌊q⌋ + 2^23 has the integer
-  // in its low mantissa bits, so subtracting the bits of 2^23 leaves it (exact).
+  constexpr bool kShiftIndex = hn::MaxLanes(decltype(df)()) == 16;
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+  constexpr int kPair = 2;
+#else
+  constexpr int kPair = 1;
+#endif
+  const auto one = hn::Set(df, 1.0f), zero = hn::Zero(df), c15 = hn::Set(df, 1.5f);
+  const auto half = hn::Set(df, 0.5f), c65 = hn::Set(df, 6.5f), eps = hn::Set(df, 1.0f / 524288.0f);  // 2^-19
   const auto magic = hn::Set(df, 8388608.0f);
-  const auto magic_bits = hn::BitCast(di, magic);
+  const auto magic_bits = hn::BitCast(di, magic), i504 = hn::Set(di, 504);
   const bool permute = lanes >= 8 && lanes <= 16;
-  const auto table = hn::LoadU(df, job.table);  // first `lanes` entries (16 are allocated)
+  alignas(64) float rep[16];
+  for (int i = 0; i < 16; ++i) rep[i] = job.table[i < 8 ? i / 4 : i < 12 ? 2 + (i - 8) / 2 : i < 15 ? i - 8 : 7];
+  const auto table = hn::LoadU(df, kShiftIndex ? rep : job.table);  // first `lanes` entries (16 are allocated)
   const int off = job.tap_offset;
   const std::ptrdiff_t cs = job.col_stride, as = job.aux_stride;
-  auto compute = [&](int o) {
-    const auto n = hn::LoadU(df, job.nearness + o);
-    const auto abs_a = hn::Abs(hn::LoadU(df, job.r_a + o));
-    auto a0 = zero, a1 = zero, a2 = zero, a3 = zero, aw = zero;
+  // Clamped quotient of one vector, exact where it matters (see above). Targets with fewer
+  // lanes divide: their divider keeps up (AVX2: a 256-bit division every ~5 cycles against
+  // ~10 for 512 bits), and the test would cost more instructions than it saves.
+  auto quotient = [&](const VF d5, const float* aux) {
+    if (!kShiftIndex) return hn::Min(hn::Max(hn::Div(d5, hn::LoadU(df, aux + as)), half), c65);
+    auto q = hn::Min(hn::Max(hn::Mul(d5, hn::LoadU(df, aux)), half), c65);
+    if (HWY_UNLIKELY(!hn::AllFalse(df, hn::Lt(hn::Abs(hn::Sub(q, hn::Round(q))), eps))))
+      q = hn::Min(hn::Max(hn::Div(d5, hn::LoadU(df, aux + as)), half), c65);
+    return q;
+  };
+  auto weight = [&](const VF q) {
+    if (kShiftIndex) {
+      const auto idx = hn::Sub(hn::ShiftRight<21>(hn::BitCast(di, q)), i504);
+      return hn::TableLookupLanes(table, hn::IndicesFromVec(df, idx));
+    }
+    const auto idx = hn::Sub(hn::BitCast(di, hn::Add(hn::Floor(q), magic)), magic_bits);
+    return permute ? hn::TableLookupLanes(table, hn::IndicesFromVec(df, idx)) : hn::GatherIndex(df, job.table, idx);
+  };
+  // kV output vectors from output o on (kV <= kPair).
+  auto compute = [&](auto vc, int o) {
+    constexpr int kV = decltype(vc)::value;
+    VF n[kV], abs_a[kV], a0[kV], a1[kV], a2[kV], a3[kV], aw[kV];
+    for (int v = 0; v < kV; ++v) {
+      if (kFrac) n[v] = hn::LoadU(df, job.nearness + o + v * lanes);
+      if (kOcclusion) abs_a[v] = hn::Abs(hn::LoadU(df, job.r_a + o + v * lanes));
+      a0[v] = a1[v] = a2[v] = a3[v] = aw[v] = zero;
+    }
     for (int t = 0; t < job.ntaps; ++t) {
       const GatherTap& tp = job.taps[t];
-      const float* col = tp.col + o + off;
-      const float* aux = tp.aux + o + off;
-      // Near sources store den = 0: q = d5/0 = ∞ → index 6 → weight 0, the far flag's job.
-      const auto q = hn::Div(hn::Set(df, tp.d5), hn::LoadU(df, aux));
-      const auto idx = hn::Sub(hn::BitCast(di, hn::Add(hn::Floor(hn::Min(q, six)), magic)), magic_bits);
-      auto wn = permute ? hn::TableLookupLanes(table, hn::IndicesFromVec(df, idx)) : hn::GatherIndex(df, job.table, idx);
-      if (kOcclusion) {
-        const auto occ = hn::Add(hn::Sub(abs_a, hn::LoadU(df, aux + as)), c15);
-        wn = hn::Mul(wn, hn::Min(hn::Max(occ, zero), one));
+      const VF d5 = hn::Set(df, tp.d5);
+      for (int v = 0; v < kV; ++v) {
+        const float* col = tp.col + o + off + v * lanes;
+        const float* aux = tp.aux + o + off + v * lanes;
+        auto w = weight(quotient(d5, aux));
+        if (kOcclusion) {
+          const auto occ = hn::Add(hn::Sub(abs_a[v], hn::LoadU(df, aux + 2 * as)), c15);
+          w = hn::Mul(w, hn::Min(hn::Max(occ, zero), one));
+        }
+        if (kFrac) w = hn::MulAdd(hn::Sub(one, w), n[v], w);
+        a0[v] = hn::MulAdd(w, hn::LoadU(df, col), a0[v]);
+        a1[v] = hn::MulAdd(w, hn::LoadU(df, col + cs), a1[v]);
+        a2[v] = hn::MulAdd(w, hn::LoadU(df, col + 2 * cs), a2[v]);
+        a3[v] = hn::MulAdd(w, hn::LoadU(df, col + 3 * cs), a3[v]);
+        aw[v] = hn::Add(aw[v], w);
       }
-      const auto w = hn::MulAdd(hn::Sub(one, wn), n, wn);
-      a0 = hn::MulAdd(w, hn::LoadU(df, col), a0);
-      a1 = hn::MulAdd(w, hn::LoadU(df, col + cs), a1);
-      a2 = hn::MulAdd(w, hn::LoadU(df, col + 2 * cs), a2);
-      a3 = hn::MulAdd(w, hn::LoadU(df, col + 3 * cs), a3);
-      aw = hn::Add(aw, w);
     }
-    hn::StoreU(hn::Div(a0, aw), df, job.out[0] + o);
-    hn::StoreU(hn::Div(a1, aw), df, job.out[1] + o);
-    hn::StoreU(hn::Div(a2, aw), df, job.out[2] + o);
-    hn::StoreU(hn::Div(a3, aw), df, job.out[3] + o);
+    for (int v = 0; v < kV; ++v) {
+      const int ov = o + v * lanes;
+      hn::StoreU(hn::Div(a0[v], aw[v]), df, job.out[0] + ov);
+      hn::StoreU(hn::Div(a1[v], aw[v]), df, job.out[1] + ov);
+      hn::StoreU(hn::Div(a2[v], aw[v]), df, job.out[2] + ov);
+      hn::StoreU(hn::Div(a3[v], aw[v]), df, job.out[3] + ov);
+    }
   };
   if (job.n >= lanes) {
     int o = 0;
-    for (; o + lanes <= job.n; o += lanes) compute(o);
+    for (; o + kPair * lanes <= job.n; o += kPair * lanes) compute(std::integral_constant<int, kPair>{}, o);
+    for (; o + lanes <= job.n; o += lanes) compute(std::integral_constant<int, 1>{}, o);
     // Tail: one more vector that ends at n (recomputes a few outputs with identical values).
-    if (o < job.n) compute(job.n - lanes);
+    if (o < job.n) compute(std::integral_constant<int, 1>{}, job.n - lanes);
     return;
   }
-  // Fewer outputs than lanes: scalar, same formula.
+  // Fewer outputs than lanes: scalar, with far_weight()'s division.
   for (int o = 0; o < job.n; ++o) {
     const float abs_a = job.r_a[o] < 0 ? -job.r_a[o] : job.r_a[o];
     float a[4] = {0, 0, 0, 0}, aw = 0;
@@ -77,13 +133,13 @@ void FarGatherT(const GatherJob& job) {
       const GatherTap& tp = job.taps[t];
       const float* col = tp.col + o + off;
       const float* aux = tp.aux + o + off;
-      const float q = tp.d5 / aux[0];
+      const float q = tp.d5 / aux[as];
       float wn = job.table[q >= 6.0f ? 6 : static_cast<int>(q)];
       if (kOcclusion) {
-        const float occ = abs_a - aux[as] + 1.5f;
+        const float occ = abs_a - aux[2 * as] + 1.5f;
         wn *= occ < 0 ? 0.0f : occ > 1 ? 1.0f : occ;
       }
-      const float w = wn + (1.0f - wn) * job.nearness[o];
+      const float w = kFrac ? wn + (1.0f - wn) * job.nearness[o] : wn;
       for (int c = 0; c < 4; ++c) a[c] += w * col[c * cs];
       aw += w;
     }
@@ -92,8 +148,13 @@ void FarGatherT(const GatherJob& job) {
 }
 
 void FarGather(const GatherJob& job) {
-  if (job.occlusion) FarGatherT<true>(job);
-  else FarGatherT<false>(job);
+  if (job.occlusion) {
+    if (job.frac) FarGatherT<true, true>(job);
+    else FarGatherT<true, false>(job);
+  } else {
+    if (job.frac) FarGatherT<false, true>(job);
+    else FarGatherT<false, false>(job);
+  }
 }
 
 void CompositeRow(const CompositeRowJob& job) {
@@ -337,16 +398,20 @@ void PrepRow(PrepRowJob& job) {
   const int f = job.f, M = job.M, mcount = (job.P + f - 1) / f;
   const std::size_t plane = static_cast<std::size_t>(f) * M;
   for (int c = 0; c < 4; ++c) SplitPhases(df, f, M, mcount, job.pad[c], job.ph + c * plane);
-  float* den_pl = job.ph + 4 * plane;
-  float* abs_pl = job.ph + 5 * plane;
+  float* inv_pl = job.ph + 4 * plane;
+  float* den_pl = job.ph + 5 * plane;
+  float* abs_pl = job.ph + 6 * plane;
   SplitPhases(df, f, M, mcount, job.rb_pad, abs_pl);  // r_B, made |r_B| below
+  const auto inf = hn::Set(df, std::numeric_limits<float>::infinity());
   for (int p = 0; p < f; ++p)
     for (int m = 0; m < mcount; m += lanes) {
       const std::size_t at = static_cast<std::size_t>(p) * M + m;
       const auto rb = hn::LoadU(df, abs_pl + at);
       const auto ab = hn::Abs(rb);
       const auto near = hn::Gt(rb, q);
-      hn::StoreU(hn::IfThenZeroElse(near, hn::Add(c0001, Opaque(hn::Mul(dc, ab)))), df, den_pl + at);
+      const auto den = hn::Add(c0001, Opaque(hn::Mul(dc, ab)));
+      hn::StoreU(hn::IfThenElse(near, inf, hn::Div(one, den)), df, inv_pl + at);
+      hn::StoreU(hn::IfThenZeroElse(near, den), df, den_pl + at);
       hn::StoreU(ab, df, abs_pl + at);
     }
 }

@@ -79,36 +79,61 @@ struct InterpRowJob {
 };
 void interp_row_simd(const InterpRowJob& job);
 
-/// Row set-up of the fast horizontal pass. Input: one padded source row (padded x = source
-/// x + R, clamped), 4 colour planes and the signed CoC r, each holding P + kPrepSlack floats
-/// (the slack replicates the last pixel); s_pad, rb_pad, reach hold P + kPrepSlack too. Computes s exactly as pack_coc does and r_B = s·R_max, then writes
-///   s_pad[x], rb_pad[x]                        contiguous, x < P
-///   reach[x] = far tap ? ⌊1.2·den⌋ + 1 : 0       contiguous, x < P (int)
-///   phase planes ph[q·plane + p·M + m] for padded x = f·m + p: q = 0..3 colour, 4 1/den
-///   (+∞ for a near source), 5 den (0.001 + dc·|r_B| as far_weight(), 0 for a near
-///   source), 6 |r_B| (GatherTap's layout)
+/// Row set-up of the fast horizontal pass, read straight from the source row (no padded
+/// copy): padded x = source x + R, clamped to the row, for x < P = W + 2R, is split by phase
+/// (x = f·m + p) into planes ph[q·plane + p·M + m] (plane = f·M), the layout the gather's
+/// taps point into:
+///   q = 0..3 colour, 4 1/den (+∞ for a near source), 5 den (0.001 + dc·|r_B| as
+///   far_weight(), 0 for a near source), 6 |r_B| (only with `abs_r`), 7 near α, 8 near box
+///   half-width h (int; 7 and 8 only with `near`, see below)
+/// with s exactly as pack_coc computes it and r_B = s·R_max. Per m (index of the f-pixel
+/// group x = f·m … f·m + f − 1): reach[m] = the largest ⌊1.2·den⌋ + 1 of the group's far
+/// sources (0 if none), and of the pixel of phase p0 (the outputs' centres): rc[m] = r_B,
+/// sc[m] = s, nc[m] = saturate(4·r_B).
+/// Rows are set up in pieces (prep_row_simd(job, m0, m1): groups m0 … m1 − 1, and up to one
+/// vector more, written again with the same values by the next piece), so a caller can use
+/// the first part of a row while it is still in L1. The pieces of a row must cover
+/// [0, prep_groups(P, f)) once each, in any order (the statistics count each group once).
 struct PrepRowJob {
-  const float* pad[5] = {};  ///< padded R, G, B, A, r
-  int P = 0, f = 1;
-  int M = 0;                 ///< phase length (>= ⌈P/f⌉ + 16)
+  const float* src[5] = {};  ///< R, G, B, A, r of the source row (W floats each)
+  int W = 0, R = 0, f = 1;
+  int M = 0;                 ///< phase length (>= ⌈P/f⌉ + 2 rounded up to whole vectors)
   float* ph = nullptr;
-  float* s_pad = nullptr;
-  float* rb_pad = nullptr;
+  int p0 = 0;
+  float* rc = nullptr;
+  float* sc = nullptr;
+  float* nc = nullptr;
   int* reach = nullptr;
   float inv_rmax = 0, rmax = 0, focus_px = 0, dc = 0.8f;
-  bool any_near = false;     ///< out: some r_B > 0 in [0, P)
-  // Near-field source data (written only if near_h != nullptr), contiguous, x < P:
-  //   near_h[x] = r_B > 0 ? min(⌊r_B⌋, hbox) : −1   (box half-width of source x)
-  //   near_a[x] = near_alpha_horizontal(k, 0, r_B) where r_B > 0 (same float operations)
-  int* near_h = nullptr;
-  float* near_a = nullptr;
+  bool abs_r = false;
+  // Near-field sources (with `near`): h = r_B > 0 ? min(⌊r_B⌋, hbox) : −1, α =
+  // near_alpha_horizontal(k, 0, r_B) where r_B > 0 (same float operations), else 0.
+  bool near = false;
   int hbox = 0;
   float inv_near = 0;
   bool alpha_code = true;  ///< saturate(4 r·inv_near)^4 (code) vs min(1, r·inv_near)^4 (prose)
-  // out (with near_h): sources with h >= 0: count, first and last x, smallest and largest h.
-  int near_count = 0, near_first = 0, near_last = -1, near_hmin = 0, near_hmax = -1;
+  // Out, summed over the calls since reset_stats() (x < P only): any r_B > 0; with `near`
+  // the count of sources with h >= 0, their smallest and largest h, and groups m before and
+  // after which there is none (finish_near_stats() turns those into x).
+  bool any_near = false;
+  int near_count = 0, near_hmin = 0, near_hmax = -1, near_first = 0, near_last = -1;
+  int first_m = -1, last_m = -1;
+  void reset_stats() {
+    any_near = false;
+    near_count = 0;
+    near_hmin = 1 << 30;
+    near_hmax = -1;
+    first_m = last_m = -1;
+    near_first = 0;
+    near_last = -1;
+  }
 };
-constexpr int kPrepSlack = 80;
+/// Groups needed for padded x < P (+ 2, for block sums that read a group past the last
+/// output's reach).
+inline int prep_groups(int P, int f) { return (P + f - 1) / f + 2; }
+/// With `near` and near_count > 0: near_first / near_last = the first and last x < P with
+/// h >= 0 (found from first_m / last_m).
+void finish_near_stats(PrepRowJob& job);
 
 /// Sliding row sum update of the fast vertical pass: dst[i] += Σ_k plus[k][i] − Σ_k minus[k][i]
 /// for i < n, in double (the float rows are exact in double, so the only rounding is that of
@@ -121,7 +146,7 @@ struct SlideRowsJob {
   const float* minus[8] = {};
 };
 void slide_rows_simd(const SlideRowsJob& job);
-void prep_row_simd(PrepRowJob& job);
+void prep_row_simd(PrepRowJob& job, int m0, int m1);
 
 /// Block sums of one padded plane for the near-centre box of the fast horizontal pass:
 /// G[j] = Σ_{t<f} v[x0 + f·j + t] and Rm[j] = Σ_{t<rem} v[x0 + f·j + t] in double, j < nb,
@@ -134,14 +159,14 @@ struct BlockSumsJob {
 };
 void block_sums_simd(const BlockSumsJob& job);
 
-/// Block sums of one near-field level of the fast horizontal pass (f = 2 or 4): for the
-/// sources x with h[x] == level, v = (a[x]·col_c[x] (float product), a[x]), and for j < nb
+/// Block sums of one near-field level of the fast horizontal pass (f = 2 or 4), read from
+/// PrepRowJob's phase planes (`ph`, `M`): for the sources x with h[x] == level,
+/// v = (α[x]·col_c[x] (float product), α[x]), and for j < nb
 ///   G[c][j] = Σ_{t<f} v_c(x0 + f·j + t),  Rm[c][j] = Σ_{t<rem} v_c(x0 + f·j + t)   (double).
 /// Reads up to x0 + f·nb (exclusive).
 struct LevelBlocksJob {
-  const float* col[4] = {};
-  const float* a = nullptr;
-  const int* h = nullptr;
+  const float* ph = nullptr;
+  int M = 0;
   int level = 0, x0 = 0, f = 4, rem = 0, nb = 0;
   double* G[5] = {};
   double* Rm[5] = {};

@@ -29,7 +29,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 #include <type_traits>
 #include <vector>
 
@@ -50,13 +49,6 @@ void load_table(const Constants& k, float* table16) {
   std::fill_n(table16, 16, 0.0f);
   std::copy_n(k.variant == Variant::book ? kGaussianTable : kDiscTable, 7, table16);
 }
-
-/// den = 0.001 + c·|r| exactly as far_weight() computes it (scalar code: no FMA contraction).
-inline float den_of(const Constants& k, float r) {
-  return 0.001f + (k.variant == Variant::book ? 0.5f : 0.8f) * std::fabs(r);
-}
-/// Largest |δ| + 1 at which a far tap of this radius can still have weight: 5|δ|/den < 6.
-inline int reach_of(float den) { return static_cast<int>(1.2f * den) + 1; }
 
 /// ⌊a / b⌋ and ⌈a / b⌉ for b > 0 and any sign of a.
 inline int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
@@ -495,22 +487,17 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
   Image& reach = ws.image("mcguire.fast.v_reach", nblk, H, 1);
   core::parallel_for(H, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
-      const float* s = t_blur.row(4, y);
-      float* inv = aux.row(0, y);
-      float* den = aux.row(1, y);
-      float* absb = aux.row(2, y);
-      for (int i = 0; i < W; ++i) {
-        const float r_b = s[i] * rmax;
-        den[i] = in_near(r_b) ? 0.0f : den_of(k, r_b);  // 0: near, far weight 0 (gather.hpp)
-        inv[i] = in_near(r_b) ? std::numeric_limits<float>::infinity() : 1.0f / den[i];
-        absb[i] = std::fabs(r_b);
-      }
-      for (int b = 0; b < nblk; ++b) {
-        int m = 0;
-        for (int i = b * kBlock; i < std::min(W, (b + 1) * kBlock); ++i)
-          if (den[i] != 0.0f) m = std::max(m, reach_of(den[i]));  // far sources only (den >= 0.001)
-        reach.row(0, y)[b] = static_cast<float>(m);
-      }
+      AuxRowJob job;
+      job.s = t_blur.row(4, y);
+      job.w = W;
+      job.block = kBlock;
+      job.rmax = rmax;
+      job.dc = k.variant == Variant::book ? 0.5f : 0.8f;
+      job.inv = aux.row(0, y);
+      job.den = aux.row(1, y);
+      job.absr = aux.row(2, y);
+      job.blk_reach = reach.row(0, y);
+      aux_row_simd(job);
     }
   }, 16);
 

@@ -135,6 +135,22 @@ inline int prep_groups(int P, int f) { return (P + f - 1) / f + 2; }
 /// h >= 0 (found from first_m / last_m).
 void finish_near_stats(PrepRowJob& job);
 
+/// Per t_blur row of the fast vertical pass, GatherTap's aux planes from s (plane 4):
+/// r = s·R_max, den = 0.001 + dc·|r| as far_weight() (0 for a near source, r > 0.25),
+/// inv = 1/den (+∞ for a near source), absr = |r|, for i < w (the three rows may be written
+/// up to one vector past w); and per block of `block` columns (a multiple of the lane
+/// count) the largest far reach ⌊1.2·den⌋ + 1 (0 if none), as a float.
+struct AuxRowJob {
+  const float* s = nullptr;
+  int w = 0, block = 32;
+  float rmax = 0, dc = 0.8f;
+  float* inv = nullptr;
+  float* den = nullptr;
+  float* absr = nullptr;
+  float* blk_reach = nullptr;
+};
+void aux_row_simd(const AuxRowJob& job);
+
 /// Sliding row sum update of the fast vertical pass: dst[i] += Σ_k plus[k][i] − Σ_k minus[k][i]
 /// for i < n, in double (the float rows are exact in double, so the only rounding is that of
 /// the double additions).

@@ -412,6 +412,40 @@ void PrepRow(PrepRowJob& job, int m0, int m1) {
   }
 }
 
+void AuxRow(const AuxRowJob& job) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const int lanes = static_cast<int>(hn::Lanes(df));
+  const auto rmax = hn::Set(df, job.rmax), c0001 = hn::Set(df, 0.001f), dc = hn::Set(df, job.dc);
+  const auto c12 = hn::Set(df, 1.2f), q = hn::Set(df, 0.25f), one = hn::Set(df, 1.0f);
+  const auto inf = hn::Set(df, std::numeric_limits<float>::infinity());
+  const auto ione = hn::Set(di, 1);
+  constexpr std::size_t kMax = hn::MaxLanes(decltype(df)());
+  alignas(64) float tail[kMax] = {};
+  for (int b0 = 0; b0 < job.w; b0 += job.block) {
+    auto mx = hn::Zero(di);
+    for (int i = b0; i < std::min(job.w, b0 + job.block); i += lanes) {
+      const int n = std::min(lanes, job.w - i);
+      const float* src = job.s + i;
+      if (n < lanes) {  // the row may end at its image's end: no load past w
+        std::copy_n(src, n, tail);
+        src = tail;
+      }
+      const auto r = hn::Mul(hn::LoadU(df, src), rmax);
+      const auto ab = hn::Abs(r);
+      const auto den = hn::Add(c0001, Opaque(hn::Mul(dc, ab)));
+      const auto near = hn::Gt(r, q);
+      hn::StoreU(hn::IfThenElse(near, inf, hn::Div(one, den)), df, job.inv + i);
+      hn::StoreU(hn::IfThenZeroElse(near, den), df, job.den + i);
+      hn::StoreU(ab, df, job.absr + i);
+      const auto far = n < lanes ? hn::AndNot(near, hn::FirstN(df, static_cast<std::size_t>(n))) : hn::Not(near);
+      const auto reach = hn::Add(hn::ConvertTo(di, hn::Mul(c12, den)), ione);
+      mx = hn::Max(mx, hn::IfThenElseZero(hn::RebindMask(di, far), reach));
+    }
+    job.blk_reach[b0 / job.block] = static_cast<float>(hn::GetLane(hn::MaxOfLanes(di, mx)));
+  }
+}
+
 void SlideRows(const SlideRowsJob& job) {
   const hn::ScalableTag<double> dd;
   const hn::Rebind<float, decltype(dd)> df;
@@ -543,6 +577,8 @@ HWY_EXPORT(CompositeRow);
 void composite_row_simd(const CompositeRowJob& job) { HWY_DYNAMIC_DISPATCH(CompositeRow)(job); }
 HWY_EXPORT(InterpRow);
 void interp_row_simd(const InterpRowJob& job) { HWY_DYNAMIC_DISPATCH(InterpRow)(job); }
+HWY_EXPORT(AuxRow);
+void aux_row_simd(const AuxRowJob& job) { HWY_DYNAMIC_DISPATCH(AuxRow)(job); }
 HWY_EXPORT(SlideRows);
 void slide_rows_simd(const SlideRowsJob& job) { HWY_DYNAMIC_DISPATCH(SlideRows)(job); }
 HWY_EXPORT(PrepRow);

@@ -64,6 +64,18 @@ Frame near_mix_frame(int w, int h) {
   return f;
 }
 
+// Near sources only in a band of rows (the rest far and in focus): P3's near sums skip
+// the columns and chunks whose rows hold no near value (near_span), next to ones that do.
+Frame near_band_frame(int w, int h) {
+  Frame f = textured_frame(w, h, depth_for(4.0, 10.0, -4.0));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (x > w / 2 && x < 3 * w / 4) f.depth.at(x, y) = 4.0f;
+      if (y > 2 * h / 3 && x > w / 5 && x < w / 3) f.depth.at(x, y) = depth_for(4.0, 10.0, 6.0 + (x % 3));
+    }
+  return f;
+}
+
 }  // namespace
 
 TEST(Mcguire, InFocusIsIdentity) {
@@ -384,6 +396,7 @@ TEST(Mcguire, FastPathMatchesPlain) {
     std::map<std::string, std::string> extra;
     int w, h;
     bool near_mix = false;  // near_mix_frame instead of mixed_frame
+    bool near_band = false;  // near_band_frame
   };
   const std::vector<Case> cases = {
       {"demo", {}, 150, 90},
@@ -422,9 +435,15 @@ TEST(Mcguire, FastPathMatchesPlain) {
       {"g3d", {{"near_radius_px", "3"}}, 150, 90},
       {"g3d", {}, 160, 60, true},
       {"g3d", {{"reduction", "3"}, {"guard_band_px", "6"}}, 131, 50, true},
+      // Near field in the bottom rows only, in a few columns (book/demo P3's near spans).
+      {"demo", {}, 160, 200, false, true},
+      {"book", {{"reduction", "3"}}, 131, 150, false, true},
+      {"demo", {{"reduction", "1"}, {"guard_band_px", "4"}}, 97, 120, false, true},
   };
   for (const Case& cs : cases) {
-    const Frame f = cs.near_mix ? near_mix_frame(cs.w, cs.h) : mixed_frame(cs.w, cs.h);
+    const Frame f = cs.near_band  ? near_band_frame(cs.w, cs.h)
+                    : cs.near_mix ? near_mix_frame(cs.w, cs.h)
+                                  : mixed_frame(cs.w, cs.h);
     RenderSettings s = settings(cs.variant);
     for (const auto& [key, v] : cs.extra) s.params[key] = v;
     s.params["impl"] = "plain";

@@ -104,16 +104,17 @@ TEST(McguirePassTiming, DISABLED_Demo1080p) {
   k.double_coc = true;
   detail::Workspace ws;
   Image tb, tn, blur, near, out(W, H, 4);
+  std::vector<int> near_span(2 * H);
   const mg::Rect src{0, 0, W, H};
   std::vector<double> t[3], cpu[3];
   core::with_threads(threads, [&] {
     for (int it = 0; it < iters; ++it) {
       const auto t0 = std::chrono::steady_clock::now();
       const double c0 = cpu_ms();
-      mg::blur_horizontal_fast(fr.color, coc, src, k, 0, W / 4, tb, tn, ws);
+      mg::blur_horizontal_fast(fr.color, coc, src, k, 0, W / 4, tb, tn, ws, nullptr, near_span.data());
       const auto t1 = std::chrono::steady_clock::now();
       const double c1 = cpu_ms();
-      mg::blur_vertical_fast(tb, tn, k, 0, H / 4, blur, near, ws);
+      mg::blur_vertical_fast(tb, tn, k, 0, H / 4, blur, near, ws, near_span.data());
       const auto t2 = std::chrono::steady_clock::now();
       const double c2 = cpu_ms();
       mg::composite_fast(fr.color, coc, src, 0, 0, blur, near, k, src, out, ws);

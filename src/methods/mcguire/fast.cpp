@@ -101,7 +101,7 @@ void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_s
 bool fast_supported(const Constants& k) { return k.variant != Variant::g3d; }
 
 void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src, const Constants& k, int ox, int wo,
-                          Image& t_blur, Image& t_near, Workspace& ws, std::atomic<bool>* colour_dirty) {
+                          Image& t_blur, Image& t_near, Workspace& ws, std::atomic<bool>* colour_dirty, int* near_span) {
   const int W = src.w, H = src.h, R = k.r_max, f = k.f;
   const float rmax = static_cast<float>(R);
   t_blur.resize(wo, H, 5);
@@ -281,6 +281,10 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         std::copy_n(sc + mc0, wo, t_blur.row(4, y));
 
         // Near field: box scatter via a difference array over the output index.
+        if (near_span != nullptr) {  // no near output yet: all +0
+          near_span[2 * y] = wo;
+          near_span[2 * y + 1] = -1;
+        }
         if (hbox < 0 || !prep.any_near) {
           for (int c = 0; c < 5; ++c) std::fill_n(t_near.row(c, y), wo, 0.0f);
           continue;
@@ -442,6 +446,10 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         {
           float* o[5];
           for (int c = 0; c < 5; ++c) o[c] = t_near.row(c, y);
+          if (near_span != nullptr && (any_scatter || any_level)) {  // outside: +0 below
+            near_span[2 * y] = any_scatter ? 0 : acc_lo;
+            near_span[2 * y + 1] = any_scatter ? wo - 1 : acc_hi;
+          }
           if (any_scatter) {
             // Five independent running sums in one loop.
             double q[5] = {0, 0, 0, 0, 0};
@@ -469,7 +477,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
 }
 
 void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constants& k, int oy, int ho, Image& blur,
-                        Image& near, Workspace& ws) {
+                        Image& near, Workspace& ws, const int* near_span) {
   const int W = t_blur.width(), H = t_blur.height(), R = k.r_max, f = k.f;
   const float rmax = static_cast<float>(R);
   blur.resize(W, ho, 4);
@@ -530,6 +538,19 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
           }
       }
       const bool chunk_box = box_c1 >= 0;
+      // Columns [near_c0, near_c1] hold every t_near value other than +0 in the rows the
+      // chunk's near sums read (P2's near_span); outside them those sums are +0 and so is
+      // the output, so they slide over these columns only (none: near output all +0).
+      int near_c0 = 0, near_c1 = hbox >= 0 ? W - 1 : -1;
+      if (near_span != nullptr && hbox >= 0) {
+        near_c0 = W;
+        near_c1 = -1;
+        for (int b = std::max(0, oy + f * j0 - hbox); b <= std::min(H - 1, oy + f * (j1 - 1) + hbox); ++b) {
+          near_c0 = std::min(near_c0, near_span[2 * b]);
+          near_c1 = std::max(near_c1, near_span[2 * b + 1]);
+        }
+      }
+      const bool chunk_near = near_c1 >= near_c0;
       const float box_w = static_cast<float>(2 * R + 1);
       for (int j = j0; j < j1; ++j) {
         const int a = oy + f * j;
@@ -550,7 +571,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
             }
           };
           if (chunk_box) init(sum_b, t_blur, 4, R, box_c0, box_c1 + 1);
-          if (hbox >= 0) init(sum_n, t_near, 5, hbox, 0, W);
+          if (chunk_near) init(sum_n, t_near, 5, hbox, near_c0, near_c1 + 1);
         } else {
           // Rows entering (prev + r, a + r] and leaving [prev − r, a − r) the window, at most
           // f of each (f <= 4 <= 8), folded into one pass over the sums.
@@ -568,7 +589,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
             }
           };
           if (chunk_box) slide(sum_b, t_blur, 4, R, box_c0, box_c1 + 1);
-          if (hbox >= 0) slide(sum_n, t_near, 5, hbox, 0, W);
+          if (chunk_near) slide(sum_n, t_near, 5, hbox, near_c0, near_c1 + 1);
         }
         // Taps of this output row: rows a + δ, clamped.
         for (int d = -R; d <= R; ++d) {
@@ -608,12 +629,14 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
         }
         for (int c = 0; c < 5; ++c) {
           float* o = near.row(c, j);
-          if (hbox < 0) {
+          if (!chunk_near) {
             std::fill_n(o, W, 0.0f);
             continue;
           }
           const double* sn = sum_n + c * static_cast<std::size_t>(W);
-          for (int i = 0; i < W; ++i) o[i] = static_cast<float>(sn[i]) * near_inv;
+          std::fill_n(o, near_c0, 0.0f);
+          for (int i = near_c0; i <= near_c1; ++i) o[i] = static_cast<float>(sn[i]) * near_inv;
+          std::fill_n(o + near_c1 + 1, W - 1 - near_c1, 0.0f);
         }
       }
     }

@@ -35,7 +35,6 @@
 #include "core/parallel.hpp"
 #include "methods/mcguire/blur_weights.hpp"
 #include "methods/mcguire/fast.hpp"
-#include "render/sanitize.hpp"
 #include "methods/mcguire/gather.hpp"
 
 namespace dofkit::detail::mcguire {
@@ -193,9 +192,9 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
       for (int y = chunk_begin(H, nchunk, chunk); y < chunk_begin(H, nchunk, chunk + 1); ++y) {
         for (int c = 0; c < 5; ++c)
           prep.src[c] = (c < 4 ? colour.row(c, src.y + y) : coc.row(0, src.y + y)) + src.x;
-        // render()'s colour check; it also brings the row into cache for the set-up.
-        if (colour_dirty && !rgba_row_is_sanitary(prep.src[0], prep.src[1], prep.src[2], prep.src[3], W))
-          colour_dirty->store(true, std::memory_order_relaxed);
+        // render()'s colour check is made by the set-up on the colour it loads.
+        prep.check_colour = colour_dirty != nullptr;
+        prep.dirty = false;
         prep.reset_stats();
         // The row is set up in pieces just ahead of the far gather's blocks, so each block
         // reads what was written a moment before (the whole row's planes, ≈ 80 KB at 1080p,
@@ -238,6 +237,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
                              nearness, kind > 1, table, k.far_occlusion, t_blur, y, i0, i1);
         }
         prep_to(ng);
+        if (prep.dirty) colour_dirty->store(true, std::memory_order_relaxed);
         finish_near_stats(prep);
         // Near-centre box (written over the gather's output for those centres): output i's
         // window is padded [ox + f·i, ox + f·i + 2R], i.e. with 2R + 1 = f·qb + rem, the q

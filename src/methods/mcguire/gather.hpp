@@ -96,6 +96,11 @@ void interp_row_simd(const InterpRowJob& job);
 /// [0, prep_groups(P, f)) once each, in any order (the statistics count each group once).
 struct PrepRowJob {
   const float* src[5] = {};  ///< R, G, B, A, r of the source row (W floats each)
+  /// render()'s colour check (render/sanitize.hpp, sample_is_sanitary) made on the colour
+  /// vectors as they are loaded, every sample of the row being in one of them: `dirty` is
+  /// set if one fails (then the outputs are meaningless).
+  bool check_colour = false;
+  bool dirty = false;
   int W = 0, R = 0, f = 1;
   int M = 0;                 ///< phase length (>= ⌈P/f⌉ + 2 rounded up to whole vectors)
   float* ph = nullptr;

@@ -7,6 +7,8 @@
 // which rounds differently from the plain pass's separate multiply and add (≈ 1 ulp per tap).
 #include "methods/mcguire/gather.hpp"
 
+#include "render/sanitize.hpp"
+
 #include <algorithm>
 #include <cstddef>
 #include <limits>
@@ -328,6 +330,8 @@ void PrepRowF(PrepRowJob& job, int m0, int m1) {
   alignas(64) float tmp[5][kMax];
   VI hmin = ibig, hmax = im1;
   bool any = false;
+  const auto min_normal = hn::Set(df, std::numeric_limits<float>::min()), max_colour = hn::Set(df, kMaxColorValue);
+  auto bad = hn::Not(hn::Eq(zero, zero));  // all false
   for (int m = m0; m < m1; m += lanes) {
     const int s0 = F * m - R;  // source x of padded x = F·m
     const float* in[5];
@@ -343,6 +347,14 @@ void PrepRowF(PrepRowJob& job, int m0, int m1) {
     for (int c = 0; c < 4; ++c) {
       LoadPhases<F>(df, in[c], v);
       for (int p = 0; p < F; ++p) hn::StoreU(v[p], df, job.ph + c * plane + static_cast<std::size_t>(p) * M + m);
+      if (job.check_colour)
+        for (int p = 0; p < F; ++p) {
+          // sample_is_sanitary: ±0, or a normal number of magnitude <= kMaxColorValue
+          // (colour) / in [FLT_MIN, 1] (alpha); NaN fails every comparison.
+          const auto x = c < 3 ? hn::Abs(v[p]) : v[p];
+          const auto ok = hn::Or(hn::Eq(v[p], zero), hn::And(hn::Ge(x, min_normal), hn::Le(x, c < 3 ? max_colour : one)));
+          bad = hn::Or(bad, hn::Not(ok));
+        }
     }
     LoadPhases<F>(df, in[4], v);
     VI reach = izero;
@@ -394,6 +406,7 @@ void PrepRowF(PrepRowJob& job, int m0, int m1) {
     hn::StoreU(reach, di, job.reach + m);
   }
   job.any_near = job.any_near || any;
+  if (job.check_colour && !hn::AllFalse(df, bad)) job.dirty = true;
   if (job.near) {
     alignas(64) int32_t lo[kMax], hi[kMax];
     hn::Store(hmin, di, lo);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <vector>
 #include <string>
@@ -12,6 +13,7 @@
 #include "core/parallel.hpp"
 #include "dofkit/render.hpp"
 #include "methods/mcguire/blur_weights.hpp"
+#include "methods/mcguire/gather.hpp"
 #include "methods/mcguire/mcguire.hpp"
 
 using namespace dofkit;
@@ -58,6 +60,18 @@ Frame near_mix_frame(int w, int h) {
       if (x >= w / 20 && x < 2 * w / 5) f.depth.at(x, y) = depth_for(4.0, 10.0, 9.0);
       if (x >= w / 2 && x < 19 * w / 20 && y < 2 * h / 3)
         f.depth.at(x, y) = depth_for(4.0, 10.0, 0.5 + static_cast<double>((x * 7 + y) % 8));
+    }
+  return f;
+}
+
+// Near sources only in a band of rows (the rest far and in focus): P3's near sums skip
+// the columns and chunks whose rows hold no near value (near_span), next to ones that do.
+Frame near_band_frame(int w, int h) {
+  Frame f = textured_frame(w, h, depth_for(4.0, 10.0, -4.0));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (x > w / 2 && x < 3 * w / 4) f.depth.at(x, y) = 4.0f;
+      if (y > 2 * h / 3 && x > w / 5 && x < w / 3) f.depth.at(x, y) = depth_for(4.0, 10.0, 6.0 + (x % 3));
     }
   return f;
 }
@@ -382,6 +396,7 @@ TEST(Mcguire, FastPathMatchesPlain) {
     std::map<std::string, std::string> extra;
     int w, h;
     bool near_mix = false;  // near_mix_frame instead of mixed_frame
+    bool near_band = false;  // near_band_frame
   };
   const std::vector<Case> cases = {
       {"demo", {}, 150, 90},
@@ -420,9 +435,15 @@ TEST(Mcguire, FastPathMatchesPlain) {
       {"g3d", {{"near_radius_px", "3"}}, 150, 90},
       {"g3d", {}, 160, 60, true},
       {"g3d", {{"reduction", "3"}, {"guard_band_px", "6"}}, 131, 50, true},
+      // Near field in the bottom rows only, in a few columns (book/demo P3's near spans).
+      {"demo", {}, 160, 200, false, true},
+      {"book", {{"reduction", "3"}}, 131, 150, false, true},
+      {"demo", {{"reduction", "1"}, {"guard_band_px", "4"}}, 97, 120, false, true},
   };
   for (const Case& cs : cases) {
-    const Frame f = cs.near_mix ? near_mix_frame(cs.w, cs.h) : mixed_frame(cs.w, cs.h);
+    const Frame f = cs.near_band  ? near_band_frame(cs.w, cs.h)
+                    : cs.near_mix ? near_mix_frame(cs.w, cs.h)
+                                  : mixed_frame(cs.w, cs.h);
     RenderSettings s = settings(cs.variant);
     for (const auto& [key, v] : cs.extra) s.params[key] = v;
     s.params["impl"] = "plain";
@@ -446,4 +467,82 @@ TEST(Mcguire, FastPathMatchesPlain) {
       else EXPECT_EQ(fast_one_thread, b.image.data()) << "case " << (&cs - cases.data());
     }
   }
+}
+
+// The far gather's table index is ⌊5|δ| / den⌋ exactly as far_weight() computes it, also
+// where the kernel's product 5|δ|·(1/den) rounds to the other side of an integer (the
+// kernel must then divide): every source's den is placed within a few ulps of 5|δ_j| / k
+// for one tap distance δ_j and one step k of the table, on both sides, and the result is
+// compared with a scalar sum over the same indices. Also the pair, single-vector and tail
+// paths of the kernel (37 outputs) and den = 0 (near sources, weight 0).
+TEST(Mcguire, FarGatherIndexExactAtIntegerQuotients) {
+  const int n = 37, L = 9, ntaps = 2 * L + 1, ns = n + 2 * L + 64;
+  std::vector<float> col(4 * static_cast<std::size_t>(ns)), aux(3 * static_cast<std::size_t>(ns));
+  float* inv = aux.data();
+  float* den = inv + ns;
+  float* absr = den + ns;
+  int product_differs = 0;  // (output, tap) pairs where d5·(1/den) floors differently
+  for (int j = 0; j < ns; ++j) {
+    for (int c = 0; c < 4; ++c) col[c * ns + j] = 0.1f + 0.8f * static_cast<float>((j * 37 + c * 11) % 23) / 23.0f;
+    if (j % 11 == 5) {  // near source
+      den[j] = 0.0f;
+      inv[j] = std::numeric_limits<float>::infinity();
+      continue;
+    }
+    // Within 4 ulps of 5d / k, for the first tap distance d and step k (from ones that
+    // depend on j) that has one, a den whose product floors differently.
+    float v = 1.0f + 0.37f * static_cast<float>(j % 13);
+    bool found = false;
+    for (int e = 0; e < L * 5 && !found; ++e) {
+      const int d = 1 + (j + e) % L, k = 2 + (j + e / L) % 5;
+      const float d5 = 5.0f * static_cast<float>(d);
+      float lo = d5 / static_cast<float>(k), hi = lo;
+      for (int u = 0; u < 4 && !found; ++u) {
+        for (float x : {lo, hi})
+          if (!found && std::floor(d5 * (1.0f / x)) != std::floor(d5 / x)) {
+            v = x;
+            found = true;
+          }
+        lo = std::nextafter(lo, 0.0f);
+        hi = std::nextafter(hi, 100.0f);
+      }
+    }
+    den[j] = v;
+    inv[j] = 1.0f / v;
+    absr[j] = (v - 0.001f) / 0.8f;
+  }
+  std::vector<mg::GatherTap> taps(ntaps);
+  for (int t = 0; t < ntaps; ++t) {
+    const int d = t - L;
+    taps[t] = {col.data() + t, inv + t, d == 0 ? mg::kCentreD5 : 5.0f * static_cast<float>(std::abs(d))};
+  }
+  std::vector<float> r_a(n, -3.0f), nearness(n, 0.0f), out(4 * n);
+  float table[16] = {};
+  std::copy_n(mg::kDiscTable, 7, table);
+  mg::GatherJob job;
+  job.n = n;
+  job.ntaps = ntaps;
+  job.taps = taps.data();
+  job.col_stride = ns;
+  job.aux_stride = ns;
+  job.r_a = r_a.data();
+  job.nearness = nearness.data();
+  job.table = table;
+  job.frac = false;
+  for (int c = 0; c < 4; ++c) job.out[c] = out.data() + c * n;
+  mg::far_gather_simd(job);
+  for (int o = 0; o < n; ++o) {
+    double a[4] = {0, 0, 0, 0}, aw = 0;
+    for (int t = 0; t < ntaps; ++t) {
+      const int j = o + t;
+      const float q = taps[t].d5 / den[j];
+      const float w = table[q >= 6.0f ? 6 : static_cast<int>(q)];
+      const float p = taps[t].d5 * inv[j];
+      product_differs += std::min(6.0f, std::floor(p)) != std::min(6.0f, std::floor(q));
+      for (int c = 0; c < 4; ++c) a[c] += static_cast<double>(w) * col[c * ns + j];
+      aw += w;
+    }
+    for (int c = 0; c < 4; ++c) EXPECT_NEAR(out[c * n + o], a[c] / aw, 1e-5) << "output " << o << " channel " << c;
+  }
+  EXPECT_GT(product_differs, 20);  // the test reaches the divisions it is about
 }

@@ -4,7 +4,9 @@
 // docs/performance_mcguire.md splits. Run with
 //   test_mcguire --gtest_also_run_disabled_tests --gtest_filter=*PassTiming*
 // (MCGUIRE_TIMING_ITERS, default 12; MCGUIRE_TIMING_THREADS, default 1). It also prints a
-// checksum of the composite output (bit-identity checks between builds). Under
+// checksum of the composite output (bit-identity checks between builds) and, per pass, the
+// process CPU time beside the wall time (on a shared machine the CPU time of a one-thread
+// run is the steadier figure). Under
 // `valgrind --tool=callgrind` it gives the per-pass instruction counts quoted in the note.
 #include <gtest/gtest.h>
 
@@ -15,6 +17,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <initializer_list>
 #include <vector>
 
@@ -56,10 +59,19 @@ struct BenchSetup {
   }
 };
 
+/// Process CPU time in ms. On the shared machine the wall time of a pass also counts the
+/// time other processes hold the core; the CPU time of a one-thread run does not.
+double cpu_ms() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
 /// Prints an FNV-1a checksum of the output's bits (changes that should keep the arithmetic
 /// can be checked for bit-identical output between builds) and each pass's median and
-/// minimum time.
-void report(const Image& out, std::vector<double>* t, std::initializer_list<const char*> names, const char* note) {
+/// minimum time, wall (t) and process CPU (cpu).
+void report(const Image& out, std::vector<double>* t, std::vector<double>* cpu, std::initializer_list<const char*> names,
+            const char* note) {
   std::uint64_t fnv = 1469598103934665603ull;
   for (float v : out.data()) {
     std::uint32_t b;
@@ -69,9 +81,12 @@ void report(const Image& out, std::vector<double>* t, std::initializer_list<cons
   std::printf("output checksum %016llx\n", static_cast<unsigned long long>(fnv));
   int i = 0;
   for (const char* name : names) {
-    std::vector<double>& v = t[i++];
+    std::vector<double>& v = t[i];
+    std::vector<double>& c = cpu[i++];
     std::sort(v.begin(), v.end());
-    std::printf("%-14s median %8.2f ms  min %8.2f ms  (%s)\n", name, v[v.size() / 2], v[0], note);
+    std::sort(c.begin(), c.end());
+    std::printf("%-14s median %8.2f ms  min %8.2f ms  cpu median %8.2f ms  (%s)\n", name, v[v.size() / 2], v[0],
+                c[c.size() / 2], note);
   }
 }
 
@@ -89,26 +104,34 @@ TEST(McguirePassTiming, DISABLED_Demo1080p) {
   k.double_coc = true;
   detail::Workspace ws;
   Image tb, tn, blur, near, out(W, H, 4);
+  std::vector<int> near_span(2 * H);
   const mg::Rect src{0, 0, W, H};
-  std::vector<double> t[3];
+  std::vector<double> t[3], cpu[3];
   core::with_threads(threads, [&] {
     for (int it = 0; it < iters; ++it) {
       const auto t0 = std::chrono::steady_clock::now();
-      mg::blur_horizontal_fast(fr.color, coc, src, k, 0, W / 4, tb, tn, ws);
+      const double c0 = cpu_ms();
+      mg::blur_horizontal_fast(fr.color, coc, src, k, 0, W / 4, tb, tn, ws, nullptr, near_span.data());
       const auto t1 = std::chrono::steady_clock::now();
-      mg::blur_vertical_fast(tb, tn, k, 0, H / 4, blur, near, ws);
+      const double c1 = cpu_ms();
+      mg::blur_vertical_fast(tb, tn, k, 0, H / 4, blur, near, ws, near_span.data());
       const auto t2 = std::chrono::steady_clock::now();
+      const double c2 = cpu_ms();
       mg::composite_fast(fr.color, coc, src, 0, 0, blur, near, k, src, out, ws);
       const auto t3 = std::chrono::steady_clock::now();
+      const double c3 = cpu_ms();
       if (it == 0 && iters > 1) continue;  // first frame allocates the workspace
       t[0].push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
       t[1].push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
       t[2].push_back(std::chrono::duration<double, std::milli>(t3 - t2).count());
+      cpu[0].push_back(c1 - c0);
+      cpu[1].push_back(c2 - c1);
+      cpu[2].push_back(c3 - c2);
     }
   });
   char note[64];
   std::snprintf(note, sizeof note, "%d threads, R_max %d", threads, k.r_max);
-  report(out, t, {"P2 horizontal", "P3 vertical", "P4 composite"}, note);
+  report(out, t, cpu, {"P2 horizontal", "P3 vertical", "P4 composite"}, note);
 }
 
 // The same harness for variant=g3d (whose P2/P3 are blur.cpp's blur_horizontal /
@@ -131,29 +154,35 @@ TEST(McguirePassTiming, DISABLED_G3d1080p) {
   detail::Workspace ws;
   Image packed, tb, tn, blur, near, out(W, H, 4);
   const mg::Rect src{0, 0, W, H};
-  std::vector<double> t[4];
+  std::vector<double> t[4], cpu[4];
   core::with_threads(threads, [&] {
     for (int it = 0; it < iters; ++it) {
-      const auto t0 = std::chrono::steady_clock::now();
+      std::chrono::steady_clock::time_point tw[5];
+      double tc[5];
+      auto mark = [&](int i) {
+        tw[i] = std::chrono::steady_clock::now();
+        tc[i] = cpu_ms();
+      };
+      mark(0);
       mg::pack_coc(fr.color, coc, src, k, packed);
-      const auto t1 = std::chrono::steady_clock::now();
+      mark(1);
       if (plain) mg::blur_horizontal_plain(packed, k, 0, W / 2, tb, tn);
       else mg::blur_horizontal(packed, k, 0, W / 2, tb, tn);
-      const auto t2 = std::chrono::steady_clock::now();
+      mark(2);
       if (plain) mg::blur_vertical_plain(tb, tn, k, 0, H / 2, blur, near);
       else mg::blur_vertical(tb, tn, k, 0, H / 2, blur, near);
-      const auto t3 = std::chrono::steady_clock::now();
+      mark(3);
       mg::composite_fast(fr.color, coc, src, 0, 0, blur, near, k, src, out, ws);
-      const auto t4 = std::chrono::steady_clock::now();
+      mark(4);
       if (it == 0 && iters > 1) continue;  // first frame allocates
-      t[0].push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-      t[1].push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
-      t[2].push_back(std::chrono::duration<double, std::milli>(t3 - t2).count());
-      t[3].push_back(std::chrono::duration<double, std::milli>(t4 - t3).count());
+      for (int i = 0; i < 4; ++i) {
+        t[i].push_back(std::chrono::duration<double, std::milli>(tw[i + 1] - tw[i]).count());
+        cpu[i].push_back(tc[i + 1] - tc[i]);
+      }
     }
   });
   char note[96];
   std::snprintf(note, sizeof note, "%d threads, R_max %d, R_near %.0f, %s", threads, k.r_max, k.r_near,
                 plain ? "plain" : "fast");
-  report(out, t, {"P1 pack", "P2 horizontal", "P3 vertical", "P4 composite"}, note);
+  report(out, t, cpu, {"P1 pack", "P2 horizontal", "P3 vertical", "P4 composite"}, note);
 }

@@ -5,8 +5,10 @@
 // * Far/focus blur, far centre (nearness 0): w = table[⌊5|δ| / den_B⌋] is exactly 0 once
 //   |δ| >= 1.2·den_B, so the taps stop at the largest such reach over the outputs' window
 //   (per block of outputs); the remaining taps run in SIMD across adjacent outputs
-//   (far_gather_simd). Horizontal: the padded row is split into f phases, so the taps of f-
-//   strided outputs are contiguous. Vertical: taps are rows, outputs are contiguous columns.
+//   (far_gather_simd). Horizontal: the (virtually) padded row is read from the source row
+//   straight into f phase planes, so the taps of f-strided outputs are contiguous; a row is
+//   set up piece by piece just ahead of the blocks that read it. Vertical: taps are rows,
+//   outputs are contiguous columns.
 // * Far/focus blur, near centre (nearness 1): every tap has w = wn + (1 − wn) = 1, so the
 //   result is the mean of the 2R+1 taps: a box, read from double prefix sums (horizontal) or
 //   double sliding row sums (vertical) in O(1) per output.
@@ -33,7 +35,6 @@
 #include "core/parallel.hpp"
 #include "methods/mcguire/blur_weights.hpp"
 #include "methods/mcguire/fast.hpp"
-#include "render/sanitize.hpp"
 #include "methods/mcguire/gather.hpp"
 
 namespace dofkit::detail::mcguire {
@@ -47,13 +48,6 @@ void load_table(const Constants& k, float* table16) {
   std::fill_n(table16, 16, 0.0f);
   std::copy_n(k.variant == Variant::book ? kGaussianTable : kDiscTable, 7, table16);
 }
-
-/// den = 0.001 + c·|r| exactly as far_weight() computes it (scalar code: no FMA contraction).
-inline float den_of(const Constants& k, float r) {
-  return 0.001f + (k.variant == Variant::book ? 0.5f : 0.8f) * std::fabs(r);
-}
-/// Largest |δ| + 1 at which a far tap of this radius can still have weight: 5|δ|/den < 6.
-inline int reach_of(float den) { return static_cast<int>(1.2f * den) + 1; }
 
 /// ⌊a / b⌋ and ⌈a / b⌉ for b > 0 and any sign of a.
 inline int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
@@ -78,10 +72,12 @@ constexpr int kBlock = 32;  // outputs per tap-bound block
 
 /// Far gather of outputs [i0, i1) of row `row` of `dst` (planes 0-3) from the taps
 /// δ = −L … L of `taps` (2R + 1 entries pointing at output 0's sources); r_a and nearness
-/// are indexed by output from the row's start. Shared by the horizontal and vertical passes.
+/// are indexed by output from the row's start. frac: some output in [i0, i1) has a
+/// fractional nearness (else the near centres' outputs are left for the caller's box
+/// sums). Shared by the horizontal and vertical passes.
 void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_stride, std::ptrdiff_t aux_stride,
-                        int L, const float* r_a, const float* nearness, const float* table, bool occlusion, Image& dst,
-                        int row, int i0, int i1) {
+                        int L, const float* r_a, const float* nearness, bool frac, const float* table, bool occlusion,
+                        Image& dst, int row, int i0, int i1) {
   // taps[R + d] is tap δ = d for output 0 (R = (taps.size() − 1) / 2); output i0 reads i0 on.
   GatherJob job;
   job.n = i1 - i0;
@@ -92,6 +88,7 @@ void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_s
   job.aux_stride = aux_stride;
   job.r_a = r_a + i0;
   job.nearness = nearness + i0;
+  job.frac = frac;
   job.table = table;
   job.occlusion = occlusion;
   for (int c = 0; c < 4; ++c) job.out[c] = dst.row(c, row) + i0;
@@ -103,7 +100,7 @@ void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_s
 bool fast_supported(const Constants& k) { return k.variant != Variant::g3d; }
 
 void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src, const Constants& k, int ox, int wo,
-                          Image& t_blur, Image& t_near, Workspace& ws, std::atomic<bool>* colour_dirty) {
+                          Image& t_blur, Image& t_near, Workspace& ws, std::atomic<bool>* colour_dirty, int* near_span) {
   const int W = src.w, H = src.h, R = k.r_max, f = k.f;
   const float rmax = static_cast<float>(R);
   t_blur.resize(wo, H, 5);
@@ -114,16 +111,17 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   float table[16];
   load_table(k, table);
 
-  const int P = W + 2 * R;             // padded row: x = source + R, clamped at the edges
-  const int PS = P + kPrepSlack;       // padded arrays incl. slack
-  const int M = (P + f - 1) / f + 64;  // phase array length (+ slack for vector over-reads)
-  // Scratch per chunk, in floats (each block rounded up to 16 floats = 64 bytes): 6 phase
-  // planes (f·M each), 5 padded source planes, s_pad, rb_pad, reach (int), r_a, nearness;
-  // then doubles: block prefix + partial sums 4·PST (PST = 2P + 4 >= 2·nb + 1), near bins 5·(wo+2).
+  const int P = W + 2 * R;          // padded row: x = source + R, clamped at the edges
+  const int ng = prep_groups(P, f);  // f-pixel groups x = f·m … f·m + f − 1 the set-up writes
+  const int M = ng + 64;             // phase array length (+ the set-up's last vector)
+  // Scratch per chunk, in floats (each block rounded up to 16 floats = 64 bytes): the row
+  // set-up's 9 phase planes (f·M each, PrepRowJob) and its per-group arrays rc, sc, nc,
+  // reach (M each), lvl_n/lo/hi; then doubles: block prefix + partial sums 4·PST
+  // (PST = 2P + 4 >= 2·nb + 1), near bins 5·(wo+2), level sums, level accumulators 5·wo.
   auto up16 = [](std::size_t n) { return (n + 15) & ~std::size_t(15); };
-  const std::size_t n_ph = up16(6 * static_cast<std::size_t>(f) * M), n_pad = up16(PS), n_wo = up16(wo + 32);
+  const std::size_t n_ph = up16(9 * static_cast<std::size_t>(f) * M), n_m = up16(M);
   const std::size_t n_lvl = up16(static_cast<std::size_t>(std::max(hbox, 0)) + 1);
-  const std::size_t n_float = n_ph + 10 * n_pad + 2 * n_wo + 3 * n_lvl + n_wo;
+  const std::size_t n_float = n_ph + 4 * n_m + 3 * n_lvl;
   const std::size_t PST = 2 * static_cast<std::size_t>(P) + 4;
   const std::size_t n_double =
       4 * PST + 5 * static_cast<std::size_t>(wo + 2) +
@@ -132,6 +130,9 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   const int nchunk = std::min(H, 64);
   Image& scratch = ws.image("mcguire.fast.h_scratch", static_cast<int>(per_chunk), nchunk, 1);
   const float inv_rmax = R > 0 ? 1.0f / rmax : 0.0f;
+  const std::size_t plane = static_cast<std::size_t>(f) * M;
+  const int cx0 = ox + R;             // padded x of output 0's centre
+  const int p0 = cx0 % f, mc0 = cx0 / f;  // its phase and group: output i is group mc0 + i
 
   core::parallel_for(nchunk, [&](int c0, int c1) {
     std::vector<GatherTap> taps(2 * R + 1);
@@ -139,95 +140,115 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
       float* base = reinterpret_cast<float*>((reinterpret_cast<std::uintptr_t>(scratch.row(0, chunk)) + 63) &
                                              ~std::uintptr_t(63));
       float* ph = base;  // phase planes: q·(f·M) + p·M + m
-      const std::size_t plane = static_cast<std::size_t>(f) * M;
-      float* pad[5];
-      for (int c = 0; c < 5; ++c) pad[c] = base + n_ph + c * n_pad;
-      float* s_pad = base + n_ph + 5 * n_pad;
-      float* rb_pad = s_pad + n_pad;
-      int* reach = reinterpret_cast<int*>(rb_pad + n_pad);
-      float* r_a = rb_pad + 2 * n_pad;
-      float* nearness = r_a + n_wo;
-      int* near_h = reinterpret_cast<int*>(nearness + n_wo);  // P (+ slack)
-      float* near_a = nearness + n_wo + n_pad;                  // P (+ slack)
-      int* lvl_n = reinterpret_cast<int*>(near_a + n_pad);      // per box half-width h <= hbox:
-      int* lvl_lo = lvl_n + n_lvl;                              //   source count, first and
-      int* lvl_hi = lvl_lo + n_lvl;                             //   last padded x
-      int* blk_kind = lvl_hi + n_lvl;                           // per output block (n_wo / 32)
-      double* prefix = reinterpret_cast<double*>(blk_kind + n_wo);  // 4 × PST
+      float* rc = base + n_ph;
+      float* sc = rc + n_m;
+      float* nc = sc + n_m;
+      int* greach = reinterpret_cast<int*>(nc + n_m);
+      int* lvl_n = greach + n_m;  // per box half-width h <= hbox: source count, first and
+      int* lvl_lo = lvl_n + n_lvl;  // last padded x
+      int* lvl_hi = lvl_lo + n_lvl;
+      double* prefix = reinterpret_cast<double*>(lvl_hi + n_lvl);  // 4 × PST
       double* bins = prefix + 4 * PST;                             // 5 × (wo+2)
       double* lsum = bins + 5 * static_cast<std::size_t>(wo + 2);  // 5 × (P+1)
       double* acc = lsum + std::max(5 * static_cast<std::size_t>(P + 1), 10 * static_cast<std::size_t>(wo + R + 3));  // 5 × wo
+      const float* const r_a = rc + mc0;  // per output: centre r_B and nearness
+      const float* const nearness = nc + mc0;
+      const int32_t* const nh = reinterpret_cast<const int32_t*>(ph + 8 * plane);  // near h, α by phase
+      const float* const na = ph + 7 * plane;
+      auto at = [&](int x) { return static_cast<std::size_t>(x % f) * M + x / f; };  // padded x in a plane
 
       // Taps of output 0 (padded x ox + R + δ), the same for every row of the chunk.
       for (int d = -R; d <= R; ++d) {
         const int q = ox + R + d;
-        const std::size_t at = static_cast<std::size_t>(q % f) * M + q / f;
+        const std::size_t xq = at(q);
         GatherTap& t = taps[R + d];
-        t.col = ph + at;             // planes 0-3, stride `plane`
-        t.aux = ph + 4 * plane + at;  // planes 4-5
+        t.col = ph + xq;              // planes 0-3, stride `plane`
+        t.aux = ph + 4 * plane + xq;  // planes 4-6
         t.d5 = d == 0 ? kCentreD5 : 5.0f * static_cast<float>(std::abs(d));
       }
       PrepRowJob prep;
-      for (int c = 0; c < 5; ++c) prep.pad[c] = pad[c];
-      prep.P = P;
+      prep.W = W;
+      prep.R = R;
       prep.f = f;
       prep.M = M;
       prep.ph = ph;
-      prep.s_pad = s_pad;
-      prep.rb_pad = rb_pad;
-      prep.reach = reach;
+      prep.p0 = p0;
+      prep.rc = rc;
+      prep.sc = sc;
+      prep.nc = nc;
+      prep.reach = greach;
       prep.inv_rmax = inv_rmax;
       prep.rmax = rmax;
       prep.focus_px = k.focus_px;
       prep.dc = k.variant == Variant::book ? 0.5f : 0.8f;
+      prep.abs_r = k.far_occlusion;
       if (hbox >= 0) {
-        prep.near_h = near_h;
-        prep.near_a = near_a;
+        prep.near = true;
         prep.hbox = hbox;
         prep.inv_near = k.inv_near;
         prep.alpha_code = k.near_alpha_code;
       }
 
       for (int y = chunk_begin(H, nchunk, chunk); y < chunk_begin(H, nchunk, chunk + 1); ++y) {
-        // Padded source row: R copies of the first pixel, the row, R + slack copies of the last.
-        for (int c = 0; c < 5; ++c) {
-          const float* row = c < 4 ? colour.row(c, src.y + y) + src.x : coc.row(0, src.y + y) + src.x;
-          std::fill_n(pad[c], R, row[0]);
-          std::copy_n(row, W, pad[c] + R);
-          std::fill_n(pad[c] + R + W, R + kPrepSlack, row[W - 1]);
-        }
-        // render()'s colour check, made on the copies while they are in cache.
-        if (colour_dirty && !rgba_row_is_sanitary(pad[0] + R, pad[1] + R, pad[2] + R, pad[3] + R, W))
-          colour_dirty->store(true, std::memory_order_relaxed);
-        prep_row_simd(prep);
-        const float* const* col = pad;
-        const int cx0 = ox + R;  // padded x of output 0's centre
-        const bool any_near_src = prep.any_near;
+        for (int c = 0; c < 5; ++c)
+          prep.src[c] = (c < 4 ? colour.row(c, src.y + y) : coc.row(0, src.y + y)) + src.x;
+        // render()'s colour check is made by the set-up on the colour it loads.
+        prep.check_colour = colour_dirty != nullptr;
+        prep.dirty = false;
+        prep.reset_stats();
+        // The row is set up in pieces just ahead of the far gather's blocks, so each block
+        // reads what was written a moment before (the whole row's planes, ≈ 80 KB at 1080p,
+        // do not fit in L1, and read after a whole-row set-up most taps came from L2).
+        int done = 0;  // groups [0, done) are set up
+        auto prep_to = [&](int g) {
+          g = std::min(g, ng);
+          if (g > done) prep_row_simd(prep, done, g);
+          done = std::max(done, g);
+        };
         int box_lo = wo, box_hi = -1;  // first and last output with a near centre
-        // Per block of kBlock outputs: bit 0 = some far/fractional centre (gather needed),
-        // bit 1 = some fractional nearness (no tap bound).
-        std::fill_n(blk_kind, (wo + kBlock - 1) / kBlock, 0);
-        for (int i = 0; i < wo; ++i) {
-          r_a[i] = rb_pad[cx0 + f * i];
-          const float n = saturate(4.0f * r_a[i]);
-          nearness[i] = n;
-          if (n == 1.0f) {
-            box_lo = std::min(box_lo, i);
-            box_hi = i;
-          } else {
-            blk_kind[i / kBlock] |= n > 0.0f ? 3 : 1;
+        for (int i0 = 0; i0 < wo; i0 += kBlock) {
+          const int i1 = std::min(wo, i0 + kBlock);
+          // The block's taps read padded x in [ox + f·i0, ox + f·(i1 − 1) + 2R].
+          const int g_lo = (ox + f * i0) / f, g_hi = (ox + f * (i1 - 1) + 2 * R) / f;
+          prep_to(g_hi + 1);
+          // kind: bit 0 = some far/fractional centre (gather needed), bit 1 = some
+          // fractional nearness (no tap bound).
+          int kind = 0;
+          for (int i = i0; i < i1; ++i) {
+            const float n = nearness[i];
+            if (n == 1.0f) {
+              box_lo = std::min(box_lo, i);
+              box_hi = i;
+            } else {
+              kind |= n > 0.0f ? 3 : 1;
+            }
           }
+          if (kind == 0) continue;
+          // Tap bound: the largest reach over the groups that hold the window (a superset
+          // of it by < f pixels each side; taps past every source's reach add exact zeros
+          // to the far centres' sums, so a larger bound gives the same bits).
+          int L = R;
+          if (kind == 1) {
+            int m = 0;
+            for (int g = g_lo; g <= g_hi; ++g) m = std::max(m, greach[g]);
+            L = std::min(R, m);
+          }
+          far_gather_outputs(taps, static_cast<std::ptrdiff_t>(plane), static_cast<std::ptrdiff_t>(plane), L, r_a,
+                             nearness, kind > 1, table, k.far_occlusion, t_blur, y, i0, i1);
         }
-        const bool any_box = box_hi >= 0;
-        // Near-centre box: output i's window is padded [ox + f·i, ox + f·i + 2R], i.e. with
-        // 2R + 1 = f·qb + rem, the q whole f-blocks j = i .. i + qb − 1 of the grid starting at
-        // ox plus the first rem pixels of block i + qb. So W(i) = PG[i + qb] − PG[i] +
-        // Rm(i + qb) with G(j) the block sums, PG their prefix sums and Rm(j) the partial
-        // block sums (all double): a running sum over ≈ P/f blocks instead of P pixels.
-        // Only the blocks j in [box_lo, box_hi + qb] are read (PG from box_lo on, relative to
-        // PG[box_lo] = 0: the differences are what counts).
+        prep_to(ng);
+        if (prep.dirty) colour_dirty->store(true, std::memory_order_relaxed);
+        finish_near_stats(prep);
+        // Near-centre box (written over the gather's output for those centres): output i's
+        // window is padded [ox + f·i, ox + f·i + 2R], i.e. with 2R + 1 = f·qb + rem, the q
+        // whole f-blocks j = i .. i + qb − 1 of the grid starting at ox plus the first rem
+        // pixels of block i + qb. So W(i) = PG[i + qb] − PG[i] + Rm(i + qb) with G(j) the
+        // block sums, PG their prefix sums and Rm(j) the partial block sums (all double): a
+        // running sum over ≈ P/f blocks instead of P pixels. Only the blocks j in
+        // [box_lo, box_hi + qb] are read (PG from box_lo on, relative to PG[box_lo] = 0: the
+        // differences are what counts).
         const int qb = (2 * R + 1) / f, rem = (2 * R + 1) % f, nb = wo + qb;
-        if (any_box) {
+        if (box_hi >= 0) {
           const int j0 = box_lo, nj = box_hi - box_lo + qb + 1;
           double* pg[4];
           for (int c = 0; c < 4; ++c) {
@@ -247,22 +268,8 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             pg[c] = PG + j0;
           }
           running_sums(pg, nj);
-        }
-        const float box_w = static_cast<float>(2 * R + 1);  // the plain pass's Σw (every w = 1)
-        for (int i0 = 0; i0 < wo; i0 += kBlock) {
-          const int i1 = std::min(wo, i0 + kBlock);
-          const bool gather = blk_kind[i0 / kBlock] != 0, frac = blk_kind[i0 / kBlock] > 1;
-          if (gather) {
-            int L = R;
-            if (!frac) {
-              int m = 0;
-              for (int x = ox + f * i0; x <= ox + f * (i1 - 1) + 2 * R; ++x) m = std::max(m, reach[x]);
-              L = std::min(R, m);
-            }
-            far_gather_outputs(taps, static_cast<std::ptrdiff_t>(plane), static_cast<std::ptrdiff_t>(plane), L, r_a,
-                               nearness, table, k.far_occlusion, t_blur, y, i0, i1);
-          }
-          for (int i = std::max(i0, box_lo); i < std::min(i1, box_hi + 1); ++i) {
+          const float box_w = static_cast<float>(2 * R + 1);  // the plain pass's Σw (every w = 1)
+          for (int i = box_lo; i <= box_hi; ++i) {
             if (nearness[i] != 1.0f) continue;
             for (int c = 0; c < 4; ++c) {
               const double* PG = prefix + c * PST;
@@ -271,10 +278,14 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             }
           }
         }
-        for (int i = 0; i < wo; ++i) t_blur.row(4, y)[i] = s_pad[cx0 + f * i];
+        std::copy_n(sc + mc0, wo, t_blur.row(4, y));
 
         // Near field: box scatter via a difference array over the output index.
-        if (hbox < 0 || !any_near_src) {
+        if (near_span != nullptr) {  // no near output yet: all +0
+          near_span[2 * y] = wo;
+          near_span[2 * y + 1] = -1;
+        }
+        if (hbox < 0 || !prep.any_near) {
           for (int c = 0; c < 5; ++c) std::fill_n(t_near.row(c, y), wo, 0.0f);
           continue;
         }
@@ -290,18 +301,28 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
           lvl_lo[prep.near_hmin] = prep.near_first;
           lvl_hi[prep.near_hmin] = prep.near_last;
         } else {
-          // By runs of equal half-width (neighbouring sources mostly share one): a counter
-          // bumped per source would wait on its own store every step.
-          for (int x = prep.near_first; x <= prep.near_last;) {
-            const int h = near_h[x];
-            int e = x + 1;
-            while (e <= prep.near_last && near_h[e] == h) ++e;
-            if (h >= 0) {
-              if (lvl_n[h] == 0) lvl_lo[h] = x;
-              lvl_n[h] += e - x;
-              lvl_hi[h] = e - 1;
+          // By runs of equal half-width along each phase plane (neighbouring sources mostly
+          // share one): a counter bumped per source would wait on its own store every step.
+          for (int p = 0; p < f; ++p) {
+            const int32_t* hp = nh + static_cast<std::size_t>(p) * M;
+            const int m_end = (prep.near_last - p) >= 0 ? (prep.near_last - p) / f : -1;  // last m of the range
+            for (int m = std::max(0, ceil_div(prep.near_first - p, f)); m <= m_end;) {
+              const int h = hp[m];
+              int e = m + 1;
+              while (e <= m_end && hp[e] == h) ++e;
+              if (h >= 0) {
+                const int xl = f * m + p, xh = f * (e - 1) + p;
+                if (lvl_n[h] == 0) {
+                  lvl_lo[h] = xl;
+                  lvl_hi[h] = xh;
+                } else {
+                  lvl_lo[h] = std::min(lvl_lo[h], xl);
+                  lvl_hi[h] = std::max(lvl_hi[h], xh);
+                }
+                lvl_n[h] += e - m;
+              }
+              m = e;
             }
-            x = e;
           }
         }
         const std::size_t st = wo + 2;
@@ -342,9 +363,8 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             // R <= x_i − ox < P − R.
             const int qn = (2 * h + 1) / f, rn = (2 * h + 1) % f, nbl = ihi - ilo + qn + 1;
             LevelBlocksJob lb;
-            for (int c = 0; c < 4; ++c) lb.col[c] = col[c];
-            lb.a = near_a;
-            lb.h = near_h;
+            lb.ph = ph;
+            lb.M = M;
             lb.level = h;
             lb.x0 = cx0 + f * ilo - h;
             lb.f = f;
@@ -374,13 +394,13 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
           double s[5] = {0, 0, 0, 0, 0};
           for (int c = 0; c < 5; ++c) lsum[c * ls] = 0.0;
           for (int x = lo; x <= hi; ++x) {
-            const std::size_t at = x - lo + 1;
-            if (near_h[x] == h) {
-              const float a = near_a[x];
-              for (int c = 0; c < 4; ++c) s[c] += static_cast<double>(a * col[c][x]);
+            const std::size_t lx = x - lo + 1, ax = at(x);
+            if (nh[ax] == h) {
+              const float a = na[ax];
+              for (int c = 0; c < 4; ++c) s[c] += static_cast<double>(a * ph[c * plane + ax]);
               s[4] += a;
             }
-            for (int c = 0; c < 5; ++c) lsum[c * ls + at] = s[c];
+            for (int c = 0; c < 5; ++c) lsum[c * ls + lx] = s[c];
           }
           // Outputs i with lo − h <= cx0 + f·i <= hi + h.
           for (int i = ilo; i <= ihi; ++i) {
@@ -394,9 +414,10 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         auto scatter = [&](auto fc) {
           constexpr int F = decltype(fc)::value;
           for (int x = prep.near_first; x <= prep.near_last; ++x) {
-            const int h = near_h[x];
+            const std::size_t ax = static_cast<std::size_t>(x % F) * M + x / F;
+            const int h = nh[ax];
             if (h < 0 || lvl_n[h] < 0) continue;  // not near, or done by its level
-            const float alpha = near_a[x];
+            const float alpha = na[ax];
             if (alpha == 0.0f) continue;
             // Outputs i with |cx0 + F·i − x| <= h.
             const int lo_num = x - h - cx0, hi_num = x + h - cx0;
@@ -406,7 +427,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             ihi = std::min(ihi, wo - 1);
             if (ilo > ihi) continue;
             for (int c = 0; c < 4; ++c) {
-              const double v = static_cast<double>(alpha * col[c][x]);
+              const double v = static_cast<double>(alpha * ph[c * plane + ax]);
               bins[c * st + ilo] += v;
               bins[c * st + ihi + 1] -= v;
             }
@@ -425,6 +446,10 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         {
           float* o[5];
           for (int c = 0; c < 5; ++c) o[c] = t_near.row(c, y);
+          if (near_span != nullptr && (any_scatter || any_level)) {  // outside: +0 below
+            near_span[2 * y] = any_scatter ? 0 : acc_lo;
+            near_span[2 * y + 1] = any_scatter ? wo - 1 : acc_hi;
+          }
           if (any_scatter) {
             // Five independent running sums in one loop.
             double q[5] = {0, 0, 0, 0, 0};
@@ -452,7 +477,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
 }
 
 void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constants& k, int oy, int ho, Image& blur,
-                        Image& near, Workspace& ws) {
+                        Image& near, Workspace& ws, const int* near_span) {
   const int W = t_blur.width(), H = t_blur.height(), R = k.r_max, f = k.f;
   const float rmax = static_cast<float>(R);
   blur.resize(W, ho, 4);
@@ -462,27 +487,25 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
   float table[16];
   load_table(k, table);
 
-  // Per t_blur row: den (0 for a near source), |r| (+ slack for vector over-reads) and the
-  // largest reach of the far sources per column block.
+  // Per t_blur row (+ slack for vector over-reads), GatherTap's aux planes: 1/den (+∞ for a
+  // near source), den (0 for a near source), |r|; and the largest reach of the far sources
+  // per column block.
   const int nblk = (W + kBlock - 1) / kBlock;
-  Image& aux = ws.image("mcguire.fast.v_aux", W + 64, H, 2);
+  Image& aux = ws.image("mcguire.fast.v_aux", W + 64, H, 3);
   Image& reach = ws.image("mcguire.fast.v_reach", nblk, H, 1);
   core::parallel_for(H, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
-      const float* s = t_blur.row(4, y);
-      float* den = aux.row(0, y);
-      float* absb = aux.row(1, y);
-      for (int i = 0; i < W; ++i) {
-        const float r_b = s[i] * rmax;
-        den[i] = in_near(r_b) ? 0.0f : den_of(k, r_b);  // 0: near, far weight 0 (gather.hpp)
-        absb[i] = std::fabs(r_b);
-      }
-      for (int b = 0; b < nblk; ++b) {
-        int m = 0;
-        for (int i = b * kBlock; i < std::min(W, (b + 1) * kBlock); ++i)
-          if (den[i] != 0.0f) m = std::max(m, reach_of(den[i]));  // far sources only (den >= 0.001)
-        reach.row(0, y)[b] = static_cast<float>(m);
-      }
+      AuxRowJob job;
+      job.s = t_blur.row(4, y);
+      job.w = W;
+      job.block = kBlock;
+      job.rmax = rmax;
+      job.dc = k.variant == Variant::book ? 0.5f : 0.8f;
+      job.inv = aux.row(0, y);
+      job.den = aux.row(1, y);
+      job.absr = aux.row(2, y);
+      job.blk_reach = reach.row(0, y);
+      aux_row_simd(job);
     }
   }, 16);
 
@@ -515,6 +538,19 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
           }
       }
       const bool chunk_box = box_c1 >= 0;
+      // Columns [near_c0, near_c1] hold every t_near value other than +0 in the rows the
+      // chunk's near sums read (P2's near_span); outside them those sums are +0 and so is
+      // the output, so they slide over these columns only (none: near output all +0).
+      int near_c0 = 0, near_c1 = hbox >= 0 ? W - 1 : -1;
+      if (near_span != nullptr && hbox >= 0) {
+        near_c0 = W;
+        near_c1 = -1;
+        for (int b = std::max(0, oy + f * j0 - hbox); b <= std::min(H - 1, oy + f * (j1 - 1) + hbox); ++b) {
+          near_c0 = std::min(near_c0, near_span[2 * b]);
+          near_c1 = std::max(near_c1, near_span[2 * b + 1]);
+        }
+      }
+      const bool chunk_near = near_c1 >= near_c0;
       const float box_w = static_cast<float>(2 * R + 1);
       for (int j = j0; j < j1; ++j) {
         const int a = oy + f * j;
@@ -535,7 +571,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
             }
           };
           if (chunk_box) init(sum_b, t_blur, 4, R, box_c0, box_c1 + 1);
-          if (hbox >= 0) init(sum_n, t_near, 5, hbox, 0, W);
+          if (chunk_near) init(sum_n, t_near, 5, hbox, near_c0, near_c1 + 1);
         } else {
           // Rows entering (prev + r, a + r] and leaving [prev − r, a − r) the window, at most
           // f of each (f <= 4 <= 8), folded into one pass over the sums.
@@ -553,7 +589,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
             }
           };
           if (chunk_box) slide(sum_b, t_blur, 4, R, box_c0, box_c1 + 1);
-          if (hbox >= 0) slide(sum_n, t_near, 5, hbox, 0, W);
+          if (chunk_near) slide(sum_n, t_near, 5, hbox, near_c0, near_c1 + 1);
         }
         // Taps of this output row: rows a + δ, clamped.
         for (int d = -R; d <= R; ++d) {
@@ -583,7 +619,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
               L = std::min(R, static_cast<int>(m));
             }
             far_gather_outputs(taps, t_blur.row(1, 0) - t_blur.row(0, 0), aux.row(1, 0) - aux.row(0, 0), L, r_a,
-                               nearness, table, k.far_occlusion, blur, j, i0, i1);
+                               nearness, frac, table, k.far_occlusion, blur, j, i0, i1);
           }
           for (int i = i0; i < i1; ++i) {
             if (nearness[i] != 1.0f) continue;
@@ -593,12 +629,14 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
         }
         for (int c = 0; c < 5; ++c) {
           float* o = near.row(c, j);
-          if (hbox < 0) {
+          if (!chunk_near) {
             std::fill_n(o, W, 0.0f);
             continue;
           }
           const double* sn = sum_n + c * static_cast<std::size_t>(W);
-          for (int i = 0; i < W; ++i) o[i] = static_cast<float>(sn[i]) * near_inv;
+          std::fill_n(o, near_c0, 0.0f);
+          for (int i = near_c0; i <= near_c1; ++i) o[i] = static_cast<float>(sn[i]) * near_inv;
+          std::fill_n(o + near_c1 + 1, W - 1 - near_c1, 0.0f);
         }
       }
     }

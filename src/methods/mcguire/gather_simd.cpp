@@ -7,8 +7,12 @@
 // which rounds differently from the plain pass's separate multiply and add (≈ 1 ulp per tap).
 #include "methods/mcguire/gather.hpp"
 
+#include "render/sanitize.hpp"
+
 #include <algorithm>
 #include <cstddef>
+#include <limits>
+#include <type_traits>
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "methods/mcguire/gather_simd.cpp"
@@ -20,56 +24,112 @@ namespace dofkit::detail::mcguire {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-template <bool kOcclusion>
+// The table index without a division per tap (16-lane targets; the others divide: their
+// divider keeps up — AVX2 issues a 256-bit division every ~5 cycles, AVX-512 a 512-bit one
+// every ~10 — and the test below would cost them more than it saves). Per source the caller
+// stores den and inv = RN(1/den). For x = d5/den (exact), q1 = RN(d5·inv) = x(1 + e) with
+// |e| <= 2u + u² (u = 2^-24), and far_weight()'s q = RN(x) = x(1 + e'), |e'| <= u. ⌊q⌋ and
+// ⌊q1⌋ differ only if an integer k lies between them, and then |q1 − k| <= |q1 − q| <=
+// x·(3u + u²) <= 3.0001·u·k: within 4 steps of the float grid around k (its spacing is
+// >= u·k below k). The integers 1 … 6 have the low 21 bits of their float encoding 0, so
+// every q1 within 16 steps of one has (bits + 16) mod 2^21 < 32, and a vector with such a
+// lane divides instead: the index is exactly the plain one. (A few other q1 share the
+// pattern — near 1.25, 1.5, …, and 1 in ~65 000 of those below 1 — and divide for nothing.)
+// Quotients above 6.5 all index 6, so q1 is clamped there (6.5's pattern is far from 0);
+// then the truncation to int (an exact floor for q1 >= 0; on x86 one cvttps2dq, without
+// Highway's out-of-range fix-up, which cannot occur here) is the index, 0 … 6.
+//
+// With job.frac false the lerp by nearness is skipped (w = wn): lanes with nearness 0 get
+// w exactly as before (wn + (1 − wn)·0 = wn), the others are overwritten by the caller.
+// Two output vectors share each tap's loads of pointer and d5 where there are registers for
+// both accumulator sets (AVX-512: 32); each output's sum is in the same order as alone.
+template <bool kOcclusion, bool kFrac>
 void FarGatherT(const GatherJob& job) {
   const hn::ScalableTag<float> df;
   const hn::RebindToSigned<decltype(df)> di;
+  using VF = hn::Vec<decltype(df)>;
   const int lanes = static_cast<int>(hn::Lanes(df));
-  const auto one = hn::Set(df, 1.0f), zero = hn::Zero(df), six = hn::Set(df, 6.0f), c15 = hn::Set(df, 1.5f);
-  // ⌊q⌋ for q in [0, 6] without the range fix-ups of ConvertTo: ⌊q⌋ + 2^23 has the integer
-  // in its low mantissa bits, so subtracting the bits of 2^23 leaves it (exact).
+  constexpr bool kRecip = hn::MaxLanes(decltype(df)()) == 16;
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+  constexpr int kPair = 2;
+#else
+  constexpr int kPair = 1;
+#endif
+  const auto one = hn::Set(df, 1.0f), zero = hn::Zero(df), c15 = hn::Set(df, 1.5f), c65 = hn::Set(df, 6.5f);
   const auto magic = hn::Set(df, 8388608.0f);
   const auto magic_bits = hn::BitCast(di, magic);
+  const auto i16 = hn::Set(di, 16), near_int = hn::Set(di, 0x1FFFE0), izero = hn::Zero(di);
   const bool permute = lanes >= 8 && lanes <= 16;
   const auto table = hn::LoadU(df, job.table);  // first `lanes` entries (16 are allocated)
   const int off = job.tap_offset;
   const std::ptrdiff_t cs = job.col_stride, as = job.aux_stride;
-  auto compute = [&](int o) {
-    const auto n = hn::LoadU(df, job.nearness + o);
-    const auto abs_a = hn::Abs(hn::LoadU(df, job.r_a + o));
-    auto a0 = zero, a1 = zero, a2 = zero, a3 = zero, aw = zero;
+  auto trunc = [&](const VF q) {
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+    return hn::VFromD<decltype(di)>{_mm512_cvttps_epi32(q.raw)};
+#else
+    return hn::ConvertTo(di, q);
+#endif
+  };
+  // min(table index, 6) of one vector, exactly as far_weight() (see above).
+  auto index = [&](const VF d5, const float* aux) {
+    if (!kRecip) {
+      const auto q = hn::Min(hn::Div(d5, hn::LoadU(df, aux + as)), c65);
+      return hn::Sub(hn::BitCast(di, hn::Add(hn::Floor(q), magic)), magic_bits);
+    }
+    auto q = hn::Min(hn::Mul(d5, hn::LoadU(df, aux)), c65);
+    const auto pattern = hn::And(hn::Add(hn::BitCast(di, q), i16), near_int);
+    if (HWY_UNLIKELY(!hn::AllFalse(di, hn::Eq(pattern, izero)))) q = hn::Min(hn::Div(d5, hn::LoadU(df, aux + as)), c65);
+    return trunc(q);
+  };
+  auto weight = [&](const VF d5, const float* aux) {
+    const auto idx = index(d5, aux);
+    return permute ? hn::TableLookupLanes(table, hn::IndicesFromVec(df, idx)) : hn::GatherIndex(df, job.table, idx);
+  };
+  // kV output vectors from output o on (kV <= kPair).
+  auto compute = [&](auto vc, int o) {
+    constexpr int kV = decltype(vc)::value;
+    VF n[kV], abs_a[kV], a0[kV], a1[kV], a2[kV], a3[kV], aw[kV];
+    for (int v = 0; v < kV; ++v) {
+      if (kFrac) n[v] = hn::LoadU(df, job.nearness + o + v * lanes);
+      if (kOcclusion) abs_a[v] = hn::Abs(hn::LoadU(df, job.r_a + o + v * lanes));
+      a0[v] = a1[v] = a2[v] = a3[v] = aw[v] = zero;
+    }
     for (int t = 0; t < job.ntaps; ++t) {
       const GatherTap& tp = job.taps[t];
-      const float* col = tp.col + o + off;
-      const float* aux = tp.aux + o + off;
-      // Near sources store den = 0: q = d5/0 = ∞ → index 6 → weight 0, the far flag's job.
-      const auto q = hn::Div(hn::Set(df, tp.d5), hn::LoadU(df, aux));
-      const auto idx = hn::Sub(hn::BitCast(di, hn::Add(hn::Floor(hn::Min(q, six)), magic)), magic_bits);
-      auto wn = permute ? hn::TableLookupLanes(table, hn::IndicesFromVec(df, idx)) : hn::GatherIndex(df, job.table, idx);
-      if (kOcclusion) {
-        const auto occ = hn::Add(hn::Sub(abs_a, hn::LoadU(df, aux + as)), c15);
-        wn = hn::Mul(wn, hn::Min(hn::Max(occ, zero), one));
+      const VF d5 = hn::Set(df, tp.d5);
+      for (int v = 0; v < kV; ++v) {
+        const float* col = tp.col + o + off + v * lanes;
+        const float* aux = tp.aux + o + off + v * lanes;
+        auto w = weight(d5, aux);
+        if (kOcclusion) {
+          const auto occ = hn::Add(hn::Sub(abs_a[v], hn::LoadU(df, aux + 2 * as)), c15);
+          w = hn::Mul(w, hn::Min(hn::Max(occ, zero), one));
+        }
+        if (kFrac) w = hn::MulAdd(hn::Sub(one, w), n[v], w);
+        a0[v] = hn::MulAdd(w, hn::LoadU(df, col), a0[v]);
+        a1[v] = hn::MulAdd(w, hn::LoadU(df, col + cs), a1[v]);
+        a2[v] = hn::MulAdd(w, hn::LoadU(df, col + 2 * cs), a2[v]);
+        a3[v] = hn::MulAdd(w, hn::LoadU(df, col + 3 * cs), a3[v]);
+        aw[v] = hn::Add(aw[v], w);
       }
-      const auto w = hn::MulAdd(hn::Sub(one, wn), n, wn);
-      a0 = hn::MulAdd(w, hn::LoadU(df, col), a0);
-      a1 = hn::MulAdd(w, hn::LoadU(df, col + cs), a1);
-      a2 = hn::MulAdd(w, hn::LoadU(df, col + 2 * cs), a2);
-      a3 = hn::MulAdd(w, hn::LoadU(df, col + 3 * cs), a3);
-      aw = hn::Add(aw, w);
     }
-    hn::StoreU(hn::Div(a0, aw), df, job.out[0] + o);
-    hn::StoreU(hn::Div(a1, aw), df, job.out[1] + o);
-    hn::StoreU(hn::Div(a2, aw), df, job.out[2] + o);
-    hn::StoreU(hn::Div(a3, aw), df, job.out[3] + o);
+    for (int v = 0; v < kV; ++v) {
+      const int ov = o + v * lanes;
+      hn::StoreU(hn::Div(a0[v], aw[v]), df, job.out[0] + ov);
+      hn::StoreU(hn::Div(a1[v], aw[v]), df, job.out[1] + ov);
+      hn::StoreU(hn::Div(a2[v], aw[v]), df, job.out[2] + ov);
+      hn::StoreU(hn::Div(a3[v], aw[v]), df, job.out[3] + ov);
+    }
   };
   if (job.n >= lanes) {
     int o = 0;
-    for (; o + lanes <= job.n; o += lanes) compute(o);
+    for (; o + kPair * lanes <= job.n; o += kPair * lanes) compute(std::integral_constant<int, kPair>{}, o);
+    for (; o + lanes <= job.n; o += lanes) compute(std::integral_constant<int, 1>{}, o);
     // Tail: one more vector that ends at n (recomputes a few outputs with identical values).
-    if (o < job.n) compute(job.n - lanes);
+    if (o < job.n) compute(std::integral_constant<int, 1>{}, job.n - lanes);
     return;
   }
-  // Fewer outputs than lanes: scalar, same formula.
+  // Fewer outputs than lanes: scalar, with far_weight()'s division.
   for (int o = 0; o < job.n; ++o) {
     const float abs_a = job.r_a[o] < 0 ? -job.r_a[o] : job.r_a[o];
     float a[4] = {0, 0, 0, 0}, aw = 0;
@@ -77,13 +137,13 @@ void FarGatherT(const GatherJob& job) {
       const GatherTap& tp = job.taps[t];
       const float* col = tp.col + o + off;
       const float* aux = tp.aux + o + off;
-      const float q = tp.d5 / aux[0];
+      const float q = tp.d5 / aux[as];
       float wn = job.table[q >= 6.0f ? 6 : static_cast<int>(q)];
       if (kOcclusion) {
-        const float occ = abs_a - aux[as] + 1.5f;
+        const float occ = abs_a - aux[2 * as] + 1.5f;
         wn *= occ < 0 ? 0.0f : occ > 1 ? 1.0f : occ;
       }
-      const float w = wn + (1.0f - wn) * job.nearness[o];
+      const float w = kFrac ? wn + (1.0f - wn) * job.nearness[o] : wn;
       for (int c = 0; c < 4; ++c) a[c] += w * col[c * cs];
       aw += w;
     }
@@ -92,8 +152,13 @@ void FarGatherT(const GatherJob& job) {
 }
 
 void FarGather(const GatherJob& job) {
-  if (job.occlusion) FarGatherT<true>(job);
-  else FarGatherT<false>(job);
+  if (job.occlusion) {
+    if (job.frac) FarGatherT<true, true>(job);
+    else FarGatherT<true, false>(job);
+  } else {
+    if (job.frac) FarGatherT<false, true>(job);
+    else FarGatherT<false, false>(job);
+  }
 }
 
 void CompositeRow(const CompositeRowJob& job) {
@@ -230,125 +295,168 @@ HWY_INLINE V Opaque(V v) {
   return v;
 }
 
-// Phase split of one padded plane: dst[p·M + m] = src[f·m + p] for m < mcount (+ up to one
-// vector more, inside the slack).
-template <class D>
-HWY_INLINE void SplitPhases(D d, int f, int M, int mcount, const float* src, float* dst) {
-  const int lanes = static_cast<int>(hn::Lanes(d));
-  hn::Vec<D> v0, v1, v2, v3;
-  for (int m = 0; m < mcount; m += lanes) {
-    const float* p = src + static_cast<std::size_t>(f) * m;
-    switch (f) {
-      case 1:
-        hn::StoreU(hn::LoadU(d, p), d, dst + m);
-        break;
-      case 2:
-        hn::LoadInterleaved2(d, p, v0, v1);
-        hn::StoreU(v0, d, dst + m);
-        hn::StoreU(v1, d, dst + M + m);
-        break;
-      case 3:
-        hn::LoadInterleaved3(d, p, v0, v1, v2);
-        hn::StoreU(v0, d, dst + m);
-        hn::StoreU(v1, d, dst + M + m);
-        hn::StoreU(v2, d, dst + 2 * M + m);
-        break;
-      default:
-        hn::LoadInterleaved4(d, p, v0, v1, v2, v3);
-        hn::StoreU(v0, d, dst + m);
-        hn::StoreU(v1, d, dst + M + m);
-        hn::StoreU(v2, d, dst + 2 * M + m);
-        hn::StoreU(v3, d, dst + 3 * M + m);
-        break;
-    }
-  }
+// Loads f·lanes consecutive floats as the f phase vectors v[p] = src[f·l + p].
+template <int F, class D, class V>
+HWY_INLINE void LoadPhases(D d, const float* src, V* v) {
+  if (F == 1) v[0] = hn::LoadU(d, src);
+  if (F == 2) hn::LoadInterleaved2(d, src, v[0], v[1]);
+  if (F == 3) hn::LoadInterleaved3(d, src, v[0], v[1], v[2]);
+  if (F == 4) hn::LoadInterleaved4(d, src, v[0], v[1], v[2], v[3]);
 }
 
-void PrepRow(PrepRowJob& job) {
+template <int F>
+void PrepRowF(PrepRowJob& job, int m0, int m1) {
   const hn::ScalableTag<float> df;
   const hn::RebindToSigned<decltype(df)> di;
+  using VF = hn::Vec<decltype(df)>;
+  using VI = hn::Vec<decltype(di)>;
   const int lanes = static_cast<int>(hn::Lanes(df));
-  const auto one = hn::Set(df, 1.0f), m1 = hn::Set(df, -1.0f), zero = hn::Zero(df);
+  const int W = job.W, R = job.R, M = job.M, P = W + 2 * R;
+  const std::size_t plane = static_cast<std::size_t>(F) * M;
+  const auto one = hn::Set(df, 1.0f), m1f = hn::Set(df, -1.0f), zero = hn::Zero(df), four = hn::Set(df, 4.0f);
   const auto focus = hn::Set(df, job.focus_px), inv_rmax = hn::Set(df, job.inv_rmax), rmax = hn::Set(df, job.rmax);
   const auto c0001 = hn::Set(df, 0.001f), dc = hn::Set(df, job.dc), c12 = hn::Set(df, 1.2f), q = hn::Set(df, 0.25f);
-  const auto ione = hn::Set(di, 1);
-  auto any = hn::Zero(df);
-  // Contiguous: s, r_B, reach. Runs 64 floats past P (inside the slack) so that the phase
-  // split of r_B below, which reads up to f·lanes − 1 floats past P, reads computed values.
-  for (int x = 0; x < job.P + 64; x += lanes) {
-    const auto r = hn::LoadU(df, job.pad[4] + x);
-    const auto s = hn::IfThenZeroElse(hn::Le(hn::Abs(r), focus), hn::Min(hn::Max(hn::Mul(r, inv_rmax), m1), one));
-    const auto rb = hn::Mul(s, rmax);
-    if (x < job.P) any = hn::Max(any, rb);  // lanes past P replicate the last pixel
-    hn::StoreU(s, df, job.s_pad + x);
-    hn::StoreU(rb, df, job.rb_pad + x);
-    const auto den = hn::Add(c0001, Opaque(hn::Mul(dc, hn::Abs(rb))));
-    const auto reach = hn::Add(hn::ConvertTo(di, hn::Mul(c12, den)), ione);
-    hn::StoreU(hn::IfThenElseZero(hn::RebindMask(di, hn::Le(rb, q)), reach), di, job.reach + x);
-  }
-  job.any_near = !hn::AllTrue(df, hn::Le(any, zero));
-  if (job.near_h != nullptr && job.any_near) {
-    // α as near_alpha_horizontal (d = 0): code a = saturate((4·r)·inv_near), prose
-    // a = min(1, r·inv_near); then (a²)². Only multiplies: nothing to contract.
-    const auto inv_near = hn::Set(df, job.inv_near), four = hn::Set(df, 4.0f);
-    const auto hbox = hn::Set(di, job.hbox), im1 = hn::Set(di, -1), ibig = hn::Set(di, 1 << 30);
-    auto hmin = ibig, hmax = im1;
-    int count = 0, first_x = -1, last_x = -1;
-    // Up to 16 floats past P (inside the slack) so that block sums that run a few sources
-    // past the last output's reach read defined values.
-    for (int x = 0; x < job.P + 16; x += lanes) {
-      const auto rb = hn::LoadU(df, job.rb_pad + x);
+  const auto inf = hn::Set(df, std::numeric_limits<float>::infinity());
+  const auto inv_near = hn::Set(df, job.inv_near);
+  const VI ione = hn::Set(di, 1), izero = hn::Zero(di), hbox = hn::Set(di, job.hbox), im1 = hn::Set(di, -1);
+  const VI ibig = hn::Set(di, 1 << 30);
+  float* const inv_pl = job.ph + 4 * plane;
+  float* const den_pl = job.ph + 5 * plane;
+  float* const abs_pl = job.ph + 6 * plane;
+  float* const a_pl = job.ph + 7 * plane;
+  int32_t* const h_pl = reinterpret_cast<int32_t*>(job.ph + 8 * plane);
+  // Edge vectors (a padded x outside the row): the clamped sources, through a stack copy.
+  constexpr std::size_t kMax = 4 * hn::MaxLanes(decltype(df)());
+  alignas(64) float tmp[5][kMax];
+  VI hmin = ibig, hmax = im1;
+  bool any = false;
+  const auto min_normal = hn::Set(df, std::numeric_limits<float>::min()), max_colour = hn::Set(df, kMaxColorValue);
+  auto bad = hn::Not(hn::Eq(zero, zero));  // all false
+  for (int m = m0; m < m1; m += lanes) {
+    const int s0 = F * m - R;  // source x of padded x = F·m
+    const float* in[5];
+    if (s0 >= 0 && s0 + F * lanes <= W) {
+      for (int c = 0; c < 5; ++c) in[c] = job.src[c] + s0;
+    } else {
+      for (int c = 0; c < 5; ++c) {
+        for (int t = 0; t < F * lanes; ++t) tmp[c][t] = job.src[c][std::clamp(s0 + t, 0, W - 1)];
+        in[c] = tmp[c];
+      }
+    }
+    VF v[F];
+    for (int c = 0; c < 4; ++c) {
+      LoadPhases<F>(df, in[c], v);
+      for (int p = 0; p < F; ++p) hn::StoreU(v[p], df, job.ph + c * plane + static_cast<std::size_t>(p) * M + m);
+      if (job.check_colour)
+        for (int p = 0; p < F; ++p) {
+          // sample_is_sanitary: ±0, or a normal number of magnitude <= kMaxColorValue
+          // (colour) / in [FLT_MIN, 1] (alpha); NaN fails every comparison.
+          const auto x = c < 3 ? hn::Abs(v[p]) : v[p];
+          const auto ok = hn::Or(hn::Eq(v[p], zero), hn::And(hn::Ge(x, min_normal), hn::Le(x, c < 3 ? max_colour : one)));
+          bad = hn::Or(bad, hn::Not(ok));
+        }
+    }
+    LoadPhases<F>(df, in[4], v);
+    VI reach = izero;
+    for (int p = 0; p < F; ++p) {
+      const std::size_t at = static_cast<std::size_t>(p) * M + m;
+      const VF r = v[p];
+      // s exactly as pack_coc, r_B = s·R_max; den as far_weight() (no contraction).
+      const auto s = hn::IfThenZeroElse(hn::Le(hn::Abs(r), focus), hn::Min(hn::Max(hn::Mul(r, inv_rmax), m1f), one));
+      const auto rb = hn::Mul(s, rmax);
+      const auto ab = hn::Abs(rb);
+      const auto den = hn::Add(c0001, Opaque(hn::Mul(dc, ab)));
+      const auto near = hn::Gt(rb, q);
+      hn::StoreU(hn::IfThenElse(near, inf, hn::Div(one, den)), df, inv_pl + at);
+      hn::StoreU(hn::IfThenZeroElse(near, den), df, den_pl + at);
+      if (job.abs_r) hn::StoreU(ab, df, abs_pl + at);
+      const VI rp = hn::Add(hn::ConvertTo(di, hn::Mul(c12, den)), ione);
+      reach = hn::Max(reach, hn::IfThenZeroElse(hn::RebindMask(di, near), rp));
+      if (p == job.p0) {
+        hn::StoreU(rb, df, job.rc + m);
+        hn::StoreU(s, df, job.sc + m);
+        hn::StoreU(hn::Min(hn::Max(hn::Mul(four, rb), zero), one), df, job.nc + m);
+      }
+      // Statistics over the groups [m0, m1) with x = F·m' + p < P.
+      const int valid = std::min((P - p + F - 1) / F, m1) - m;
       const auto pos = hn::Gt(rb, zero);
+      const auto in_range = valid >= lanes ? pos : hn::And(pos, hn::FirstN(df, static_cast<std::size_t>(std::max(valid, 0))));
+      if (hn::AllFalse(df, in_range) && !job.near) continue;
+      any = any || !hn::AllFalse(df, in_range);
+      if (!job.near) continue;
+      // α as near_alpha_horizontal (d = 0): code a = saturate((4·r)·inv_near), prose
+      // a = min(1, r·inv_near); then (a²)². Only multiplies: nothing to contract.
       auto a = job.alpha_code ? hn::Min(hn::Max(hn::Mul(hn::Mul(four, rb), inv_near), zero), one)
                               : hn::Min(one, hn::Mul(rb, inv_near));
       a = hn::Mul(a, a);
       a = hn::Mul(a, a);
-      hn::StoreU(hn::IfThenElseZero(pos, a), df, job.near_a + x);
-      // r_B > 0: truncation = floor; r_B <= 0 lanes are replaced by −1 (their conversion
-      // result is not used).
+      hn::StoreU(hn::IfThenElseZero(pos, a), df, a_pl + at);
+      // r_B > 0: truncation = floor; r_B <= 0 lanes are replaced by −1.
       const auto h = hn::Min(hn::ConvertTo(di, hn::IfThenElseZero(pos, rb)), hbox);
-      hn::StoreU(hn::IfThenElse(hn::RebindMask(di, pos), h, im1), di, job.near_h + x);
-      // Statistics over x < P only (the last vector may run past P into the slack).
-      if (x >= job.P) continue;
-      const auto in = x + lanes <= job.P ? pos : hn::And(pos, hn::FirstN(df, static_cast<std::size_t>(job.P - x)));
-      if (!hn::AllFalse(df, in)) {
-        const auto mi = hn::RebindMask(di, in);
+      hn::StoreU(hn::IfThenElse(hn::RebindMask(di, pos), h, im1), di, h_pl + at);
+      if (!hn::AllFalse(df, in_range)) {
+        const auto mi = hn::RebindMask(di, in_range);
         hmin = hn::Min(hmin, hn::IfThenElse(mi, h, ibig));
         hmax = hn::Max(hmax, hn::IfThenElse(mi, h, im1));
-        count += static_cast<int>(hn::CountTrue(df, in));
-        if (first_x < 0) first_x = x;
-        last_x = x;
+        job.near_count += static_cast<int>(hn::CountTrue(df, in_range));
+        if (job.first_m < 0 || m < job.first_m) job.first_m = m;
+        job.last_m = std::max(job.last_m, std::min(m + lanes, m1) - 1);
       }
     }
-    job.near_count = count;
-    if (count > 0) {
-      alignas(64) int32_t lo[64], hi[64];
-      hn::Store(hmin, di, lo);
-      hn::Store(hmax, di, hi);
-      job.near_hmin = *std::min_element(lo, lo + lanes);
-      job.near_hmax = *std::max_element(hi, hi + lanes);
-      while (job.near_h[first_x] < 0) ++first_x;
-      last_x = std::min(last_x + lanes, job.P) - 1;
-      while (job.near_h[last_x] < 0) --last_x;
-      job.near_first = first_x;
-      job.near_last = last_x;
-    }
+    hn::StoreU(reach, di, job.reach + m);
   }
-  const int f = job.f, M = job.M, mcount = (job.P + f - 1) / f;
-  const std::size_t plane = static_cast<std::size_t>(f) * M;
-  for (int c = 0; c < 4; ++c) SplitPhases(df, f, M, mcount, job.pad[c], job.ph + c * plane);
-  float* den_pl = job.ph + 4 * plane;
-  float* abs_pl = job.ph + 5 * plane;
-  SplitPhases(df, f, M, mcount, job.rb_pad, abs_pl);  // r_B, made |r_B| below
-  for (int p = 0; p < f; ++p)
-    for (int m = 0; m < mcount; m += lanes) {
-      const std::size_t at = static_cast<std::size_t>(p) * M + m;
-      const auto rb = hn::LoadU(df, abs_pl + at);
-      const auto ab = hn::Abs(rb);
-      const auto near = hn::Gt(rb, q);
-      hn::StoreU(hn::IfThenZeroElse(near, hn::Add(c0001, Opaque(hn::Mul(dc, ab)))), df, den_pl + at);
-      hn::StoreU(ab, df, abs_pl + at);
+  job.any_near = job.any_near || any;
+  if (job.check_colour && !hn::AllFalse(df, bad)) job.dirty = true;
+  if (job.near) {
+    alignas(64) int32_t lo[kMax], hi[kMax];
+    hn::Store(hmin, di, lo);
+    hn::Store(hmax, di, hi);
+    job.near_hmin = std::min(job.near_hmin, *std::min_element(lo, lo + lanes));
+    job.near_hmax = std::max(job.near_hmax, *std::max_element(hi, hi + lanes));
+  }
+}
+
+void PrepRow(PrepRowJob& job, int m0, int m1) {
+  switch (job.f) {
+    case 1: PrepRowF<1>(job, m0, m1); break;
+    case 2: PrepRowF<2>(job, m0, m1); break;
+    case 3: PrepRowF<3>(job, m0, m1); break;
+    default: PrepRowF<4>(job, m0, m1); break;
+  }
+}
+
+void AuxRow(const AuxRowJob& job) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const int lanes = static_cast<int>(hn::Lanes(df));
+  const auto rmax = hn::Set(df, job.rmax), c0001 = hn::Set(df, 0.001f), dc = hn::Set(df, job.dc);
+  const auto c12 = hn::Set(df, 1.2f), q = hn::Set(df, 0.25f), one = hn::Set(df, 1.0f);
+  const auto inf = hn::Set(df, std::numeric_limits<float>::infinity());
+  const auto ione = hn::Set(di, 1);
+  constexpr std::size_t kMax = hn::MaxLanes(decltype(df)());
+  alignas(64) float tail[kMax] = {};
+  for (int b0 = 0; b0 < job.w; b0 += job.block) {
+    auto mx = hn::Zero(di);
+    for (int i = b0; i < std::min(job.w, b0 + job.block); i += lanes) {
+      const int n = std::min(lanes, job.w - i);
+      const float* src = job.s + i;
+      if (n < lanes) {  // the row may end at its image's end: no load past w
+        std::copy_n(src, n, tail);
+        src = tail;
+      }
+      const auto r = hn::Mul(hn::LoadU(df, src), rmax);
+      const auto ab = hn::Abs(r);
+      const auto den = hn::Add(c0001, Opaque(hn::Mul(dc, ab)));
+      const auto near = hn::Gt(r, q);
+      hn::StoreU(hn::IfThenElse(near, inf, hn::Div(one, den)), df, job.inv + i);
+      hn::StoreU(hn::IfThenZeroElse(near, den), df, job.den + i);
+      hn::StoreU(ab, df, job.absr + i);
+      const auto far = n < lanes ? hn::AndNot(near, hn::FirstN(df, static_cast<std::size_t>(n))) : hn::Not(near);
+      const auto reach = hn::Add(hn::ConvertTo(di, hn::Mul(c12, den)), ione);
+      mx = hn::Max(mx, hn::IfThenElseZero(hn::RebindMask(di, far), reach));
     }
+    job.blk_reach[b0 / job.block] = static_cast<float>(hn::GetLane(hn::MaxOfLanes(di, mx)));
+  }
 }
 
 void SlideRows(const SlideRowsJob& job) {
@@ -402,6 +510,19 @@ void BlockSums(const BlockSumsJob& job) {
 
 template <int F>
 void LevelBlocksF(const LevelBlocksJob& job) {
+  // Source x0 + F·j + t lies in phase (x0 + t) mod F at group (x0 + t) / F + j: per t one
+  // contiguous run over j in each plane.
+  const std::size_t plane = static_cast<std::size_t>(F) * job.M;
+  const float* pc[4][F];
+  const float* pa[F];
+  const int32_t* ph[F];
+  for (int t = 0; t < F; ++t) {
+    const int x = job.x0 + t;
+    const std::size_t off = static_cast<std::size_t>(x % F) * job.M + x / F;
+    for (int c = 0; c < 4; ++c) pc[c][t] = job.ph + c * plane + off;
+    pa[t] = job.ph + 7 * plane + off;
+    ph[t] = reinterpret_cast<const int32_t*>(job.ph + 8 * plane) + off;
+  }
   int j = 0;
 #if HWY_TARGET != HWY_SCALAR
   const hn::ScalableTag<float> df;
@@ -412,25 +533,12 @@ void LevelBlocksF(const LevelBlocksJob& job) {
   const auto level = hn::Set(di, job.level);
   using VF = hn::Vec<decltype(df)>;
   for (; j + N <= job.nb; j += N) {
-    const std::size_t x = static_cast<std::size_t>(job.x0) + static_cast<std::size_t>(F) * j;
-    VF av[4], hv[4];
-    if (F == 4) {
-      hn::LoadInterleaved4(df, job.a + x, av[0], av[1], av[2], av[3]);
-      hn::LoadInterleaved4(df, reinterpret_cast<const float*>(job.h) + x, hv[0], hv[1], hv[2], hv[3]);
-    } else {
-      hn::LoadInterleaved2(df, job.a + x, av[0], av[1]);
-      hn::LoadInterleaved2(df, reinterpret_cast<const float*>(job.h) + x, hv[0], hv[1]);
-    }
-    for (int t = 0; t < F; ++t) av[t] = hn::IfThenElseZero(hn::RebindMask(df, hn::Eq(hn::BitCast(di, hv[t]), level)), av[t]);
+    VF av[F];
+    for (int t = 0; t < F; ++t)
+      av[t] = hn::IfThenElseZero(hn::RebindMask(df, hn::Eq(hn::LoadU(di, ph[t] + j), level)), hn::LoadU(df, pa[t] + j));
     for (int c = 0; c < 5; ++c) {
-      VF v[4];
-      if (c < 4) {
-        if (F == 4) hn::LoadInterleaved4(df, job.col[c] + x, v[0], v[1], v[2], v[3]);
-        else hn::LoadInterleaved2(df, job.col[c] + x, v[0], v[1]);
-        for (int t = 0; t < F; ++t) v[t] = hn::Mul(av[t], v[t]);
-      } else {
-        for (int t = 0; t < F; ++t) v[t] = av[t];
-      }
+      VF v[F];
+      for (int t = 0; t < F; ++t) v[t] = c < 4 ? hn::Mul(av[t], hn::LoadU(df, pc[c][t] + j)) : av[t];
       auto glo = hn::Zero(dd), ghi = hn::Zero(dd), plo = glo, phi = glo;
       for (int t = 0; t < F; ++t) {
         glo = hn::Add(glo, hn::PromoteTo(dd, hn::LowerHalf(dh, v[t])));
@@ -450,10 +558,9 @@ void LevelBlocksF(const LevelBlocksJob& job) {
   for (; j < job.nb; ++j) {
     double g[5] = {0, 0, 0, 0, 0}, part[5] = {0, 0, 0, 0, 0};
     for (int t = 0; t < F; ++t) {
-      const int x = job.x0 + F * j + t;
-      if (job.h[x] == job.level) {
-        const float a = job.a[x];
-        for (int c = 0; c < 4; ++c) g[c] += static_cast<double>(a * job.col[c][x]);
+      if (ph[t][j] == job.level) {
+        const float a = pa[t][j];
+        for (int c = 0; c < 4; ++c) g[c] += static_cast<double>(a * pc[c][t][j]);
         g[4] += a;
       }
       if (t + 1 == job.rem)
@@ -483,10 +590,24 @@ HWY_EXPORT(CompositeRow);
 void composite_row_simd(const CompositeRowJob& job) { HWY_DYNAMIC_DISPATCH(CompositeRow)(job); }
 HWY_EXPORT(InterpRow);
 void interp_row_simd(const InterpRowJob& job) { HWY_DYNAMIC_DISPATCH(InterpRow)(job); }
+HWY_EXPORT(AuxRow);
+void aux_row_simd(const AuxRowJob& job) { HWY_DYNAMIC_DISPATCH(AuxRow)(job); }
 HWY_EXPORT(SlideRows);
 void slide_rows_simd(const SlideRowsJob& job) { HWY_DYNAMIC_DISPATCH(SlideRows)(job); }
 HWY_EXPORT(PrepRow);
-void prep_row_simd(PrepRowJob& job) { HWY_DYNAMIC_DISPATCH(PrepRow)(job); }
+void prep_row_simd(PrepRowJob& job, int m0, int m1) { HWY_DYNAMIC_DISPATCH(PrepRow)(job, m0, m1); }
+void finish_near_stats(PrepRowJob& job) {
+  if (!job.near || job.near_count == 0) return;
+  const int f = job.f, P = job.W + 2 * job.R;
+  const int32_t* h = reinterpret_cast<const int32_t*>(job.ph + 8 * static_cast<std::size_t>(f) * job.M);
+  auto at = [&](int x) { return h[static_cast<std::size_t>(x % f) * job.M + x / f]; };
+  int x = f * job.first_m;
+  while (at(x) < 0) ++x;
+  job.near_first = x;
+  x = std::min(f * (job.last_m + 1), P) - 1;
+  while (at(x) < 0) --x;
+  job.near_last = x;
+}
 HWY_EXPORT(BlockSums);
 void block_sums_simd(const BlockSumsJob& job) { HWY_DYNAMIC_DISPATCH(BlockSums)(job); }
 HWY_EXPORT(LevelBlocks);

@@ -168,9 +168,11 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     mcguire::blur_horizontal_plain(*packed, k, ox, wo, t_blur, t_near);
     mcguire::blur_vertical_plain(t_blur, t_near, k, oy, ho, blur, near);
   } else if (fast_blur) {
-    mcguire::blur_horizontal_fast(colour, ctx.coc, src, k, ox, wo, t_blur, t_near, ws, ctx.colour_dirty);
+    // Per t_near row, the outputs outside which it is +0 (P3 skips those columns).
+    int* near_span = reinterpret_cast<int*>(ws.image("mcguire.fast.near_span", 2, src.h, 1).plane(0));
+    mcguire::blur_horizontal_fast(colour, ctx.coc, src, k, ox, wo, t_blur, t_near, ws, ctx.colour_dirty, near_span);
     if (ctx.colour_dirty && ctx.colour_dirty->load()) return;  // render() starts again from sanitised colour
-    mcguire::blur_vertical_fast(t_blur, t_near, k, oy, ho, blur, near, ws);
+    mcguire::blur_vertical_fast(t_blur, t_near, k, oy, ho, blur, near, ws, near_span);
   } else {
     mcguire::blur_horizontal(*packed, k, ox, wo, t_blur, t_near);
     mcguire::blur_vertical(t_blur, t_near, k, oy, ho, blur, near);

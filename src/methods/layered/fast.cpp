@@ -12,6 +12,7 @@
 #include "core/parallel.hpp"
 #include "core/row_scan.hpp"
 #include "methods/layered/composite.hpp"
+#include "methods/layered/fused_simd.hpp"
 #include "methods/layered/inpaint.hpp"
 
 namespace dofkit::detail::layered {
@@ -419,6 +420,7 @@ LAYERED_SIMD bool any_bits(const float* __restrict p, int n) {
   return acc != 0;
 }
 
+
 }  // namespace kern
 
 namespace {
@@ -550,6 +552,21 @@ struct HCache {
     }
     return v[i];
   }
+  // The two cached coarse rows and the vertical weight of fine row y (what get interpolates).
+  void rows(int y, int n, const float* const*& a, const float* const*& b, float& ty) {
+    int ya, yb;
+    core::bilinear_footprint((y + 0.5f) * (factor == 4 ? 0.25f : 0.5f), img->height(), ya, yb, ty);
+    float (*ra)[kBlock] = row(ya, n);
+    float (*rb)[kBlock] = row(yb, n);
+    for (int c = 0; c < 4; ++c) {
+      pa[c] = ra[c];
+      pb[c] = rb[c];
+    }
+    a = pa;
+    b = pb;
+  }
+  const float* pa[4];
+  const float* pb[4];
   // The 2× / 4× up-sampling of all channels at fine row y (up_block's result); with
   // plus_zero, +0 + that (see lerp_rows_z). Written only at columns [lo, hi) of the n
   // (the cached horizontal rows still cover all n).
@@ -1097,6 +1114,13 @@ struct FusedLayer {
     return kGeneral;
   }
 
+  // The span matte() returns for row y, block x0, without computing the values.
+  std::pair<int, int> span(int y, int x0, int n) const {
+    const std::size_t bi = static_cast<std::size_t>(y) * nb + x0 / kBlock;
+    if (!((bpres[bi] >> k) & 1u)) return {n, 0};
+    const std::uint32_t sp = bspan[16 * bi + static_cast<std::size_t>(k)];
+    return {static_cast<int>(sp & 0xffffu), static_cast<int>(sp >> 16)};
+  }
   // matting.cpp's values of row y, columns [x0, x0 + n); hole flags into hb if non-null.
   // Returns the span [lo, hi) (relative to x0; lo >= hi if empty) outside which the values
   // are +0.
@@ -1238,6 +1262,23 @@ void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][
       // below reads the block's last column) only those are completed with +0 outside each
       // row's own span.
       const bool exact = 2 * m == n;
+      if (exact) {
+        // One kernel from the codes and the colour (pull_pairs_simd): the same values as the
+        // matte, the hole flags and pull_pairs below. The pairs [p0, p1) as below.
+        const std::pair<int, int> sq[2] = {L.span(2 * yc, x0, n), L.span(2 * yc + 1, x0, n)};
+        const int lo = std::min(sq[0].first, sq[1].first), hi = std::max(sq[0].second, sq[1].second);
+        const int p0 = hi > lo ? std::min(lo / 2, m) : 0, p1 = hi > lo ? std::max(p0, std::min((hi + 1) / 2, m)) : 0;
+        PullRows pr;
+        for (int dy = 0; dy < 2; ++dy) {
+          const std::size_t base = static_cast<std::size_t>(2 * yc + dy) * w + x0;
+          pr.code[dy] = L.code + base;
+          pr.w0[dy] = L.w0 + base;
+          for (int ch = 0; ch < 4; ++ch) pr.in[dy][ch] = L.color->row(ch, 2 * yc + dy) + x0;
+        }
+        pr.k = L.k;
+        pull_pairs_simd(pr, m, p0, p1, cvp, cwt.row(0, yc) + xc);
+        continue;
+      }
       const std::pair<int, int> sp[2] = {L.matte(2 * yc, x0, n, r[0], hb[0], !exact),
                                          L.matte(2 * yc + 1, x0, n, r[1], hb[1], !exact)};
       const int lo = std::min(sp[0].first, sp[1].first), hi = std::max(sp[0].second, sp[1].second);
@@ -1362,6 +1403,64 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     const FusedLayer::Cls cl = L.cls(y, x0);
     return cl == FusedLayer::kEmptyKnown || (cl == FusedLayer::kEmptyHole && !L.fill);
   };
+  // A row of a block where layer k is not known empty, in one kernel (kern::crow_row): the
+  // matte inside the layer's span, the fill inside its hole span (FusedLayer::get's ranges),
+  // "over" the accumulator's rows (up-sampled, or +0 where azero) everywhere.
+  auto crow_fused = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s, bool azero) {
+    const int k = L.k;
+    const std::size_t bi = static_cast<std::size_t>(y) * L.nb + x0 / kBlock;
+    const std::size_t base = static_cast<std::size_t>(y) * w + x0;
+    CrowRow r;
+    r.code = L.code + base;
+    r.w0 = L.w0 + base;
+    for (int ch = 0; ch < 4; ++ch) r.in[ch] = L.color->row(ch, y) + x0;
+    r.k = k;
+    int lo = n, hi = 0;
+    if ((L.bpres[bi] >> k) & 1u) {
+      const std::uint32_t sp = L.bspan[16 * bi + static_cast<std::size_t>(k)];
+      lo = static_cast<int>(sp & 0xffffu);
+      hi = static_cast<int>(sp >> 16);
+    }
+    int a0 = n, a1 = 0;
+    if (L.fill) {
+      const int hmin = static_cast<int>(L.bhk[bi] & 255u), hmax = static_cast<int>(L.bhk[bi] >> 8);
+      if (k >= hmax) {
+        a0 = 0;
+        a1 = n;
+      } else if (k >= hmin) {
+        const std::uint32_t hs = L.bhole[16 * bi + static_cast<std::size_t>(k)];
+        a0 = static_cast<int>(hs & 0xffffu);
+        a1 = static_cast<int>(hs >> 16);
+      }
+    }
+    const float* const* ft = kZeroRows;
+    const float* const* fb = kZeroRows;
+    r.fty = 0.0f;
+    if (a1 > a0) {
+      HCache& fc = s.fill[x0 / kBlock];
+      if (fc.img != L.l1 || fc.x0 != x0) fc.reset(L.l1, 2, x0);
+      fc.rows(y, n, ft, fb, r.fty);
+    }
+    r.opaque = L.opaque;
+    r.under = L.under;
+    const float* const* at = kZeroRows;
+    const float* const* ab = kZeroRows;
+    r.aty = 0.0f;
+    r.am = !A.present() ? 0 : (azero ? 1 : 2);
+    if (r.am == 2) {
+      HCache& ac = s.acc[x0 / kBlock];
+      if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0);
+      ac.rows(y, n, at, ab, r.aty);
+    }
+    for (int ch = 0; ch < 4; ++ch) {
+      r.ft[ch] = ft[ch];
+      r.fb[ch] = fb[ch];
+      r.at[ch] = at[ch];
+      r.ab[ch] = ab[ch];
+    }
+    r.front = layer_in_front;
+    crow_row_simd(r, n, lo, hi, a0, a1, c);
+  };
   // azero: A's rows here are known to be +0 (ZeroMap): they are taken as rows of +0 instead
   // of being up-sampled (the same values, see ZeroMap).
   auto crow = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s, bool azero) {
@@ -1375,6 +1474,10 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
       A.get(y, x0, n, c, a, &s.acc[x0 / kBlock]);
       for (int ch = 0; ch < 4; ++ch)
         if (a[ch] != c[ch]) std::copy(a[ch], a[ch] + n, c[ch]);
+      return;
+    }
+    if (!A.full && (!L.fill || L.l1)) {  // the fused row (kern::crow_row), same values
+      crow_fused(y, x0, n, c, s, azero);
       return;
     }
     L.get(y, x0, n, c, &s.fill[x0 / kBlock]);

@@ -1381,6 +1381,60 @@ std::atomic<std::uint64_t> g_fused_renders{0};
 // Band blocks of composite passes written as +0 without computing them (see composite_pass).
 std::atomic<std::uint64_t> zero_blocks{0};
 
+// Row y of block x0 of layer k (FusedLayer::get's values: the matte inside the layer's span,
+// the fill inside its hole span) in one kernel (crow_row_simd), and with am = 1 / 2 "over" (or
+// under) an accumulator of +0 rows / of the up-sampling of `acc` (reduced by `factor`, rows
+// cached in acc_cache). For a layer whose fill, if any, has a pyramid level (L.l1).
+void fused_row(const FusedLayer& L, int y, int x0, int n, HCache& fill_cache, int am, HCache* acc_cache,
+               const Image* acc, int factor, bool front, float (*c)[kBlock]) {
+  const int k = L.k;
+  const std::size_t bi = static_cast<std::size_t>(y) * L.nb + x0 / kBlock;
+  const std::size_t base = static_cast<std::size_t>(y) * L.w + x0;
+  CrowRow r;
+  r.code = L.code + base;
+  r.w0 = L.w0 + base;
+  for (int ch = 0; ch < 4; ++ch) r.in[ch] = L.color->row(ch, y) + x0;
+  r.k = k;
+  const std::pair<int, int> sp = L.span(y, x0, n);
+  int a0 = n, a1 = 0;
+  if (L.fill) {
+    const int hmin = static_cast<int>(L.bhk[bi] & 255u), hmax = static_cast<int>(L.bhk[bi] >> 8);
+    if (k >= hmax) {
+      a0 = 0;
+      a1 = n;
+    } else if (k >= hmin) {
+      const std::uint32_t hs = L.bhole[16 * bi + static_cast<std::size_t>(k)];
+      a0 = static_cast<int>(hs & 0xffffu);
+      a1 = static_cast<int>(hs >> 16);
+    }
+  }
+  const float* const* ft = kZeroRows;
+  const float* const* fb = kZeroRows;
+  r.fty = 0.0f;
+  if (a1 > a0) {
+    if (fill_cache.img != L.l1 || fill_cache.x0 != x0) fill_cache.reset(L.l1, 2, x0);
+    fill_cache.rows(y, n, ft, fb, r.fty);
+  }
+  r.opaque = L.opaque;
+  r.under = L.under;
+  const float* const* at = kZeroRows;
+  const float* const* ab = kZeroRows;
+  r.aty = 0.0f;
+  r.am = am;
+  if (am == 2) {
+    if (acc_cache->img != acc || acc_cache->x0 != x0) acc_cache->reset(acc, factor, x0);
+    acc_cache->rows(y, n, at, ab, r.aty);
+  }
+  for (int ch = 0; ch < 4; ++ch) {
+    r.ft[ch] = ft[ch];
+    r.fb[ch] = fb[ch];
+    r.at[ch] = at[ch];
+    r.ab[ch] = ab[ch];
+  }
+  r.front = front;
+  crow_row_simd(r, n, sp.first, sp.second, a0, a1, c);
+}
+
 // One composite step of an accumulator: C = L over A (layer_in_front) or A over L (A absent:
 // C = L), written at full resolution into dst_full (which may be A's own full image) or
 // reduced by composite.cpp's 2×2 box into dst_half.
@@ -1403,63 +1457,10 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     const FusedLayer::Cls cl = L.cls(y, x0);
     return cl == FusedLayer::kEmptyKnown || (cl == FusedLayer::kEmptyHole && !L.fill);
   };
-  // A row of a block where layer k is not known empty, in one kernel (kern::crow_row): the
-  // matte inside the layer's span, the fill inside its hole span (FusedLayer::get's ranges),
-  // "over" the accumulator's rows (up-sampled, or +0 where azero) everywhere.
+  // A row of a block where layer k is not known empty, in one kernel (fused_row).
   auto crow_fused = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s, bool azero) {
-    const int k = L.k;
-    const std::size_t bi = static_cast<std::size_t>(y) * L.nb + x0 / kBlock;
-    const std::size_t base = static_cast<std::size_t>(y) * w + x0;
-    CrowRow r;
-    r.code = L.code + base;
-    r.w0 = L.w0 + base;
-    for (int ch = 0; ch < 4; ++ch) r.in[ch] = L.color->row(ch, y) + x0;
-    r.k = k;
-    int lo = n, hi = 0;
-    if ((L.bpres[bi] >> k) & 1u) {
-      const std::uint32_t sp = L.bspan[16 * bi + static_cast<std::size_t>(k)];
-      lo = static_cast<int>(sp & 0xffffu);
-      hi = static_cast<int>(sp >> 16);
-    }
-    int a0 = n, a1 = 0;
-    if (L.fill) {
-      const int hmin = static_cast<int>(L.bhk[bi] & 255u), hmax = static_cast<int>(L.bhk[bi] >> 8);
-      if (k >= hmax) {
-        a0 = 0;
-        a1 = n;
-      } else if (k >= hmin) {
-        const std::uint32_t hs = L.bhole[16 * bi + static_cast<std::size_t>(k)];
-        a0 = static_cast<int>(hs & 0xffffu);
-        a1 = static_cast<int>(hs >> 16);
-      }
-    }
-    const float* const* ft = kZeroRows;
-    const float* const* fb = kZeroRows;
-    r.fty = 0.0f;
-    if (a1 > a0) {
-      HCache& fc = s.fill[x0 / kBlock];
-      if (fc.img != L.l1 || fc.x0 != x0) fc.reset(L.l1, 2, x0);
-      fc.rows(y, n, ft, fb, r.fty);
-    }
-    r.opaque = L.opaque;
-    r.under = L.under;
-    const float* const* at = kZeroRows;
-    const float* const* ab = kZeroRows;
-    r.aty = 0.0f;
-    r.am = !A.present() ? 0 : (azero ? 1 : 2);
-    if (r.am == 2) {
-      HCache& ac = s.acc[x0 / kBlock];
-      if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0);
-      ac.rows(y, n, at, ab, r.aty);
-    }
-    for (int ch = 0; ch < 4; ++ch) {
-      r.ft[ch] = ft[ch];
-      r.fb[ch] = fb[ch];
-      r.at[ch] = at[ch];
-      r.ab[ch] = ab[ch];
-    }
-    r.front = layer_in_front;
-    crow_row_simd(r, n, lo, hi, a0, a1, c);
+    const int am = !A.present() ? 0 : (azero ? 1 : 2);
+    fused_row(L, y, x0, n, s.fill[x0 / kBlock], am, &s.acc[x0 / kBlock], A.half, A.factor, layer_in_front, c);
   };
   // azero: A's rows here are known to be +0 (ZeroMap): they are taken as rows of +0 instead
   // of being up-sampled (the same values, see ZeroMap).
@@ -1859,16 +1860,42 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       for (int x0 = 0; x0 < w; x0 += kBlock)
         for (int y = 4 * b; y < std::min(h, 4 * b + 4); ++y) {
           const int n = std::min(kBlock, w - x0);
-          if (Lf) Lf->get(y, x0, n, cur, &caches[x0 / kBlock]);
+          if (Lf && (!Lf->fill || Lf->l1)) fused_row(*Lf, y, x0, n, caches[x0 / kBlock], 0, nullptr, nullptr, 2, true, cur);
+          else if (Lf) Lf->get(y, x0, n, cur, &caches[x0 / kBlock]);
           else
             for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
+          float* o[4];
+          for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
+          if (!BR.full && !FR.full) {
+            // cur over B, then F over that, with their up-sampling's vertical lerp in the same
+            // kernel (final_row_simd; rows of +0 where a zero map says so).
+            FinalRow fr;
+            for (int c = 0; c < 4; ++c) fr.c[c] = cur[c];
+            auto side = [&](const AccRows& R, HCache& cache, int& mode, const float** top, const float** bot, float& ty) {
+              ty = 0.0f;
+              mode = R.present() ? 1 : 0;
+              const float* const* a = kZeroRows;
+              const float* const* b = kZeroRows;
+              if (R.present() && !R.zero(y, y, x0)) {
+                if (cache.img != R.half || cache.x0 != x0) cache.reset(R.half, R.factor, x0);
+                cache.rows(y, n, a, b, ty);
+                mode = 2;
+              }
+              for (int c = 0; c < 4; ++c) {
+                top[c] = a[c];
+                bot[c] = b[c];
+              }
+            };
+            side(BR, caches[nbf + x0 / kBlock], fr.bm, fr.bt, fr.bb, fr.bty);
+            side(FR, caches[2 * nbf + x0 / kBlock], fr.fm, fr.ft, fr.fb, fr.fty);
+            final_row_simd(fr, n, o);
+            continue;
+          }
           // cur over B, then F over that (rows of +0 where a zero map says so).
           const float* back[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
           const float* front[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
           if (BR.present() && !BR.zero(y, y, x0)) BR.get(y, x0, n, bb, back, &caches[nbf + x0 / kBlock]);
           if (FR.present() && !FR.zero(y, y, x0)) FR.get(y, x0, n, fb, front, &caches[2 * nbf + x0 / kBlock]);
-          float* o[4];
-          for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
           float t[kBlock], u[kBlock];
           kern::one_minus(cur[3], n, t);
           if (FR.present()) kern::one_minus(front[3], n, u);

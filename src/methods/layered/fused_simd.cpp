@@ -284,6 +284,74 @@ void PullPairsImpl(const PullRows& r, int m, int p0, int p1, float* const* cv, f
   }
 }
 
+
+// One column of FinalRowImpl (T = float) or a vector of them (T = a Highway vector); the
+// loads, arithmetic and stores come from the ops object.
+template <int BM, int FM, class Ops>
+HWY_INLINE void FinalAt(const FinalRow& r, const Ops& o, std::size_t j, float* const* out) {
+  using T = decltype(o.load(r.c[0] + j));
+  const T one = o.set(1.0f);
+  auto acc = [&](int mode, const float* const* top, const float* const* bot, float ty, int ch) {
+    if (mode == 1) return o.load(top[ch] + j);
+    const T t = o.load(top[ch] + j);
+    return o.add(t, o.mul(o.sub(o.load(bot[ch] + j), t), o.set(ty)));  // lerp_rows
+  };
+  const T c3 = o.load(r.c[3] + j);
+  const T t = o.sub(one, c3);  // one_minus
+  T f3 = one, u = one;
+  if constexpr (FM != 0) {
+    f3 = acc(FM, r.ft, r.fb, r.fty, 3);
+    u = o.sub(one, f3);
+  }
+  for (int ch = 0; ch < 4; ++ch) {  // final_channel
+    T v = ch == 3 ? c3 : o.load(r.c[ch] + j);
+    if constexpr (BM != 0) v = o.add(v, o.mul(t, acc(BM, r.bt, r.bb, r.bty, ch)));
+    if constexpr (FM != 0) v = o.add(ch == 3 ? f3 : acc(FM, r.ft, r.fb, r.fty, ch), o.mul(u, v));
+    o.store(v, out[ch] + j);
+  }
+}
+
+struct ScalarOps {
+  float load(const float* p) const { return *p; }
+  void store(float v, float* p) const { *p = v; }
+  float set(float v) const { return v; }
+  float add(float a, float b) const { return a + b; }
+  float sub(float a, float b) const { return a - b; }
+  float mul(float a, float b) const { return a * b; }
+};
+struct VecOps {
+  hn::ScalableTag<float> d;
+  auto load(const float* p) const { return hn::LoadU(d, p); }
+  template <class V> void store(V v, float* p) const { hn::StoreU(v, d, p); }
+  auto set(float v) const { return hn::Set(d, v); }
+  template <class V> V add(V a, V b) const { return hn::Add(a, b); }
+  template <class V> V sub(V a, V b) const { return hn::Sub(a, b); }
+  template <class V> V mul(V a, V b) const { return hn::Mul(a, b); }
+};
+
+template <int BM, int FM>
+HWY_INLINE void FinalLoop(const FinalRow& r, int n, float* const* out) {
+  const VecOps vo;
+  const int lanes = static_cast<int>(hn::Lanes(vo.d));
+  int j = 0;
+  for (; j + lanes <= n; j += lanes) FinalAt<BM, FM>(r, vo, static_cast<std::size_t>(j), out);
+  for (; j < n; ++j) FinalAt<BM, FM>(r, ScalarOps(), static_cast<std::size_t>(j), out);
+}
+
+void FinalRowImpl(const FinalRow& r, int n, float* const* out) {
+  switch (3 * r.bm + r.fm) {
+    case 0: FinalLoop<0, 0>(r, n, out); break;
+    case 1: FinalLoop<0, 1>(r, n, out); break;
+    case 2: FinalLoop<0, 2>(r, n, out); break;
+    case 3: FinalLoop<1, 0>(r, n, out); break;
+    case 4: FinalLoop<1, 1>(r, n, out); break;
+    case 5: FinalLoop<1, 2>(r, n, out); break;
+    case 6: FinalLoop<2, 0>(r, n, out); break;
+    case 7: FinalLoop<2, 1>(r, n, out); break;
+    default: FinalLoop<2, 2>(r, n, out); break;
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::layered
 HWY_AFTER_NAMESPACE();
@@ -293,6 +361,9 @@ namespace dofkit::detail::layered {
 
 HWY_EXPORT(CrowRowImpl);
 HWY_EXPORT(PullPairsImpl);
+HWY_EXPORT(FinalRowImpl);
+
+void final_row_simd(const FinalRow& r, int n, float* const* out) { HWY_DYNAMIC_DISPATCH(FinalRowImpl)(r, n, out); }
 
 void pull_pairs_simd(const PullRows& r, int m, int p0, int p1, float* const* cv, float* cw) {
   HWY_DYNAMIC_DISPATCH(PullPairsImpl)(r, m, p0, p1, cv, cw);

@@ -46,4 +46,20 @@ struct PullRows {
 /// value is +0: what the full sum gives), +0 elsewhere.
 void pull_pairs_simd(const PullRows& r, int m, int p0, int p1, float* const* cv, float* cw);
 
+/// One row of the final composite (I = F over L_focus over B): c = the focus layer's row;
+/// B and F each absent (mode 0), given as rows (1: b / f, e.g. +0 rows or a full-resolution
+/// accumulator) or as the vertical lerp of two cached up-sampled rows (2: top, bottom, ty).
+/// out = f + (1 − f.a)·(c + (1 − c.a)·b), with the absent steps left out.
+struct FinalRow {
+  const float* c[4];
+  int bm, fm;
+  const float* bt[4];
+  const float* bb[4];
+  float bty;
+  const float* ft[4];
+  const float* fb[4];
+  float fty;
+};
+void final_row_simd(const FinalRow& r, int n, float* const* out);
+
 }  // namespace dofkit::detail::layered

@@ -56,32 +56,6 @@ LAYERED_SIMD void up_quads(const float* __restrict src, int i0, int i1, float* _
   }
 }
 
-// 4×4 box of composite.cpp's reduce_and_blur for xq in [0, m) (all 16 taps in range):
-// s = 0 + Σ_dy Σ_dx r_dy[4xq + dx] in that order, d = s / 16.
-LAYERED_SIMD void down_quads(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2,
-                             const float* __restrict r3, int m, float* __restrict d) {
-  for (int x = 0; x < m; ++x) {
-    float s = 0.0f;
-    s += r0[4 * x];
-    s += r0[4 * x + 1];
-    s += r0[4 * x + 2];
-    s += r0[4 * x + 3];
-    s += r1[4 * x];
-    s += r1[4 * x + 1];
-    s += r1[4 * x + 2];
-    s += r1[4 * x + 3];
-    s += r2[4 * x];
-    s += r2[4 * x + 1];
-    s += r2[4 * x + 2];
-    s += r2[4 * x + 3];
-    s += r3[4 * x];
-    s += r3[4 * x + 1];
-    s += r3[4 * x + 2];
-    s += r3[4 * x + 3];
-    d[x] = 0.0625f * s;
-  }
-}
-
 // dst = top + (bot − top)·t.
 LAYERED_SIMD void lerp_rows(const float* __restrict top, const float* __restrict bot, float t, int n,
                             float* __restrict dst) {
@@ -1544,7 +1518,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
             const float* r[4];
             for (int dy = 0; dy < 4; ++dy) r[dy] = s.rows[src[dy]][ch];
             float* d = q.row(ch, b);
-            kern::down_quads(r[0], r[1], r[2], r[3], m, d + x0 / 4);
+            down_quads_simd(r[0], r[1], r[2], r[3], m, d + x0 / 4);
             for (int xq = x0 / 4 + m; xq < (x0 + n + 3) / 4; ++xq) {
               float sum = 0.0f;
               for (int dy = 0; dy < 4; ++dy)

@@ -352,6 +352,38 @@ void FinalRowImpl(const FinalRow& r, int n, float* const* out) {
   }
 }
 
+
+void DownQuadsImpl(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d) {
+  int x = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<float> df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const float* rows[4] = {r0, r1, r2, r3};
+  for (; x + n <= m; x += n) {
+    auto s = hn::Zero(df);
+    for (int dy = 0; dy < 4; ++dy) {
+      // The 4n taps of the row, de-interleaved into q_dx = taps 4x + dx of the n outputs.
+      const float* p = rows[dy] + 4 * static_cast<std::size_t>(x);
+      const auto v0 = hn::LoadU(df, p), v1 = hn::LoadU(df, p + n), v2 = hn::LoadU(df, p + 2 * n),
+                 v3 = hn::LoadU(df, p + 3 * n);
+      const auto e01 = hn::ConcatEven(df, v1, v0), o01 = hn::ConcatOdd(df, v1, v0);
+      const auto e23 = hn::ConcatEven(df, v3, v2), o23 = hn::ConcatOdd(df, v3, v2);
+      s = hn::Add(s, hn::ConcatEven(df, e23, e01));  // 4x
+      s = hn::Add(s, hn::ConcatEven(df, o23, o01));  // 4x + 1
+      s = hn::Add(s, hn::ConcatOdd(df, e23, e01));   // 4x + 2
+      s = hn::Add(s, hn::ConcatOdd(df, o23, o01));   // 4x + 3
+    }
+    hn::StoreU(hn::Mul(hn::Set(df, 0.0625f), s), df, d + x);
+  }
+#endif
+  for (; x < m; ++x) {
+    float s = 0.0f;
+    for (const float* r : {r0, r1, r2, r3})
+      for (int dx = 0; dx < 4; ++dx) s += r[4 * x + dx];
+    d[x] = 0.0625f * s;
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::layered
 HWY_AFTER_NAMESPACE();
@@ -362,6 +394,11 @@ namespace dofkit::detail::layered {
 HWY_EXPORT(CrowRowImpl);
 HWY_EXPORT(PullPairsImpl);
 HWY_EXPORT(FinalRowImpl);
+HWY_EXPORT(DownQuadsImpl);
+
+void down_quads_simd(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d) {
+  HWY_DYNAMIC_DISPATCH(DownQuadsImpl)(r0, r1, r2, r3, m, d);
+}
 
 void final_row_simd(const FinalRow& r, int n, float* const* out) { HWY_DYNAMIC_DISPATCH(FinalRowImpl)(r, n, out); }
 

@@ -62,4 +62,8 @@ struct FinalRow {
 };
 void final_row_simd(const FinalRow& r, int n, float* const* out);
 
+/// composite.cpp's 4×4 box for the outputs [0, m) (all 16 taps in range): d[x] = 0.0625 ·
+/// (0 + r0[4x] + r0[4x + 1] + … + r3[4x + 3]), summed in that order.
+void down_quads_simd(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d);
+
 }  // namespace dofkit::detail::layered

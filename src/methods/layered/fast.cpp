@@ -12,6 +12,7 @@
 #include "core/parallel.hpp"
 #include "core/row_scan.hpp"
 #include "methods/layered/composite.hpp"
+#include "methods/layered/fused_simd.hpp"
 #include "methods/layered/inpaint.hpp"
 
 namespace dofkit::detail::layered {
@@ -52,32 +53,6 @@ LAYERED_SIMD void up_quads(const float* __restrict src, int i0, int i1, float* _
     dst[4 * i + 1] = lo + (mid - lo) * 0.875f;
     dst[4 * i + 2] = mid + (hi - mid) * 0.125f;
     dst[4 * i + 3] = mid + (hi - mid) * 0.375f;
-  }
-}
-
-// 4×4 box of composite.cpp's reduce_and_blur for xq in [0, m) (all 16 taps in range):
-// s = 0 + Σ_dy Σ_dx r_dy[4xq + dx] in that order, d = s / 16.
-LAYERED_SIMD void down_quads(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2,
-                             const float* __restrict r3, int m, float* __restrict d) {
-  for (int x = 0; x < m; ++x) {
-    float s = 0.0f;
-    s += r0[4 * x];
-    s += r0[4 * x + 1];
-    s += r0[4 * x + 2];
-    s += r0[4 * x + 3];
-    s += r1[4 * x];
-    s += r1[4 * x + 1];
-    s += r1[4 * x + 2];
-    s += r1[4 * x + 3];
-    s += r2[4 * x];
-    s += r2[4 * x + 1];
-    s += r2[4 * x + 2];
-    s += r2[4 * x + 3];
-    s += r3[4 * x];
-    s += r3[4 * x + 1];
-    s += r3[4 * x + 2];
-    s += r3[4 * x + 3];
-    d[x] = 0.0625f * s;
   }
 }
 
@@ -419,6 +394,7 @@ LAYERED_SIMD bool any_bits(const float* __restrict p, int n) {
   return acc != 0;
 }
 
+
 }  // namespace kern
 
 namespace {
@@ -550,6 +526,21 @@ struct HCache {
     }
     return v[i];
   }
+  // The two cached coarse rows and the vertical weight of fine row y (what get interpolates).
+  void rows(int y, int n, const float* const*& a, const float* const*& b, float& ty) {
+    int ya, yb;
+    core::bilinear_footprint((y + 0.5f) * (factor == 4 ? 0.25f : 0.5f), img->height(), ya, yb, ty);
+    float (*ra)[kBlock] = row(ya, n);
+    float (*rb)[kBlock] = row(yb, n);
+    for (int c = 0; c < 4; ++c) {
+      pa[c] = ra[c];
+      pb[c] = rb[c];
+    }
+    a = pa;
+    b = pb;
+  }
+  const float* pa[4];
+  const float* pb[4];
   // The 2× / 4× up-sampling of all channels at fine row y (up_block's result); with
   // plus_zero, +0 + that (see lerp_rows_z). Written only at columns [lo, hi) of the n
   // (the cached horizontal rows still cover all n).
@@ -1097,6 +1088,13 @@ struct FusedLayer {
     return kGeneral;
   }
 
+  // The span matte() returns for row y, block x0, without computing the values.
+  std::pair<int, int> span(int y, int x0, int n) const {
+    const std::size_t bi = static_cast<std::size_t>(y) * nb + x0 / kBlock;
+    if (!((bpres[bi] >> k) & 1u)) return {n, 0};
+    const std::uint32_t sp = bspan[16 * bi + static_cast<std::size_t>(k)];
+    return {static_cast<int>(sp & 0xffffu), static_cast<int>(sp >> 16)};
+  }
   // matting.cpp's values of row y, columns [x0, x0 + n); hole flags into hb if non-null.
   // Returns the span [lo, hi) (relative to x0; lo >= hi if empty) outside which the values
   // are +0.
@@ -1238,6 +1236,23 @@ void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][
       // below reads the block's last column) only those are completed with +0 outside each
       // row's own span.
       const bool exact = 2 * m == n;
+      if (exact) {
+        // One kernel from the codes and the colour (pull_pairs_simd): the same values as the
+        // matte, the hole flags and pull_pairs below. The pairs [p0, p1) as below.
+        const std::pair<int, int> sq[2] = {L.span(2 * yc, x0, n), L.span(2 * yc + 1, x0, n)};
+        const int lo = std::min(sq[0].first, sq[1].first), hi = std::max(sq[0].second, sq[1].second);
+        const int p0 = hi > lo ? std::min(lo / 2, m) : 0, p1 = hi > lo ? std::max(p0, std::min((hi + 1) / 2, m)) : 0;
+        PullRows pr;
+        for (int dy = 0; dy < 2; ++dy) {
+          const std::size_t base = static_cast<std::size_t>(2 * yc + dy) * w + x0;
+          pr.code[dy] = L.code + base;
+          pr.w0[dy] = L.w0 + base;
+          for (int ch = 0; ch < 4; ++ch) pr.in[dy][ch] = L.color->row(ch, 2 * yc + dy) + x0;
+        }
+        pr.k = L.k;
+        pull_pairs_simd(pr, m, p0, p1, cvp, cwt.row(0, yc) + xc);
+        continue;
+      }
       const std::pair<int, int> sp[2] = {L.matte(2 * yc, x0, n, r[0], hb[0], !exact),
                                          L.matte(2 * yc + 1, x0, n, r[1], hb[1], !exact)};
       const int lo = std::min(sp[0].first, sp[1].first), hi = std::max(sp[0].second, sp[1].second);
@@ -1340,6 +1355,60 @@ std::atomic<std::uint64_t> g_fused_renders{0};
 // Band blocks of composite passes written as +0 without computing them (see composite_pass).
 std::atomic<std::uint64_t> zero_blocks{0};
 
+// Row y of block x0 of layer k (FusedLayer::get's values: the matte inside the layer's span,
+// the fill inside its hole span) in one kernel (crow_row_simd), and with am = 1 / 2 "over" (or
+// under) an accumulator of +0 rows / of the up-sampling of `acc` (reduced by `factor`, rows
+// cached in acc_cache). For a layer whose fill, if any, has a pyramid level (L.l1).
+void fused_row(const FusedLayer& L, int y, int x0, int n, HCache& fill_cache, int am, HCache* acc_cache,
+               const Image* acc, int factor, bool front, float (*c)[kBlock]) {
+  const int k = L.k;
+  const std::size_t bi = static_cast<std::size_t>(y) * L.nb + x0 / kBlock;
+  const std::size_t base = static_cast<std::size_t>(y) * L.w + x0;
+  CrowRow r;
+  r.code = L.code + base;
+  r.w0 = L.w0 + base;
+  for (int ch = 0; ch < 4; ++ch) r.in[ch] = L.color->row(ch, y) + x0;
+  r.k = k;
+  const std::pair<int, int> sp = L.span(y, x0, n);
+  int a0 = n, a1 = 0;
+  if (L.fill) {
+    const int hmin = static_cast<int>(L.bhk[bi] & 255u), hmax = static_cast<int>(L.bhk[bi] >> 8);
+    if (k >= hmax) {
+      a0 = 0;
+      a1 = n;
+    } else if (k >= hmin) {
+      const std::uint32_t hs = L.bhole[16 * bi + static_cast<std::size_t>(k)];
+      a0 = static_cast<int>(hs & 0xffffu);
+      a1 = static_cast<int>(hs >> 16);
+    }
+  }
+  const float* const* ft = kZeroRows;
+  const float* const* fb = kZeroRows;
+  r.fty = 0.0f;
+  if (a1 > a0) {
+    if (fill_cache.img != L.l1 || fill_cache.x0 != x0) fill_cache.reset(L.l1, 2, x0);
+    fill_cache.rows(y, n, ft, fb, r.fty);
+  }
+  r.opaque = L.opaque;
+  r.under = L.under;
+  const float* const* at = kZeroRows;
+  const float* const* ab = kZeroRows;
+  r.aty = 0.0f;
+  r.am = am;
+  if (am == 2) {
+    if (acc_cache->img != acc || acc_cache->x0 != x0) acc_cache->reset(acc, factor, x0);
+    acc_cache->rows(y, n, at, ab, r.aty);
+  }
+  for (int ch = 0; ch < 4; ++ch) {
+    r.ft[ch] = ft[ch];
+    r.fb[ch] = fb[ch];
+    r.at[ch] = at[ch];
+    r.ab[ch] = ab[ch];
+  }
+  r.front = front;
+  crow_row_simd(r, n, sp.first, sp.second, a0, a1, c);
+}
+
 // One composite step of an accumulator: C = L over A (layer_in_front) or A over L (A absent:
 // C = L), written at full resolution into dst_full (which may be A's own full image) or
 // reduced by composite.cpp's 2×2 box into dst_half.
@@ -1362,6 +1431,11 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     const FusedLayer::Cls cl = L.cls(y, x0);
     return cl == FusedLayer::kEmptyKnown || (cl == FusedLayer::kEmptyHole && !L.fill);
   };
+  // A row of a block where layer k is not known empty, in one kernel (fused_row).
+  auto crow_fused = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s, bool azero) {
+    const int am = !A.present() ? 0 : (azero ? 1 : 2);
+    fused_row(L, y, x0, n, s.fill[x0 / kBlock], am, &s.acc[x0 / kBlock], A.half, A.factor, layer_in_front, c);
+  };
   // azero: A's rows here are known to be +0 (ZeroMap): they are taken as rows of +0 instead
   // of being up-sampled (the same values, see ZeroMap).
   auto crow = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s, bool azero) {
@@ -1375,6 +1449,10 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
       A.get(y, x0, n, c, a, &s.acc[x0 / kBlock]);
       for (int ch = 0; ch < 4; ++ch)
         if (a[ch] != c[ch]) std::copy(a[ch], a[ch] + n, c[ch]);
+      return;
+    }
+    if (!A.full && (!L.fill || L.l1)) {  // the fused row (kern::crow_row), same values
+      crow_fused(y, x0, n, c, s, azero);
       return;
     }
     L.get(y, x0, n, c, &s.fill[x0 / kBlock]);
@@ -1440,7 +1518,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
             const float* r[4];
             for (int dy = 0; dy < 4; ++dy) r[dy] = s.rows[src[dy]][ch];
             float* d = q.row(ch, b);
-            kern::down_quads(r[0], r[1], r[2], r[3], m, d + x0 / 4);
+            down_quads_simd(r[0], r[1], r[2], r[3], m, d + x0 / 4);
             for (int xq = x0 / 4 + m; xq < (x0 + n + 3) / 4; ++xq) {
               float sum = 0.0f;
               for (int dy = 0; dy < 4; ++dy)
@@ -1756,16 +1834,42 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       for (int x0 = 0; x0 < w; x0 += kBlock)
         for (int y = 4 * b; y < std::min(h, 4 * b + 4); ++y) {
           const int n = std::min(kBlock, w - x0);
-          if (Lf) Lf->get(y, x0, n, cur, &caches[x0 / kBlock]);
+          if (Lf && (!Lf->fill || Lf->l1)) fused_row(*Lf, y, x0, n, caches[x0 / kBlock], 0, nullptr, nullptr, 2, true, cur);
+          else if (Lf) Lf->get(y, x0, n, cur, &caches[x0 / kBlock]);
           else
             for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
+          float* o[4];
+          for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
+          if (!BR.full && !FR.full) {
+            // cur over B, then F over that, with their up-sampling's vertical lerp in the same
+            // kernel (final_row_simd; rows of +0 where a zero map says so).
+            FinalRow fr;
+            for (int c = 0; c < 4; ++c) fr.c[c] = cur[c];
+            auto side = [&](const AccRows& R, HCache& cache, int& mode, const float** top, const float** bot, float& ty) {
+              ty = 0.0f;
+              mode = R.present() ? 1 : 0;
+              const float* const* a = kZeroRows;
+              const float* const* b = kZeroRows;
+              if (R.present() && !R.zero(y, y, x0)) {
+                if (cache.img != R.half || cache.x0 != x0) cache.reset(R.half, R.factor, x0);
+                cache.rows(y, n, a, b, ty);
+                mode = 2;
+              }
+              for (int c = 0; c < 4; ++c) {
+                top[c] = a[c];
+                bot[c] = b[c];
+              }
+            };
+            side(BR, caches[nbf + x0 / kBlock], fr.bm, fr.bt, fr.bb, fr.bty);
+            side(FR, caches[2 * nbf + x0 / kBlock], fr.fm, fr.ft, fr.fb, fr.fty);
+            final_row_simd(fr, n, o);
+            continue;
+          }
           // cur over B, then F over that (rows of +0 where a zero map says so).
           const float* back[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
           const float* front[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
           if (BR.present() && !BR.zero(y, y, x0)) BR.get(y, x0, n, bb, back, &caches[nbf + x0 / kBlock]);
           if (FR.present() && !FR.zero(y, y, x0)) FR.get(y, x0, n, fb, front, &caches[2 * nbf + x0 / kBlock]);
-          float* o[4];
-          for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
           float t[kBlock], u[kBlock];
           kern::one_minus(cur[3], n, t);
           if (FR.present()) kern::one_minus(front[3], n, u);

@@ -1,0 +1,414 @@
+// Highway kernels of the fused Gaussian stack (declared in fused_simd.hpp). Every lane
+// computes the plain form's expression for its pixel, operation for operation (separate
+// multiply and add: this file is built with -ffp-contract=off, CMakeLists.txt), so a pixel
+// gets the same bits whichever target runs and wherever its vector starts. Segment tails
+// narrower than a vector run the same vector code on copies padded to a full vector.
+#include "methods/layered/fused_simd.hpp"
+
+#include <cstddef>
+#include <cstdint>
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "methods/layered/fused_simd.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+HWY_BEFORE_NAMESPACE();
+namespace dofkit::detail::layered {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+// The row pointers of one crow segment, indexed by column (the tail points them at padded copies).
+struct CrowPtrs {
+  const std::uint16_t* code;
+  const float* w0;
+  const float* in[4];
+  const float* ft[4];
+  const float* fb[4];
+  const float* at[4];
+  const float* ab[4];
+  float* c[4];
+};
+
+template <bool M, bool H, bool FG, int AM, bool FRONT>
+HWY_INLINE void CrowVec(const CrowRow& r, const CrowPtrs& p, std::size_t j) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const hn::Rebind<std::uint16_t, decltype(df)> dh;
+  const auto zero = hn::Zero(df), one = hn::Set(df, 1.0f);
+  auto m0 = zero, m1 = zero, m2 = zero, m3 = zero;
+  decltype(hn::Zero(di)) cd;
+  if constexpr (M || H) cd = hn::BitCast(di, hn::PromoteTo(hn::RebindToUnsigned<decltype(di)>(), hn::LoadU(dh, p.code + j)));
+  if constexpr (M) {  // matting.cpp: 0 + (1 − 0)·w_k·I, w_k = w0 (j0 = k), 1 (second layer k), else 0
+    const int k1 = r.k >= 1 ? ((r.k - 1) | 32) : 0xffff;
+    const auto second = hn::IfThenElseZero(hn::RebindMask(df, hn::Eq(hn::And(cd, hn::Set(di, 63)), hn::Set(di, k1))), one);
+    const auto wk = hn::IfThenElse(hn::RebindMask(df, hn::Eq(hn::And(cd, hn::Set(di, 31)), hn::Set(di, r.k))),
+                                   hn::LoadU(df, p.w0 + j), second);
+    m0 = hn::Add(zero, hn::Mul(wk, hn::LoadU(df, p.in[0] + j)));
+    m1 = hn::Add(zero, hn::Mul(wk, hn::LoadU(df, p.in[1] + j)));
+    m2 = hn::Add(zero, hn::Mul(wk, hn::LoadU(df, p.in[2] + j)));
+    m3 = hn::Add(zero, hn::Mul(wk, hn::LoadU(df, p.in[3] + j)));
+  }
+  if constexpr (H) {  // inpaint.cpp at a hole (confidence 0): v = 0·v + 1·up, then its rules
+    const auto hb = hn::RebindMask(df, hn::Gt(hn::Set(di, r.k + 1), hn::ShiftRight<6>(cd)));  // k >= hk
+    const auto ty = hn::Set(df, r.fty);
+    auto lerp = [&](int ch) {
+      const auto t = hn::LoadU(df, p.ft[ch] + j);
+      return hn::Add(t, hn::Mul(hn::Sub(hn::LoadU(df, p.fb[ch] + j), t), ty));
+    };
+    auto v0 = hn::Add(hn::Mul(zero, m0), lerp(0));
+    auto v1 = hn::Add(hn::Mul(zero, m1), lerp(1));
+    auto v2 = hn::Add(hn::Mul(zero, m2), lerp(2));
+    auto v3 = hn::Add(hn::Mul(zero, m3), lerp(3));
+    if constexpr (FG) {
+      const auto norm = hn::And(hn::Gt(v3, hn::Set(df, 1e-6f)), r.opaque ? hn::FirstN(df, hn::Lanes(df)) : hn::FirstN(df, 0));
+      const auto a = v3;
+      v0 = hn::IfThenElse(norm, hn::Div(v0, a), v0);
+      v1 = hn::IfThenElse(norm, hn::Div(v1, a), v1);
+      v2 = hn::IfThenElse(norm, hn::Div(v2, a), v2);
+      v3 = hn::IfThenElse(norm, one, v3);
+      if (r.under) {
+        const auto t = hn::Sub(one, m3);
+        v0 = hn::Add(m0, hn::Mul(t, v0));
+        v1 = hn::Add(m1, hn::Mul(t, v1));
+        v2 = hn::Add(m2, hn::Mul(t, v2));
+        v3 = hn::Add(m3, hn::Mul(t, v3));
+      }
+    }
+    m0 = hn::IfThenElse(hb, v0, m0);
+    m1 = hn::IfThenElse(hb, v1, m1);
+    m2 = hn::IfThenElse(hb, v2, m2);
+    m3 = hn::IfThenElse(hb, v3, m3);
+  }
+  if constexpr (AM == 0) {
+    hn::StoreU(m0, df, p.c[0] + j);
+    hn::StoreU(m1, df, p.c[1] + j);
+    hn::StoreU(m2, df, p.c[2] + j);
+    hn::StoreU(m3, df, p.c[3] + j);
+  } else {
+    auto a0 = zero, a1 = zero, a2 = zero, a3 = zero;
+    if constexpr (AM == 2) {  // the accumulator's bilinear up-sampling, vertical lerp
+      const auto ty = hn::Set(df, r.aty);
+      auto lerp = [&](int ch) {
+        const auto t = hn::LoadU(df, p.at[ch] + j);
+        return hn::Add(t, hn::Mul(hn::Sub(hn::LoadU(df, p.ab[ch] + j), t), ty));
+      };
+      a0 = lerp(0);
+      a1 = lerp(1);
+      a2 = lerp(2);
+      a3 = lerp(3);
+    }
+    if constexpr (FRONT) {  // composite.cpp over(): f + (1 − f.a)·b
+      const auto t = hn::Sub(one, m3);
+      hn::StoreU(hn::Add(m0, hn::Mul(t, a0)), df, p.c[0] + j);
+      hn::StoreU(hn::Add(m1, hn::Mul(t, a1)), df, p.c[1] + j);
+      hn::StoreU(hn::Add(m2, hn::Mul(t, a2)), df, p.c[2] + j);
+      hn::StoreU(hn::Add(m3, hn::Mul(t, a3)), df, p.c[3] + j);
+    } else {
+      const auto t = hn::Sub(one, a3);
+      hn::StoreU(hn::Add(a0, hn::Mul(t, m0)), df, p.c[0] + j);
+      hn::StoreU(hn::Add(a1, hn::Mul(t, m1)), df, p.c[1] + j);
+      hn::StoreU(hn::Add(a2, hn::Mul(t, m2)), df, p.c[2] + j);
+      hn::StoreU(hn::Add(a3, hn::Mul(t, m3)), df, p.c[3] + j);
+    }
+  }
+}
+
+template <bool M, bool H, bool FG, int AM, bool FRONT>
+HWY_INLINE void CrowLoop(const CrowRow& r, int s, int e, float (*c)[256]) {
+  const hn::ScalableTag<float> df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  CrowPtrs p;
+  p.code = r.code;
+  p.w0 = r.w0;
+  for (int ch = 0; ch < 4; ++ch) {
+    p.in[ch] = r.in[ch];
+    p.ft[ch] = r.ft[ch];
+    p.fb[ch] = r.fb[ch];
+    p.at[ch] = r.at[ch];
+    p.ab[ch] = r.ab[ch];
+    p.c[ch] = c[ch];
+  }
+  int j = s;
+  for (; j + n <= e; j += n) CrowVec<M, H, FG, AM, FRONT>(r, p, static_cast<std::size_t>(j));
+  if (j >= e) return;
+  // Tail: the same vector code on copies of the m = e − j remaining columns, padded.
+  const int m = e - j;
+  HWY_ALIGN float buf[25][HWY_LANES(float)] = {};
+  HWY_ALIGN std::uint16_t cbuf[HWY_LANES(float)] = {};
+  CrowPtrs t;
+  auto copy = [&](const float* src, int slot) {
+    if (src)
+      for (int i = 0; i < m; ++i) buf[slot][i] = src[j + i];
+    return buf[slot];
+  };
+  for (int i = 0; i < m; ++i) cbuf[i] = (M || H) ? r.code[j + i] : 0;
+  t.code = cbuf;
+  t.w0 = M ? copy(r.w0, 0) : buf[0];
+  for (int ch = 0; ch < 4; ++ch) {
+    t.in[ch] = M ? copy(r.in[ch], 1 + ch) : buf[1 + ch];
+    t.ft[ch] = H ? copy(r.ft[ch], 5 + ch) : buf[5 + ch];
+    t.fb[ch] = H ? copy(r.fb[ch], 9 + ch) : buf[9 + ch];
+    t.at[ch] = AM == 2 ? copy(r.at[ch], 13 + ch) : buf[13 + ch];
+    t.ab[ch] = AM == 2 ? copy(r.ab[ch], 17 + ch) : buf[17 + ch];
+    t.c[ch] = buf[21 + ch];
+  }
+  CrowVec<M, H, FG, AM, FRONT>(r, t, 0);
+  for (int ch = 0; ch < 4; ++ch)
+    for (int i = 0; i < m; ++i) c[ch][j + i] = buf[21 + ch][i];
+}
+
+template <bool M, bool H, bool FG>
+HWY_INLINE void CrowSeg(const CrowRow& r, int s, int e, float (*c)[256]) {
+  if (r.am == 0) CrowLoop<M, H, FG, 0, true>(r, s, e, c);
+  else if (r.am == 1) {
+    if (r.front) CrowLoop<M, H, FG, 1, true>(r, s, e, c);
+    else CrowLoop<M, H, FG, 1, false>(r, s, e, c);
+  } else {
+    if (r.front) CrowLoop<M, H, FG, 2, true>(r, s, e, c);
+    else CrowLoop<M, H, FG, 2, false>(r, s, e, c);
+  }
+}
+
+void CrowRowImpl(const CrowRow& r, int n, int lo, int hi, int a0, int a1, float (*c)[256]) {
+  if (hi <= lo) lo = hi = n;
+  if (a1 <= a0) a0 = a1 = n;
+  const bool fg = r.opaque || r.under;
+  int cut[6] = {0, lo, hi, a0, a1, n};
+  for (int i = 1; i < 6; ++i)  // the cuts in order (insertion sort)
+    for (int q = i; q > 0 && cut[q] < cut[q - 1]; --q) {
+      const int t = cut[q];
+      cut[q] = cut[q - 1];
+      cut[q - 1] = t;
+    }
+  for (int i = 0; i < 5; ++i) {
+    const int s = cut[i], e = cut[i + 1];
+    if (e <= s) continue;
+    const bool m = s >= lo && s < hi, h = s >= a0 && s < a1;
+    if (m && h) {
+      if (fg) CrowSeg<true, true, true>(r, s, e, c);
+      else CrowSeg<true, true, false>(r, s, e, c);
+    } else if (m) {
+      CrowSeg<true, false, false>(r, s, e, c);
+    } else if (h) {
+      if (fg) CrowSeg<false, true, true>(r, s, e, c);
+      else CrowSeg<false, true, false>(r, s, e, c);
+    } else {
+      CrowSeg<false, false, false>(r, s, e, c);
+    }
+  }
+}
+
+
+// The pull's child at fine column j of row `row` (scalar form of PullChunk): *nz = 1 unless
+// a hole, z = its matte, +0 at a hole.
+HWY_INLINE void PullChild(const PullRows& r, int row, int j, float* z, float* nz) {
+  const int cd = r.code[row][j];
+  const int k1 = r.k >= 1 ? ((r.k - 1) | 32) : 0xffff;
+  const float second = (cd & 63) == k1 ? 1.0f : 0.0f;
+  const float wk = (cd & 31) == r.k ? r.w0[row][j] : second;
+  const bool hole = r.k >= (cd >> 6);
+  for (int c = 0; c < 4; ++c) z[c] = hole ? 0.0f : 0.0f + wk * r.in[row][c][j];
+  *nz = hole ? 0.0f : 1.0f;
+}
+
+void PullPairsImpl(const PullRows& r, int m, int p0, int p1, float* const* cv, float* cw) {
+  const int v0 = p1 > p0 ? p0 : m, v1 = p1 > p0 ? p1 : m;  // pairs whose values are computed
+  int x = 0;
+#if HWY_TARGET != HWY_SCALAR  // (the scalar target has no half vectors: all pixels below)
+  const hn::ScalableTag<double> dd;
+  const hn::Rebind<float, decltype(dd)> dh;  // as many floats as doubles (half a vector)
+  const hn::Twice<decltype(dh)> df;          // the 2·Nd fine columns of Nd coarse pixels
+  const hn::RebindToSigned<decltype(df)> di;
+  const hn::Rebind<std::uint16_t, decltype(df)> du;
+  const int nd = static_cast<int>(hn::Lanes(dd));
+  const auto zero = hn::Zero(df), one = hn::Set(df, 1.0f);
+  const int k1 = r.k >= 1 ? ((r.k - 1) | 32) : 0xffff;
+  // Children of the coarse pixels [x, x + nd): even / odd fine columns of both rows.
+  auto fine = [&](int row, int x, hn::Vec<decltype(dh)>* ze, hn::Vec<decltype(dh)>* zo, hn::Vec<decltype(dh)>& ne,
+                  hn::Vec<decltype(dh)>& no, bool values) {
+    const std::size_t j = static_cast<std::size_t>(2 * x);
+    const auto cd = hn::BitCast(di, hn::PromoteTo(hn::RebindToUnsigned<decltype(di)>(), hn::LoadU(du, r.code[row] + j)));
+    const auto hole = hn::RebindMask(df, hn::Gt(hn::Set(di, r.k + 1), hn::ShiftRight<6>(cd)));  // k >= hk
+    const auto nz = hn::IfThenZeroElse(hole, one);
+    ne = hn::LowerHalf(dh, hn::ConcatEven(df, nz, nz));
+    no = hn::LowerHalf(dh, hn::ConcatOdd(df, nz, nz));
+    if (!values) return;
+    const auto second = hn::IfThenElseZero(hn::RebindMask(df, hn::Eq(hn::And(cd, hn::Set(di, 63)), hn::Set(di, k1))), one);
+    const auto wk = hn::IfThenElse(hn::RebindMask(df, hn::Eq(hn::And(cd, hn::Set(di, 31)), hn::Set(di, r.k))),
+                                   hn::LoadU(df, r.w0[row] + j), second);
+    for (int c = 0; c < 4; ++c) {
+      const auto z = hn::IfThenZeroElse(hole, hn::Add(zero, hn::Mul(wk, hn::LoadU(df, r.in[row][c] + j))));
+      ze[c] = hn::LowerHalf(dh, hn::ConcatEven(df, z, z));
+      zo[c] = hn::LowerHalf(dh, hn::ConcatOdd(df, z, z));
+    }
+  };
+  for (; x + nd <= m; x += nd) {
+    const bool values = x + nd > v0 && x < v1;
+    hn::Vec<decltype(dh)> ze[2][4], zo[2][4], ne[2], no[2];
+    fine(0, x, ze[0], zo[0], ne[0], no[0], values);
+    fine(1, x, ze[1], zo[1], ne[1], no[1], values);
+    // Σ w in pull_pairs' order (0 … 4: exact), confidence min(1, Σ w / 4) = Σ w · 0.25.
+    const auto s = hn::Add(hn::Add(hn::Add(ne[0], no[0]), ne[1]), no[1]);
+    hn::StoreU(hn::Mul(s, hn::Set(dh, 0.25f)), dh, cw + x);
+    if (!values) {
+      for (int c = 0; c < 4; ++c) hn::StoreU(hn::Zero(dh), dh, cv[c] + x);
+      continue;
+    }
+    const auto sw = hn::PromoteTo(dd, s);
+    const auto any = hn::Gt(sw, hn::Zero(dd));
+    for (int c = 0; c < 4; ++c) {
+      auto sv = hn::Zero(dd);
+      sv = hn::Add(sv, hn::PromoteTo(dd, ze[0][c]));
+      sv = hn::Add(sv, hn::PromoteTo(dd, zo[0][c]));
+      sv = hn::Add(sv, hn::PromoteTo(dd, ze[1][c]));
+      sv = hn::Add(sv, hn::PromoteTo(dd, zo[1][c]));
+      hn::StoreU(hn::DemoteTo(dh, hn::IfThenElseZero(any, hn::Div(sv, sw))), dh, cv[c] + x);
+    }
+  }
+#endif
+  for (; x < m; ++x) {  // the rest, one pixel at a time (the same arithmetic)
+    float z[4][4], nz[4];
+    PullChild(r, 0, 2 * x, z[0], &nz[0]);
+    PullChild(r, 0, 2 * x + 1, z[1], &nz[1]);
+    PullChild(r, 1, 2 * x, z[2], &nz[2]);
+    PullChild(r, 1, 2 * x + 1, z[3], &nz[3]);
+    const float s = nz[0] + nz[1] + nz[2] + nz[3];
+    cw[x] = s * 0.25f;
+    const double sw = static_cast<double>(s);
+    for (int c = 0; c < 4; ++c) {
+      double sv = 0;
+      for (int q = 0; q < 4; ++q) sv += static_cast<double>(z[q][c]);
+      cv[c][x] = x >= v0 && x < v1 && sw > 0 ? static_cast<float>(sv / sw) : 0.0f;
+    }
+  }
+}
+
+
+// One column of FinalRowImpl (T = float) or a vector of them (T = a Highway vector); the
+// loads, arithmetic and stores come from the ops object.
+template <int BM, int FM, class Ops>
+HWY_INLINE void FinalAt(const FinalRow& r, const Ops& o, std::size_t j, float* const* out) {
+  using T = decltype(o.load(r.c[0] + j));
+  const T one = o.set(1.0f);
+  auto acc = [&](int mode, const float* const* top, const float* const* bot, float ty, int ch) {
+    if (mode == 1) return o.load(top[ch] + j);
+    const T t = o.load(top[ch] + j);
+    return o.add(t, o.mul(o.sub(o.load(bot[ch] + j), t), o.set(ty)));  // lerp_rows
+  };
+  const T c3 = o.load(r.c[3] + j);
+  const T t = o.sub(one, c3);  // one_minus
+  T f3 = one, u = one;
+  if constexpr (FM != 0) {
+    f3 = acc(FM, r.ft, r.fb, r.fty, 3);
+    u = o.sub(one, f3);
+  }
+  for (int ch = 0; ch < 4; ++ch) {  // final_channel
+    T v = ch == 3 ? c3 : o.load(r.c[ch] + j);
+    if constexpr (BM != 0) v = o.add(v, o.mul(t, acc(BM, r.bt, r.bb, r.bty, ch)));
+    if constexpr (FM != 0) v = o.add(ch == 3 ? f3 : acc(FM, r.ft, r.fb, r.fty, ch), o.mul(u, v));
+    o.store(v, out[ch] + j);
+  }
+}
+
+struct ScalarOps {
+  float load(const float* p) const { return *p; }
+  void store(float v, float* p) const { *p = v; }
+  float set(float v) const { return v; }
+  float add(float a, float b) const { return a + b; }
+  float sub(float a, float b) const { return a - b; }
+  float mul(float a, float b) const { return a * b; }
+};
+struct VecOps {
+  hn::ScalableTag<float> d;
+  auto load(const float* p) const { return hn::LoadU(d, p); }
+  template <class V> void store(V v, float* p) const { hn::StoreU(v, d, p); }
+  auto set(float v) const { return hn::Set(d, v); }
+  template <class V> V add(V a, V b) const { return hn::Add(a, b); }
+  template <class V> V sub(V a, V b) const { return hn::Sub(a, b); }
+  template <class V> V mul(V a, V b) const { return hn::Mul(a, b); }
+};
+
+template <int BM, int FM>
+HWY_INLINE void FinalLoop(const FinalRow& r, int n, float* const* out) {
+  const VecOps vo;
+  const int lanes = static_cast<int>(hn::Lanes(vo.d));
+  int j = 0;
+  for (; j + lanes <= n; j += lanes) FinalAt<BM, FM>(r, vo, static_cast<std::size_t>(j), out);
+  for (; j < n; ++j) FinalAt<BM, FM>(r, ScalarOps(), static_cast<std::size_t>(j), out);
+}
+
+void FinalRowImpl(const FinalRow& r, int n, float* const* out) {
+  switch (3 * r.bm + r.fm) {
+    case 0: FinalLoop<0, 0>(r, n, out); break;
+    case 1: FinalLoop<0, 1>(r, n, out); break;
+    case 2: FinalLoop<0, 2>(r, n, out); break;
+    case 3: FinalLoop<1, 0>(r, n, out); break;
+    case 4: FinalLoop<1, 1>(r, n, out); break;
+    case 5: FinalLoop<1, 2>(r, n, out); break;
+    case 6: FinalLoop<2, 0>(r, n, out); break;
+    case 7: FinalLoop<2, 1>(r, n, out); break;
+    default: FinalLoop<2, 2>(r, n, out); break;
+  }
+}
+
+
+void DownQuadsImpl(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d) {
+  int x = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<float> df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const float* rows[4] = {r0, r1, r2, r3};
+  for (; x + n <= m; x += n) {
+    auto s = hn::Zero(df);
+    for (int dy = 0; dy < 4; ++dy) {
+      // The 4n taps of the row, de-interleaved into q_dx = taps 4x + dx of the n outputs.
+      const float* p = rows[dy] + 4 * static_cast<std::size_t>(x);
+      const auto v0 = hn::LoadU(df, p), v1 = hn::LoadU(df, p + n), v2 = hn::LoadU(df, p + 2 * n),
+                 v3 = hn::LoadU(df, p + 3 * n);
+      const auto e01 = hn::ConcatEven(df, v1, v0), o01 = hn::ConcatOdd(df, v1, v0);
+      const auto e23 = hn::ConcatEven(df, v3, v2), o23 = hn::ConcatOdd(df, v3, v2);
+      s = hn::Add(s, hn::ConcatEven(df, e23, e01));  // 4x
+      s = hn::Add(s, hn::ConcatEven(df, o23, o01));  // 4x + 1
+      s = hn::Add(s, hn::ConcatOdd(df, e23, e01));   // 4x + 2
+      s = hn::Add(s, hn::ConcatOdd(df, o23, o01));   // 4x + 3
+    }
+    hn::StoreU(hn::Mul(hn::Set(df, 0.0625f), s), df, d + x);
+  }
+#endif
+  for (; x < m; ++x) {
+    float s = 0.0f;
+    for (const float* r : {r0, r1, r2, r3})
+      for (int dx = 0; dx < 4; ++dx) s += r[4 * x + dx];
+    d[x] = 0.0625f * s;
+  }
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace dofkit::detail::layered
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace dofkit::detail::layered {
+
+HWY_EXPORT(CrowRowImpl);
+HWY_EXPORT(PullPairsImpl);
+HWY_EXPORT(FinalRowImpl);
+HWY_EXPORT(DownQuadsImpl);
+
+void down_quads_simd(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d) {
+  HWY_DYNAMIC_DISPATCH(DownQuadsImpl)(r0, r1, r2, r3, m, d);
+}
+
+void final_row_simd(const FinalRow& r, int n, float* const* out) { HWY_DYNAMIC_DISPATCH(FinalRowImpl)(r, n, out); }
+
+void pull_pairs_simd(const PullRows& r, int m, int p0, int p1, float* const* cv, float* cw) {
+  HWY_DYNAMIC_DISPATCH(PullPairsImpl)(r, m, p0, p1, cv, cw);
+}
+
+void crow_row_simd(const CrowRow& r, int n, int lo, int hi, int a0, int a1, float (*c)[256]) {
+  HWY_DYNAMIC_DISPATCH(CrowRowImpl)(r, n, lo, hi, a0, a1, c);
+}
+
+}  // namespace dofkit::detail::layered
+#endif  // HWY_ONCE

@@ -1,0 +1,69 @@
+// Highway kernels of the fused Gaussian stack (fast.cpp, render_gaussian_fused), with run-time
+// dispatch (fused_simd.cpp; AVX-512 / AVX2 / SSE4 / baseline). Each computes what the row
+// kernels it replaces computed, operation for operation (no contraction: the file is built
+// with -ffp-contract=off), so the output stays bit-identical to impl=plain.
+#pragma once
+#include <cstdint>
+
+namespace dofkit::detail::layered {
+
+/// One row (of a 256-column block) of a composite pass: layer k's matte (0 + w_k·I, w_k from
+/// the per-pixel code), its push-pull fill at hole pixels (k >= code >> 6: +0·matte + the
+/// vertical lerp of the fill level's cached rows, then inpaint.cpp's opaque / under rules),
+/// and "over" with the accumulator's row (the vertical lerp of its cached rows, or +0).
+struct CrowRow {
+  const std::uint16_t* code;
+  const float* w0;
+  const float* in[4];  // colour rows
+  int k;
+  const float* ft[4];  // fill level: horizontally up-sampled coarse rows (top, bottom)
+  const float* fb[4];
+  float fty;
+  bool opaque, under;
+  int am;  // accumulator: 0 none (the row is the layer), 1 rows of +0, 2 lerp of at / ab by aty
+  const float* at[4];
+  const float* ab[4];
+  float aty;
+  bool front;  // layer in front of the accumulator (L over A), else behind (A over L)
+};
+
+/// Columns [0, n) of c (4 rows of 256): the matte in [lo, hi), the fill in [a0, a1) (empty
+/// ranges: none), "over" the accumulator everywhere.
+void crow_row_simd(const CrowRow& r, int n, int lo, int hi, int a0, int a1, float (*c)[256]);
+
+/// Two fine rows of layer k (row 2·yc and 2·yc + 1 of a row block) for its push-pull level 1.
+struct PullRows {
+  const std::uint16_t* code[2];
+  const float* w0[2];
+  const float* in[2][4];
+  int k;
+};
+
+/// inpaint.cpp's pull_level for the coarse pixels [0, m) of a block whose 2×2 children all
+/// lie in the image: cw = min(1, Σ w / 4) with w = 0 at a hole (k >= code >> 6), else 1; cv =
+/// Σ w·v / Σ w in double (0 where Σ w = 0), v = the matte 0 + w_k·I. Values only for the pairs
+/// [p0, p1) (the caller guarantees that the matte is +0 in both rows outside them, where the
+/// value is +0: what the full sum gives), +0 elsewhere.
+void pull_pairs_simd(const PullRows& r, int m, int p0, int p1, float* const* cv, float* cw);
+
+/// One row of the final composite (I = F over L_focus over B): c = the focus layer's row;
+/// B and F each absent (mode 0), given as rows (1: b / f, e.g. +0 rows or a full-resolution
+/// accumulator) or as the vertical lerp of two cached up-sampled rows (2: top, bottom, ty).
+/// out = f + (1 − f.a)·(c + (1 − c.a)·b), with the absent steps left out.
+struct FinalRow {
+  const float* c[4];
+  int bm, fm;
+  const float* bt[4];
+  const float* bb[4];
+  float bty;
+  const float* ft[4];
+  const float* fb[4];
+  float fty;
+};
+void final_row_simd(const FinalRow& r, int n, float* const* out);
+
+/// composite.cpp's 4×4 box for the outputs [0, m) (all 16 taps in range): d[x] = 0.0625 ·
+/// (0 + r0[4x] + r0[4x + 1] + … + r3[4x + 3]), summed in that order.
+void down_quads_simd(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d);
+
+}  // namespace dofkit::detail::layered

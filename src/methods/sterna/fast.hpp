@@ -11,9 +11,9 @@
 //   * the downsample writes straight into the edge-padded planes the gather reads;
 //   * the gather is register-blocked (8 texels × all channels accumulate over the 49 taps in
 //     registers), runs per 8×8 tile only for the field(s) that tile needs, and walks column
-//     strips top to bottom so the ±reach rows it reads stay in L2 — or, for kernels symmetric
-//     about the horizontal axis (the usual rings), sums the mirrored source rows first and
-//     walks the rows (fold form, fast_gather.cpp);
+//     strips top to bottom so the ±reach rows it reads stay in L2 — or, on AVX-512 CPUs and
+//     for kernels symmetric about the horizontal axis (the usual rings), sums the mirrored
+//     source rows first and walks the rows (fold form, fast_gather.cpp);
 //   * fill and composite are branch-free row loops (selects instead of per-pixel ifs); the fill
 //     runs row by row inside the composite, which consumes its rows at once;
 //   * buffers come from ctx.workspace (no allocation per frame in steady state);

@@ -1,9 +1,10 @@
 // Fast P7: the 49-tap gather, register-blocked. Same sums as gather.cpp, same order, in the
 // baseline copy; the FMA copies (the usual case) agree with gather.cpp to rounding and take,
-// per frame, the cheapest of three forms of the sum: the fold form wherever the kernel is
-// symmetric about the horizontal axis (Sterna's rings: see FoldKernel; it walks rows, the
-// two others column strips), else each bilinear tap written separably (see tap_rows2), or the
-// kernel as texel weights (see texel_rows). What follows describes the strip walk.
+// per frame, the cheapest of three forms of the sum: in the AVX-512 copy the fold form
+// wherever the kernel is symmetric about the horizontal axis (Sterna's rings: see FoldKernel;
+// it walks rows, the two others column strips), else each bilinear tap written separably (see
+// tap_rows2), or the kernel as texel weights (see texel_rows). What follows describes the strip
+// walk.
 //
 // gather.cpp accumulates tap by tap into row-length arrays: per tap and channel it loads
 // 4 source values, the accumulator, and stores the accumulator back. Here a segment of 32
@@ -253,7 +254,7 @@ void build_texel_kernel(const std::vector<std::pair<float, float>>& offsets, int
   }
 }
 
-// The fold form (FMA copies), the usual case. Sterna's rings (and every kernel symmetric
+// The fold form (AVX-512 copy), the usual case there. Sterna's rings (and every kernel symmetric
 // about the horizontal axis: anamorphic, even polygons without rotation) give texel weights
 // with K(dx, s) = K(dx, −s) bit for bit, so the gather of row y is
 //   Σ_{e ≥ 0} Σ_dx K(dx, e)·V_e(x + dx),   V_0 = src(·, y),  V_e = src(·, y + e) + src(·, y − e),
@@ -266,7 +267,9 @@ void build_texel_kernel(const std::vector<std::pair<float, float>>& offsets, int
 // It walks the frame row by row (the other forms walk column strips): each source row is read
 // from L3 once per plane as a stream and then from L2 by the 31 output rows that use it, where
 // the column walks wait on every row's first line (a 4 kB stride defeats the hardware
-// prefetchers). Same real-number sum as gather.cpp, rounded differently (each weight rounded
+// prefetchers). 16-lane vectors: an AVX2 copy of it (8 lanes, 2 rows of 32 texels per pass)
+// ran 10 % slower than the separable form there (gather CPU 32.3 against 29.4 ms per 1080p
+// frame, same AVX-512 machine, AVX2 code), so the AVX2 copy keeps the strip forms. Same real-number sum as gather.cpp, rounded differently (each weight rounded
 // once from its double sum, one rounding per V add and per FMA), in the same order for every
 // row: pairs by (e, dx), then the single texels by (s, dx).
 struct FoldTerm {
@@ -747,15 +750,17 @@ __attribute__((always_inline)) inline T fmadd_mem(T c, T w, const float* p) {
   return c;
 }
 
-// The fold form over tile rows [ty0, ty1): per output row pair, plane by plane, the sums of
-// chunks of kVecs vectors VT (the chunks cover the runs of tiles that need the plane's field;
-// a chunk that would reach past the row moves left, so it recomputes some sums, the same
-// values), then the per-texel results over the whole rows as gather_strip_body's (near where
-// nearBlur_h > 0 else colour_h; far where far_h > 0 else 0; selects, so the sums of tiles
-// without the field are never used). Two output rows per pass: 2 × kVecs accumulators (16
-// zmm in the AVX-512 copy, 8 ymm in the AVX2 one) keep the FMA pipes busy. Scratch: vbuf holds
-// the V rows of the two rows (2 · |e| · vstride floats), acc their sums and inv_den their
-// 1/Σ far_h (2 rows of `stride` floats each, stride ≥ w + chunk).
+// The fold form over tile rows [ty0, ty1): per group of kR output rows, plane by plane, the
+// sums of chunks of kVecs vectors VT (the chunks cover the runs of tiles that need the plane's
+// field; a chunk that would reach past the row moves left, so it recomputes some sums, the
+// same values), then the per-texel results over the whole rows as gather_strip_body's (near
+// where nearBlur_h > 0 else colour_h; far where far_h > 0 else 0; selects, so the sums of
+// tiles without the field are never used). kR × kVecs accumulators keep the FMA pipes busy;
+// kR rows share the loads of the V build, so the source rows a group reads from L2 serve kR
+// rows (4 rows of 64 texels: 35 source rows × 1.5 (the chunk's reach) per 4 output rows; it
+// was 33 × 1.25 per 2 rows with 2 × 128 texels, whose V build took a third of the pass).
+// Scratch: vbuf holds the V rows of the kR rows (kR · |e| · vstride floats), acc their sums and
+// inv_den their 1/Σ far_h (kR rows of `stride` floats each, stride ≥ w + chunk).
 template <class VT, int kVecs, int kR>
 __attribute__((always_inline)) inline void fold_rows_body(const Job& job, int ty0, int ty1, float* vbuf, float* acc,
                                                           float* inv_den, int stride) {
@@ -833,7 +838,7 @@ __attribute__((always_inline)) inline void fold_rows_body(const Job& job, int ty
       tx = te;
     }
   };
-  const V8 zero = splat(0.0f), inv_taps = splat(job.inv_taps);
+  const VT zero = VT{}, inv_taps = VT{} + job.inv_taps;
   for (int ty = ty0; ty < ty1; ++ty)
     for (int y = ty * kTile; y < std::min(h, (ty + 1) * kTile); y += kR) {
       const int nr = std::min(kR, h - y);
@@ -848,8 +853,8 @@ __attribute__((always_inline)) inline void fold_rows_body(const Job& job, int ty
           float* out = b.dof_near->row(c, y + r);
           const float na = job.near_alpha[(y + r) & 1];
           int x = 0;
-          for (; x + 8 <= w; x += 8)
-            store8(out + x, load8(nb + x) > zero ? (gathered ? load8(g + x) * inv_taps : splat(na)) : load8(col + x));
+          for (; x + kL <= w; x += kL)
+            storev(out + x, loadv<VT>(nb + x) > zero ? (gathered ? loadv<VT>(g + x) * inv_taps : VT{} + na) : loadv<VT>(col + x));
           for (; x < w; ++x) out[x] = nb[x] > 0.0f ? (gathered ? g[x] * job.inv_taps : na) : col[x];
         }
       }
@@ -862,10 +867,10 @@ __attribute__((always_inline)) inline void fold_rows_body(const Job& job, int ty
         float* id = inv_den + r * stride;
         float* out = b.dof_far->row(3, y + r);
         int x = 0;
-        for (; x + 8 <= w; x += 8) {
-          const V8 d = load8(g + x), m = 1.0f / d;
-          store8(id + x, m);
-          if (job.far_alpha_is_den) store8(out + x, load8(fr + x) > zero ? d * m : zero);
+        for (; x + kL <= w; x += kL) {
+          const VT d = loadv<VT>(g + x), m = 1.0f / d;
+          storev(id + x, m);
+          if (job.far_alpha_is_den) storev(out + x, loadv<VT>(fr + x) > zero ? d * m : zero);
         }
         for (; x < w; ++x) {
           const float m = 1.0f / g[x];
@@ -881,7 +886,7 @@ __attribute__((always_inline)) inline void fold_rows_body(const Job& job, int ty
           const float* id = inv_den + r * stride;
           float* out = b.dof_far->row(c, y + r);
           int x = 0;
-          for (; x + 8 <= w; x += 8) store8(out + x, load8(fr + x) > zero ? load8(g + x) * load8(id + x) : zero);
+          for (; x + kL <= w; x += kL) storev(out + x, loadv<VT>(fr + x) > zero ? loadv<VT>(g + x) * loadv<VT>(id + x) : zero);
           for (; x < w; ++x) out[x] = fr[x] > 0.0f ? g[x] * id[x] : 0.0f;
         }
       }
@@ -937,15 +942,11 @@ __attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) void fold_ro
     const Job& job, int ty0, int ty1, float* vbuf, float* acc, float* inv_den, int stride) {
   fold_rows_body<V16, 4, 4>(job, ty0, ty1, vbuf, acc, inv_den, stride);
 }
-__attribute__((target("avx2,fma"), optimize("fp-contract=off"))) void fold_rows_avx2(
-    const Job& job, int ty0, int ty1, float* vbuf, float* acc, float* inv_den, int stride) {
-  fold_rows_body<V8, 4, 2>(job, ty0, ty1, vbuf, acc, inv_den, stride);
-}
 const Kernels& kernels() {
   static const Kernels k =
       !__builtin_cpu_supports("fma")      ? Kernels{gather_strip_base, constant_near_base}
       : __builtin_cpu_supports("avx512f") ? Kernels{gather_strip_avx512, constant_near_avx512, fold_rows_avx512, 64}
-      : __builtin_cpu_supports("avx2")    ? Kernels{gather_strip_avx2, constant_near_avx2, fold_rows_avx2, 32}
+      : __builtin_cpu_supports("avx2")    ? Kernels{gather_strip_avx2, constant_near_avx2}
                                           : Kernels{gather_strip_base, constant_near_base};
   return k;
 }
@@ -1212,7 +1213,7 @@ void gather(const Settings& s, Buffers& b) {
           .pf_dy = dy_max,
           .pf_dx = dx_min,
           .pf_span = dx_max - dx_min + kSeg + 8};
-  // The fold form wherever it pays (FMA copies; see FoldKernel).
+  // The fold form wherever it pays (AVX-512 copy; see FoldKernel).
   thread_local FoldKernel fold_tls;
   FoldKernel& fold = fold_tls;  // (the workers see the calling thread's, through the reference)
   if (kern.fold) build_fold_kernel(scaled, pitch, kern.fold_chunk, fold);

@@ -50,6 +50,9 @@ void render(const MethodContext& ctx, const Settings& s, Image& out) {
   // Tile bits: per rendering thread, grown once.
   thread_local std::vector<std::uint8_t> tiles;
   b.tiles = &tiles;
+  thread_local std::vector<Buffers::AlphaRow> alpha_rows;
+  alpha_rows.resize(static_cast<std::size_t>(b.h));
+  b.alpha_rows = &alpha_rows;
 
   // The downsample reads every colour sample: it also makes render()'s sanitation check
   // when render() left it to the method (nothing before it depends on colour values).

@@ -52,6 +52,13 @@ struct Buffers {
   Image* dof_far = nullptr;   ///< gathered far field, 4 planes w × h
   int tiles_x = 0, tiles_y = 0;
   std::vector<std::uint8_t>* tiles = nullptr;  ///< bit 1 near, bit 2 far (as gather.cpp)
+  /// Per half-res row, from the downsample: the least and largest colour_h alpha, and whether
+  /// some colourFar_h alpha differs from far_h in its bits (the gather's opaque-frame tests).
+  struct AlphaRow {
+    float lo, hi;
+    bool far_differs;
+  };
+  std::vector<AlphaRow>* alpha_rows = nullptr;
 
   const float* src_row(const Image& img, int c, int y) const {
     return img.row(c, y + pad) + pad;

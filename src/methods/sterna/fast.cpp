@@ -23,6 +23,9 @@ void render(const MethodContext& ctx, const Settings& s, Image& out) {
   float reach = 0.0f;
   for (const Offset& o : s.offsets) reach = std::max(reach, std::max(std::abs(o.x), std::abs(o.y)) * s.kernel_scale);
   b.pad = (static_cast<int>(std::ceil(reach)) + 34 + 7) / 8 * 8;
+  // The gather's fold form sums chunks of up to 128 texels, at x = 0 in a row narrower than
+  // that: the border must then hold the rest of the chunk and its reach.
+  if (b.w < 128) b.pad = std::max(b.pad, (128 + static_cast<int>(std::ceil(reach)) + 18 - b.w + 7) / 8 * 8);
   // Row stride. The gather reads, per tap, the same columns of up to five consecutive rows
   // (fast_gather.cpp), and the rows of its tap window must not crowd into a few sets of the
   // 8-way, 64-set L1 (sets repeat every 4 KiB). At 3840×2160 the half-res row plus borders
@@ -47,6 +50,9 @@ void render(const MethodContext& ctx, const Settings& s, Image& out) {
   // Tile bits: per rendering thread, grown once.
   thread_local std::vector<std::uint8_t> tiles;
   b.tiles = &tiles;
+  thread_local std::vector<Buffers::AlphaRow> alpha_rows;
+  alpha_rows.resize(static_cast<std::size_t>(b.h));
+  b.alpha_rows = &alpha_rows;
 
   // The downsample reads every colour sample: it also makes render()'s sanitation check
   // when render() left it to the method (nothing before it depends on colour values).

@@ -11,7 +11,9 @@
 //   * the downsample writes straight into the edge-padded planes the gather reads;
 //   * the gather is register-blocked (8 texels × all channels accumulate over the 49 taps in
 //     registers), runs per 8×8 tile only for the field(s) that tile needs, and walks column
-//     strips top to bottom so the ±reach rows it reads stay in L2;
+//     strips top to bottom so the ±reach rows it reads stay in L2 — or, on AVX-512 CPUs and
+//     for kernels symmetric about the horizontal axis (the usual rings), sums the mirrored
+//     source rows first and walks the rows (fold form, fast_gather.cpp);
 //   * fill and composite are branch-free row loops (selects instead of per-pixel ifs); the fill
 //     runs row by row inside the composite, which consumes its rows at once;
 //   * buffers come from ctx.workspace (no allocation per frame in steady state);
@@ -50,6 +52,13 @@ struct Buffers {
   Image* dof_far = nullptr;   ///< gathered far field, 4 planes w × h
   int tiles_x = 0, tiles_y = 0;
   std::vector<std::uint8_t>* tiles = nullptr;  ///< bit 1 near, bit 2 far (as gather.cpp)
+  /// Per half-res row, from the downsample: the least and largest colour_h alpha, and whether
+  /// some colourFar_h alpha differs from far_h in its bits (the gather's opaque-frame tests).
+  struct AlphaRow {
+    float lo, hi;
+    bool far_differs;
+  };
+  std::vector<AlphaRow>* alpha_rows = nullptr;
 
   const float* src_row(const Image& img, int c, int y) const {
     return img.row(c, y + pad) + pad;

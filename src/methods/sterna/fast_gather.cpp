@@ -1,7 +1,10 @@
 // Fast P7: the 49-tap gather, register-blocked. Same sums as gather.cpp, same order, in the
 // baseline copy; the FMA copies (the usual case) agree with gather.cpp to rounding and take,
-// per frame, the cheaper of two forms of the sum: each bilinear tap written separably (see
-// tap_rows2), or the kernel as texel weights (see texel_rows).
+// per frame, the cheapest of three forms of the sum: in the AVX-512 copy the fold form
+// wherever the kernel is symmetric about the horizontal axis (Sterna's rings: see FoldKernel;
+// it walks rows, the two others column strips), else each bilinear tap written separably (see
+// tap_rows2), or the kernel as texel weights (see texel_rows). What follows describes the strip
+// walk.
 //
 // gather.cpp accumulates tap by tap into row-length arrays: per tap and channel it loads
 // 4 source values, the accumulator, and stores the accumulator back. Here a segment of 32
@@ -22,6 +25,7 @@
 // 1/den once per texel and multiplies each channel by it).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <immintrin.h>
 #include <utility>
@@ -189,15 +193,15 @@ struct TexelKernel {
   std::vector<Texel> only0, only1;
 };
 
-// Builds the texel form of the taps (offsets already scaled): each tap's bilinear weights,
-// computed as gather.cpp's split() does, are added per texel in double, in tap order, and
-// rounded once. Works in vectors kept per thread (no allocation once they have grown).
-void build_texel_kernel(const std::vector<std::pair<float, float>>& offsets, int pitch, TexelKernel& k) {
-  struct Term {
-    int dy, dx, tap;
-    double w;
-  };
-  thread_local std::vector<Term> terms, texels;
+// Per texel (dy, dx) of the taps (offsets already scaled): the sum of the bilinear weights of
+// the taps that touch it, each computed as gather.cpp's split() does and added in double in
+// tap order; texels ordered by (dy, dx). Works in vectors kept per thread.
+struct TexelSum {
+  int dy, dx, tap;
+  double w;
+};
+void texel_sums(const std::vector<std::pair<float, float>>& offsets, int pitch, std::vector<TexelSum>& texels) {
+  thread_local std::vector<TexelSum> terms;
   terms.clear();
   for (int t = 0; t < static_cast<int>(offsets.size()); ++t) {
     const auto [ox, oy] = offsets[t];
@@ -208,16 +212,23 @@ void build_texel_kernel(const std::vector<std::pair<float, float>>& offsets, int
       if (w[i] != 0.0f) terms.push_back({y0 + i / 2, x0 + i % 2, t, w[i]});
   }
   // By texel (dy, then dx), the taps of a texel in tap order; then one weight per texel.
-  std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) {
+  std::sort(terms.begin(), terms.end(), [](const TexelSum& a, const TexelSum& b) {
     return a.dy != b.dy ? a.dy < b.dy : (a.dx != b.dx ? a.dx < b.dx : a.tap < b.tap);
   });
   texels.clear();
-  for (const Term& t : terms) {
+  for (const TexelSum& t : terms) {
     if (!texels.empty() && texels.back().dy == t.dy && texels.back().dx == t.dx)
       texels.back().w += t.w;
     else
       texels.push_back(t);
   }
+}
+
+// Builds the texel form of the taps (offsets already scaled): each texel's weight rounded once
+// from texel_sums.
+void build_texel_kernel(const std::vector<std::pair<float, float>>& offsets, int pitch, TexelKernel& k) {
+  thread_local std::vector<TexelSum> texels;
+  texel_sums(offsets, pitch, texels);
   // Source texel (s, dx) from the pair's first row carries weight (s, dx) for that row and
   // (s − 1, dx) for the second: merge the texel list with itself shifted down one row, both
   // ordered by (s, dx).
@@ -241,6 +252,97 @@ void build_texel_kernel(const std::vector<std::pair<float, float>>& offsets, int
     i += take_i ? 1 : 0;
     j += take_j ? 1 : 0;
   }
+}
+
+// The fold form (AVX-512 copy), the usual case there. Sterna's rings (and every kernel symmetric
+// about the horizontal axis: anamorphic, even polygons without rotation) give texel weights
+// with K(dx, s) = K(dx, −s) bit for bit, so the gather of row y is
+//   Σ_{e ≥ 0} Σ_dx K(dx, e)·V_e(x + dx),   V_0 = src(·, y),  V_e = src(·, y + e) + src(·, y − e),
+// where the rows V_e of output row y serve all the taps of that row: one add per distance e and
+// texel (~15 at the bench frame's scale 2.4) halves the FMAs, from one per texel of the kernel
+// (181 there) to one per (dx, e) pair (91, plus 12 texels whose mirror is missing or differs:
+// the taps at 90° and 180° have offsets of ±1e-16 instead of 0, which touch a neighbour texel
+// with a weight ~1e-16; they stay single texels, read from the plane). So the gather is ~120
+// FP operations per output vector, against ~135 FMAs + ~110 adds in the separable form.
+// It walks the frame row by row (the other forms walk column strips): each source row is read
+// from L3 once per plane as a stream and then from L2 by the 31 output rows that use it, where
+// the column walks wait on every row's first line (a 4 kB stride defeats the hardware
+// prefetchers). 16-lane vectors: an AVX2 copy of it (8 lanes, 2 rows of 32 texels per pass)
+// ran 10 % slower than the separable form there (gather CPU 32.3 against 29.4 ms per 1080p
+// frame, same AVX-512 machine, AVX2 code), so the AVX2 copy keeps the strip forms. Same real-number sum as gather.cpp, rounded differently (each weight rounded
+// once from its double sum, one rounding per V add and per FMA), in the same order for every
+// row: pairs by (e, dx), then the single texels by (s, dx).
+struct FoldTerm {
+  std::int32_t off;  // pairs: V-buffer offset e_index·vstride + dx − bx; single texels: s·pitch + dx
+  float w;
+};
+struct FoldKernel {
+  bool ok = false;          // the fold form needs fewer operations than the texel form
+  std::vector<int> e;       // the distinct e ≥ 0 of the pairs, ascending
+  std::vector<int> e_of;    // per pair: its e
+  std::vector<FoldTerm> pairs, single;
+  std::vector<int> e_slot;  // for e = 0 … max e: its index in `e`, or −1
+  int bx = 0;               // first buffer column, relative to the chunk (a multiple of 16, ≤ dx_min)
+  int vstride = 0;          // floats per V row in the buffer
+};
+
+// The fold kernel for output chunks of cw texels (offsets already scaled).
+void build_fold_kernel(const std::vector<std::pair<float, float>>& offsets, int pitch, int cw, FoldKernel& k) {
+  thread_local std::vector<TexelSum> texels;
+  texel_sums(offsets, pitch, texels);
+  k.ok = false;
+  k.e.clear();
+  k.e_of.clear();
+  k.pairs.clear();
+  k.single.clear();
+  if (texels.empty()) return;
+  // Texel (dx, e ≥ 0) pairs with (dx, −e) where their float weights are equal; e = 0 pairs with
+  // nothing. (Sorted by (dy, dx): binary search.)
+  auto find = [&](int dy, int dx) -> const TexelSum* {
+    auto it = std::lower_bound(texels.begin(), texels.end(), std::make_pair(dy, dx), [](const TexelSum& t, std::pair<int, int> v) {
+      return t.dy != v.first ? t.dy < v.first : t.dx < v.second;
+    });
+    return it != texels.end() && it->dy == dy && it->dx == dx ? &*it : nullptr;
+  };
+  struct P {
+    int e, dx;
+    float w;
+  };
+  thread_local std::vector<P> pairs;
+  thread_local std::vector<const TexelSum*> single;
+  pairs.clear();
+  single.clear();
+  int dx_min = 0, dx_max = 0;
+  for (const TexelSum& t : texels) {
+    const float w = static_cast<float>(t.w);
+    if (t.dy == 0) {
+      pairs.push_back({0, t.dx, w});
+    } else {
+      const TexelSum* m = find(-t.dy, t.dx);
+      const bool mirrored = m != nullptr && static_cast<float>(m->w) == w;
+      if (!mirrored)
+        single.push_back(&t);
+      else if (t.dy > 0)
+        pairs.push_back({t.dy, t.dx, w});
+    }
+    dx_min = std::min(dx_min, t.dx);
+    dx_max = std::max(dx_max, t.dx);
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const P& a, const P& b) { return a.e != b.e ? a.e < b.e : a.dx < b.dx; });
+  for (const P& q : pairs)
+    if (k.e.empty() || k.e.back() != q.e) k.e.push_back(q.e);
+  k.e_slot.assign(k.e.empty() ? 1 : k.e.back() + 1, -1);
+  for (std::size_t i = 0; i < k.e.size(); ++i) k.e_slot[k.e[i]] = static_cast<int>(i);
+  k.bx = -((-dx_min + 15) / 16) * 16;
+  k.vstride = (cw + dx_max - k.bx + 15) / 16 * 16;
+  for (const P& q : pairs) {
+    const int ei = static_cast<int>(std::lower_bound(k.e.begin(), k.e.end(), q.e) - k.e.begin());
+    k.pairs.push_back({ei * k.vstride + q.dx - k.bx, q.w});
+    k.e_of.push_back(q.e);
+  }
+  for (const TexelSum* t : single)  // (texels order: (dy, dx))
+    k.single.push_back({t->dy * pitch + t->dx, static_cast<float>(t->w)});
+  k.ok = k.pairs.size() + k.single.size() + k.e.size() <= texels.size();
 }
 
 // One tap for one output row from source rows (a0, b0) above and (a1, b1) below.
@@ -385,6 +487,8 @@ struct Job {
   // Prefetch: the row that output row y + kAhead will be the first to read (its last tap row,
   // dy_max + 1 below), from column dx_min over `span` floats.
   int pf_dy, pf_dx, pf_span;
+  // The fold form (see FoldKernel), where `fold` is set.
+  const FoldKernel* fold = nullptr;
 };
 
 // The texels only one row of a pair reads, added to that row's four accumulators.
@@ -609,6 +713,196 @@ __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int
     }
 }
 
+#if !defined(__clang__)
+// Vector helpers of the fold form, for V8 (AVX2 copy) and V16 (AVX-512 copy, zmm registers).
+// The FMA and the broadcast are asm for the reasons given at fmadd and broadcast.
+typedef float V16 __attribute__((vector_size(64)));
+typedef float V8u __attribute__((vector_size(32), aligned(4), may_alias));
+typedef float V16u __attribute__((vector_size(64), aligned(4), may_alias));
+
+template <class T>
+__attribute__((always_inline)) inline T loadv(const float* p) {
+  T v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+template <class T>
+__attribute__((always_inline)) inline void storev(float* p, T v) {
+  std::memcpy(p, &v, sizeof v);
+}
+template <class T>
+__attribute__((always_inline)) inline T bcastv(const float* p) {
+  T r;
+  if constexpr (sizeof(T) == 64)
+    __asm__("vbroadcastss %1, %0" : "=v"(r) : "m"(*p));
+  else
+    __asm__("vbroadcastss %1, %0" : "=x"(r) : "m"(*p));
+  return r;
+}
+// w·(*p) + c rounded once, the vector at p read by the FMA itself. (By value: an accumulator
+// passed by reference into the asm keeps GCC from holding the array of them in registers.)
+template <class T>
+__attribute__((always_inline)) inline T fmadd_mem(T c, T w, const float* p) {
+  if constexpr (sizeof(T) == 64)
+    __asm__("vfmadd231ps %2, %1, %0" : "+v"(c) : "v"(w), "m"(*reinterpret_cast<const V16u*>(p)));
+  else
+    __asm__("vfmadd231ps %2, %1, %0" : "+x"(c) : "x"(w), "m"(*reinterpret_cast<const V8u*>(p)));
+  return c;
+}
+
+// The fold form over tile rows [ty0, ty1): per group of kR output rows, plane by plane, the
+// sums of chunks of kVecs vectors VT (the chunks cover the runs of tiles that need the plane's
+// field; a chunk that would reach past the row moves left, so it recomputes some sums, the
+// same values), then the per-texel results over the whole rows as gather_strip_body's (near
+// where nearBlur_h > 0 else colour_h; far where far_h > 0 else 0; selects, so the sums of
+// tiles without the field are never used). kR × kVecs accumulators keep the FMA pipes busy;
+// kR rows share the loads of the V build, so the source rows a group reads from L2 serve kR
+// rows (4 rows of 64 texels: 35 source rows × 1.5 (the chunk's reach) per 4 output rows; it
+// was 33 × 1.25 per 2 rows with 2 × 128 texels, whose V build took a third of the pass).
+// Scratch: vbuf holds the V rows of the kR rows (kR · |e| · vstride floats), acc their sums and
+// inv_den their 1/Σ far_h (kR rows of `stride` floats each, stride ≥ w + chunk).
+template <class VT, int kVecs, int kR>
+__attribute__((always_inline)) inline void fold_rows_body(const Job& job, int ty0, int ty1, float* vbuf, float* acc,
+                                                          float* inv_den, int stride) {
+  constexpr int kL = sizeof(VT) / sizeof(float);
+  constexpr int kCW = kL * kVecs;  // texels per chunk
+  const Buffers& b = *job.b;
+  const FoldKernel& F = *job.fold;
+  const int w = b.w, h = b.h;
+  const std::ptrdiff_t pitch = b.near_src->width();
+  const int ne = static_cast<int>(F.e.size());
+  const int vs = F.vstride;
+  const std::ptrdiff_t vrow = static_cast<std::ptrdiff_t>(ne) * vs;  // floats of one output row's V rows
+  const FoldTerm* pr = F.pairs.data();
+  const int np = static_cast<int>(F.pairs.size());
+  const FoldTerm* sg = F.single.data();
+  const int nsg = static_cast<int>(F.single.size());
+  // Sums of rows y … y + kR − 1 of plane c of src over texels x0 … x0 + kCW − 1, into acc.
+  auto chunk = [&](const Image& src, int c, int y, int x0) __attribute__((always_inline)) {
+    // V rows of the kR output rows. With S[k] = src row y + k, V_e(y + r) = S[r + e] + S[r − e]:
+    // going through e = 1, 2, …, U[r] = S[r + e] and D[r] = S[r − e] shift by one row per step
+    // (U[r] ← U[r + 1], D[r] ← D[r − 1]), so each source vector is loaded once for all kR rows;
+    // the rows of e that no pair uses are not stored.
+    const float* base = b.src_row(src, c, y) + x0 + F.bx;
+    const int* slot = F.e_slot.data();
+    const int emax = static_cast<int>(F.e_slot.size()) - 1;
+    for (int k = 0; k < vs; k += kL) {
+      const float* p = base + k;
+      VT U[kR], D[kR];
+      for (int r = 0; r < kR; ++r) U[r] = D[r] = loadv<VT>(p + r * pitch);
+      if (slot[0] >= 0)
+        for (int r = 0; r < kR; ++r) storev(vbuf + r * vrow + slot[0] * vs + k, U[r]);
+      for (int e = 1; e <= emax; ++e) {
+        for (int r = 0; r + 1 < kR; ++r) U[r] = U[r + 1];
+        for (int r = kR - 1; r > 0; --r) D[r] = D[r - 1];
+        U[kR - 1] = loadv<VT>(p + (kR - 1 + e) * pitch);
+        D[0] = loadv<VT>(p - e * pitch);
+        if (slot[e] >= 0)
+          for (int r = 0; r < kR; ++r) storev(vbuf + r * vrow + slot[e] * vs + k, U[r] + D[r]);
+      }
+    }
+    VT a[kR][kVecs];
+    for (int r = 0; r < kR; ++r)
+      for (int v = 0; v < kVecs; ++v) a[r][v] = VT{};
+    for (int k = 0; k < np; ++k) {
+      const VT wv = bcastv<VT>(&pr[k].w);
+      const float* q = vbuf + pr[k].off;
+      for (int r = 0; r < kR; ++r)
+        for (int v = 0; v < kVecs; ++v) a[r][v] = fmadd_mem(a[r][v], wv, q + r * vrow + kL * v);
+    }
+    const float* P = b.src_row(src, c, y) + x0;
+    for (int k = 0; k < nsg; ++k) {
+      const VT wv = bcastv<VT>(&sg[k].w);
+      const float* q = P + sg[k].off;
+      for (int r = 0; r < kR; ++r)
+        for (int v = 0; v < kVecs; ++v) a[r][v] = fmadd_mem(a[r][v], wv, q + r * pitch + kL * v);
+    }
+    for (int r = 0; r < kR; ++r)
+      for (int v = 0; v < kVecs; ++v) storev(acc + r * stride + x0 + kL * v, a[r][v]);
+  };
+  // chunk() over the runs of tiles of tile row ty with `bit`.
+  auto runs = [&](int ty, std::uint8_t bit, const Image& src, int c, int y) __attribute__((always_inline)) {
+    const std::uint8_t* t = b.tiles->data() + static_cast<std::size_t>(ty) * b.tiles_x;
+    for (int tx = 0; tx < b.tiles_x;) {
+      if (!(t[tx] & bit)) {
+        ++tx;
+        continue;
+      }
+      int te = tx;
+      while (te < b.tiles_x && (t[te] & bit)) ++te;
+      const int end = std::min(te * kTile, w);
+      for (int x = tx * kTile;; x += kCW) {
+        chunk(src, c, y, w >= kCW ? std::min(x, w - kCW) : 0);
+        if (x + kCW >= end) break;
+      }
+      tx = te;
+    }
+  };
+  const VT zero = VT{}, inv_taps = VT{} + job.inv_taps;
+  for (int ty = ty0; ty < ty1; ++ty)
+    for (int y = ty * kTile; y < std::min(h, (ty + 1) * kTile); y += kR) {
+      const int nr = std::min(kR, h - y);
+      // Near field: (1/49) Σ colour_h where nearBlur_h > 0, else colour_h.
+      for (int c = 0; c < 4; ++c) {
+        const bool gathered = !(c == 3 && job.near_alpha_const);
+        if (gathered) runs(y / kTile, kNearBit, *b.near_src, c, y);
+        for (int r = 0; r < nr; ++r) {
+          const float* col = b.src_row(*b.near_src, c, y + r);
+          const float* nb = b.near_blur->row(0, y + r);
+          const float* g = acc + r * stride;
+          float* out = b.dof_near->row(c, y + r);
+          const float na = job.near_alpha[(y + r) & 1];
+          int x = 0;
+          for (; x + kL <= w; x += kL)
+            storev(out + x, loadv<VT>(nb + x) > zero ? (gathered ? loadv<VT>(g + x) * inv_taps : VT{} + na) : loadv<VT>(col + x));
+          for (; x < w; ++x) out[x] = nb[x] > 0.0f ? (gathered ? g[x] * job.inv_taps : na) : col[x];
+        }
+      }
+      if (job.skip_far) continue;
+      // Far field: the denominator Σ far_h first (kept as 1/den per texel), then the channels.
+      runs(y / kTile, kFarBit, *b.far_src, 4, y);
+      for (int r = 0; r < nr; ++r) {
+        const float* fr = b.far_h_row(y + r);
+        const float* g = acc + r * stride;
+        float* id = inv_den + r * stride;
+        float* out = b.dof_far->row(3, y + r);
+        int x = 0;
+        for (; x + kL <= w; x += kL) {
+          const VT d = loadv<VT>(g + x), m = 1.0f / d;
+          storev(id + x, m);
+          if (job.far_alpha_is_den) storev(out + x, loadv<VT>(fr + x) > zero ? d * m : zero);
+        }
+        for (; x < w; ++x) {
+          const float m = 1.0f / g[x];
+          id[x] = m;
+          if (job.far_alpha_is_den) out[x] = fr[x] > 0.0f ? g[x] * m : 0.0f;
+        }
+      }
+      for (int c = 0; c < (job.far_alpha_is_den ? 3 : 4); ++c) {
+        runs(y / kTile, kFarBit, *b.far_src, c, y);
+        for (int r = 0; r < nr; ++r) {
+          const float* fr = b.far_h_row(y + r);
+          const float* g = acc + r * stride;
+          const float* id = inv_den + r * stride;
+          float* out = b.dof_far->row(c, y + r);
+          int x = 0;
+          for (; x + kL <= w; x += kL) storev(out + x, loadv<VT>(fr + x) > zero ? loadv<VT>(g + x) * loadv<VT>(id + x) : zero);
+          for (; x < w; ++x) out[x] = fr[x] > 0.0f ? g[x] * id[x] : 0.0f;
+        }
+      }
+    }
+}
+
+// The fold form's sum over a plane that holds v everywhere (V_0 = v, V_e = v + v, single
+// texels v), in fold_rows_body's order, scalar (rounding as the vector lanes).
+float constant_fold(const FoldKernel& F, float v) {
+  float acc = 0.0f;
+  for (std::size_t k = 0; k < F.pairs.size(); ++k) acc = fmadd<true>(F.pairs[k].w, F.e_of[k] == 0 ? v : v + v, acc);
+  for (const FoldTerm& t : F.single) acc = fmadd<true>(t.w, v, acc);
+  return acc;
+}
+#endif
+
 // gather_strip_body (and the constant-plane sums that must match it) compiled for AVX-512,
 // AVX2+FMA and the baseline, chosen at run time (as target_clones would, which cannot be used
 // here: the pinned loads exist only in the AVX copies, and the choice of the strip kernel and
@@ -617,6 +911,9 @@ __attribute__((always_inline)) inline void gather_strip_body(const Job& job, int
 struct Kernels {
   void (*strip)(const Job& job, int tx0, int tx1, float* inv_den);
   float (*constant_near)(const Job& job, float v, int parity);
+  // The fold form (FMA copies only; null otherwise) and its chunk width in texels.
+  void (*fold)(const Job& job, int ty0, int ty1, float* vbuf, float* acc, float* inv_den, int stride) = nullptr;
+  int fold_chunk = 0;
 };
 #if defined(__clang__)
 void gather_strip_base(const Job& job, int tx0, int tx1, float* inv_den) {
@@ -641,31 +938,19 @@ STERNA_GATHER_COPY(avx512, target("avx512f,fma"), true, true)
 STERNA_GATHER_COPY(avx2, target("avx2,fma"), true, true)
 STERNA_GATHER_COPY(base, used, false, false)  // (`used`: a no-op attribute, the macro wants one)
 #undef STERNA_GATHER_COPY
+__attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) void fold_rows_avx512(
+    const Job& job, int ty0, int ty1, float* vbuf, float* acc, float* inv_den, int stride) {
+  fold_rows_body<V16, 4, 4>(job, ty0, ty1, vbuf, acc, inv_den, stride);
+}
 const Kernels& kernels() {
-  static const Kernels k = !__builtin_cpu_supports("fma")    ? Kernels{gather_strip_base, constant_near_base}
-                           : __builtin_cpu_supports("avx512f") ? Kernels{gather_strip_avx512, constant_near_avx512}
-                           : __builtin_cpu_supports("avx2")    ? Kernels{gather_strip_avx2, constant_near_avx2}
-                                                               : Kernels{gather_strip_base, constant_near_base};
+  static const Kernels k =
+      !__builtin_cpu_supports("fma")      ? Kernels{gather_strip_base, constant_near_base}
+      : __builtin_cpu_supports("avx512f") ? Kernels{gather_strip_avx512, constant_near_avx512, fold_rows_avx512, 64}
+      : __builtin_cpu_supports("avx2")    ? Kernels{gather_strip_avx2, constant_near_avx2}
+                                          : Kernels{gather_strip_base, constant_near_base};
   return k;
 }
 #endif
-
-// Whether row a equals the value v everywhere (near) / row b bit for bit (far).
-STERNA_SIMD bool row_is(const float* __restrict a, float v, int w) {
-  bool ok = true;
-  for (int x = 0; x < w; ++x) ok &= a[x] == v;
-  return ok;
-}
-STERNA_SIMD bool rows_equal(const float* __restrict a, const float* __restrict b, int w) {
-  bool ok = true;
-  for (int x = 0; x < w; ++x) {
-    std::uint32_t u, v;
-    std::memcpy(&u, a + x, 4);
-    std::memcpy(&v, b + x, 4);
-    ok &= u == v;
-  }
-  return ok;
-}
 
 STERNA_SIMD void classify_row(const float* __restrict nb, const float* __restrict fr, std::uint8_t* tiles, int w) {
   const V8 zero = splat(0.0f);
@@ -835,27 +1120,25 @@ void gather(const Settings& s, Buffers& b) {
   b.tiles_x = (w + kTile - 1) / kTile;
   b.tiles_y = (h + kTile - 1) / kTile;
   b.tiles->assign(static_cast<std::size_t>(b.tiles_x) * b.tiles_y, 0);
-  // Per tile row: bit 1 = colour_h alpha is a0 there, bit 2 = colourFar_h alpha is far_h.
-  // (Thread-local storage of the calling thread, grown once; the workers write through a
-  // pointer — naming the thread_local inside the lambda would give each worker its own.)
-  thread_local std::vector<std::uint8_t> alpha_rows_tls;
-  std::vector<std::uint8_t>& alpha_rows = alpha_rows_tls;
-  alpha_rows.assign(static_cast<std::size_t>(b.tiles_y), 0);
-  const float a0 = b.src_row(*b.near_src, 3, 0)[0];
   core::parallel_for(b.tiles_y, [&](int t0, int t1) {
-    for (int ty = t0; ty < t1; ++ty) {
-      bool near_const = true, far_den = true;
-      for (int y = ty * kTile; y < std::min(h, (ty + 1) * kTile); ++y) {
+    for (int ty = t0; ty < t1; ++ty)
+      for (int y = ty * kTile; y < std::min(h, (ty + 1) * kTile); ++y)
         classify_row(b.near_blur->row(0, y), b.far_h_row(y), b.tiles->data() + static_cast<std::size_t>(ty) * b.tiles_x,
                      w);
-        near_const = near_const && row_is(b.src_row(*b.near_src, 3, y), a0, w);
-        far_den = far_den && rows_equal(b.src_row(*b.far_src, 3, y), b.far_h_row(y), w);
-      }
-      alpha_rows[ty] = (near_const ? 1 : 0) | (far_den ? 2 : 0);
-    }
   });
-  std::uint8_t alpha_bits = 3;
-  for (std::uint8_t r : alpha_rows) alpha_bits &= r;
+  // Bit 1: colour_h alpha is a0 everywhere (== : its least and largest value are equal), bit 2:
+  // colourFar_h alpha equals far_h bit for bit; from the downsample's per-row figures (it used
+  // to be two scans of three planes here, ~2 % of the frame).
+  const float a0 = b.src_row(*b.near_src, 3, 0)[0];
+  float alpha_lo = a0, alpha_hi = a0;
+  bool far_differs = false;
+  for (int y = 0; y < h; ++y) {
+    const Buffers::AlphaRow& r = (*b.alpha_rows)[y];
+    alpha_lo = std::min(alpha_lo, r.lo);
+    alpha_hi = std::max(alpha_hi, r.hi);
+    far_differs = far_differs || r.far_differs;
+  }
+  const std::uint8_t alpha_bits = (alpha_lo == alpha_hi ? 1 : 0) | (far_differs ? 0 : 2);
 
   const int pitch = b.near_src->width();
   alignas(32) TapV taps[kTaps];
@@ -911,6 +1194,29 @@ void gather(const Settings& s, Buffers& b) {
           .pf_dy = dy_max,
           .pf_dx = dx_min,
           .pf_span = dx_max - dx_min + kSeg + 8};
+  // The fold form wherever it pays (AVX-512 copy; see FoldKernel).
+  thread_local FoldKernel fold_tls;
+  FoldKernel& fold = fold_tls;  // (the workers see the calling thread's, through the reference)
+  if (kern.fold) build_fold_kernel(scaled, pitch, kern.fold_chunk, fold);
+  if (kern.fold && fold.ok) {
+#if !defined(__clang__)
+    job.fold = &fold;
+    if (near_alpha_const) job.near_alpha[0] = job.near_alpha[1] = constant_fold(fold, a0) * inv_taps;
+    const int stride = (w + kern.fold_chunk + 15) / 16 * 16;
+    core::parallel_for(b.tiles_y, [&](int t0, int t1) {
+      // (per thread, grown once; 64-byte aligned)
+      thread_local std::vector<float> buf;
+      const std::size_t nv = 4 * fold.e.size() * static_cast<std::size_t>(fold.vstride);
+      const std::size_t n = nv + 8 * static_cast<std::size_t>(stride) + 16;
+      if (buf.size() < n) buf.resize(n);
+      float* p = buf.data();
+      p += (16 - (reinterpret_cast<std::uintptr_t>(p) >> 2) % 16) % 16;
+      kern.fold(job, t0, t1, p, p + nv, p + nv + 4 * static_cast<std::size_t>(stride), stride);
+    });
+    if (s.per_pixel_scale) far_per_texel(s, b);
+    return;
+#endif
+  }
   if (near_alpha_const)
     for (int parity = 0; parity < 2; ++parity) job.near_alpha[parity] = kern.constant_near(job, a0, parity);
   const int strips = (b.tiles_x + kStripTiles - 1) / kStripTiles;

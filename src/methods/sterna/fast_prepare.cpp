@@ -18,6 +18,7 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
+#include <cstdint>
 #include <variant>
 
 #include "core/filters.hpp"
@@ -59,10 +60,26 @@ struct QuadOut {
   float* nearh;
 };
 
+// The gather's opaque-frame tests (fast_gather.cpp), gathered while the row's texels are made:
+// the least and largest colour_h alpha (all equal ⟺ least == largest, as ==), and whether some
+// colourFar_h alpha differs from far_h in its bits.
+struct AlphaStats {
+  float lo = 0, hi = 0;
+  bool far_differs = false;
+  bool any = false;
+  void add(float a, float af, float f) {
+    lo = any ? std::min(lo, a) : a;
+    hi = any ? std::max(hi, a) : a;
+    any = true;
+    far_differs = far_differs || std::bit_cast<std::uint32_t>(af) != std::bit_cast<std::uint32_t>(f);
+  }
+};
+
 // One half-res texel from its quad (k = 0 TL, 1 TR, 2 BL, 3 BR): the expressions and the
 // order of downsample.cpp.
 template <bool kKaris>
-inline void quad(const float (&c)[4][4], const float (&far)[4], float near_tl, const QuadOut& o, int i) {
+inline void quad(const float (&c)[4][4], const float (&far)[4], float near_tl, const QuadOut& o, int i,
+                 AlphaStats& st) {
   float wk[4];
   for (int k = 0; k < 4; ++k)
     wk[k] = kKaris ? 1.0f / (1.0f + std::max(0.0f, luma(c[k][0], c[k][1], c[k][2]))) : 1.0f;
@@ -81,6 +98,7 @@ inline void quad(const float (&c)[4][4], const float (&far)[4], float near_tl, c
   for (int ch = 0; ch < 4; ++ch) o.colf[ch][i] = bacc[ch] / bsum * far[0];
   o.farh[i] = far[0];
   o.nearh[i] = near_tl;
+  st.add(o.col[3][i], o.colf[3][i], far[0]);
 }
 
 // Even (x0 = 2i) and odd (x1 = 2i + 1) columns of the 16 values at p.
@@ -92,9 +110,32 @@ __attribute__((always_inline)) inline void deinterleave(const float* p, V8& even
 
 // quad() for 8 texels at once, lane by lane the same operations in the same order (the
 // divisions, 11 per texel, are what made the scalar loop slow).
+// The vector form of AlphaStats: lane-wise least / largest alpha and the or of the bit
+// differences.
+struct AlphaStats8 {
+  V8 lo, hi;
+  I8 diff = splat_i(0);
+  bool any = false;
+  __attribute__((always_inline)) void add(V8 a, V8 af, V8 f) {
+    lo = any ? (a < lo ? a : lo) : a;
+    hi = any ? (hi < a ? a : hi) : a;
+    any = true;
+    diff |= reinterpret_cast<I8>(af) ^ reinterpret_cast<I8>(f);
+  }
+  void into(AlphaStats& st) const {
+    if (!any) return;
+    for (int k = 0; k < 8; ++k) {
+      st.lo = st.any ? std::min(st.lo, lo[k]) : lo[k];
+      st.hi = st.any ? std::max(st.hi, hi[k]) : hi[k];
+      st.any = true;
+      st.far_differs = st.far_differs || diff[k] != 0;
+    }
+  }
+};
+
 template <bool kKaris>
 __attribute__((always_inline)) inline void quad8(const V8 (&c)[4][4], const V8 (&far)[4], V8 near_tl, const QuadOut& o,
-                                                 int i) {
+                                                 int i, AlphaStats8& st) {
   const V8 zero = splat(0.0f), one = splat(1.0f);
   V8 wk[4];
   for (int k = 0; k < 4; ++k) {
@@ -111,7 +152,11 @@ __attribute__((always_inline)) inline void quad8(const V8 (&c)[4][4], const V8 (
     for (int ch = 0; ch < 4; ++ch) acc[ch] += wk[k] * c[k][ch];
   }
   // Without Karis wsum is 4 exactly, and x/4 = x·¼ exactly (both are the rounded x/4).
-  for (int ch = 0; ch < 4; ++ch) store8(o.col[ch] + i, kKaris ? acc[ch] / wsum : acc[ch] * splat(0.25f));
+  V8 col[4];
+  for (int ch = 0; ch < 4; ++ch) {
+    col[ch] = kKaris ? acc[ch] / wsum : acc[ch] * splat(0.25f);
+    store8(o.col[ch] + i, col[ch]);
+  }
   V8 bsum = zero, bacc[4] = {zero, zero, zero, zero};
   // 1/(|Δfar| + 0.001) is 1/0.001f where Δfar = 0 (flat far field, or in focus): the same
   // rounded quotient, so the division is skipped for vectors with Δfar = 0 in every lane.
@@ -126,9 +171,15 @@ __attribute__((always_inline)) inline void quad8(const V8 (&c)[4][4], const V8 (
     bsum += wb;
     for (int ch = 0; ch < 4; ++ch) bacc[ch] += wb * c[k][ch];
   }
-  for (int ch = 0; ch < 4; ++ch) store8(o.colf[ch] + i, bacc[ch] / bsum * far[0]);
+  V8 colf3 = zero;
+  for (int ch = 0; ch < 4; ++ch) {
+    const V8 v = bacc[ch] / bsum * far[0];
+    store8(o.colf[ch] + i, v);
+    if (ch == 3) colf3 = v;
+  }
   store8(o.farh + i, far[0]);
   store8(o.nearh + i, near_tl);
+  st.add(col[3], colf3, far[0]);
 }
 
 // The sanitation test of render/sanitize.hpp (sample_is_sanitary) for 8 samples at a time,
@@ -180,8 +231,9 @@ struct SampleCheck8 {
 template <bool kKaris, bool kCheck>
 STERNA_SIMD bool downsample_row(const float* const* r0, const float* const* r1, const float* __restrict f0,
                                 const float* __restrict f1, const float* __restrict n0, const QuadOut& o, int W,
-                                int w) {
+                                int w, AlphaStats& alpha) {
   SampleCheck8 check;
+  AlphaStats8 alpha8;
   int i = 0;
   // Whole quads (2i + 1 < W), 8 texels = 16 full-res columns at a time.
   for (; i + 8 <= W / 2; i += 8) {
@@ -199,9 +251,10 @@ STERNA_SIMD bool downsample_row(const float* const* r0, const float* const* r1, 
     deinterleave(f0 + x, far[0], far[1]);
     deinterleave(f1 + x, far[2], far[3]);
     deinterleave(n0 + x, ntl, nodd);
-    quad8<kKaris>(c, far, ntl, o, i);
+    quad8<kKaris>(c, far, ntl, o, i, alpha8);
   }
   bool clean = !kCheck || check.clean();
+  alpha8.into(alpha);
   for (; i < w; ++i) {
     // With an odd width the last quad repeats the edge column (x1 = x0 = W - 1): the edge
     // column is still read (and checked), twice.
@@ -220,7 +273,7 @@ STERNA_SIMD bool downsample_row(const float* const* r0, const float* const* r1, 
     far[1] = f0[x1];
     far[2] = f1[x0];
     far[3] = f1[x1];
-    quad<kKaris>(c, far, n0[x0], o, i);
+    quad<kKaris>(c, far, n0[x0], o, i, alpha);
   }
   return clean;
 }
@@ -347,13 +400,15 @@ bool prepare(const MethodContext& ctx, const Settings& s, Buffers& b) {
       }
       o.farh = b.src_row(*b.far_src, 4, j);
       o.nearh = b.near_h->row(0, j);
+      AlphaStats alpha;
       if (check_colour)
-        clean &= s.karis ? downsample_row<true, true>(r0, r1, f0, f1, n0, o, W, w)
-                         : downsample_row<false, true>(r0, r1, f0, f1, n0, o, W, w);
+        clean &= s.karis ? downsample_row<true, true>(r0, r1, f0, f1, n0, o, W, w, alpha)
+                         : downsample_row<false, true>(r0, r1, f0, f1, n0, o, W, w, alpha);
       else if (s.karis)
-        downsample_row<true, false>(r0, r1, f0, f1, n0, o, W, w);
+        downsample_row<true, false>(r0, r1, f0, f1, n0, o, W, w, alpha);
       else
-        downsample_row<false, false>(r0, r1, f0, f1, n0, o, W, w);
+        downsample_row<false, false>(r0, r1, f0, f1, n0, o, W, w, alpha);
+      (*b.alpha_rows)[j] = {alpha.lo, alpha.hi, alpha.far_differs};
     }
     if (!clean) sanitary.store(false, std::memory_order_relaxed);
   }, 4);

@@ -195,6 +195,19 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
     const int pl = p < 5 ? p : 0;
     const float* ra = img.row(pl, ya);
     const float* rb = img.row(pl, yb);
+    if (p == 5) {
+      // The blurred 1/z feeds the depth test, a hard threshold: it takes the plain pass's
+      // bilinear weights and sums (quarter_bilerp), so that the test sees the oracle's value
+      // bit for bit (C4 blurs in the oracle's arithmetic too, see depth_blur.cpp); the
+      // separable lerp below rounds differently (1080p bench frame: 2 pixels decided the
+      // other way). The other planes enter the mix continuously and keep the cheaper lerp.
+      float* hr = sc.hrow.data() + static_cast<std::size_t>(5) * w;
+      const int i1 = lw > 2 ? final_bilerp_simd(ra, rb, hr, 1, lw - 1, ty) : 1;
+      const float* lz = inv_depth.plane(0);
+      for (int x = 0; x < std::min(4, w); ++x) hr[x] = quarter_bilerp(x, y, lw, lh).at(lz);
+      for (int x = 4 * i1; x < w; ++x) hr[x] = quarter_bilerp(x, y, lw, lh).at(lz);
+      continue;
+    }
     float* v = sc.vrow.data() + static_cast<std::size_t>(p) * lw;
     vertical_lerp(ra, rb, v, lw, ty);
     float* hr = sc.hrow.data() + static_cast<std::size_t>(p) * w;

@@ -354,3 +354,49 @@ TEST(StarcraftFast, StreamedMediumEqualsTheSeparatePassesOpaqueOrNot) {
     EXPECT_LE(worst_relative(fused1.image, plain.image), 1e-4) << "translucent=" << translucent;
   }
 }
+
+TEST(StarcraftFast, DepthTestDecidesAsThePlainPass) {
+  // The depth test (rule 3) is a hard threshold on the blurred 1/z against the pixel's own
+  // 1/z · (1 + 1e-5). Where the two lie within rounding of it, a blurred 1/z computed with
+  // other roundings than the plain pass's picks the other level, and the output jumps by
+  // (c_own − c_blur) times the levels' difference — large next to an HDR highlight. Such pixels
+  // are common: a ground plane (1/z affine in y) blurs to its own 1/z, so the comparison sits
+  // on the tie tolerance wherever the tail of the wall's depth step above it fades out, and the
+  // sky (1/z = 0) sits on it exactly (float running sums left ~1e-7 there where the plain
+  // double sums give 0). The fast form's blurred 1/z must be the plain one bit for bit.
+  const int w = 256, h = 144;
+  Frame f = textured_frame(w, h, 1.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float v = (y + 0.5f) / h;
+      f.depth.at(x, y) = x >= 20 && x < 40 ? 1.2f                                       // near bar
+                         : v < 0.15f       ? std::numeric_limits<float>::infinity()     // sky
+                         : v < 0.45f       ? 8.0f + 20.0f * (0.45f - v)                 // far wall
+                                           : 1.5f / ((v - 0.4f) * 2.6f);                // ground
+      if ((x * 7 + y * 13) % 61 == 0)  // sparse HDR highlights
+        for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 40.0f;
+    }
+  // C4 itself: the fast blurred 1/z equals the plain one, bit for bit.
+  for (const float sigma : {2.5f, 7.2f, 20.0f}) {
+    Image fast, plain;
+    sc::depth_blur(f.depth, sigma, fast, false);
+    sc::depth_blur(f.depth, sigma, plain, true);
+    EXPECT_EQ(fast.data(), plain.data()) << "sigma " << sigma;
+  }
+  // The whole render, default and with a narrower depth blur (there the sky's neighbourhood
+  // level is not 1).
+  for (const char* depth_blur : {"1", "0.5"}) {
+    RenderSettings s = settings_for(4.0, 12.0);
+    s.params = {{"depth_blur", depth_blur}};
+    const RenderResult fast = render(f, s);
+    // The row-organised final pass against the per-pixel one on the same (fast) levels: its
+    // up-sampled 1/z must be the plain pass's too.
+    s.debug_view = "used_coc";  // routes the final pass through the plain form
+    const RenderResult plain_final = render(f, s);
+    EXPECT_LE(worst_relative(fast.image, plain_final.image), 1e-5) << "depth_blur=" << depth_blur;
+    s.debug_view.clear();
+    s.params["impl"] = "plain";
+    const RenderResult plain = render(f, s);
+    EXPECT_LE(worst_relative(fast.image, plain.image), 1e-4) << "depth_blur=" << depth_blur;
+  }
+}

@@ -195,6 +195,29 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
     const int pl = p < 5 ? p : 0;
     const float* ra = img.row(pl, ya);
     const float* rb = img.row(pl, yb);
+    if (p == 5) {
+      // The blurred 1/z feeds the depth test, a hard threshold: it takes the plain pass's
+      // bilinear weights and sums (quarter_bilerp), so that the test sees the oracle's value
+      // bit for bit (C4 blurs in the oracle's arithmetic too, see depth_blur.cpp); the
+      // separable lerp below rounds differently (1080p bench frame: 2 pixels decided the
+      // other way). The other planes enter the mix continuously and keep the cheaper lerp.
+      // Scalar cells: quarter_bilerp's footprint of column 4i + k (x0 = i − 1 for k < 2, else
+      // i; tx as in final_bilerp_simd), its weights and its sum, with the indices clamped.
+      float* hr = sc.hrow.data() + static_cast<std::size_t>(5) * w;
+      auto cell = [&](int i) {
+        constexpr float kTx[4] = {0.625f, 0.875f, 0.125f, 0.375f};
+        for (int k = 0; k < 4 && 4 * i + k < w; ++k) {
+          const float tx = kTx[k];
+          const int x0 = k < 2 ? i - 1 : i;
+          const int xa = clampi(x0, 0, lw - 1), xb = clampi(x0 + 1, 0, lw - 1);
+          const float w00 = (1 - tx) * (1 - ty), w01 = tx * (1 - ty), w10 = (1 - tx) * ty, w11 = tx * ty;
+          hr[4 * i + k] = w00 * ra[xa] + w01 * ra[xb] + w10 * rb[xa] + w11 * rb[xb];
+        }
+      };
+      cell(0);
+      for (int i = lw > 2 ? final_bilerp_simd(ra, rb, hr, 1, lw - 1, ty) : 1; i < lw; ++i) cell(i);
+      continue;
+    }
     float* v = sc.vrow.data() + static_cast<std::size_t>(p) * lw;
     vertical_lerp(ra, rb, v, lw, ty);
     float* hr = sc.hrow.data() + static_cast<std::size_t>(p) * w;

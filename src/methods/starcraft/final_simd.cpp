@@ -147,6 +147,35 @@ int FinalHlerp(const float* v, float* out, int i0, int i1) {
   return i;
 }
 
+int FinalBilerp(const float* a, const float* b, float* out, int i0, int i1, float ty) {
+  const hn::ScalableTag<float> d;
+  const int n = static_cast<int>(hn::Lanes(d));
+  // Column 4i + k sits at tx = 5/8, 7/8 (cells i − 1, i) or 1/8, 3/8 (cells i, i + 1) and every
+  // row at ty in {1/8, 3/8, 5/8, 7/8}: the weights, formed as quarter_bilerp forms them, are
+  // products of eighths, exact in float.
+  constexpr float kTx[4] = {0.625f, 0.875f, 0.125f, 0.375f};
+  hn::Vec<decltype(d)> w00[4], w01[4], w10[4], w11[4];
+  for (int k = 0; k < 4; ++k) {
+    const float tx = kTx[k];
+    w00[k] = hn::Set(d, (1 - tx) * (1 - ty));
+    w01[k] = hn::Set(d, tx * (1 - ty));
+    w10[k] = hn::Set(d, (1 - tx) * ty);
+    w11[k] = hn::Set(d, tx * ty);
+  }
+  auto bil = [&](int k, auto al, auto ar, auto bl, auto br) {
+    return hn::Add(hn::Add(hn::Add(hn::Mul(w00[k], al), hn::Mul(w01[k], ar)), hn::Mul(w10[k], bl)),
+                   hn::Mul(w11[k], br));
+  };
+  int i = i0;
+  for (; i + n <= i1; i += n) {
+    const auto al = hn::LoadU(d, a + i - 1), ac = hn::LoadU(d, a + i), ar = hn::LoadU(d, a + i + 1);
+    const auto bl = hn::LoadU(d, b + i - 1), bc = hn::LoadU(d, b + i), br = hn::LoadU(d, b + i + 1);
+    hn::StoreInterleaved4(bil(0, al, ac, bl, bc), bil(1, al, ac, bl, bc), bil(2, ac, ar, bc, br),
+                          bil(3, ac, ar, bc, br), d, out + 4 * static_cast<std::ptrdiff_t>(i));
+  }
+  return i;
+}
+
 int LevelsRow(const float* r, float* c, int x0, int x1, float vs, float vm, float vl) {
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
@@ -272,6 +301,7 @@ namespace dofkit::detail::starcraft {
 HWY_EXPORT(FinalWeights);
 HWY_EXPORT(FinalMix);
 HWY_EXPORT(FinalHlerp);
+HWY_EXPORT(FinalBilerp);
 HWY_EXPORT(LargeReduce);
 HWY_EXPORT(LevelsRow);
 
@@ -282,6 +312,9 @@ int final_mix_simd(const MixRow& r, int x0, int x1) { return HWY_DYNAMIC_DISPATC
 void flush_streams() { hwy::FlushStream(); }
 int final_hlerp_simd(const float* v, float* out, int i0, int i1) {
   return HWY_DYNAMIC_DISPATCH(FinalHlerp)(v, out, i0, i1);
+}
+int final_bilerp_simd(const float* a, const float* b, float* out, int i0, int i1, float ty) {
+  return HWY_DYNAMIC_DISPATCH(FinalBilerp)(a, b, out, i0, i1, ty);
 }
 int levels_row_simd(const float* r, float* c, int x0, int x1, float vs, float vm, float vl) {
   return HWY_DYNAMIC_DISPATCH(LevelsRow)(r, c, x0, x1, vs, vm, vl);

@@ -52,6 +52,12 @@ void flush_streams();
 /// 4i … 4i + 3 (see final.cpp). Reads v[i − 1 … i + 1]: valid for 1 <= i < lw − 1.
 int final_hlerp_simd(const float* v, float* out, int i0, int i1);
 
+/// Bilinear up-sampling of the quarter-res rows a (row ya) and b (row yb) to full res, cell i
+/// writing columns 4i … 4i + 3, in final_pass_plain's arithmetic (quarter_bilerp in final.cpp:
+/// ((w00·a + w01·a') + w10·b) + w11·b' with w00 = (1 − tx)(1 − ty), … ), so bit for bit its
+/// values. ty: the row's vertical weight. Reads a, b at i − 1 … i + 1: valid for 1 <= i < lw − 1.
+int final_bilerp_simd(const float* a, const float* b, float* out, int i0, int i1, float ty);
+
 /// C1 levels of one row: c[x] = LevelGeometry::level_of_radius(r[x]) (the same formulas, each
 /// segment's operands selected and one division; measured: equal to the scalar form or 1 ulp apart);
 /// vs, vm, vl = r_small² − 0.25, r_medium² − 0.25, r_large² − 0.25.

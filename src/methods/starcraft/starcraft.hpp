@@ -106,7 +106,9 @@ void medium_blur(const Image& color, const Image& level, float sigma, int boxes,
 bool large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large,
                 bool plain = false, bool* alpha_is_one = nullptr, bool check_colour = false);
 
-/// C4: inverse depth 1/z reduced to W/4 × H/4 (block mean) and blurred (1 plane).
+/// C4: inverse depth 1/z reduced to W/4 × H/4 (block mean) and blurred (1 plane). The fast
+/// form's values are the plain form's bit for bit: the final pass's depth test is a hard
+/// threshold on them (see depth_blur.cpp).
 void depth_blur(const Image& depth, float sigma_total, Image& inv_depth, bool plain = false);
 
 /// Converts a total (full-res px) Gaussian σ into the σ to apply on the quarter-res grid,

@@ -16,107 +16,207 @@
 
 namespace dofkit::core::strip {
 
-static_assert(kStripLanes == 16, "strip_passes keeps two 8-lane vectors per step");
+static_assert(kStripLanes == 16, "a strip step is one 16-lane vector");
 constexpr int kLanes = kStripLanes;
 #define SP_LOAD8(p) (*reinterpret_cast<const Vec8u*>(p))
 #define SP_STORE8(p, v) (*reinterpret_cast<Vec8u*>(p) = (v))
 
 namespace {
 
-// Outputs i … end − 1 of one box pass over a strip (two vectors of 8 lanes): out = (sum +
+// One strip step as one value: a zmm register in the AVX-512 clone, two ymm in the AVX2 one
+// (GCC splits the generic vector), four xmm in the baseline. Element by element the same
+// scalar operations as ever.
+typedef float Vec16 __attribute__((vector_size(64)));
+typedef float Vec16u __attribute__((vector_size(64), aligned(4), may_alias));
+#define SP_LOAD(p) (*reinterpret_cast<const Vec16u*>(p))
+#define SP_STORE(p, v) (*reinterpret_cast<Vec16u*>(p) = (v))
+
+// The passes run as a cascade: pass q + 1 runs kResync·m outputs behind pass q, in the same
+// loop (cascade_steps), instead of one pass over the whole strip after the other. Why: one
+// pass alone is a single chain of dependent adds, sum += hi − lo, one add latency (4 cycles)
+// per step whatever the vector width, and each pass streams both strip buffers through L2
+// (a 1080p strip is 123 KB, L1 48 KB). In the cascade the passes' chains are independent,
+// and pass q + 1 reads pass q's output a few KB after it was written, from L1; what bounds a
+// step then is the FP ports (6–7 adds and multiplies per sample and pass, two 512-bit ports:
+// ~3.3 cycles per 16-lane step and pass), see kPrefetch for the figures.
+//
+// Which lag is safe: in time block T pass q computes its block B = T − q·m, outputs
+// [32B, 32B + 32) (kResync = 32), and reads its input (pass q − 1's output) at most up to
+// 32B + 31 + r + 1. Pass q − 1 has completed its blocks before B + m, outputs < 32B + 32m:
+// with 32m >= r + 33 every sample read was written in an earlier time block, never in the
+// current one (so the passes of a time block may run in any order or interleaved). The same
+// bound covers the border: a read past the end (the right pad) needs pass q − 1 finished,
+// which it then is, and its right pad is filled right after the time block that finished it;
+// its left pad right after its first block, before pass q starts. Writes cannot overtake
+// reads: pass q writes its output (which is pass q − 1's input buffer, the strips
+// alternate) at [32B, 32B + 32), below where pass q − 1 still reads (32B + 32m − r − 1 and
+// up, and its left pad only in blocks below (r + 1)/32 < m); pass q + 2 writes the same
+// buffer as pass q only behind everything pass q + 1 still reads. So every pass sees exactly
+// the input it saw when the passes ran one after the other.
+struct Pass {
+  const float* src;  // input, sample 0
+  float* dst;        // output, sample 0
+  Vec16 s, f, g;     // window sum; pending fresh sums of the next two resync points
+};
+
+// The first pass of a cascade writes lines of the second strip buffer that are not in L1
+// (the buffers are 2 × 123 KB at 1080p), and its stores then wait for the lines to arrive;
+// with dozens of stores pending, the leaving-sample loads also run into 4K-aliasing false
+// dependences on them. Fetching the lines kPrefetch outputs ahead lets the stores complete at
+// L1 speed: a two-pass cascade over a 1920-sample strip in L2, AVX-512, 2.9 → 1.7 ns per
+// vector and pass (the passes one after the other: 2.3). A plain prefetch (prefetcht0: the
+// clones' targets have no PRFCHW): the line, held by this core alone, arrives in L1
+// exclusive, so the store needs no second request; prefetchw measured the same.
+constexpr int kPrefetch = 16;
+
+// Steps t … end − 1 of one block of NP passes, pass q from output i0[q] + t on: out = (sum +
 // alpha·(lo + hi))·norm, then the window slides, sum += hi − (sample i − r); kFresh >= 1 also
 // adds hi to the next resync point's pending sum (f), kFresh == 2 to the one after it (g).
+// Sample i − r leaving the window is the next step's lo, so it stays in a register (l).
 // (Inlined into each clone of strip_passes: vector arguments are fine there.)
-template <int kFresh>
-__attribute__((always_inline)) inline void box_steps(int& i, int end, const float*& lo, const float*& hi, float*& d,
-                                                     Vec8& s0, Vec8& s1, Vec8& f0, Vec8& f1, Vec8& g0, Vec8& g1,
-                                                     Vec8 va, Vec8 vn) {
-  for (; i < end; ++i, lo += kLanes, hi += kLanes, d += kLanes) {
-    const Vec8 h0 = SP_LOAD8(hi), h1 = SP_LOAD8(hi + 8);
-    SP_STORE8(d, (s0 + va * (SP_LOAD8(lo) + h0)) * vn);
-    SP_STORE8(d + 8, (s1 + va * (SP_LOAD8(lo + 8) + h1)) * vn);
-    s0 += h0 - SP_LOAD8(lo + kLanes);  // lo + kLanes: sample i − r, leaving the window
-    s1 += h1 - SP_LOAD8(lo + kLanes + 8);
-    if constexpr (kFresh >= 1) {
-      f0 += h0;
-      f1 += h1;
-    }
-    if constexpr (kFresh >= 2) {
-      g0 += h0;
-      g1 += h1;
+template <int NP, int kFresh>
+__attribute__((always_inline)) inline void cascade_steps(int t, int end, const float* const (&lo)[NP],
+                                                         const float* const (&hi)[NP], float* const (&d)[NP],
+                                                         Vec16 (&s)[NP], Vec16 (&f)[NP], Vec16 (&g)[NP],
+                                                         Vec16 (&l)[NP], Vec16 va, Vec16 vn) {
+  for (; t < end; ++t) {
+    const std::ptrdiff_t o = static_cast<std::ptrdiff_t>(t) * kLanes;
+    __builtin_prefetch(d[0] + o + kPrefetch * kLanes, 1);  // see kPrefetch
+#pragma GCC unroll 4
+    for (int q = 0; q < NP; ++q) {
+      const Vec16 h = SP_LOAD(hi[q] + o);
+      SP_STORE(d[q] + o, (s[q] + va * (l[q] + h)) * vn);
+      const Vec16 x = SP_LOAD(lo[q] + o + kLanes);  // sample i − r, leaving the window
+      s[q] += h - x;
+      l[q] = x;
+      if constexpr (kFresh >= 1) f[q] += h;
+      if constexpr (kFresh >= 2) g[q] += h;
     }
   }
 }
+
+// One block of NP passes, pass q's outputs i0[q] … i0[q] + len − 1: steps [0, cf) update the
+// window only, [cf, cg) also f, [cg, len) also g (see strip_passes).
+template <int NP>
+__attribute__((always_inline)) inline void cascade_block(Pass* const* ps, const int* i0, int len, int cf, int cg,
+                                                         int r, Vec16 va, Vec16 vn) {
+  const float* lo[NP];
+  const float* hi[NP];
+  float* d[NP];
+  Vec16 s[NP], f[NP], g[NP], l[NP];
+#pragma GCC unroll 4
+  for (int q = 0; q < NP; ++q) {
+    lo[q] = ps[q]->src + static_cast<std::ptrdiff_t>(i0[q] - r - 1) * kLanes;  // sample i − r − 1
+    hi[q] = ps[q]->src + static_cast<std::ptrdiff_t>(i0[q] + r + 1) * kLanes;  // sample i + r + 1
+    d[q] = ps[q]->dst + static_cast<std::ptrdiff_t>(i0[q]) * kLanes;
+    s[q] = ps[q]->s;
+    f[q] = ps[q]->f;
+    g[q] = ps[q]->g;
+    l[q] = SP_LOAD(lo[q]);
+  }
+  cascade_steps<NP, 0>(0, cf, lo, hi, d, s, f, g, l, va, vn);
+  cascade_steps<NP, 1>(cf, cg, lo, hi, d, s, f, g, l, va, vn);
+  cascade_steps<NP, 2>(cg, len, lo, hi, d, s, f, g, l, va, vn);
+#pragma GCC unroll 4
+  for (int q = 0; q < NP; ++q) {
+    ps[q]->s = s[q];
+    ps[q]->f = f[q];
+    ps[q]->g = g[q];
+  }
+}
+
+// Replicates sample 0 into samples −1 … −(r + 1) and sample n − 1 into n … n + r.
+__attribute__((always_inline)) inline void fill_pad_left(float* p, int r) {
+  const Vec16 v = SP_LOAD(p);
+  for (int i = 1; i <= r + 1; ++i) SP_STORE(p - static_cast<std::ptrdiff_t>(i) * kLanes, v);
+}
+__attribute__((always_inline)) inline void fill_pad_right(float* p, int n, int r) {
+  const Vec16 v = SP_LOAD(p + static_cast<std::ptrdiff_t>(n - 1) * kLanes);
+  for (int i = 1; i <= r + 1; ++i) SP_STORE(p + static_cast<std::ptrdiff_t>(n - 1 + i) * kLanes, v);
+}
+
+constexpr int kMaxCascade = 3;  // passes per cascade: the callers run 1–3
 
 }  // namespace
 
 DOFKIT_CLONES
 float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
   const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
-  const Vec8 va = {alpha, alpha, alpha, alpha, alpha, alpha, alpha, alpha};
-  const Vec8 vn = {norm, norm, norm, norm, norm, norm, norm, norm};
-  const Vec8 zero = {};
-  for (int p = 0; p < passes; ++p) {
-    float* src = a + static_cast<std::size_t>(pad) * kLanes;
-    float* dst = b + static_cast<std::size_t>(pad) * kLanes;
-    for (int i = 1; i <= r + 1; ++i)
-      for (int j = 0; j < kLanes; ++j) {
-        src[-i * kLanes + j] = src[j];
-        src[(n - 1 + i) * kLanes + j] = src[(n - 1) * kLanes + j];
-      }
-    // The window sums are recomputed from scratch at every kResync-th output R. The samples of
-    // that fresh sum, R − r … R + r, all enter the window as `hi` during the 2r + 1 outputs
-    // before R, so the fresh sum is built there (from 0, in the same order) instead of
-    // re-reading them: the same value, bit for bit. Up to a window of kResync samples this
-    // starts inside the block before R (one pending sum, f); up to 2·kResync it starts in the
-    // block before that (a second pending sum, g, for the resync point after next) — the
-    // medium level of starcraft at 4K (2r + 1 ≈ 43), where re-summing 43 samples per 32
-    // outputs as one dependent chain of adds cost ~40 % of the pass. Wider windows re-sum.
-    const int span = 2 * r + 1;
-    const bool carry = span <= 2 * kResync;
-    Vec8 s0 = zero, s1 = zero;  // window sums, lanes 0-7, 8-15
-    Vec8 f0 = zero, f1 = zero;  // pending fresh sum of the next resync point
-    Vec8 g0 = zero, g1 = zero;  // ... and of the one after it (span > kResync only)
-    if (carry)  // the samples of the first pending sum that enter before output 0
-      for (int k = kResync - r; k <= r; ++k) {
-        const float* q = src + static_cast<std::ptrdiff_t>(k) * kLanes;
-        f0 += SP_LOAD8(q);
-        f1 += SP_LOAD8(q + 8);
-      }
-    for (int i0 = 0; i0 < n; i0 += kResync) {
-      if (i0 == 0 || !carry) {
-        s0 = zero;
-        s1 = zero;
-        for (int k = -r; k <= r; ++k) {
-          const float* q = src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes;
-          s0 += SP_LOAD8(q);
-          s1 += SP_LOAD8(q + 8);
-        }
-      } else {
-        s0 = f0;
-        s1 = f1;
-        f0 = g0;
-        f1 = g1;
-        g0 = zero;
-        g1 = zero;
-      }
-      // Outputs [i0, from_f) update the window only, [from_f, from_g) also f, [from_g, i1)
-      // also g: hi = sample i + r + 1 belongs to the fresh sum of R when R − r <= i + r + 1.
-      const int i1 = std::min(n, i0 + kResync);
-      const int from_f = carry ? std::clamp(i0 + kResync - span, i0, i1) : i1;
-      const int from_g = carry ? std::clamp(i0 + 2 * kResync - span, i0, i1) : i1;
-      const float* lo = src + static_cast<std::ptrdiff_t>(i0 - r - 1) * kLanes;  // sample i − r − 1
-      const float* hi = src + static_cast<std::ptrdiff_t>(i0 + r + 1) * kLanes;  // sample i + r + 1
-      float* d = dst + static_cast<std::ptrdiff_t>(i0) * kLanes;
-      int i = i0;
-      box_steps<0>(i, from_f, lo, hi, d, s0, s1, f0, f1, g0, g1, va, vn);
-      box_steps<1>(i, from_g, lo, hi, d, s0, s1, f0, f1, g0, g1, va, vn);
-      box_steps<2>(i, i1, lo, hi, d, s0, s1, f0, f1, g0, g1, va, vn);
+  const Vec16 va = alpha + Vec16{}, vn = norm + Vec16{};
+  const Vec16 zero = {};
+  const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(pad) * kLanes;
+  // The window sums are recomputed from scratch at every kResync-th output R. The samples of
+  // that fresh sum, R − r … R + r, all enter the window as `hi` during the 2r + 1 outputs
+  // before R, so the fresh sum is built there (from 0, in the same order) instead of
+  // re-reading them: the same value, bit for bit. Up to a window of kResync samples this
+  // starts inside the block before R (one pending sum, f); up to 2·kResync it starts in the
+  // block before that (a second pending sum, g, for the resync point after next) — the
+  // medium level of starcraft at 4K (2r + 1 ≈ 43), where re-summing 43 samples per 32
+  // outputs as one dependent chain of adds cost ~40 % of the pass. Wider windows re-sum.
+  const int span = 2 * r + 1;
+  const bool carry = span <= 2 * kResync;
+  const int nb = (n + kResync - 1) / kResync;    // blocks per pass
+  const int m = (r + 33 + kResync - 1) / kResync;  // lag between passes, in blocks (32m >= r + 33)
+  // Block-relative starts of the f and g steps (a block of len outputs: clamped to it).
+  auto from = [&](int k, int len) { return carry ? std::clamp(k * kResync - span, 0, len) : len; };
+  for (int done = 0; done < passes;) {
+    const int np = std::min(kMaxCascade, passes - done);
+    Pass ps[kMaxCascade];
+    for (int q = 0; q < np; ++q) {
+      ps[q].src = (q % 2 ? b : a) + off;
+      ps[q].dst = (q % 2 ? a : b) + off;
+      ps[q].s = ps[q].f = ps[q].g = zero;
     }
-    std::swap(a, b);
+    fill_pad_left(a + off, r);
+    fill_pad_right(a + off, n, r);
+    for (int T = 0; T < nb + (np - 1) * m; ++T) {
+      Pass* full[kMaxCascade];
+      int full_i0[kMaxCascade], nfull = 0;
+      Pass* part = nullptr;
+      int part_i0 = 0;
+      for (int q = 0; q < np; ++q) {
+        const int B = T - q * m;
+        if (B < 0 || B >= nb) continue;
+        Pass& p = ps[q];
+        const int i0 = B * kResync;
+        if (i0 == 0 && carry)  // the samples of the first pending sum that enter before output 0
+          for (int k = kResync - r; k <= r; ++k) p.f += SP_LOAD(p.src + static_cast<std::ptrdiff_t>(k) * kLanes);
+        if (i0 == 0 || !carry) {
+          p.s = zero;
+          for (int k = -r; k <= r; ++k) p.s += SP_LOAD(p.src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes);
+        } else {
+          p.s = p.f;
+          p.f = p.g;
+          p.g = zero;
+        }
+        if (i0 + kResync <= n) full[nfull] = &p, full_i0[nfull++] = i0;
+        else part = &p, part_i0 = i0;
+      }
+      switch (nfull) {
+        case 1: cascade_block<1>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
+        case 2: cascade_block<2>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
+        case 3: cascade_block<3>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
+        default: break;
+      }
+      if (part) {
+        const int len = n - part_i0;
+        cascade_block<1>(&part, &part_i0, len, from(1, len), from(2, len), r, va, vn);
+      }
+      // The borders of the outputs that the next pass of this cascade reads.
+      for (int q = 0; q + 1 < np; ++q) {
+        const int B = T - q * m;
+        if (B == 0) fill_pad_left(ps[q].dst, r);
+        if (B == nb - 1) fill_pad_right(ps[q].dst, n, r);
+      }
+    }
+    done += np;
+    if (np % 2) std::swap(a, b);  // the cascade's result is in b after an odd number of passes
   }
   return a;
 }
+
+#undef SP_LOAD
+#undef SP_STORE
 
 // 8×8 transposes. The strip of a horizontal sweep is written and read back once per plane,
 // so the transposes are a good part of such a sweep (starcraft's medium level: 7.5 % of the

@@ -14,10 +14,11 @@ constexpr int kStripLanes = 16;
 /// vertical sweeps of core/weighted_gaussian.cpp) re-synchronises at the same outputs.
 constexpr int kResync = 32;
 
-/// Eight lanes as one value (GCC/clang vector extension): the strip loops keep the window sums
-/// of a strip in registers (two of these for 16 lanes) instead of re-loading and re-storing
-/// an array every step, and need no run-time alias checks between the strip buffers. Element
-/// by element the operations are the scalar ones, in the same order, so the sums are the same.
+/// Eight lanes as one value (GCC/clang vector extension): the row loops of the vertical
+/// sweeps (core/weighted_gaussian.cpp) and the transposes keep their sums and blocks in
+/// registers instead of re-loading and re-storing an array every step, and need no run-time
+/// alias checks between buffers. Element by element the operations are the scalar ones, in the
+/// same order, so the sums are the same. (strip_passes uses a 16-lane form of its own.)
 typedef float Vec8 __attribute__((vector_size(32)));
 /// The same type at float alignment, for unaligned loads and stores through a pointer (no
 /// helper function: a vector argument or result would change the baseline clone's ABI).
@@ -27,7 +28,8 @@ typedef float Vec8u __attribute__((vector_size(32), aligned(4), may_alias));
 /// over a strip of n samples in a; b is a second strip buffer; both have `pad` >= r + 1
 /// border samples, which each pass fills with the replicated edge samples (clamp to edge).
 /// Returns the buffer holding the result (a after an even number of passes, b after an odd
-/// one): the caller reads it from there, no copy back.
+/// one): the caller reads it from there, no copy back. Only the result's samples [0, n) are
+/// defined on return (the pads of either buffer hold whatever the passes left there).
 float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int passes);
 
 /// dst[x · kStripLanes + j] = rows[j][x] · (mul ? mul[x · kStripLanes + j] : 1) for x in

@@ -1,7 +1,9 @@
 // strip::strip_passes against its definition: every pass recomputes its window sum from scratch
 // at each kResync-th output and slides it in between, in float, in this order. The kernel
 // builds the fresh sums while the samples slide in (one pending sum for windows up to kResync
-// samples, two up to 2·kResync) instead of re-reading them; that must not change a bit.
+// samples, two up to 2·kResync) instead of re-reading them, and runs up to three passes as one
+// cascade, each a few blocks behind the one before (more passes: cascades one after the
+// other); that must not change a bit.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -49,7 +51,7 @@ TEST(Strip, PassesEqualTheirResummingDefinitionBitForBit) {
   // e.g. starcraft's medium level at 4K: r ≈ 21), and wider (re-summed).
   for (int r : {0, 1, 5, 15, 16, 20, 31, 32, 40})
     for (int n : {1, 7, 31, 32, 33, 64, 95, 200, 517})
-      for (int passes : {1, 2, 3}) {
+      for (int passes : {1, 2, 3, 4, 5, 7}) {  // > 3: cascades one after the other
         const int pad = r + 1 + (n % 3);  // pad may exceed r + 1
         std::vector<float> a(static_cast<std::size_t>(n + 2 * pad) * kL);
         for (auto& x : a) {  // HDR-like: highlights and exact zeros make rounding visible

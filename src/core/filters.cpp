@@ -162,18 +162,10 @@ void extended_box_passes_y(float* data, int w, int h, int r, float alpha, int pa
     float* b = a + strip;
     for (int s = s0; s < s1; ++s) {
       const int x0 = s * kLanes, nx = std::min(kLanes, w - x0);
-      float* base = a + static_cast<std::size_t>(pad) * kLanes;
-      for (int y = 0; y < h; ++y) {
-        const float* src = data + static_cast<std::size_t>(y) * w + x0;
-        float* d = base + static_cast<std::size_t>(y) * kLanes;
-        for (int j = 0; j < nx; ++j) d[j] = src[j];
-        for (int j = nx; j < kLanes; ++j) d[j] = src[nx - 1];
-      }
+      // Lanes past the last column repeat it (their results are discarded).
+      strip::load_columns(data + x0, static_cast<std::size_t>(w), h, nx, a + static_cast<std::size_t>(pad) * kLanes);
       const float* res = strip_passes(a, b, h, pad, r, alpha, passes) + static_cast<std::size_t>(pad) * kLanes;
-      for (int y = 0; y < h; ++y) {
-        const float* sp = res + static_cast<std::size_t>(y) * kLanes;
-        std::copy(sp, sp + nx, data + static_cast<std::size_t>(y) * w + x0);
-      }
+      strip::store_columns(res, h, nx, data + x0, static_cast<std::size_t>(w));
     }
   });
 }

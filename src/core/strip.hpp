@@ -4,6 +4,7 @@
 // store_rows_transposed) and both filters run their box passes with strip_passes, all three
 // in core/strip.cpp, so the two filters' sums are the same bit for bit.
 #pragma once
+#include <cstddef>
 
 namespace dofkit::core::strip {
 
@@ -39,5 +40,13 @@ void load_rows_transposed(const float* const* rows, int nx, const float* mul, fl
 
 /// rows[j][x] = src[x · kStripLanes + j] for x in [0, nx) and the first nrows signals.
 void store_rows_transposed(const float* src, int nx, float* const* rows, int nrows);
+
+/// dst[y · kStripLanes + j] = src[y · stride + min(j, nx − 1)] for y in [0, n), j in
+/// [0, kStripLanes): nx <= kStripLanes adjacent columns into a strip, the lanes past the last
+/// column repeating it (the vertical sweep of core/filters.cpp).
+void load_columns(const float* src, std::size_t stride, int n, int nx, float* dst);
+
+/// dst[y · stride + j] = src[y · kStripLanes + j] for y in [0, n), j in [0, nx).
+void store_columns(const float* src, int n, int nx, float* dst, std::size_t stride);
 
 }  // namespace dofkit::core::strip

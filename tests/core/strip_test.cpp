@@ -6,6 +6,7 @@
 // other); that must not change a bit.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <random>
 #include <vector>
@@ -68,6 +69,31 @@ TEST(Strip, PassesEqualTheirResummingDefinitionBitForBit) {
                              want.data() + static_cast<std::size_t>(pad + i) * kL, kL * sizeof(float)) == 0;
         EXPECT_TRUE(same) << "r " << r << " n " << n << " passes " << passes;
       }
+}
+
+// The column copies of the vertical sweep: whole strips and the ragged last one (lanes past
+// the last column repeat it on the way in; only nx columns go back).
+TEST(Strip, ColumnCopiesMoveExactlyTheirColumns) {
+  const int w = 53, h = 37;
+  std::vector<float> plane(static_cast<std::size_t>(w) * h);
+  for (std::size_t i = 0; i < plane.size(); ++i) plane[i] = static_cast<float>(i) * 0.25f - 7.0f;
+  for (int x0 = 0; x0 < w; x0 += kL) {
+    const int nx = std::min(kL, w - x0);
+    std::vector<float> s(static_cast<std::size_t>(h) * kL, -1.0f);
+    load_columns(plane.data() + x0, w, h, nx, s.data());
+    for (int y = 0; y < h; ++y)
+      for (int j = 0; j < kL; ++j)
+        ASSERT_EQ(s[static_cast<std::size_t>(y) * kL + j], plane[static_cast<std::size_t>(y) * w + x0 + std::min(j, nx - 1)])
+            << "x0 " << x0 << " y " << y << " j " << j;
+    std::vector<float> out(plane.size(), 5.0f);
+    for (auto& v : s) v = -v;
+    store_columns(s.data(), h, nx, out.data() + x0, w);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const float want = x >= x0 && x < x0 + nx ? -plane[static_cast<std::size_t>(y) * w + x] : 5.0f;
+        ASSERT_EQ(out[static_cast<std::size_t>(y) * w + x], want) << "x0 " << x0 << " y " << y << " x " << x;
+      }
+  }
 }
 
 }  // namespace

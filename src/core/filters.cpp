@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -121,10 +122,14 @@ constexpr int kLanes = strip::kStripLanes;
 using strip::strip_passes;
 
 /// Per-thread strip scratch (two buffers), grown on demand and kept: no allocation per frame.
+/// 64-byte aligned (the vector's own storage is 16-byte aligned; a 1080p strip pair is an
+/// mmap'd chunk at 16 mod 64), so that no strip sample, one 16-lane vector of strip_passes,
+/// straddles two cache lines; floats is a multiple of kLanes, so b = a + floats is aligned too.
 float* strip_scratch(std::size_t floats) {
   thread_local std::vector<float> buf;
-  if (buf.size() < 2 * floats) buf.resize(2 * floats);
-  return buf.data();
+  if (buf.size() < 2 * floats + kLanes) buf.resize(2 * floats + kLanes);
+  const std::size_t mis = reinterpret_cast<std::uintptr_t>(buf.data()) % 64;
+  return buf.data() + (64 - mis) % 64 / sizeof(float);
 }
 
 using strip::load_rows_transposed;

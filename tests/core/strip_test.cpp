@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <random>
 #include <vector>
@@ -68,6 +69,45 @@ TEST(Strip, PassesEqualTheirResummingDefinitionBitForBit) {
           same = std::memcmp(got + static_cast<std::size_t>(pad + i) * kL,
                              want.data() + static_cast<std::size_t>(pad + i) * kL, kL * sizeof(float)) == 0;
         EXPECT_TRUE(same) << "r " << r << " n " << n << " passes " << passes;
+      }
+}
+
+// The row transposes against their definition: 16×16 blocks on AVX-512 (from the first column
+// where all rows are 64-byte aligned), 8×8 blocks and single columns around them (and
+// everywhere else), rows of any length, aligned alike or not, with and without the weights'
+// product, and the ragged last strip of a plane (fewer than 16 rows to store).
+TEST(Strip, TransposesMoveEverySampleExactly) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-2.0f, 2.0f);
+  for (int nx : {1, 7, 8, 15, 16, 17, 31, 40, 64, 1001})
+    for (int shift : {0, 4, 9, -1})  // rows from a 64-byte boundary + shift floats; -1: stride nx + 1
+      for (bool with_mul : {false, true}) {
+        const int stride = shift < 0 ? nx + 1 : (nx + 31) / 16 * 16;
+        std::vector<float> store(static_cast<std::size_t>(kL) * stride + 32), mul(static_cast<std::size_t>(kL) * nx);
+        float* base = store.data() + (16 - reinterpret_cast<std::uintptr_t>(store.data()) % 64 / 4) % 16 + std::max(shift, 0);
+        for (auto& v : store) v = u(rng);
+        for (auto& v : mul) v = u(rng);
+        const float* rows[kL];
+        for (int j = 0; j < kL; ++j) rows[j] = base + static_cast<std::size_t>(j) * stride;
+        std::vector<float> s(static_cast<std::size_t>(nx) * kL, 0.0f);
+        load_rows_transposed(rows, nx, with_mul ? mul.data() : nullptr, s.data());
+        for (int x = 0; x < nx; ++x)
+          for (int j = 0; j < kL; ++j) {
+            const std::size_t i = static_cast<std::size_t>(x) * kL + j;
+            ASSERT_EQ(s[i], with_mul ? rows[j][x] * mul[i] : rows[j][x])
+                << "nx " << nx << " shift " << shift << " x " << x << " j " << j;
+          }
+        for (int nrows : {16, 15, 9, 8, 3, 1}) {
+          std::vector<float> out(store.size(), 9.0f);
+          float* obase = out.data() + (base - store.data());
+          float* orows[kL];
+          for (int j = 0; j < kL; ++j) orows[j] = obase + static_cast<std::size_t>(j) * stride;
+          store_rows_transposed(s.data(), nx, orows, nrows);
+          for (int j = 0; j < kL; ++j)
+            for (int x = 0; x < nx; ++x)
+              ASSERT_EQ(orows[j][x], j < nrows ? s[static_cast<std::size_t>(x) * kL + j] : 9.0f)
+                  << "nx " << nx << " shift " << shift << " nrows " << nrows << " x " << x << " j " << j;
+        }
       }
 }
 

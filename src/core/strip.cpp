@@ -22,15 +22,52 @@ constexpr int kLanes = kStripLanes;
 #define SP_LOAD8(p) (*reinterpret_cast<const Vec8u*>(p))
 #define SP_STORE8(p, v) (*reinterpret_cast<Vec8u*>(p) = (v))
 
+#if defined(__clang__)
+#define DOFKIT_STRIP_AVX512 0
+#else
+#define DOFKIT_STRIP_AVX512 1
+// The AVX-512 bodies below (chosen at run time): a function of its own per target rather than a
+// DOFKIT_CLONES copy, because a strip step is one 16-lane vector there and two 8-lane ones
+// elsewhere, and GCC's AVX2 code for generic 16-lane vectors goes through the stack (an AVX2
+// clone of the 16-lane cascade ran 2.7× the instructions of the 8-lane one) and splits
+// 16-lane shuffles into single-element moves. No FMA contraction, as in DOFKIT_CLONES
+// (AVX-512F implies FMA; see core/clones.hpp). Under clang (the fuzz build) the 8-lane form
+// runs everywhere.
+#define SP_AVX512 __attribute__((target("avx512f"), optimize("fp-contract=off")))
+#endif
+
 namespace {
 
-// One strip step as one value: a zmm register in the AVX-512 clone, two ymm in the AVX2 one
-// (GCC splits the generic vector), four xmm in the baseline. Element by element the same
-// scalar operations as ever.
-typedef float Vec16 __attribute__((vector_size(64)));
-typedef float Vec16u __attribute__((vector_size(64), aligned(4), may_alias));
-#define SP_LOAD(p) (*reinterpret_cast<const Vec16u*>(p))
-#define SP_STORE(p, v) (*reinterpret_cast<Vec16u*>(p) = (v))
+bool has_avx512f() {
+#if DOFKIT_STRIP_AVX512
+  static const bool yes = __builtin_cpu_supports("avx512f");
+  return yes;
+#else
+  return false;
+#endif
+}
+
+// Vectors of W floats (GCC/clang vector extension) and their unaligned, aliasing form. A strip
+// step (16 lanes) is kLanes / W of them: one zmm value in the AVX-512 body, two ymm (AVX2
+// clone) or xmm pairs (baseline) in the DOFKIT_CLONES one. Element by element the same
+// scalar operations in the same order whatever W.
+template <int W>
+struct VecOf;
+template <>
+struct VecOf<8> {
+  typedef float T __attribute__((vector_size(32)));
+  typedef float U __attribute__((vector_size(32), aligned(4), may_alias));
+};
+template <>
+struct VecOf<16> {
+  typedef float T __attribute__((vector_size(64)));
+  typedef float U __attribute__((vector_size(64), aligned(4), may_alias));
+};
+typedef VecOf<16>::T Vec16;
+#define SP_LOAD(p) (*reinterpret_cast<const VecOf<16>::U*>(p))
+#define SP_STORE(p, v) (*reinterpret_cast<VecOf<16>::U*>(p) = (v))
+#define SP_LOADW(p) (*reinterpret_cast<const typename VecOf<W>::U*>(p))
+#define SP_STOREW(p, v) (*reinterpret_cast<typename VecOf<W>::U*>(p) = (v))
 
 // The passes run as a cascade: pass q + 1 runs kResync·m outputs behind pass q, in the same
 // loop (cascade_steps), instead of one pass over the whole strip after the other. Why: one
@@ -54,10 +91,13 @@ typedef float Vec16u __attribute__((vector_size(64), aligned(4), may_alias));
 // up, and its left pad only in blocks below (r + 1)/32 < m); pass q + 2 writes the same
 // buffer as pass q only behind everything pass q + 1 still reads. So every pass sees exactly
 // the input it saw when the passes ran one after the other.
+template <int W>
 struct Pass {
-  const float* src;  // input, sample 0
-  float* dst;        // output, sample 0
-  Vec16 s, f, g;     // window sum; pending fresh sums of the next two resync points
+  static constexpr int kV = kLanes / W;  // vectors per step
+  typedef typename VecOf<W>::T V;
+  const float* src;     // input, sample 0
+  float* dst;           // output, sample 0
+  V s[kV], f[kV], g[kV];  // window sum; pending fresh sums of the next two resync points
 };
 
 // The first pass of a cascade writes lines of the second strip buffer that are not in L1
@@ -68,83 +108,94 @@ struct Pass {
 // vector and pass (the passes one after the other: 2.3). A plain prefetch (prefetcht0: the
 // clones' targets have no PRFCHW): the line, held by this core alone, arrives in L1
 // exclusive, so the store needs no second request; prefetchw measured the same.
+// The 8-lane body (AVX2 clone) runs ~14 % more instructions than the one-pass-at-a-time loop
+// it replaces (a load instead of a memory operand for the leaving sample, the prefetch, the
+// pending sums of three passes spilled: 18 ymm values) but, compiled for AVX2 and timed on
+// the same strips, 0.74–0.97 of its time.
 constexpr int kPrefetch = 16;
 
 // Steps t … end − 1 of one block of NP passes, pass q from output i0[q] + t on: out = (sum +
 // alpha·(lo + hi))·norm, then the window slides, sum += hi − (sample i − r); kFresh >= 1 also
 // adds hi to the next resync point's pending sum (f), kFresh == 2 to the one after it (g).
 // Sample i − r leaving the window is the next step's lo, so it stays in a register (l).
-// (Inlined into each clone of strip_passes: vector arguments are fine there.)
-template <int NP, int kFresh>
+// Vector v of a step holds lanes v·W … v·W + W − 1. (Inlined into each strip_passes body:
+// vector arguments are fine there.)
+template <int W, int NP, int kFresh, int kV = kLanes / W, typename V = typename VecOf<W>::T>
 __attribute__((always_inline)) inline void cascade_steps(int t, int end, const float* const (&lo)[NP],
                                                          const float* const (&hi)[NP], float* const (&d)[NP],
-                                                         Vec16 (&s)[NP], Vec16 (&f)[NP], Vec16 (&g)[NP],
-                                                         Vec16 (&l)[NP], Vec16 va, Vec16 vn) {
+                                                         V (&s)[NP][kV], V (&f)[NP][kV], V (&g)[NP][kV],
+                                                         V (&l)[NP][kV], V va, V vn) {
   for (; t < end; ++t) {
     const std::ptrdiff_t o = static_cast<std::ptrdiff_t>(t) * kLanes;
     __builtin_prefetch(d[0] + o + kPrefetch * kLanes, 1);  // see kPrefetch
 #pragma GCC unroll 4
-    for (int q = 0; q < NP; ++q) {
-      const Vec16 h = SP_LOAD(hi[q] + o);
-      SP_STORE(d[q] + o, (s[q] + va * (l[q] + h)) * vn);
-      const Vec16 x = SP_LOAD(lo[q] + o + kLanes);  // sample i − r, leaving the window
-      s[q] += h - x;
-      l[q] = x;
-      if constexpr (kFresh >= 1) f[q] += h;
-      if constexpr (kFresh >= 2) g[q] += h;
-    }
+    for (int q = 0; q < NP; ++q)
+#pragma GCC unroll 2
+      for (int v = 0; v < kV; ++v) {
+        const V h = SP_LOADW(hi[q] + o + v * W);
+        SP_STOREW(d[q] + o + v * W, (s[q][v] + va * (l[q][v] + h)) * vn);
+        const V x = SP_LOADW(lo[q] + o + kLanes + v * W);  // sample i − r, leaving the window
+        s[q][v] += h - x;
+        l[q][v] = x;
+        if constexpr (kFresh >= 1) f[q][v] += h;
+        if constexpr (kFresh >= 2) g[q][v] += h;
+      }
   }
 }
 
 // One block of NP passes, pass q's outputs i0[q] … i0[q] + len − 1: steps [0, cf) update the
 // window only, [cf, cg) also f, [cg, len) also g (see strip_passes).
-template <int NP>
-__attribute__((always_inline)) inline void cascade_block(Pass* const* ps, const int* i0, int len, int cf, int cg,
-                                                         int r, Vec16 va, Vec16 vn) {
+template <int W, int NP, int kV = kLanes / W, typename V = typename VecOf<W>::T>
+__attribute__((always_inline)) inline void cascade_block(Pass<W>* const* ps, const int* i0, int len, int cf, int cg,
+                                                         int r, V va, V vn) {
   const float* lo[NP];
   const float* hi[NP];
   float* d[NP];
-  Vec16 s[NP], f[NP], g[NP], l[NP];
+  V s[NP][kV], f[NP][kV], g[NP][kV], l[NP][kV];
 #pragma GCC unroll 4
   for (int q = 0; q < NP; ++q) {
     lo[q] = ps[q]->src + static_cast<std::ptrdiff_t>(i0[q] - r - 1) * kLanes;  // sample i − r − 1
     hi[q] = ps[q]->src + static_cast<std::ptrdiff_t>(i0[q] + r + 1) * kLanes;  // sample i + r + 1
     d[q] = ps[q]->dst + static_cast<std::ptrdiff_t>(i0[q]) * kLanes;
-    s[q] = ps[q]->s;
-    f[q] = ps[q]->f;
-    g[q] = ps[q]->g;
-    l[q] = SP_LOAD(lo[q]);
+#pragma GCC unroll 2
+    for (int v = 0; v < kV; ++v) {
+      s[q][v] = ps[q]->s[v];
+      f[q][v] = ps[q]->f[v];
+      g[q][v] = ps[q]->g[v];
+      l[q][v] = SP_LOADW(lo[q] + v * W);
+    }
   }
-  cascade_steps<NP, 0>(0, cf, lo, hi, d, s, f, g, l, va, vn);
-  cascade_steps<NP, 1>(cf, cg, lo, hi, d, s, f, g, l, va, vn);
-  cascade_steps<NP, 2>(cg, len, lo, hi, d, s, f, g, l, va, vn);
+  cascade_steps<W, NP, 0>(0, cf, lo, hi, d, s, f, g, l, va, vn);
+  cascade_steps<W, NP, 1>(cf, cg, lo, hi, d, s, f, g, l, va, vn);
+  cascade_steps<W, NP, 2>(cg, len, lo, hi, d, s, f, g, l, va, vn);
 #pragma GCC unroll 4
-  for (int q = 0; q < NP; ++q) {
-    ps[q]->s = s[q];
-    ps[q]->f = f[q];
-    ps[q]->g = g[q];
-  }
+  for (int q = 0; q < NP; ++q)
+#pragma GCC unroll 2
+    for (int v = 0; v < kV; ++v) {
+      ps[q]->s[v] = s[q][v];
+      ps[q]->f[v] = f[q][v];
+      ps[q]->g[v] = g[q][v];
+    }
 }
 
 // Replicates sample 0 into samples −1 … −(r + 1) and sample n − 1 into n … n + r.
-__attribute__((always_inline)) inline void fill_pad_left(float* p, int r) {
-  const Vec16 v = SP_LOAD(p);
-  for (int i = 1; i <= r + 1; ++i) SP_STORE(p - static_cast<std::ptrdiff_t>(i) * kLanes, v);
+inline void fill_pad_left(float* p, int r) {
+  for (int i = 1; i <= r + 1; ++i) __builtin_memcpy(p - static_cast<std::ptrdiff_t>(i) * kLanes, p, sizeof(float) * kLanes);
 }
-__attribute__((always_inline)) inline void fill_pad_right(float* p, int n, int r) {
-  const Vec16 v = SP_LOAD(p + static_cast<std::ptrdiff_t>(n - 1) * kLanes);
-  for (int i = 1; i <= r + 1; ++i) SP_STORE(p + static_cast<std::ptrdiff_t>(n - 1 + i) * kLanes, v);
+inline void fill_pad_right(float* p, int n, int r) {
+  const float* e = p + static_cast<std::ptrdiff_t>(n - 1) * kLanes;
+  for (int i = 1; i <= r + 1; ++i) __builtin_memcpy(p + static_cast<std::ptrdiff_t>(n - 1 + i) * kLanes, e, sizeof(float) * kLanes);
 }
 
 constexpr int kMaxCascade = 3;  // passes per cascade: the callers run 1–3
 
-}  // namespace
-
-DOFKIT_CLONES
-float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
+// strip_passes with W-float vectors.
+template <int W, int kV = kLanes / W, typename V = typename VecOf<W>::T>
+__attribute__((always_inline)) inline float* strip_passes_w(float* a, float* b, int n, int pad, int r, float alpha,
+                                                            int passes) {
   const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
-  const Vec16 va = alpha + Vec16{}, vn = norm + Vec16{};
-  const Vec16 zero = {};
+  const V va = alpha + V{}, vn = norm + V{};
+  const V zero = {};
   const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(pad) * kLanes;
   // The window sums are recomputed from scratch at every kResync-th output R. The samples of
   // that fresh sum, R − r … R + r, all enter the window as `hi` during the 2r + 1 outputs
@@ -156,52 +207,55 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
   // outputs as one dependent chain of adds cost ~40 % of the pass. Wider windows re-sum.
   const int span = 2 * r + 1;
   const bool carry = span <= 2 * kResync;
-  const int nb = (n + kResync - 1) / kResync;    // blocks per pass
+  const int nb = (n + kResync - 1) / kResync;      // blocks per pass
   const int m = (r + 33 + kResync - 1) / kResync;  // lag between passes, in blocks (32m >= r + 33)
   // Block-relative starts of the f and g steps (a block of len outputs: clamped to it).
   auto from = [&](int k, int len) { return carry ? std::clamp(k * kResync - span, 0, len) : len; };
   for (int done = 0; done < passes;) {
     const int np = std::min(kMaxCascade, passes - done);
-    Pass ps[kMaxCascade];
+    Pass<W> ps[kMaxCascade];
     for (int q = 0; q < np; ++q) {
       ps[q].src = (q % 2 ? b : a) + off;
       ps[q].dst = (q % 2 ? a : b) + off;
-      ps[q].s = ps[q].f = ps[q].g = zero;
+      for (int v = 0; v < kV; ++v) ps[q].s[v] = ps[q].f[v] = ps[q].g[v] = zero;
     }
     fill_pad_left(a + off, r);
     fill_pad_right(a + off, n, r);
     for (int T = 0; T < nb + (np - 1) * m; ++T) {
-      Pass* full[kMaxCascade];
+      Pass<W>* full[kMaxCascade];
       int full_i0[kMaxCascade], nfull = 0;
-      Pass* part = nullptr;
+      Pass<W>* part = nullptr;
       int part_i0 = 0;
       for (int q = 0; q < np; ++q) {
         const int B = T - q * m;
         if (B < 0 || B >= nb) continue;
-        Pass& p = ps[q];
+        Pass<W>& p = ps[q];
         const int i0 = B * kResync;
-        if (i0 == 0 && carry)  // the samples of the first pending sum that enter before output 0
-          for (int k = kResync - r; k <= r; ++k) p.f += SP_LOAD(p.src + static_cast<std::ptrdiff_t>(k) * kLanes);
-        if (i0 == 0 || !carry) {
-          p.s = zero;
-          for (int k = -r; k <= r; ++k) p.s += SP_LOAD(p.src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes);
-        } else {
-          p.s = p.f;
-          p.f = p.g;
-          p.g = zero;
+        for (int v = 0; v < kV; ++v) {
+          if (i0 == 0 && carry)  // the samples of the first pending sum that enter before output 0
+            for (int k = kResync - r; k <= r; ++k)
+              p.f[v] += SP_LOADW(p.src + static_cast<std::ptrdiff_t>(k) * kLanes + v * W);
+          if (i0 == 0 || !carry) {
+            p.s[v] = zero;
+            for (int k = -r; k <= r; ++k) p.s[v] += SP_LOADW(p.src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes + v * W);
+          } else {
+            p.s[v] = p.f[v];
+            p.f[v] = p.g[v];
+            p.g[v] = zero;
+          }
         }
         if (i0 + kResync <= n) full[nfull] = &p, full_i0[nfull++] = i0;
         else part = &p, part_i0 = i0;
       }
       switch (nfull) {
-        case 1: cascade_block<1>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
-        case 2: cascade_block<2>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
-        case 3: cascade_block<3>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
+        case 1: cascade_block<W, 1>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
+        case 2: cascade_block<W, 2>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
+        case 3: cascade_block<W, 3>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
         default: break;
       }
       if (part) {
         const int len = n - part_i0;
-        cascade_block<1>(&part, &part_i0, len, from(1, len), from(2, len), r, va, vn);
+        cascade_block<W, 1>(&part, &part_i0, len, from(1, len), from(2, len), r, va, vn);
       }
       // The borders of the outputs that the next pass of this cascade reads.
       for (int q = 0; q + 1 < np; ++q) {
@@ -214,6 +268,26 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
     if (np % 2) std::swap(a, b);  // the cascade's result is in b after an odd number of passes
   }
   return a;
+}
+
+DOFKIT_CLONES
+float* strip_passes8(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
+  return strip_passes_w<8>(a, b, n, pad, r, alpha, passes);
+}
+
+#if DOFKIT_STRIP_AVX512
+SP_AVX512 float* strip_passes16(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
+  return strip_passes_w<16>(a, b, n, pad, r, alpha, passes);
+}
+#endif
+
+}  // namespace
+
+float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
+#if DOFKIT_STRIP_AVX512
+  if (has_avx512f()) return strip_passes16(a, b, n, pad, r, alpha, passes);
+#endif
+  return strip_passes8(a, b, n, pad, r, alpha, passes);
 }
 
 // Column strips (the vertical sweep of core/filters.cpp). A strip row is 16 floats, one vector
@@ -231,7 +305,7 @@ void load_columns(const float* src, std::size_t stride, int n, int nx, float* ds
   if (nx == kLanes) {
     for (int y = 0; y < n; ++y) {
       if (y + kColumnAhead < n) __builtin_prefetch(src + (y + kColumnAhead) * stride);
-      SP_STORE(dst + static_cast<std::size_t>(y) * kLanes, SP_LOAD(src + y * stride));
+      __builtin_memcpy(dst + static_cast<std::size_t>(y) * kLanes, src + y * stride, sizeof(float) * kLanes);
     }
     return;
   }
@@ -246,7 +320,8 @@ void load_columns(const float* src, std::size_t stride, int n, int nx, float* ds
 DOFKIT_CLONES
 void store_columns(const float* src, int n, int nx, float* dst, std::size_t stride) {
   if (nx == kLanes) {
-    for (int y = 0; y < n; ++y) SP_STORE(dst + y * stride, SP_LOAD(src + static_cast<std::size_t>(y) * kLanes));
+    for (int y = 0; y < n; ++y)
+      __builtin_memcpy(dst + y * stride, src + static_cast<std::size_t>(y) * kLanes, sizeof(float) * kLanes);
     return;
   }
   for (int y = 0; y < n; ++y)
@@ -335,6 +410,7 @@ void store_rows_transposed8(const float* src, int nx, float* const* rows, int nr
 // runs the 8×8 form). Same values: a transpose moves bits, and the product with mul is the
 // same single multiply (no add to contract with it).
 //
+#if DOFKIT_STRIP_AVX512
 // o[k][j] = r[j][k] for a 16×16 block held in sixteen vectors: 2×2 blocks of pairs (unpack),
 // 4×4 blocks within each 128-bit lane (shuffle), then the lanes (two 128-bit shuffles).
 __attribute__((always_inline)) inline void transpose16(const Vec16 r[16], Vec16 o[16]) {
@@ -368,8 +444,7 @@ __attribute__((always_inline)) inline void transpose16(const Vec16 r[16], Vec16 
 
 // Columns [0, nx16) (a multiple of 16) of load_rows_transposed / store_rows_transposed with
 // all 16 rows.
-__attribute__((target("avx512f"))) void load_rows_transposed16(const float* const* rows, int nx16, const float* mul,
-                                                                float* dst) {
+SP_AVX512 void load_rows_transposed16(const float* const* rows, int nx16, const float* mul, float* dst) {
   for (int x = 0; x < nx16; x += 16) {
     Vec16 r[16], o[16];
     for (int i = 0; i < 16; ++i) r[i] = SP_LOAD(rows[i] + x);
@@ -381,7 +456,7 @@ __attribute__((target("avx512f"))) void load_rows_transposed16(const float* cons
   }
 }
 
-__attribute__((target("avx512f"))) void store_rows_transposed16(const float* src, int nx16, float* const* rows) {
+SP_AVX512 void store_rows_transposed16(const float* src, int nx16, float* const* rows) {
   for (int x = 0; x < nx16; x += 16) {
     Vec16 v[16], o[16];
     for (int k = 0; k < 16; ++k) v[k] = SP_LOAD(src + static_cast<std::size_t>(x + k) * kLanes);
@@ -390,10 +465,7 @@ __attribute__((target("avx512f"))) void store_rows_transposed16(const float* src
   }
 }
 
-bool has_avx512f() {
-  static const bool yes = __builtin_cpu_supports("avx512f");
-  return yes;
-}
+#endif
 
 // The columns before the first where all 16 rows are 64-byte aligned (or, if the rows are
 // aligned differently, all of them): the 16×16 blocks start there, so that none of their row
@@ -422,12 +494,14 @@ void load_rows_transposed(const float* const* rows, int nx, const float* mul, fl
     load_rows_transposed8(part, e - b, mul ? mul + o : nullptr, dst + o);
   };
   by8(0, x0);
+#if DOFKIT_STRIP_AVX512
   if (x1 > x0) {
     const float* part[kLanes];
     for (int j = 0; j < kLanes; ++j) part[j] = rows[j] + x0;
     const std::size_t o = static_cast<std::size_t>(x0) * kLanes;
     load_rows_transposed16(part, x1 - x0, mul ? mul + o : nullptr, dst + o);
   }
+#endif
   by8(x1, nx);
 }
 
@@ -441,11 +515,13 @@ void store_rows_transposed(const float* src, int nx, float* const* rows, int nro
     store_rows_transposed8(src + static_cast<std::size_t>(b) * kLanes, e - b, part, nrows);
   };
   by8(0, x0);
+#if DOFKIT_STRIP_AVX512
   if (x1 > x0) {
     float* part[kLanes];
     for (int j = 0; j < kLanes; ++j) part[j] = rows[j] + x0;
     store_rows_transposed16(src + static_cast<std::size_t>(x0) * kLanes, x1 - x0, part);
   }
+#endif
   by8(x1, nx);
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -121,10 +122,14 @@ constexpr int kLanes = strip::kStripLanes;
 using strip::strip_passes;
 
 /// Per-thread strip scratch (two buffers), grown on demand and kept: no allocation per frame.
+/// 64-byte aligned (the vector's own storage is 16-byte aligned; a 1080p strip pair is an
+/// mmap'd chunk at 16 mod 64), so that no strip sample, one 16-lane vector of strip_passes,
+/// straddles two cache lines; floats is a multiple of kLanes, so b = a + floats is aligned too.
 float* strip_scratch(std::size_t floats) {
   thread_local std::vector<float> buf;
-  if (buf.size() < 2 * floats) buf.resize(2 * floats);
-  return buf.data();
+  if (buf.size() < 2 * floats + kLanes) buf.resize(2 * floats + kLanes);
+  const std::size_t mis = reinterpret_cast<std::uintptr_t>(buf.data()) % 64;
+  return buf.data() + (64 - mis) % 64 / sizeof(float);
 }
 
 using strip::load_rows_transposed;
@@ -162,18 +167,10 @@ void extended_box_passes_y(float* data, int w, int h, int r, float alpha, int pa
     float* b = a + strip;
     for (int s = s0; s < s1; ++s) {
       const int x0 = s * kLanes, nx = std::min(kLanes, w - x0);
-      float* base = a + static_cast<std::size_t>(pad) * kLanes;
-      for (int y = 0; y < h; ++y) {
-        const float* src = data + static_cast<std::size_t>(y) * w + x0;
-        float* d = base + static_cast<std::size_t>(y) * kLanes;
-        for (int j = 0; j < nx; ++j) d[j] = src[j];
-        for (int j = nx; j < kLanes; ++j) d[j] = src[nx - 1];
-      }
+      // Lanes past the last column repeat it (their results are discarded).
+      strip::load_columns(data + x0, static_cast<std::size_t>(w), h, nx, a + static_cast<std::size_t>(pad) * kLanes);
       const float* res = strip_passes(a, b, h, pad, r, alpha, passes) + static_cast<std::size_t>(pad) * kLanes;
-      for (int y = 0; y < h; ++y) {
-        const float* sp = res + static_cast<std::size_t>(y) * kLanes;
-        std::copy(sp, sp + nx, data + static_cast<std::size_t>(y) * w + x0);
-      }
+      strip::store_columns(res, h, nx, data + x0, static_cast<std::size_t>(w));
     }
   });
 }

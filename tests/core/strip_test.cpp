@@ -1,9 +1,13 @@
 // strip::strip_passes against its definition: every pass recomputes its window sum from scratch
 // at each kResync-th output and slides it in between, in float, in this order. The kernel
 // builds the fresh sums while the samples slide in (one pending sum for windows up to kResync
-// samples, two up to 2·kResync) instead of re-reading them; that must not change a bit.
+// samples, two up to 2·kResync) instead of re-reading them, and runs up to three passes as one
+// cascade, each a few blocks behind the one before (more passes: cascades one after the
+// other); that must not change a bit.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <random>
 #include <vector>
@@ -49,7 +53,7 @@ TEST(Strip, PassesEqualTheirResummingDefinitionBitForBit) {
   // e.g. starcraft's medium level at 4K: r ≈ 21), and wider (re-summed).
   for (int r : {0, 1, 5, 15, 16, 20, 31, 32, 40})
     for (int n : {1, 7, 31, 32, 33, 64, 95, 200, 517})
-      for (int passes : {1, 2, 3}) {
+      for (int passes : {1, 2, 3, 4, 5, 7}) {  // > 3: cascades one after the other
         const int pad = r + 1 + (n % 3);  // pad may exceed r + 1
         std::vector<float> a(static_cast<std::size_t>(n + 2 * pad) * kL);
         for (auto& x : a) {  // HDR-like: highlights and exact zeros make rounding visible
@@ -66,6 +70,70 @@ TEST(Strip, PassesEqualTheirResummingDefinitionBitForBit) {
                              want.data() + static_cast<std::size_t>(pad + i) * kL, kL * sizeof(float)) == 0;
         EXPECT_TRUE(same) << "r " << r << " n " << n << " passes " << passes;
       }
+}
+
+// The row transposes against their definition: 16×16 blocks on AVX-512 (from the first column
+// where all rows are 64-byte aligned), 8×8 blocks and single columns around them (and
+// everywhere else), rows of any length, aligned alike or not, with and without the weights'
+// product, and the ragged last strip of a plane (fewer than 16 rows to store).
+TEST(Strip, TransposesMoveEverySampleExactly) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-2.0f, 2.0f);
+  for (int nx : {1, 7, 8, 15, 16, 17, 31, 40, 64, 1001})
+    for (int shift : {0, 4, 9, -1})  // rows from a 64-byte boundary + shift floats; -1: stride nx + 1
+      for (bool with_mul : {false, true}) {
+        const int stride = shift < 0 ? nx + 1 : (nx + 31) / 16 * 16;
+        std::vector<float> store(static_cast<std::size_t>(kL) * stride + 32), mul(static_cast<std::size_t>(kL) * nx);
+        float* base = store.data() + (16 - reinterpret_cast<std::uintptr_t>(store.data()) % 64 / 4) % 16 + std::max(shift, 0);
+        for (auto& v : store) v = u(rng);
+        for (auto& v : mul) v = u(rng);
+        const float* rows[kL];
+        for (int j = 0; j < kL; ++j) rows[j] = base + static_cast<std::size_t>(j) * stride;
+        std::vector<float> s(static_cast<std::size_t>(nx) * kL, 0.0f);
+        load_rows_transposed(rows, nx, with_mul ? mul.data() : nullptr, s.data());
+        for (int x = 0; x < nx; ++x)
+          for (int j = 0; j < kL; ++j) {
+            const std::size_t i = static_cast<std::size_t>(x) * kL + j;
+            ASSERT_EQ(s[i], with_mul ? rows[j][x] * mul[i] : rows[j][x])
+                << "nx " << nx << " shift " << shift << " x " << x << " j " << j;
+          }
+        for (int nrows : {16, 15, 9, 8, 3, 1}) {
+          std::vector<float> out(store.size(), 9.0f);
+          float* obase = out.data() + (base - store.data());
+          float* orows[kL];
+          for (int j = 0; j < kL; ++j) orows[j] = obase + static_cast<std::size_t>(j) * stride;
+          store_rows_transposed(s.data(), nx, orows, nrows);
+          for (int j = 0; j < kL; ++j)
+            for (int x = 0; x < nx; ++x)
+              ASSERT_EQ(orows[j][x], j < nrows ? s[static_cast<std::size_t>(x) * kL + j] : 9.0f)
+                  << "nx " << nx << " shift " << shift << " nrows " << nrows << " x " << x << " j " << j;
+        }
+      }
+}
+
+// The column copies of the vertical sweep: whole strips and the ragged last one (lanes past
+// the last column repeat it on the way in; only nx columns go back).
+TEST(Strip, ColumnCopiesMoveExactlyTheirColumns) {
+  const int w = 53, h = 37;
+  std::vector<float> plane(static_cast<std::size_t>(w) * h);
+  for (std::size_t i = 0; i < plane.size(); ++i) plane[i] = static_cast<float>(i) * 0.25f - 7.0f;
+  for (int x0 = 0; x0 < w; x0 += kL) {
+    const int nx = std::min(kL, w - x0);
+    std::vector<float> s(static_cast<std::size_t>(h) * kL, -1.0f);
+    load_columns(plane.data() + x0, w, h, nx, s.data());
+    for (int y = 0; y < h; ++y)
+      for (int j = 0; j < kL; ++j)
+        ASSERT_EQ(s[static_cast<std::size_t>(y) * kL + j], plane[static_cast<std::size_t>(y) * w + x0 + std::min(j, nx - 1)])
+            << "x0 " << x0 << " y " << y << " j " << j;
+    std::vector<float> out(plane.size(), 5.0f);
+    for (auto& v : s) v = -v;
+    store_columns(s.data(), h, nx, out.data() + x0, w);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const float want = x >= x0 && x < x0 + nx ? -plane[static_cast<std::size_t>(y) * w + x] : 5.0f;
+        ASSERT_EQ(out[static_cast<std::size_t>(y) * w + x], want) << "x0 " << x0 << " y " << y << " x " << x;
+      }
+  }
 }
 
 }  // namespace

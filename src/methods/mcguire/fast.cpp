@@ -211,30 +211,26 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
           // The block's taps read padded x in [ox + f·i0, ox + f·(i1 − 1) + 2R].
           const int g_lo = (ox + f * i0) / f, g_hi = (ox + f * (i1 - 1) + 2 * R) / f;
           prep_to(g_hi + 1);
-          // kind: bit 0 = some far/fractional centre (gather needed), bit 1 = some
-          // fractional nearness (no tap bound).
-          int kind = 0;
-          for (int i = i0; i < i1; ++i) {
-            const float n = nearness[i];
-            if (n == 1.0f) {
-              box_lo = std::min(box_lo, i);
-              box_hi = i;
-            } else {
-              kind |= n > 0.0f ? 3 : 1;
-            }
+          // The block's near centres (box sums below), whether it has far or fractional
+          // centres (gather needed; fractional: no tap bound), and the tap bound: the largest
+          // reach over the groups that hold the window (a superset of it by < f pixels each
+          // side; taps past every source's reach add exact zeros to the far centres' sums,
+          // so a larger bound gives the same bits).
+          ScanBlockJob scan;
+          scan.nearness = nearness + i0;
+          scan.n = i1 - i0;
+          scan.reach = greach;
+          scan.g0 = g_lo;
+          scan.g1 = g_hi;
+          scan_block_simd(scan);
+          if (scan.first_one >= 0) {
+            box_lo = std::min(box_lo, i0 + scan.first_one);
+            box_hi = i0 + scan.last_one;
           }
-          if (kind == 0) continue;
-          // Tap bound: the largest reach over the groups that hold the window (a superset
-          // of it by < f pixels each side; taps past every source's reach add exact zeros
-          // to the far centres' sums, so a larger bound gives the same bits).
-          int L = R;
-          if (kind == 1) {
-            int m = 0;
-            for (int g = g_lo; g <= g_hi; ++g) m = std::max(m, greach[g]);
-            L = std::min(R, m);
-          }
+          if (!scan.any_far) continue;
+          const int L = scan.any_frac ? R : std::min(R, scan.max_reach);
           far_gather_outputs(taps, static_cast<std::ptrdiff_t>(plane), static_cast<std::ptrdiff_t>(plane), L, r_a,
-                             nearness, kind > 1, table, k.far_occlusion, t_blur, y, i0, i1);
+                             nearness, scan.any_frac, table, k.far_occlusion, t_blur, y, i0, i1);
         }
         prep_to(ng);
         if (prep.dirty) colour_dirty->store(true, std::memory_order_relaxed);
@@ -268,15 +264,19 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             pg[c] = PG + j0;
           }
           running_sums(pg, nj);
-          const float box_w = static_cast<float>(2 * R + 1);  // the plain pass's Σw (every w = 1)
-          for (int i = box_lo; i <= box_hi; ++i) {
-            if (nearness[i] != 1.0f) continue;
-            for (int c = 0; c < 4; ++c) {
-              const double* PG = prefix + c * PST;
-              const double* RM = PG + (nb + 1);
-              t_blur.row(c, y)[i] = static_cast<float>(PG[i + qb] - PG[i] + RM[i + qb]) / box_w;
-            }
+          // W(i) / (2R + 1), the plain pass's Σw (every w = 1), where nearness is 1.
+          BoxOutJob box;
+          box.n = box_hi - box_lo + 1;
+          box.nearness = nearness + box_lo;
+          box.w = static_cast<float>(2 * R + 1);
+          for (int c = 0; c < 4; ++c) {
+            const double* PG = prefix + c * PST + box_lo;
+            box.a[c] = PG + qb;
+            box.b[c] = PG;
+            box.c[c] = PG + (nb + 1) + qb;  // RM
+            box.out[c] = t_blur.row(c, y) + box_lo;
           }
+          box_out_simd(box);
         }
         std::copy_n(sc + mc0, wo, t_blur.row(4, y));
 
@@ -382,12 +382,10 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
               pg[c][0] = 0;
             }
             running_sums(pg, nbl);
-            for (int c = 0; c < 5; ++c) {
-              const double* PG = pg[c];
-              const double* RM = PG + ls;
-              double* ac = acc + c * static_cast<std::size_t>(wo);
-              for (int i = ilo; i <= ihi; ++i) ac[i] += PG[i - ilo + qn] - PG[i - ilo] + RM[i - ilo + qn];
-            }
+            // acc[i] += PG[i − ilo + qn] − PG[i − ilo] + RM[i − ilo + qn].
+            for (int c = 0; c < 5; ++c)
+              window_add_simd(acc + c * static_cast<std::size_t>(wo) + ilo, pg[c] + qn, pg[c], pg[c] + ls + qn,
+                              ihi - ilo + 1);
             continue;
           }
           const std::size_t ls = ext + 1;
@@ -464,7 +462,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
               float* __restrict oc = o[c];
               const double* __restrict ac = acc + c * static_cast<std::size_t>(wo);
               std::fill_n(oc, acc_lo, 0.0f);
-              for (int i = acc_lo; i <= acc_hi; ++i) oc[i] = static_cast<float>(ac[i]) * near_inv;
+              scale_row_simd(oc + acc_lo, ac + acc_lo, near_inv, acc_hi - acc_lo + 1);
               std::fill_n(oc + acc_hi + 1, wo - 1 - acc_hi, 0.0f);
             }
           } else {
@@ -492,7 +490,9 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
   // per column block.
   const int nblk = (W + kBlock - 1) / kBlock;
   Image& aux = ws.image("mcguire.fast.v_aux", W + 64, H, 3);
-  Image& reach = ws.image("mcguire.fast.v_reach", nblk, H, 1);
+  // (Rows padded to whole vectors: max_rows_simd reads a vector of blocks from each.)
+  const int nblk_pad = (nblk + 15) & ~15;
+  Image& reach = ws.image("mcguire.fast.v_reach", nblk_pad, H, 1);
   core::parallel_for(H, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       AuxRowJob job;
@@ -519,6 +519,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
   Image& scratch = ws.image("mcguire.fast.v_scratch", static_cast<int>(per_chunk), nchunk, 1);
   core::parallel_for(nchunk, [&](int c0, int c1) {
     std::vector<GatherTap> taps(2 * R + 1);
+    std::vector<float> blk_reach(nblk_pad);
     for (int chunk = c0; chunk < c1; ++chunk) {
       float* fbase = scratch.row(0, chunk);
       float* r_a = fbase;
@@ -604,28 +605,31 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
           r_a[i] = sa[i] * rmax;
           nearness[i] = saturate(4.0f * r_a[i]);
         }
+        // Per column block, the largest reach over the window's rows a − R … a + R (clamped
+        // rows repeat the edge rows, which does not change a maximum).
+        max_rows_simd(blk_reach.data(), reach.row(0, 0), nblk_pad, std::max(0, a - R),
+                      std::min(H - 1, a + R), nblk);
         for (int i0 = 0; i0 < W; i0 += kBlock) {
           const int i1 = std::min(W, i0 + kBlock), blk = i0 / kBlock;
-          bool gather = false, frac = false;
-          for (int i = i0; i < i1; ++i) {
-            gather |= nearness[i] < 1.0f;
-            frac |= nearness[i] > 0.0f && nearness[i] < 1.0f;
-          }
-          if (gather) {
-            int L = R;
-            if (!frac) {
-              float m = 0;
-              for (int b = a - R; b <= a + R; ++b) m = std::max(m, reach.row(0, std::clamp(b, 0, H - 1))[blk]);
-              L = std::min(R, static_cast<int>(m));
-            }
+          ScanBlockJob scan;
+          scan.nearness = nearness + i0;
+          scan.n = i1 - i0;
+          scan_block_simd(scan);
+          if (scan.any_far) {
+            const int L = scan.any_frac ? R : std::min(R, static_cast<int>(blk_reach[blk]));
             far_gather_outputs(taps, t_blur.row(1, 0) - t_blur.row(0, 0), aux.row(1, 0) - aux.row(0, 0), L, r_a,
-                               nearness, frac, table, k.far_occlusion, blur, j, i0, i1);
+                               nearness, scan.any_frac, table, k.far_occlusion, blur, j, i0, i1);
           }
-          for (int i = i0; i < i1; ++i) {
-            if (nearness[i] != 1.0f) continue;
-            for (int c = 0; c < 4; ++c)
-              blur.row(c, j)[i] = static_cast<float>(sum_b[c * static_cast<std::size_t>(W) + i]) / box_w;
+          if (scan.first_one < 0) continue;
+          BoxOutJob box;
+          box.n = scan.last_one - scan.first_one + 1;
+          box.nearness = nearness + i0 + scan.first_one;
+          box.w = box_w;
+          for (int c = 0; c < 4; ++c) {
+            box.a[c] = sum_b + c * static_cast<std::size_t>(W) + i0 + scan.first_one;
+            box.out[c] = blur.row(c, j) + i0 + scan.first_one;
           }
+          box_out_simd(box);
         }
         for (int c = 0; c < 5; ++c) {
           float* o = near.row(c, j);
@@ -635,7 +639,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
           }
           const double* sn = sum_n + c * static_cast<std::size_t>(W);
           std::fill_n(o, near_c0, 0.0f);
-          for (int i = near_c0; i <= near_c1; ++i) o[i] = static_cast<float>(sn[i]) * near_inv;
+          scale_row_simd(o + near_c0, sn + near_c0, near_inv, near_c1 - near_c0 + 1);
           std::fill_n(o + near_c1 + 1, W - 1 - near_c1, 0.0f);
         }
       }

@@ -548,7 +548,7 @@ TEST(Mcguire, FarGatherIndexExactAtIntegerQuotients) {
 }
 
 // The per-output row kernels of the fast passes (scan_block_simd, box_out_simd,
-// window_add_simd, scale_row_simd, max_rows_simd) against the scalar loops they replaced, bit
+// window_add_simd, window_scale_simd, scale_row_simd, max_rows_simd) against the scalar loops they replaced, bit
 // for bit, on lengths that cover the vector loops, their tails and fewer outputs than lanes.
 TEST(Mcguire, RowKernelsMatchScalarLoops) {
   std::uint32_t seed = 12345;
@@ -624,6 +624,10 @@ TEST(Mcguire, RowKernelsMatchScalarLoops) {
       mg::window_add_simd(dst.data(), a.data() + 3, b.data(), c.data() + 3, n);
       for (int i = 0; i < n; ++i) dref[i] += a[i + 3] - b[i] + c[i + 3];
       EXPECT_EQ(dst, dref) << n;
+      std::vector<float> ws(pad, -1.0f), wref = ws;
+      mg::window_scale_simd(ws.data(), a.data() + 3, b.data(), c.data() + 3, 0.0123f, n);
+      for (int i = 0; i < n; ++i) wref[i] = static_cast<float>(a[i + 3] - b[i] + c[i + 3]) * 0.0123f;
+      EXPECT_EQ(ws, wref) << n;
       std::vector<float> sc(pad, -1.0f), sref = sc;
       mg::scale_row_simd(sc.data(), a.data(), 0.0123f, n);
       for (int i = 0; i < n; ++i) sref[i] = static_cast<float>(a[i]) * 0.0123f;

@@ -327,6 +327,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         }
         const std::size_t st = wo + 2;
         bool any_scatter = false, any_level = false;
+        int n_level = 0;               // levels summed by blocks
         int acc_lo = wo, acc_hi = -1;  // outputs reached by the levels
         for (int h = 0; h <= hbox; ++h) {
           const int n = lvl_n[h];
@@ -337,6 +338,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
           if (12 * ext + 20 * ((ext + 2 * h) / f + 1) < 40 * n) {
             lvl_n[h] = -n;  // marks "done by level"
             any_level = true;
+            ++n_level;
             acc_lo = std::min(acc_lo, std::max(0, ceil_div(lvl_lo[h] - h - cx0, f)));
             acc_hi = std::max(acc_hi, std::min(wo - 1, floor_div(lvl_hi[h] + h - cx0, f)));
           } else {
@@ -347,7 +349,12 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
           acc_lo = 0;
           acc_hi = wo - 1;
         }
-        if (acc_hi >= acc_lo)
+        // One level summed by blocks and nothing scattered (most rows): its window sums are
+        // the outputs, written straight to t_near. The other rows sum the levels into acc
+        // from 0: 0 + v is v bit for bit (v, a difference and sum of non-negative-zero sums,
+        // is never −0), so both ways give the same bits.
+        const bool direct = !any_scatter && n_level == 1 && (f == 2 || f == 4);
+        if (acc_hi >= acc_lo && !direct)
           for (int c = 0; c < 5; ++c) std::fill_n(acc + c * static_cast<std::size_t>(wo) + acc_lo, acc_hi - acc_lo + 1, 0.0);
         for (int h = 0; h <= hbox; ++h) {
           if (lvl_n[h] >= 0) continue;
@@ -383,9 +390,17 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
             }
             running_sums(pg, nbl);
             // acc[i] += PG[i − ilo + qn] − PG[i − ilo] + RM[i − ilo + qn].
-            for (int c = 0; c < 5; ++c)
-              window_add_simd(acc + c * static_cast<std::size_t>(wo) + ilo, pg[c] + qn, pg[c], pg[c] + ls + qn,
-                              ihi - ilo + 1);
+            for (int c = 0; c < 5; ++c) {
+              if (direct) {  // acc_lo = ilo, acc_hi = ihi
+                float* oc = t_near.row(c, y);
+                std::fill_n(oc, ilo, 0.0f);
+                window_scale_simd(oc + ilo, pg[c] + qn, pg[c], pg[c] + ls + qn, near_inv, ihi - ilo + 1);
+                std::fill_n(oc + ihi + 1, wo - 1 - ihi, 0.0f);
+              } else {
+                window_add_simd(acc + c * static_cast<std::size_t>(wo) + ilo, pg[c] + qn, pg[c], pg[c] + ls + qn,
+                                ihi - ilo + 1);
+              }
+            }
             continue;
           }
           const std::size_t ls = ext + 1;
@@ -457,6 +472,8 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
                 const double lv = any_level ? acc[c * static_cast<std::size_t>(wo) + i] : 0.0;
                 o[c][i] = static_cast<float>(q[c] + lv) * near_inv;
               }
+          } else if (direct) {
+            // written above
           } else if (any_level) {
             for (int c = 0; c < 5; ++c) {
               float* __restrict oc = o[c];

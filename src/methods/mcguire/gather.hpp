@@ -228,6 +228,9 @@ void box_out_simd(const BoxOutJob& job);
 /// dst[i] += (a[i] − b[i]) + c[i] for i < n (double): a near level's window sums.
 void window_add_simd(double* dst, const double* a, const double* b, const double* c, int n);
 
+/// dst[i] = float((a[i] − b[i]) + c[i]) · k for i < n: the outputs of a row's only near level.
+void window_scale_simd(float* dst, const double* a, const double* b, const double* c, float k, int n);
+
 /// dst[i] = float(src[i]) · k for i < n.
 void scale_row_simd(float* dst, const double* src, float k, int n);
 

@@ -657,6 +657,19 @@ void WindowAdd(double* dst, const double* a, const double* b, const double* c, i
   for (; i < n; ++i) dst[i] += a[i] - b[i] + c[i];
 }
 
+void WindowScale(float* dst, const double* a, const double* b, const double* c, float k, int n) {
+  const hn::ScalableTag<double> dd;
+  const hn::Rebind<float, decltype(dd)> df;
+  const int lanes = static_cast<int>(hn::Lanes(dd));
+  const auto kv = hn::Set(df, k);
+  int i = 0;
+  for (; i + lanes <= n; i += lanes) {
+    const auto v = hn::Add(hn::Sub(hn::LoadU(dd, a + i), hn::LoadU(dd, b + i)), hn::LoadU(dd, c + i));
+    hn::StoreU(hn::Mul(hn::DemoteTo(df, v), kv), df, dst + i);
+  }
+  for (; i < n; ++i) dst[i] = static_cast<float>(a[i] - b[i] + c[i]) * k;
+}
+
 void ScaleRow(float* dst, const double* src, float k, int n) {
   const hn::ScalableTag<double> dd;
   const hn::Rebind<float, decltype(dd)> df;
@@ -718,6 +731,10 @@ void box_out_simd(const BoxOutJob& job) { HWY_DYNAMIC_DISPATCH(BoxOut)(job); }
 HWY_EXPORT(WindowAdd);
 void window_add_simd(double* dst, const double* a, const double* b, const double* c, int n) {
   HWY_DYNAMIC_DISPATCH(WindowAdd)(dst, a, b, c, n);
+}
+HWY_EXPORT(WindowScale);
+void window_scale_simd(float* dst, const double* a, const double* b, const double* c, float k, int n) {
+  HWY_DYNAMIC_DISPATCH(WindowScale)(dst, a, b, c, k, n);
 }
 HWY_EXPORT(ScaleRow);
 void scale_row_simd(float* dst, const double* src, float k, int n) { HWY_DYNAMIC_DISPATCH(ScaleRow)(dst, src, k, n); }

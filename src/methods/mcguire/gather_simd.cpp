@@ -409,11 +409,8 @@ void PrepRowF(PrepRowJob& job, int m0, int m1) {
   job.any_near = job.any_near || any;
   if (job.check_colour && !hn::AllFalse(df, bad)) job.dirty = true;
   if (job.near) {
-    alignas(64) int32_t lo[kMax], hi[kMax];
-    hn::Store(hmin, di, lo);
-    hn::Store(hmax, di, hi);
-    job.near_hmin = std::min(job.near_hmin, *std::min_element(lo, lo + lanes));
-    job.near_hmax = std::max(job.near_hmax, *std::max_element(hi, hi + lanes));
+    job.near_hmin = std::min(job.near_hmin, static_cast<int>(hn::GetLane(hn::MinOfLanes(di, hmin))));
+    job.near_hmax = std::max(job.near_hmax, static_cast<int>(hn::GetLane(hn::MaxOfLanes(di, hmax))));
   }
 }
 

@@ -114,10 +114,11 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   const int P = W + 2 * R;          // padded row: x = source + R, clamped at the edges
   const int ng = prep_groups(P, f);  // f-pixel groups x = f·m … f·m + f − 1 the set-up writes
   const int M = ng + 64;             // phase array length (+ the set-up's last vector)
-  // Scratch per chunk, in floats (each block rounded up to 16 floats = 64 bytes): the row
-  // set-up's 9 phase planes (f·M each, PrepRowJob) and its per-group arrays rc, sc, nc,
-  // reach (M each), lvl_n/lo/hi; then doubles: block prefix + partial sums 4·PST
-  // (PST = 2P + 4 >= 2·nb + 1), near bins 5·(wo+2), level sums, level accumulators 5·wo.
+  // Scratch of a chunk (one per thread, below), in floats (each block rounded up to 16
+  // floats = 64 bytes): the row set-up's 9 phase planes (f·M each, PrepRowJob) and its
+  // per-group arrays rc, sc, nc, reach (M each), lvl_n/lo/hi; then doubles: block prefix +
+  // partial sums 4·PST (PST = 2P + 4 >= 2·nb + 1), near bins 5·(wo+2), level sums, level
+  // accumulators 5·wo.
   auto up16 = [](std::size_t n) { return (n + 15) & ~std::size_t(15); };
   const std::size_t n_ph = up16(9 * static_cast<std::size_t>(f) * M), n_m = up16(M);
   const std::size_t n_lvl = up16(static_cast<std::size_t>(std::max(hbox, 0)) + 1);

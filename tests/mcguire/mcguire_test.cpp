@@ -546,3 +546,100 @@ TEST(Mcguire, FarGatherIndexExactAtIntegerQuotients) {
   }
   EXPECT_GT(product_differs, 20);  // the test reaches the divisions it is about
 }
+
+// The per-output row kernels of the fast passes (scan_block_simd, box_out_simd,
+// window_add_simd, window_scale_simd, scale_row_simd, max_rows_simd) against the scalar loops they replaced, bit
+// for bit, on lengths that cover the vector loops, their tails and fewer outputs than lanes.
+TEST(Mcguire, RowKernelsMatchScalarLoops) {
+  std::uint32_t seed = 12345;
+  auto rnd = [&] {
+    seed = seed * 1664525u + 1013904223u;
+    return static_cast<float>(seed >> 8) / 16777216.0f;
+  };
+  for (int n : {1, 3, 7, 8, 9, 15, 16, 17, 31, 32, 33, 47, 100}) {
+    const int pad = n + 64;
+    // Nearness: runs of 0, 1 and fractions (mostly no fraction: the common case).
+    for (int pattern = 0; pattern < 4; ++pattern) {
+      std::vector<float> nearness(pad, 0.0f);
+      std::vector<std::int32_t> reach(pad);
+      for (int i = 0; i < pad; ++i) {
+        const float u = rnd();
+        nearness[i] = pattern == 0 ? 0.0f : pattern == 1 ? 1.0f : u < 0.4f ? 0.0f : u < 0.8f ? 1.0f : pattern == 3 ? rnd() : 1.0f;
+        reach[i] = static_cast<std::int32_t>(rnd() * 60);
+      }
+      mg::ScanBlockJob scan;
+      scan.nearness = nearness.data();
+      scan.n = n;
+      scan.reach = reach.data();
+      scan.g0 = n / 3;
+      scan.g1 = n / 3 + n - 1;
+      mg::scan_block_simd(scan);
+      int first = -1, last = -1, m = 0;
+      bool far = false, frac = false;
+      for (int i = 0; i < n; ++i) {
+        if (nearness[i] == 1.0f) {
+          if (first < 0) first = i;
+          last = i;
+        } else {
+          far = true;
+          frac |= nearness[i] > 0.0f;
+        }
+      }
+      for (int g = scan.g0; g <= scan.g1; ++g) m = std::max(m, reach[g]);
+      EXPECT_EQ(scan.first_one, first) << n << " " << pattern;
+      EXPECT_EQ(scan.last_one, last) << n << " " << pattern;
+      EXPECT_EQ(scan.any_far, far) << n << " " << pattern;
+      EXPECT_EQ(scan.any_frac, frac) << n << " " << pattern;
+      EXPECT_EQ(scan.max_reach, m) << n << " " << pattern;
+
+      // Box outputs: only the nearness-1 outputs are written.
+      std::vector<double> a(4 * pad), b(4 * pad), c(4 * pad);
+      for (std::size_t i = 0; i < a.size(); ++i) {
+        a[i] = 1000.0 * rnd() + rnd() * 1e-9;
+        b[i] = 100.0 * rnd();
+        c[i] = rnd();
+      }
+      for (bool full : {true, false}) {
+        std::vector<float> out(4 * pad, -7.0f), ref = out;
+        mg::BoxOutJob box;
+        box.n = n;
+        box.nearness = nearness.data();
+        box.w = 117.0f;
+        for (int ch = 0; ch < 4; ++ch) {
+          box.a[ch] = a.data() + ch * pad;
+          box.b[ch] = full ? b.data() + ch * pad : nullptr;
+          box.c[ch] = full ? c.data() + ch * pad : nullptr;
+          box.out[ch] = out.data() + ch * pad;
+        }
+        mg::box_out_simd(box);
+        for (int i = 0; i < n; ++i)
+          if (nearness[i] == 1.0f)
+            for (int ch = 0; ch < 4; ++ch) {
+              const std::size_t k = ch * pad + i;
+              ref[k] = static_cast<float>(full ? a[k] - b[k] + c[k] : a[k]) / 117.0f;
+            }
+        EXPECT_EQ(out, ref) << n << " " << pattern << " " << full;
+      }
+      std::vector<double> dst(a.begin(), a.begin() + pad), dref = dst;
+      mg::window_add_simd(dst.data(), a.data() + 3, b.data(), c.data() + 3, n);
+      for (int i = 0; i < n; ++i) dref[i] += a[i + 3] - b[i] + c[i + 3];
+      EXPECT_EQ(dst, dref) << n;
+      std::vector<float> ws(pad, -1.0f), wref = ws;
+      mg::window_scale_simd(ws.data(), a.data() + 3, b.data(), c.data() + 3, 0.0123f, n);
+      for (int i = 0; i < n; ++i) wref[i] = static_cast<float>(a[i + 3] - b[i] + c[i + 3]) * 0.0123f;
+      EXPECT_EQ(ws, wref) << n;
+      std::vector<float> sc(pad, -1.0f), sref = sc;
+      mg::scale_row_simd(sc.data(), a.data(), 0.0123f, n);
+      for (int i = 0; i < n; ++i) sref[i] = static_cast<float>(a[i]) * 0.0123f;
+      EXPECT_EQ(sc, sref) << n;
+    }
+    // Column-block reach maxima over rows (rows padded to whole vectors).
+    const int stride = (n + 15) & ~15, rows = 9;
+    std::vector<float> base(static_cast<std::size_t>(stride) * rows), mx(stride), mref(n, 0.0f);
+    for (float& v : base) v = std::floor(rnd() * 60);
+    mg::max_rows_simd(mx.data(), base.data(), stride, 2, 7, n);
+    for (int y = 2; y <= 7; ++y)
+      for (int j = 0; j < n; ++j) mref[j] = std::max(mref[j], base[y * stride + j]);
+    EXPECT_EQ(std::vector<float>(mx.begin(), mx.begin() + n), mref) << n;
+  }
+}

@@ -12,7 +12,8 @@ bool fast_supported(const Constants& k);
 
 /// P2 as blur_horizontal_plain (book/demo only) on the buffer pack_coc(colour, coc, src)
 /// would produce, read straight from colour and CoC (s computed as pack_coc does, so the
-/// packed copy is never written); scratch from `ws`. colour_dirty set: every colour sample
+/// packed copy is never written); scratch per thread (grown once and reused by later calls,
+/// so it stays in the core's cache; `ws` is not used). colour_dirty set: every colour sample
 /// of `src` is also tested as its row is read (render/sanitize.hpp) and the flag is set if
 /// one fails (see MethodContext::colour_dirty); the outputs are then meaningless.
 /// near_span (2·src.h ints, if given): per t_near row y, the outputs [near_span[2y],

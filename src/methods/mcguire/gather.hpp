@@ -5,6 +5,7 @@
 // vertical pass).
 #pragma once
 #include <cstddef>
+#include <cstdint>
 
 namespace dofkit::detail::mcguire {
 
@@ -193,5 +194,48 @@ struct LevelBlocksJob {
   double* Rm[5] = {};
 };
 void level_blocks_simd(const LevelBlocksJob& job);
+
+/// The per-output scans of the fast passes, for outputs [0, n) (the arrays may be read up to
+/// one vector past n). Nearness per output: the first and last output with nearness 1 (−1
+/// if none; a near centre: its far/focus output is the caller's box sum), whether some output
+/// has nearness < 1 (it needs the far gather) and whether one has 0 < nearness < 1 (the
+/// generic weight, no tap bound); with `reach`, the largest reach[g] for g in [g0, g1]
+/// (0 if none).
+struct ScanBlockJob {
+  const float* nearness = nullptr;
+  int n = 0;
+  const int32_t* reach = nullptr;
+  int g0 = 0, g1 = -1;
+  int first_one = -1, last_one = -1, max_reach = 0;
+  bool any_far = false, any_frac = false;
+};
+void scan_block_simd(ScanBlockJob& job);
+
+/// Box outputs of the near centres: for i < n with nearness[i] == 1,
+/// out[c][i] = float((a[c][i] − b[c][i]) + c[c][i]) / w (double, then float; b, c optional:
+/// absent terms are left out), for the channels c < nc; the other outputs are not written.
+struct BoxOutJob {
+  int nc = 4, n = 0;
+  const double* a[4] = {};
+  const double* b[4] = {};
+  const double* c[4] = {};
+  const float* nearness = nullptr;
+  float w = 1;
+  float* out[4] = {};
+};
+void box_out_simd(const BoxOutJob& job);
+
+/// dst[i] += (a[i] − b[i]) + c[i] for i < n (double): a near level's window sums.
+void window_add_simd(double* dst, const double* a, const double* b, const double* c, int n);
+
+/// dst[i] = float((a[i] − b[i]) + c[i]) · k for i < n: the outputs of a row's only near level.
+void window_scale_simd(float* dst, const double* a, const double* b, const double* c, float k, int n);
+
+/// dst[i] = float(src[i]) · k for i < n.
+void scale_row_simd(float* dst, const double* src, float k, int n);
+
+/// dst[j] = max over rows y in [y0, y1] of base[y·stride + j], for j < n (floats; n is a
+/// few lanes: one column-block reach per lane).
+void max_rows_simd(float* dst, const float* base, std::ptrdiff_t stride, int y0, int y1, int n);
 
 }  // namespace dofkit::detail::mcguire

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstring>
 #include <limits>
 #include <type_traits>
 
@@ -408,11 +409,8 @@ void PrepRowF(PrepRowJob& job, int m0, int m1) {
   job.any_near = job.any_near || any;
   if (job.check_colour && !hn::AllFalse(df, bad)) job.dirty = true;
   if (job.near) {
-    alignas(64) int32_t lo[kMax], hi[kMax];
-    hn::Store(hmin, di, lo);
-    hn::Store(hmax, di, hi);
-    job.near_hmin = std::min(job.near_hmin, *std::min_element(lo, lo + lanes));
-    job.near_hmax = std::max(job.near_hmax, *std::max_element(hi, hi + lanes));
+    job.near_hmin = std::min(job.near_hmin, static_cast<int>(hn::GetLane(hn::MinOfLanes(di, hmin))));
+    job.near_hmax = std::max(job.near_hmax, static_cast<int>(hn::GetLane(hn::MaxOfLanes(di, hmax))));
   }
 }
 
@@ -578,6 +576,117 @@ void LevelBlocks(const LevelBlocksJob& job) {
   else LevelBlocksF<2>(job);
 }
 
+void ScanBlock(ScanBlockJob& job) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const int lanes = static_cast<int>(hn::Lanes(df));
+  const auto one = hn::Set(df, 1.0f), zero = hn::Zero(df);
+  auto far = hn::FirstN(df, 0), frac = far;
+  int first = -1, last = -1;
+  for (int i = 0; i < job.n; i += lanes) {
+    const auto valid = hn::FirstN(df, static_cast<std::size_t>(std::min(lanes, job.n - i)));
+    const auto v = hn::LoadU(df, job.nearness + i);
+    const auto is_one = hn::Eq(v, one);
+    // As the scalar n == 1 ? box : n > 0 ? fractional : far (a NaN counts as far).
+    const auto not_one = hn::AndNot(is_one, valid);
+    far = hn::Or(far, not_one);
+    frac = hn::Or(frac, hn::And(not_one, hn::Gt(v, zero)));
+    const auto box = hn::And(is_one, valid);
+    if (hn::AllFalse(df, box)) continue;
+    if (first < 0) first = i + static_cast<int>(hn::FindFirstTrue(df, box));
+    uint8_t bits[8] = {};
+    hn::StoreMaskBits(df, box, bits);
+    uint64_t b = 0;
+    std::memcpy(&b, bits, sizeof b);
+    last = i + 63 - static_cast<int>(hwy::Num0BitsAboveMS1Bit_Nonzero64(b));
+  }
+  job.first_one = first;
+  job.last_one = last;
+  job.any_far = !hn::AllFalse(df, far);
+  job.any_frac = !hn::AllFalse(df, frac);
+  job.max_reach = 0;
+  if (job.reach != nullptr && job.g1 >= job.g0) {
+    auto m = hn::Zero(di);
+    for (int g = job.g0; g <= job.g1; g += lanes) {
+      const auto valid = hn::FirstN(di, static_cast<std::size_t>(std::min(lanes, job.g1 - g + 1)));
+      m = hn::Max(m, hn::IfThenElseZero(valid, hn::LoadU(di, job.reach + g)));
+    }
+    job.max_reach = hn::GetLane(hn::MaxOfLanes(di, m));
+  }
+}
+
+void BoxOut(const BoxOutJob& job) {
+  const hn::ScalableTag<double> dd;
+  const hn::Rebind<float, decltype(dd)> df;
+  const int lanes = static_cast<int>(hn::Lanes(dd));
+  const auto one = hn::Set(df, 1.0f), w = hn::Set(df, job.w);
+  int i = 0;
+  for (; i + lanes <= job.n; i += lanes) {
+    const auto box = hn::Eq(hn::LoadU(df, job.nearness + i), one);
+    if (hn::AllFalse(df, box)) continue;
+    for (int c = 0; c < job.nc; ++c) {
+      auto v = hn::LoadU(dd, job.a[c] + i);
+      if (job.b[c] != nullptr) v = hn::Sub(v, hn::LoadU(dd, job.b[c] + i));
+      if (job.c[c] != nullptr) v = hn::Add(v, hn::LoadU(dd, job.c[c] + i));
+      // Double → float rounds to nearest as static_cast<float> does; then the same division.
+      hn::BlendedStore(hn::Div(hn::DemoteTo(df, v), w), box, df, job.out[c] + i);
+    }
+  }
+  for (; i < job.n; ++i) {
+    if (job.nearness[i] != 1.0f) continue;
+    for (int c = 0; c < job.nc; ++c) {
+      double v = job.a[c][i];
+      if (job.b[c] != nullptr) v -= job.b[c][i];
+      if (job.c[c] != nullptr) v += job.c[c][i];
+      job.out[c][i] = static_cast<float>(v) / job.w;
+    }
+  }
+}
+
+void WindowAdd(double* dst, const double* a, const double* b, const double* c, int n) {
+  const hn::ScalableTag<double> dd;
+  const int lanes = static_cast<int>(hn::Lanes(dd));
+  int i = 0;
+  for (; i + lanes <= n; i += lanes) {
+    const auto v = hn::Add(hn::Sub(hn::LoadU(dd, a + i), hn::LoadU(dd, b + i)), hn::LoadU(dd, c + i));
+    hn::StoreU(hn::Add(hn::LoadU(dd, dst + i), v), dd, dst + i);
+  }
+  for (; i < n; ++i) dst[i] += a[i] - b[i] + c[i];
+}
+
+void WindowScale(float* dst, const double* a, const double* b, const double* c, float k, int n) {
+  const hn::ScalableTag<double> dd;
+  const hn::Rebind<float, decltype(dd)> df;
+  const int lanes = static_cast<int>(hn::Lanes(dd));
+  const auto kv = hn::Set(df, k);
+  int i = 0;
+  for (; i + lanes <= n; i += lanes) {
+    const auto v = hn::Add(hn::Sub(hn::LoadU(dd, a + i), hn::LoadU(dd, b + i)), hn::LoadU(dd, c + i));
+    hn::StoreU(hn::Mul(hn::DemoteTo(df, v), kv), df, dst + i);
+  }
+  for (; i < n; ++i) dst[i] = static_cast<float>(a[i] - b[i] + c[i]) * k;
+}
+
+void ScaleRow(float* dst, const double* src, float k, int n) {
+  const hn::ScalableTag<double> dd;
+  const hn::Rebind<float, decltype(dd)> df;
+  const int lanes = static_cast<int>(hn::Lanes(dd));
+  const auto kv = hn::Set(df, k);
+  int i = 0;
+  for (; i + lanes <= n; i += lanes) hn::StoreU(hn::Mul(hn::DemoteTo(df, hn::LoadU(dd, src + i)), kv), df, dst + i);
+  for (; i < n; ++i) dst[i] = static_cast<float>(src[i]) * k;
+}
+
+void MaxRows(float* dst, const float* base, std::ptrdiff_t stride, int y0, int y1, int n) {
+  const hn::ScalableTag<float> df;
+  const int lanes = static_cast<int>(hn::Lanes(df));
+  for (int j = 0; j < n; j += lanes) {
+    auto m = hn::LoadU(df, base + y0 * stride + j);
+    for (int y = y0 + 1; y <= y1; ++y) m = hn::Max(m, hn::LoadU(df, base + y * stride + j));
+    hn::StoreU(m, df, dst + j);
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::mcguire
 HWY_AFTER_NAMESPACE();
@@ -612,5 +721,23 @@ HWY_EXPORT(BlockSums);
 void block_sums_simd(const BlockSumsJob& job) { HWY_DYNAMIC_DISPATCH(BlockSums)(job); }
 HWY_EXPORT(LevelBlocks);
 void level_blocks_simd(const LevelBlocksJob& job) { HWY_DYNAMIC_DISPATCH(LevelBlocks)(job); }
+HWY_EXPORT(ScanBlock);
+void scan_block_simd(ScanBlockJob& job) { HWY_DYNAMIC_DISPATCH(ScanBlock)(job); }
+HWY_EXPORT(BoxOut);
+void box_out_simd(const BoxOutJob& job) { HWY_DYNAMIC_DISPATCH(BoxOut)(job); }
+HWY_EXPORT(WindowAdd);
+void window_add_simd(double* dst, const double* a, const double* b, const double* c, int n) {
+  HWY_DYNAMIC_DISPATCH(WindowAdd)(dst, a, b, c, n);
+}
+HWY_EXPORT(WindowScale);
+void window_scale_simd(float* dst, const double* a, const double* b, const double* c, float k, int n) {
+  HWY_DYNAMIC_DISPATCH(WindowScale)(dst, a, b, c, k, n);
+}
+HWY_EXPORT(ScaleRow);
+void scale_row_simd(float* dst, const double* src, float k, int n) { HWY_DYNAMIC_DISPATCH(ScaleRow)(dst, src, k, n); }
+HWY_EXPORT(MaxRows);
+void max_rows_simd(float* dst, const float* base, std::ptrdiff_t stride, int y0, int y1, int n) {
+  HWY_DYNAMIC_DISPATCH(MaxRows)(dst, base, stride, y0, y1, n);
+}
 }  // namespace dofkit::detail::mcguire
 #endif  // HWY_ONCE

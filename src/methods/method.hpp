@@ -13,6 +13,8 @@
 #include "dofkit/image.hpp"
 #include "dofkit/render.hpp"
 
+#include "core/coc_range.hpp"
+
 namespace dofkit::detail {
 
 /// Typed, validated access to a method's `--set k=v` parameters. Every key a method reads
@@ -93,6 +95,9 @@ struct MethodContext {
   /// and the debug views and renders again from the sanitised copy. Until then the method
   /// only computes with the values (no index, loop bound or allocation may depend on them).
   std::atomic<bool>* colour_dirty = nullptr;
+  /// The largest near and far radius of the whole `coc` plane (core::coc_range(coc)), which
+  /// render() takes while it writes the map; null: not known, the method computes it.
+  const core::CocRange* coc_range = nullptr;
 };
 
 /// One technique.

@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <mutex>
 #include <optional>
 #include <sstream>
 
 #include "core/clones.hpp"
+#include "core/coc_range.hpp"
 #include "core/parallel.hpp"
 #include "methods/method.hpp"
 #include "render/sanitize.hpp"
@@ -141,19 +143,32 @@ namespace {
 // Signed, clamped CoC of every pixel (image pixels). Returns how many depth values
 // validate_frame rejects (NaN, zero or negative), counted row by row while the row is in
 // cache: render() checks the visible depth in this parallel pass instead of a serial scan
-// before it.
-std::size_t fill_coc(const Image& depth, const CocFunction& f, Image& coc) {
+// before it. With `range`, also the largest near and far radius of the map, taken from each
+// CoC row while it is in cache (MethodContext::coc_range): methods that size their kernels
+// by it then need not read the map again. A maximum does not depend on the order in which
+// the blocks are merged, so it is the same for any thread count.
+std::size_t fill_coc(const Image& depth, const CocFunction& f, Image& coc, core::CocRange* range = nullptr) {
   coc.resize(depth.width(), depth.height(), 1);
   std::atomic<std::size_t> bad{0};
+  std::mutex merge;
+  core::CocRange all;
   const int w = depth.width();
   core::parallel_for(depth.height(), [&](int y0, int y1) {
     std::size_t n = 0;
+    core::CocRange part;
     for (int y = y0; y < y1; ++y) {
       f.evaluate(depth.row(0, y), coc.row(0, y), w);
       n += count_not_positive(depth.row(0, y), static_cast<std::size_t>(w));
+      if (range) core::coc_row_range(coc.row(0, y), nullptr, w, part.near_max, part.far_max);
     }
     bad.fetch_add(n, std::memory_order_relaxed);
+    if (range) {
+      const std::lock_guard<std::mutex> lock(merge);
+      all.near_max = std::max(all.near_max, part.near_max);
+      all.far_max = std::max(all.far_max, part.far_max);
+    }
   }, 16);
+  if (range) *range = all;
   return bad.load();
 }
 }  // namespace
@@ -249,18 +264,21 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     const bool deferred = method.checks_colour && frame_in.layer_color.empty();
     const Frame& frame = deferred ? frame_in : detail::sanitized_frame(frame_in, impl_->sanitized);
     const CocFunction coc_of(settings.camera, frame.width());
-    if (const std::size_t bad = fill_coc(frame.depth, coc_of, result.coc)) throw_bad_depth(frame.depth, bad, "frame: depth");
+    core::CocRange range;
+    if (const std::size_t bad = fill_coc(frame.depth, coc_of, result.coc, &range))
+      throw_bad_depth(frame.depth, bad, "frame: depth");
     result.image.resize(frame.width(), frame.height(), 4);
     sink.emplace(settings.debug_view);
     method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,
-                   deferred ? &dirty : nullptr},
+                   deferred ? &dirty : nullptr, &range},
                   result.image);
     if (deferred && dirty.load()) {
       // Rare (hostile input): everything from the first try is discarded. The depth, and so
       // the CoC, are the caller's in both tries.
       const Frame& clean = detail::sanitized_frame(frame_in, impl_->sanitized);
       sink.emplace(settings.debug_view);
-      method.render({clean, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace},
+      method.render({clean, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr,
+                     &range},
                     result.image);
     }
   });

@@ -12,7 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "core/parallel.hpp"
 #include "dofkit/render.hpp"
+#include "methods/method.hpp"
 #include "scene/bench_frame.hpp"
 
 using namespace dofkit;
@@ -82,5 +84,47 @@ TEST(FastMatchesPlain, BenchFrameEveryMethod) {
   for (const Case& c : cases()) {
     expect_fast_matches_plain(c, 640, 360);
     expect_fast_matches_plain(c, 333, 187);
+  }
+}
+
+// render() hands the methods the CoC map's range, taken while it writes the map
+// (MethodContext::coc_range). The methods that size their kernels by it (mcguire, sterna)
+// must render exactly what they render when they scan the map themselves (coc_range null),
+// on frames whose largest near or far radius sits in the last row, the last column or a
+// single pixel, where a range that missed a row block would show.
+TEST(FastMatchesPlain, RenderersCocRangeEqualsAScanOfTheMap) {
+  for (const char* name : {"mcguire", "sterna"}) {
+    const detail::MethodDef* m = detail::find_method(name);
+    ASSERT_NE(m, nullptr);
+    for (int variant = 0; variant < 3; ++variant) {
+      SCOPED_TRACE(std::string(name) + " frame " + std::to_string(variant));
+      const int w = 97, h = 61;
+      Frame frame = scene::bench_frame(w, h);
+      if (variant == 1) {  // nothing nearer than 3 m but a run of 16 pixels in the last row
+        for (float& z : frame.depth.data()) z = std::max(z, 3.0f);
+        for (int x = 40; x < 56; ++x) frame.depth.at(x, h - 1) = 0.3f;
+      }
+      if (variant == 2)
+        for (int x = 0; x < w; ++x) frame.depth.at(x, h - 1) = 1e6f;  // the farthest row last, no sky above
+      if (variant == 2)
+        for (int y = 0; y < h - 1; ++y)
+          for (int x = 0; x < w; ++x) frame.depth.at(x, y) = std::min(frame.depth.at(x, y), 50.0f);
+      RenderSettings s;
+      s.method = name;
+      s.camera = scene::bench_camera(w);
+      s.camera.max_coc_px = 12;  // near radii that reach the outputs of the rows above
+      s.threads = 2;
+      const RenderResult got = render(frame, s);
+      // The same method with no range given: it scans got.coc itself.
+      const detail::Params params(name, s.params);
+      detail::DebugSink sink("");
+      detail::Workspace ws;
+      const CocFunction coc_of(s.camera, w);
+      Image out(w, h, 4);
+      core::with_threads(2, [&] {
+        m->render({frame, got.coc, s.camera, coc_of, params, sink, 2, ws, nullptr, nullptr}, out);
+      });
+      EXPECT_EQ(got.image.data(), out.data());
+    }
   }
 }

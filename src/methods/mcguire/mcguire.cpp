@@ -94,7 +94,10 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
   // must not be read at all.
   const Rect src = taps_req ? Rect{0, 0, W, H} : Rect{g_req, g_req, W - 2 * g_req, H - 2 * g_req};
 
-  const core::CocRange range = core::coc_range(ctx.coc, src.x, src.y, src.w, src.h);
+  // render() took the whole map's range while writing it; a smaller `src` needs its own.
+  const bool whole = src.x == 0 && src.y == 0 && src.w == W && src.h == H;
+  const core::CocRange range =
+      whole && ctx.coc_range ? *ctx.coc_range : core::coc_range(ctx.coc, src.x, src.y, src.w, src.h);
   const float max_near = range.near_max, max_far = range.far_max;
   const Setup st = read_setup(ctx, max_near, max_far);
   const Constants& k = st.k;

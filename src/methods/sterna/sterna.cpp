@@ -62,7 +62,7 @@ void choose_kernel(const MethodContext& ctx, Settings& s) {
     // The far field usually covers most of the frame and is where the bokeh shows, so the
     // kernel takes the largest far radius; nearer pixels with larger radii saturate (near = 1)
     // and get this kernel too. Only a frame without far field sizes it by its near field.
-    const core::CocRange range = core::coc_range(ctx.coc);
+    const core::CocRange range = ctx.coc_range ? *ctx.coc_range : core::coc_range(ctx.coc);
     const float far_max = range.far_max, near_max = range.near_max;
     radius_px = far_max > 0.5f ? far_max : near_max;
   }

@@ -247,11 +247,17 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
     const int blocks = (w + kBlock - 1) / kBlock;
     const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
     const std::size_t ring_floats = static_cast<std::size_t>(std::max(0, passes - 1)) * np * ring * kBlock;
-    const std::size_t floats = ring_floats + static_cast<std::size_t>(passes + 1) * np * kBlock;
+    // With one pass the planes it reads in place are also the ones written, and its input row
+    // i is read last for output row i + r + 1 (as its lo): the output rows wait `lag` = r + 1
+    // steps in `last` (a ring of lag + 1 rows) before they are written. With two or more passes
+    // the write comes (passes − 1) · delay >= delay steps after that last read anyway.
+    const int lag = passes == 1 ? delay : 0;
+    const std::size_t floats =
+        ring_floats + (static_cast<std::size_t>(passes) + 1 + lag) * np * kBlock;
     parallel_for(blocks, [&](int b0, int b1) {
       float* rings = scratch(floats);
       float* sums = rings + ring_floats;                                   // [passes][np][kBlock]
-      float* last = sums + static_cast<std::size_t>(passes) * np * kBlock;  // [np][kBlock]
+      float* last = sums + static_cast<std::size_t>(passes) * np * kBlock;  // [lag + 1][np][kBlock]
       thread_local std::vector<const float*> rows;
       rows.resize(2 * static_cast<std::size_t>(r) + 1);
       auto clamp_row = [&](int y) { return y < 0 ? 0 : (y >= h ? h - 1 : y); };
@@ -269,10 +275,10 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
           return rings + (static_cast<std::size_t>(k - 1) * np + p) * ring * kBlock + pos;
         };
         auto output = [&](int k, int p, int y) -> float* {
-          if (k == passes - 1) return last + static_cast<std::size_t>(p) * kBlock;
+          if (k == passes - 1) return last + (static_cast<std::size_t>(y % (lag + 1)) * np + p) * kBlock;
           return rings + ((static_cast<std::size_t>(k) * np + p) * ring + y % ring) * kBlock;
         };
-        for (int t = 0; t < h + passes * delay; ++t) {
+        for (int t = 0; t < h + passes * delay + lag; ++t) {
           // The first pass reads a new row of every plane per step, at a stride the hardware
           // prefetchers do not follow: ask for it a few rows ahead.
           if (t + kAhead < h)
@@ -281,7 +287,7 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
               for (int j = 0; j < nx; j += 16) __builtin_prefetch(row + j);
             }
           // Likewise the source rows the division may fall back to.
-          if (const int ys = t - passes * delay + kAhead; normalise && ys >= 0 && ys < h)
+          if (const int ys = t - passes * delay - lag + kAhead; normalise && ys >= 0 && ys < h)
             for (int p = 0; p < nplanes; ++p) {
               const float* row = src[p] + static_cast<std::size_t>(ys) * w + x0;
               for (int j = 0; j < nx; j += 16) __builtin_prefetch(row + j);
@@ -299,17 +305,18 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
               box_row(sum, at(k, p, lo), at(k, p, hi), at(k, p, out_lo), output(k, p, i), nx, alpha, norm);
             }
           }
-          const int i = t - passes * delay;
+          const int i = t - passes * delay - lag;
           if (i < 0 || i >= h) continue;
           const std::size_t o = static_cast<std::size_t>(i) * w + x0;
+          float* const done = last + static_cast<std::size_t>(i % (lag + 1)) * np * kBlock;  // row i's sums
           if (passes == 0)  // no blur: the weighted planes themselves, copied so none aliases
             for (int p = 0; p < np; ++p) {
               const float* in = plane_of(p) + o;
-              std::copy(in, in + nx, last + static_cast<std::size_t>(p) * kBlock);
+              std::copy(in, in + nx, done + static_cast<std::size_t>(p) * kBlock);
             }
-          const float* wt = last + static_cast<std::size_t>(nplanes) * kBlock;
+          const float* wt = done + static_cast<std::size_t>(nplanes) * kBlock;
           for (int p = 0; p < nplanes; ++p) {
-            const float* num = last + static_cast<std::size_t>(p) * kBlock;
+            const float* num = done + static_cast<std::size_t>(p) * kBlock;
             if (normalise) normalise_row(num, wt, src[p] + o, dst[p] + o, nx, tiny);
             else std::copy(num, num + nx, dst[p] + o);
           }

@@ -500,4 +500,76 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   }
 }
 
+// Point form. One pass maps a line v to out_m = norm · Σ_{|t| <= r + 1} w_t · v[clamp(m + t)]
+// (w_t = 1 for |t| <= r, alpha at |t| = r + 1): a matrix B with entries >= 0, so output i of
+// the cascade B_P ⋯ B_1 is the row e_iᵀ B_P ⋯ B_1, found by applying the transposes to e_i
+// (g ← Bᵀ g scatters g_m · norm · w_t onto clamp(m + t)); its support lies in [i − R, i + R],
+// R = P (r + 1), clamped to the line. Both axes' rows are non-negative, so the double sums
+// below add terms of one sign per plane for the weights and have no cancellation beyond the
+// signs of the colour itself: the bound stated in the header (contrast the running sums,
+// whose error is a residue of values that have left the window).
+namespace {
+
+/// Weights of output i of the P-pass cascade on a line of n samples: k[j − lo] for source
+/// sample j in [lo, lo + size).
+void cascade_row(int n, int i, int r, double alpha, int passes, std::vector<double>& k, std::vector<double>& t,
+                 int& lo) {
+  const int reach = passes * (r + 1);
+  lo = std::max(0, i - reach);
+  const int hi = std::min(n - 1, i + reach);
+  const int size = hi - lo + 1;
+  k.assign(static_cast<std::size_t>(size), 0.0);
+  t.assign(static_cast<std::size_t>(size), 0.0);
+  const double norm = 1.0 / (2.0 * r + 1.0 + 2.0 * alpha);
+  k[static_cast<std::size_t>(i - lo)] = 1.0;
+  // g's support before the transpose of pass q (counted from the last): i ± q (r + 1).
+  for (int q = 0; q < passes; ++q) {
+    const int m0 = std::max(0, i - q * (r + 1)), m1 = std::min(n - 1, i + q * (r + 1));
+    std::fill(t.begin(), t.end(), 0.0);
+    for (int m = m0; m <= m1; ++m) {
+      const double g = k[static_cast<std::size_t>(m - lo)] * norm;
+      if (g == 0.0) continue;
+      for (int d = -r - 1; d <= r + 1; ++d) {
+        const double wt = (d == -r - 1 || d == r + 1) ? alpha : 1.0;
+        if (wt == 0.0) continue;
+        const int j = m + d < 0 ? 0 : (m + d >= n ? n - 1 : m + d);
+        t[static_cast<std::size_t>(j - lo)] += g * wt;
+      }
+    }
+    std::swap(k, t);
+  }
+}
+
+}  // namespace
+
+void weighted_gaussian_at(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
+                          int passes, int x, int y, double* out) {
+  for (int k = 0; k <= nplanes; ++k) out[k] = 0.0;
+  const std::size_t at = static_cast<std::size_t>(y) * w + x;
+  if (!(sigma > 0) || passes <= 0) {  // no blur: the weighted sample itself
+    for (int k = 0; k < nplanes; ++k) out[k] = static_cast<float>(c[at] * src[k][at]);
+    out[nplanes] = c[at];
+    return;
+  }
+  int r = 0;
+  float alpha = 0.0f;
+  extended_box_params(sigma, passes, r, alpha);
+  thread_local std::vector<double> kx, ky, tmp, row;
+  int x0 = 0, y0 = 0;
+  cascade_row(w, x, r, alpha, passes, kx, tmp, x0);
+  cascade_row(h, y, r, alpha, passes, ky, tmp, y0);
+  row.assign(static_cast<std::size_t>(nplanes) + 1, 0.0);
+  for (std::size_t j = 0; j < ky.size(); ++j) {
+    const std::size_t o = (static_cast<std::size_t>(y0) + j) * w + x0;
+    const float* cr = c + o;
+    std::fill(row.begin(), row.end(), 0.0);
+    for (std::size_t i = 0; i < kx.size(); ++i) {
+      const double wx = kx[i];
+      row[nplanes] += wx * cr[i];
+      for (int k = 0; k < nplanes; ++k) row[k] += wx * static_cast<float>(cr[i] * src[k][o + i]);
+    }
+    for (int k = 0; k <= nplanes; ++k) out[k] += ky[j] * row[k];
+  }
+}
+
 }  // namespace dofkit::core

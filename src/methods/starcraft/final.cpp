@@ -183,9 +183,20 @@ inline void mix_scalar(const MixRow& r, int x, int w) {
 /// medium sums and weight with core::weighted_gaussian_at's exact ones: med and med_wt are
 /// pointed at copies of the rows in sc.exact (only if some pixel needs it; the rest of the
 /// row keeps the fast sums bit for bit). med[3] may be med_wt itself (alpha left out).
+/// Whether some pixel of the row mixes the medium level in at a weight below
+/// kExactMediumBelow: a branch-free reduction (vectorises), so a row without one costs a
+/// compare pair per pixel.
+DOFKIT_CLONES
+bool any_small_weight(const float* __restrict wm, const float* __restrict wt, int n) {
+  int any = 0;
+  for (int x = 0; x < n; ++x) any |= (wm[x] > 0.0f) & (wt[x] < kExactMediumBelow);
+  return any != 0;
+}
+
 void exact_medium(const MediumExact& e, const float* wm, int y, RowScratch& sc, const float* med[4],
                   const float*& med_wt) {
   const int w = e.w;
+  if (!any_small_weight(wm, med_wt, w)) return;
   float* rows[5] = {};  // the copies: medium planes 0-3, weight (null until a pixel needs them)
   for (int x = 0; x < w; ++x) {
     if (!(wm[x] > 0.0f) || !(med_wt[x] < kExactMediumBelow)) continue;

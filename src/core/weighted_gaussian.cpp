@@ -247,11 +247,17 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
     const int blocks = (w + kBlock - 1) / kBlock;
     const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
     const std::size_t ring_floats = static_cast<std::size_t>(std::max(0, passes - 1)) * np * ring * kBlock;
-    const std::size_t floats = ring_floats + static_cast<std::size_t>(passes + 1) * np * kBlock;
+    // With one pass the planes it reads in place are also the ones written, and its input row
+    // i is read last for output row i + r + 1 (as its lo): the output rows wait `lag` = r + 1
+    // steps in `last` (a ring of lag + 1 rows) before they are written. With two or more passes
+    // the write comes (passes − 1) · delay >= delay steps after that last read anyway.
+    const int lag = passes == 1 ? delay : 0;
+    const std::size_t floats =
+        ring_floats + (static_cast<std::size_t>(passes) + 1 + lag) * np * kBlock;
     parallel_for(blocks, [&](int b0, int b1) {
       float* rings = scratch(floats);
       float* sums = rings + ring_floats;                                   // [passes][np][kBlock]
-      float* last = sums + static_cast<std::size_t>(passes) * np * kBlock;  // [np][kBlock]
+      float* last = sums + static_cast<std::size_t>(passes) * np * kBlock;  // [lag + 1][np][kBlock]
       thread_local std::vector<const float*> rows;
       rows.resize(2 * static_cast<std::size_t>(r) + 1);
       auto clamp_row = [&](int y) { return y < 0 ? 0 : (y >= h ? h - 1 : y); };
@@ -269,10 +275,10 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
           return rings + (static_cast<std::size_t>(k - 1) * np + p) * ring * kBlock + pos;
         };
         auto output = [&](int k, int p, int y) -> float* {
-          if (k == passes - 1) return last + static_cast<std::size_t>(p) * kBlock;
+          if (k == passes - 1) return last + (static_cast<std::size_t>(y % (lag + 1)) * np + p) * kBlock;
           return rings + ((static_cast<std::size_t>(k) * np + p) * ring + y % ring) * kBlock;
         };
-        for (int t = 0; t < h + passes * delay; ++t) {
+        for (int t = 0; t < h + passes * delay + lag; ++t) {
           // The first pass reads a new row of every plane per step, at a stride the hardware
           // prefetchers do not follow: ask for it a few rows ahead.
           if (t + kAhead < h)
@@ -281,7 +287,7 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
               for (int j = 0; j < nx; j += 16) __builtin_prefetch(row + j);
             }
           // Likewise the source rows the division may fall back to.
-          if (const int ys = t - passes * delay + kAhead; normalise && ys >= 0 && ys < h)
+          if (const int ys = t - passes * delay - lag + kAhead; normalise && ys >= 0 && ys < h)
             for (int p = 0; p < nplanes; ++p) {
               const float* row = src[p] + static_cast<std::size_t>(ys) * w + x0;
               for (int j = 0; j < nx; j += 16) __builtin_prefetch(row + j);
@@ -299,17 +305,18 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
               box_row(sum, at(k, p, lo), at(k, p, hi), at(k, p, out_lo), output(k, p, i), nx, alpha, norm);
             }
           }
-          const int i = t - passes * delay;
+          const int i = t - passes * delay - lag;
           if (i < 0 || i >= h) continue;
           const std::size_t o = static_cast<std::size_t>(i) * w + x0;
+          float* const done = last + static_cast<std::size_t>(i % (lag + 1)) * np * kBlock;  // row i's sums
           if (passes == 0)  // no blur: the weighted planes themselves, copied so none aliases
             for (int p = 0; p < np; ++p) {
               const float* in = plane_of(p) + o;
-              std::copy(in, in + nx, last + static_cast<std::size_t>(p) * kBlock);
+              std::copy(in, in + nx, done + static_cast<std::size_t>(p) * kBlock);
             }
-          const float* wt = last + static_cast<std::size_t>(nplanes) * kBlock;
+          const float* wt = done + static_cast<std::size_t>(nplanes) * kBlock;
           for (int p = 0; p < nplanes; ++p) {
-            const float* num = last + static_cast<std::size_t>(p) * kBlock;
+            const float* num = done + static_cast<std::size_t>(p) * kBlock;
             if (normalise) normalise_row(num, wt, src[p] + o, dst[p] + o, nx, tiny);
             else std::copy(num, num + nx, dst[p] + o);
           }
@@ -490,6 +497,78 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
       normalise_row(raw_rows[p], wt, src[p] + static_cast<std::size_t>(y) * w,
                     outs + static_cast<std::size_t>(p) * row, w, tiny);
     sink(ctx, y, out_rows.data());
+  }
+}
+
+// Point form. One pass maps a line v to out_m = norm · Σ_{|t| <= r + 1} w_t · v[clamp(m + t)]
+// (w_t = 1 for |t| <= r, alpha at |t| = r + 1): a matrix B with entries >= 0, so output i of
+// the cascade B_P ⋯ B_1 is the row e_iᵀ B_P ⋯ B_1, found by applying the transposes to e_i
+// (g ← Bᵀ g scatters g_m · norm · w_t onto clamp(m + t)); its support lies in [i − R, i + R],
+// R = P (r + 1), clamped to the line. Both axes' rows are non-negative, so the double sums
+// below add terms of one sign per plane for the weights and have no cancellation beyond the
+// signs of the colour itself: the bound stated in the header (contrast the running sums,
+// whose error is a residue of values that have left the window).
+namespace {
+
+/// Weights of output i of the P-pass cascade on a line of n samples: k[j − lo] for source
+/// sample j in [lo, lo + size).
+void cascade_row(int n, int i, int r, double alpha, int passes, std::vector<double>& k, std::vector<double>& t,
+                 int& lo) {
+  const int reach = passes * (r + 1);
+  lo = std::max(0, i - reach);
+  const int hi = std::min(n - 1, i + reach);
+  const int size = hi - lo + 1;
+  k.assign(static_cast<std::size_t>(size), 0.0);
+  t.assign(static_cast<std::size_t>(size), 0.0);
+  const double norm = 1.0 / (2.0 * r + 1.0 + 2.0 * alpha);
+  k[static_cast<std::size_t>(i - lo)] = 1.0;
+  // g's support before the transpose of pass q (counted from the last): i ± q (r + 1).
+  for (int q = 0; q < passes; ++q) {
+    const int m0 = std::max(0, i - q * (r + 1)), m1 = std::min(n - 1, i + q * (r + 1));
+    std::fill(t.begin(), t.end(), 0.0);
+    for (int m = m0; m <= m1; ++m) {
+      const double g = k[static_cast<std::size_t>(m - lo)] * norm;
+      if (g == 0.0) continue;
+      for (int d = -r - 1; d <= r + 1; ++d) {
+        const double wt = (d == -r - 1 || d == r + 1) ? alpha : 1.0;
+        if (wt == 0.0) continue;
+        const int j = m + d < 0 ? 0 : (m + d >= n ? n - 1 : m + d);
+        t[static_cast<std::size_t>(j - lo)] += g * wt;
+      }
+    }
+    std::swap(k, t);
+  }
+}
+
+}  // namespace
+
+void weighted_gaussian_at(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
+                          int passes, int x, int y, double* out) {
+  for (int k = 0; k <= nplanes; ++k) out[k] = 0.0;
+  const std::size_t at = static_cast<std::size_t>(y) * w + x;
+  if (!(sigma > 0) || passes <= 0) {  // no blur: the weighted sample itself
+    for (int k = 0; k < nplanes; ++k) out[k] = static_cast<float>(c[at] * src[k][at]);
+    out[nplanes] = c[at];
+    return;
+  }
+  int r = 0;
+  float alpha = 0.0f;
+  extended_box_params(sigma, passes, r, alpha);
+  thread_local std::vector<double> kx, ky, tmp, row;
+  int x0 = 0, y0 = 0;
+  cascade_row(w, x, r, alpha, passes, kx, tmp, x0);
+  cascade_row(h, y, r, alpha, passes, ky, tmp, y0);
+  row.assign(static_cast<std::size_t>(nplanes) + 1, 0.0);
+  for (std::size_t j = 0; j < ky.size(); ++j) {
+    const std::size_t o = (static_cast<std::size_t>(y0) + j) * w + x0;
+    const float* cr = c + o;
+    std::fill(row.begin(), row.end(), 0.0);
+    for (std::size_t i = 0; i < kx.size(); ++i) {
+      const double wx = kx[i];
+      row[nplanes] += wx * cr[i];
+      for (int k = 0; k < nplanes; ++k) row[k] += wx * static_cast<float>(cr[i] * src[k][o + i]);
+    }
+    for (int k = 0; k <= nplanes; ++k) out[k] += ky[j] * row[k];
   }
 }
 

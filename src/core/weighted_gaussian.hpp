@@ -51,4 +51,19 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
       const_cast<void*>(static_cast<const void*>(&row_out)), normalise);
 }
 
+/// The normalised convolution's sums at one pixel, evaluated without running sums: out[k] =
+/// the cascade applied to c·src[k] (c·src rounded to float, as the sweeps form it) for
+/// k < nplanes, out[nplanes] = the cascade applied to c, in double. The cascade is linear, so
+/// each axis is one weight vector per output position (its clamp-to-edge folded in, found by
+/// running the passes' transposes back from the output sample); every weight is >= 0 and so is
+/// every partial sum of the weight plane. Hence, with u = 2^-53 and n <= (2R + 1)² + 2R + 1
+/// operations per sum (R = passes · (r + 1), the cascade's reach), |out[k] − exact| <=
+/// n · u · Σ (weights · |c·src|) (relative to the sum of magnitudes under the kernel, whatever
+/// lies outside it; for the weight plane relative to out[nplanes] itself), where the sweeps'
+/// float running sums are off by residues of everything that passed through them since their
+/// last re-synchronisation (see weighted_gaussian.cpp). O(R²) per pixel: for the few pixels
+/// where that residue is not negligible (medium level of starcraft: a small blurred weight).
+void weighted_gaussian_at(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
+                          int passes, int x, int y, double* out);
+
 }  // namespace dofkit::core

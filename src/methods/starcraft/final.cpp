@@ -18,6 +18,7 @@
 
 #include "core/clones.hpp"
 #include "core/parallel.hpp"
+#include "core/weighted_gaussian.hpp"
 #include "methods/starcraft/final_simd.hpp"
 #include "methods/starcraft/starcraft.hpp"
 
@@ -136,6 +137,7 @@ void block_sums(const float* __restrict r0, const float* __restrict r1, float* _
 
 struct RowScratch {
   std::vector<float> vrow, hrow, ws, wm, wl, wsrc;
+  std::vector<float> exact;  // the medium rows (4) and weight row with exact sums (MediumExact)
   // The small blur's 2×2 block sums of the source row pairs (j, j + 1), kept for the four
   // output rows that read them: slot (channel, j mod 4), tagged with the pass and j.
   std::vector<float> blocks;
@@ -177,9 +179,49 @@ inline void mix_scalar(const MixRow& r, int x, int w) {
   r.out[x] = r.ws[x] * small + r.wm[x] * med + r.wl[x] * lg + r.wsrc[x] * r.src[x];
 }
 
-void final_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
+/// Where the row mixes the medium level (wm > 0) at a weight below kExactMediumBelow, the
+/// medium sums and weight with core::weighted_gaussian_at's exact ones: med and med_wt are
+/// pointed at copies of the rows in sc.exact (only if some pixel needs it; the rest of the
+/// row keeps the fast sums bit for bit). med[3] may be med_wt itself (alpha left out).
+/// Whether some pixel of the row mixes the medium level in at a weight below
+/// kExactMediumBelow: a branch-free reduction (vectorises), so a row without one costs a
+/// compare pair per pixel.
+DOFKIT_CLONES
+bool any_small_weight(const float* __restrict wm, const float* __restrict wt, int n) {
+  int any = 0;
+  for (int x = 0; x < n; ++x) any |= (wm[x] > 0.0f) & (wt[x] < kExactMediumBelow);
+  return any != 0;
+}
+
+void exact_medium(const MediumExact& e, const float* wm, int y, RowScratch& sc, const float* med[4],
+                  const float*& med_wt) {
+  const int w = e.w;
+  if (!any_small_weight(wm, med_wt, w)) return;
+  float* rows[5] = {};  // the copies: medium planes 0-3, weight (null until a pixel needs them)
+  for (int x = 0; x < w; ++x) {
+    if (!(wm[x] > 0.0f) || !(med_wt[x] < kExactMediumBelow)) continue;
+    if (!rows[4]) {
+      sc.exact.resize(static_cast<std::size_t>(5) * w);
+      for (int k = 0; k < 5; ++k) rows[k] = sc.exact.data() + static_cast<std::size_t>(k) * w;
+      std::copy(med_wt, med_wt + w, rows[4]);
+      for (int ch = 0; ch < 4; ++ch) {
+        if (med[ch] == med_wt) rows[ch] = rows[4];
+        else std::copy(med[ch], med[ch] + w, rows[ch]);
+        med[ch] = rows[ch];
+      }
+      med_wt = rows[4];
+    }
+    double sums[5];
+    core::weighted_gaussian_at(e.src, e.nplanes, e.c, e.w, e.h, e.sigma, e.boxes, x, y, sums);
+    for (int k = 0; k < e.nplanes; ++k) rows[k][x] = static_cast<float>(sums[k]);
+    rows[4][x] = static_cast<float>(sums[e.nplanes]);
+  }
+}
+
+void final_row(const Image& color, const Image& depth, const Image& level, const float* const med_in[4],
                const float* med_wt, const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
-               const FinalGeometry& g, RowScratch& sc, int y, std::uint64_t pass) {
+               const FinalGeometry& g, RowScratch& sc, int y, std::uint64_t pass, const MediumExact* exact) {
+  const float* med[4] = {med_in[0], med_in[1], med_in[2], med_in[3]};
   const int w = g.w, h = g.h, lw = g.lw, lh = g.lh;
   // Vertical lerp of the quarter-res rows around this row, then horizontal lerp to full res:
   // planes 0-3 numerators, 4 the blurred level (normaliser), 5 the blurred inverse depth.
@@ -238,6 +280,7 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
                      keep_own_blur, sc.ws.data(), sc.wm.data(), sc.wl.data(), sc.wsrc.data()};
   bool any = false;
   for (int x = final_weights_simd(wr, 0, w, any); x < w; ++x) any |= weights_scalar(wr, x);
+  if (any && exact && med_wt) exact_medium(*exact, wr.wm, y, sc, med, med_wt);
   for (int ch = 0; ch < 4; ++ch) {
     const float* src = color.row(ch, y);
     float* o = out.row(ch, y);
@@ -302,7 +345,7 @@ std::uint64_t new_final_pass_id() {
 
 void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
                     const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
-                    std::uint64_t pass, const float* med_wt) {
+                    std::uint64_t pass, const float* med_wt, const MediumExact* exact) {
   const int w = color.width(), h = color.height();
   const FinalGeometry g{w, h, large.width(), large.height()};
   thread_local RowScratch sc;  // per worker, kept between frames
@@ -311,7 +354,7 @@ void final_pass_row(const Image& color, const Image& depth, const Image& level, 
   for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
   // (A pass id is never reused, so slots filled by an earlier pass, of any width, never match.)
   if (sc.blocks.size() < static_cast<std::size_t>(16) * w) sc.blocks.resize(static_cast<std::size_t>(16) * w);
-  final_row(color, depth, level, med, med_wt, large, inv_depth, keep_own_blur, out, g, sc, y, pass);
+  final_row(color, depth, level, med, med_wt, large, inv_depth, keep_own_blur, out, g, sc, y, pass, exact);
 }
 
 }  // namespace dofkit::detail::starcraft

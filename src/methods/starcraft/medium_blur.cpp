@@ -17,7 +17,7 @@
 namespace dofkit::detail::starcraft {
 
 void medium_blur(const Image& color, const Image& level, float sigma, int boxes, Image& medium, Image& weight,
-                 bool plain) {
+                 bool plain, const Image* large) {
   const int w = color.width(), h = color.height();
   medium.resize(w, h, 4);
   weight.resize(w, h, 1);
@@ -26,12 +26,47 @@ void medium_blur(const Image& color, const Image& level, float sigma, int boxes,
   // finite value will do; the source keeps the result free of 0/0.
   constexpr float kTiny = 1e-6f;
   if (!plain) {
-    // Fast: the multiply rides on the horizontal strip load and the division on the vertical
-    // strip store (core/weighted_gaussian), one read and write per plane and axis; the same
-    // arithmetic as the plain steps below with the fast Gaussian, bit for bit.
+    // Fast: the multiply rides on the horizontal strip load (core/weighted_gaussian), one read
+    // and write per plane and axis; the same arithmetic as the plain steps below with the fast
+    // Gaussian, bit for bit. The sums come before the division so that those of the pixels
+    // with a small weight can be made exact first (kExactMediumBelow), as in medium_and_final.
     const float* src[4] = {color.plane(0), color.plane(1), color.plane(2), color.plane(3)};
     float* dst[4] = {medium.plane(0), medium.plane(1), medium.plane(2), medium.plane(3)};
-    core::weighted_gaussian(src, 4, level.plane(0), w, h, sigma, boxes, kTiny, dst, weight.plane(0));
+    core::weighted_gaussian(src, 4, level.plane(0), w, h, sigma, boxes, kTiny, dst, weight.plane(0), false);
+    const int lw = large ? large->width() : 0, lh = large ? large->height() : 0;
+    // The larger of the blurred level's four bilinear cells around the pixel (quarter_bilerp's
+    // footprint in final.cpp), which bounds the up-sampled blurred level from above.
+    auto cells_max = [&](int x, int y) {
+      const int x0 = static_cast<int>(std::floor((x + 0.5f) / kDown - 0.5f));
+      const int y0 = static_cast<int>(std::floor((y + 0.5f) / kDown - 0.5f));
+      float m = 0.0f;
+      for (int yy : {y0, y0 + 1})
+        for (int xx : {x0, x0 + 1})
+          m = std::max(m, large->row(4, std::clamp(yy, 0, lh - 1))[std::clamp(xx, 0, lw - 1)]);
+      return m;
+    };
+    const MediumExact exact{src, 4, level.plane(0), w, h, sigma, boxes};
+    core::parallel_for(h, [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y) {
+        float* wt = weight.row(0, y);
+        const float* c = level.row(0, y);
+        for (int x = 0; large && x < w; ++x) {
+          // The final pass mixes the medium level in where its level is in (0.5, 1): its own
+          // level or the blurred one (<= cells_max up to rounding; 0.49 leaves room for it).
+          if (!(wt[x] < kExactMediumBelow) || !(c[x] > 0.5f || cells_max(x, y) > 0.49f)) continue;
+          double sums[5];
+          core::weighted_gaussian_at(exact.src, 4, exact.c, w, h, sigma, boxes, x, y, sums);
+          for (int ch = 0; ch < 4; ++ch) medium.row(ch, y)[x] = static_cast<float>(sums[ch]);
+          wt[x] = static_cast<float>(sums[4]);
+        }
+        // The division as the final mix makes it (medium_and_final): the same values.
+        for (int ch = 0; ch < 4; ++ch) {
+          const float* s = color.row(ch, y);
+          float* d = medium.row(ch, y);
+          for (int x = 0; x < w; ++x) d[x] = wt[x] > kTiny ? d[x] / wt[x] : s[x];
+        }
+      }
+    }, 16);
     return;
   }
   std::copy(level.data().begin(), level.data().end(), weight.data().begin());
@@ -86,6 +121,7 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
     return std::min(h, y - y % 32);
   };
   const std::uint64_t pass = new_final_pass_id();
+  const MediumExact exact{src, nplanes, level.plane(0), w, h, sigma_medium, boxes};
   core::parallel_for(bands, [&](int b0, int b1) {
     for (int b = b0; b < b1; ++b) {
       const int y0 = cut(b), y1 = cut(b + 1);
@@ -96,7 +132,7 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
           [&](int y, const float* const* rows) {
             const float* wt = rows[nplanes];
             const float* med[4] = {rows[0], rows[1], rows[2], nplanes == 4 ? rows[3] : wt};
-            final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass, wt);
+            final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass, wt, &exact);
           },
           false);
       flush_streams();  // the mix's non-temporal stores are globally visible before the task ends

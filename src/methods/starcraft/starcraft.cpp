@@ -81,7 +81,7 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   }
   Image& medium = ctx.workspace.image("starcraft.medium", w, h, 4);
   Image& medium_weight = ctx.workspace.image("starcraft.medium_weight", w, h, 1);
-  medium_blur(color, level, g.sigma_medium, s.medium_boxes, medium, medium_weight, s.plain);
+  medium_blur(color, level, g.sigma_medium, s.medium_boxes, medium, medium_weight, s.plain, &large);
   ctx.debug.offer("medium", medium);
 
   Image used, small, weights;

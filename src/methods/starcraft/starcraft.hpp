@@ -91,11 +91,58 @@ inline int down_size(int n) { return (n + kDown - 1) / kDown; }
 /// oracle); fast: the same formulas as selects, vectorised (within 1 ulp of plain).
 void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& level, bool plain = false);
 
+/// The medium level's fast sums (core::weighted_gaussian*, float running sums) are replaced by
+/// the exact ones (core::weighted_gaussian_at, double, no running sums) at every pixel that
+/// the final mix reads the medium level for (level weight > 0, i.e. 0.5 < c < 1) whose fast
+/// blurred weight W is below this. Why (round 15, docs/methods/starcraft.md):
+/// medium = N / W, and the float running sums leave in N and W a residue δN, δW of the values
+/// that passed through the window since the last re-synchronisation (every 32 outputs), of
+/// order u·S, u = 2^-24, S the colour magnitude in the sums' reach (~100 px along each axis).
+/// The quotient's error is (δN − medium·δW) / W, so it grows as 1/W: measured
+/// |δN − medium·δW| ≈ 5–6e-7 next to highlights of 40 (≈ 0.25·u·S), hence 0.019 at W = 2.4e-4
+/// (a sharp hole in blurry foreground whose pixels take the neighbourhood's level).
+/// - W < 1/32: exact sums. Their error is relative to the colour under the kernel (n·2^-53,
+///   n <= (2R + 1)², weighted_gaussian.hpp) whatever S and W; the plain pass's is its float
+///   roundings (~5·2^-24 relative) plus its double sums' drift, so the two agree within
+///   ~1e-6 of the colour under the kernel.
+/// - W >= 1/32: the fast quotient's error is <= 0.25·u·S·32 ≈ 4.8e-7·S (the measured residue
+///   scaled), within 1e-4 for S up to ~200 where the output is ~1, and for larger S wherever
+///   the output is itself that bright (the criterion is relative to max(1, |out|)).
+/// That is not a bound for every sanitised input: the worst-case residue of float running sums
+/// is ~(r + 35)·u·S per pass (a sequential re-sum of 2r + 1 terms plus 31 updates), ~200·u·S
+/// over four passes, and S may reach kMaxColorValue (1e18); next to highlights of 1000 a
+/// weight of ~0.1 already gives 1.9e-4 (found by the sweep of round 15). Nor is the oracle
+/// bounded: its double sums are never re-synchronised, and a highlight of 1e18 in a row shifts
+/// its sums after it by the texture itself (~0.5). A bound for any S needs sums whose error is
+/// relative to the window (no cancellation; see the round-15 notes for the options).
+/// 1/32 is below every mixed pixel's weight on the bench frame (min 0.26 at 1080p, 0.38 at
+/// 640×360) and the built-in scenes at 640×360 (min 0.055, sky), so their output is the fast
+/// sums' bit for bit.
+inline constexpr float kExactMediumBelow = 1.0f / 32.0f;
+
+/// What core::weighted_gaussian_at needs to recompute the medium level's sums at a pixel:
+/// the planes blurred (nplanes: 3 when the alpha plane is left out, then its sum is W), the
+/// level c and the Gaussian. A final row given one recomputes every pixel it mixes the medium
+/// level into whose W < kExactMediumBelow.
+struct MediumExact {
+  const float* const* src;
+  int nplanes;
+  const float* c;
+  int w, h;
+  float sigma;
+  int boxes;
+};
+
 /// C2: medium level, full resolution, RGBA: CoC-weighted Gaussian of σ = sigma_medium,
-/// normalised; where no tap carries weight the source colour is kept. `weight` is scratch.
+/// normalised; where no tap carries weight the source colour is kept. `weight` is scratch
+/// (the blurred level on return, fast form).
 /// `boxes`: extended-box passes per axis (the Gaussian's shape; its variance is σ² for any count).
+/// large (fast form; C3's output, plane 4 the blurred level): the sums are recomputed exactly
+/// (kExactMediumBelow) at every pixel with W below the threshold that the final pass may mix
+/// the medium level into (own level or the larger of the blurred level's four bilinear cells
+/// over 0.49: a superset of medium_and_final's pixels, so both give the same output).
 void medium_blur(const Image& color, const Image& level, float sigma, int boxes, Image& medium, Image& weight,
-                 bool plain = false);
+                 bool plain = false, const Image* large = nullptr);
 
 /// C3: large level at W/4 × H/4. `large` gets 5 planes: blur(c·rgba) (4 planes, not yet
 /// divided) and blur(c) — the blurred CoC, which is also the normaliser. `reduce_max`: the
@@ -140,9 +187,11 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
 /// medium_blur) is made in the mix, only for the pixels that are not in focus.
 /// `pass`: new_final_pass_id() of the pass the row belongs to (a worker keeps the small blur's
 /// block sums of the source rows it read for the next rows of the same pass).
+/// exact (with med_wt): recompute the sums of the pixels the row mixes the medium level into
+/// whose med_wt < kExactMediumBelow (see there).
 void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
                     const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
-                    std::uint64_t pass, const float* med_wt = nullptr);
+                    std::uint64_t pass, const float* med_wt = nullptr, const MediumExact* exact = nullptr);
 /// A number no earlier final pass of the process used.
 std::uint64_t new_final_pass_id();
 

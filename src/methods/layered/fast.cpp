@@ -692,58 +692,66 @@ Pyramid make_pyramid(Workspace& ws, int w, int h, const std::string& prefix = "l
   return p;
 }
 
-// Pull of levels 2 … L from level 1, then the push from the top down to level 1:
-// v ← w v + (1 − w) up(v_{l+1}) where w < 1.
-void pull_push_upper(const Pyramid& p) {
-  for (int l = 2; l < p.levels; ++l) {
+// Row y of pyramid level l + 1 (cv, cwt) pulled from level l (fine, fwt): pull_level's
+// arithmetic, with the shortcuts below. Needs fine rows 2y and 2y + 1 (where it exists) only.
+void pull_upper_row(const Image& fine, const Image& fwt, Image& cv, Image& cwt, int y) {
+  const int fw = fine.width(), fh = fine.height(), cw = cv.width();
+  int x = 0;
+  if (2 * y + 1 < fh) {  // interior blocks of full 2×2 children, 128 at a time
+    const int full = fw / 2;
+    for (; x < full; x += 128) {
+      const int m = std::min(128, full - x);
+      const float* f0[4];
+      const float* f1[4];
+      float* o[4];
+      for (int k = 0; k < 4; ++k) {
+        f0[k] = fine.row(k, 2 * y) + 2 * x;
+        f1[k] = fine.row(k, 2 * y + 1) + 2 * x;
+        o[k] = cv.row(k, y) + x;
+      }
+      const float* wa = fwt.row(0, 2 * y) + 2 * x;
+      const float* wb = fwt.row(0, 2 * y + 1) + 2 * x;
+      const bool any = core::any_positive(wa, 2 * m) || core::any_positive(wb, 2 * m);  // a child the pull counts
+      if (!any) {  // no child with confidence: Σ w = 0 gives value 0, confidence 0
+        float* cwp = cwt.row(0, y) + x;
+        kern::fill_rows(o, 4, m, 0.0f);
+        kern::fill_rows(&cwp, 1, m, 0.0f);
+        continue;
+      }
+      if (kern::all_one(wa, 2 * m) && kern::all_one(wb, 2 * m)) {
+        bool zero = true;
+        for (int k = 0; k < 4 && zero; ++k)
+          zero = !kern::any_bits(f0[k], 2 * m) && !kern::any_bits(f1[k], 2 * m);
+        if (zero) {
+          // Four children of confidence 1 and value +0 (a region where the layer is known
+          // to be empty): Σ w v = +0 + 1·(+0) + … = +0, Σ w = 4, so value +0 / 4 = +0 and
+          // confidence min(1, 4/4) = 1, exactly what pull_pairs_w computes.
+          float* cwp = cwt.row(0, y) + x;
+          kern::fill_rows(o, 4, m, 0.0f);
+          kern::fill_rows(&cwp, 1, m, 1.0f);
+          continue;
+        }
+      }
+      kern::pull_pairs_w(f0, f1, wa, wb, m, o, cwt.row(0, y) + x);
+    }
+    x = full;
+  }
+  for (; x < cw; ++x)  // the rest, one pixel at a time
+    pull_pixel(fine, [&](int fx, int fy) { return fwt.row(0, fy)[fx]; }, x, y, cv, cwt);
+}
+
+// Pull of levels `first` … L (first >= 2) from the level below, then the push from the top
+// down to level 1: v ← w v + (1 − w) up(v_{l+1}) where w < 1. With first = 3, level 2 has
+// been pulled already, row by row, by the pass that wrote level 1 (pull_upper_row on level
+// 1's rows while they were in cache): the same rows from the same inputs.
+void pull_push_upper(const Pyramid& p, int first = 2) {
+  for (int l = first; l < p.levels; ++l) {
     const Image& fine = *p.val[l - 1];
     const Image& fwt = *p.wgt[l - 1];
     Image& cv = *p.val[l];
     Image& cwt = *p.wgt[l];
-    const int fw = fine.width(), fh = fine.height(), cw = cv.width();
     core::parallel_for(cv.height(), [&](int y0, int y1) {
-      for (int y = y0; y < y1; ++y) {
-        int x = 0;
-        if (2 * y + 1 < fh) {  // interior blocks of full 2×2 children, 128 at a time
-          const int full = fw / 2;
-          for (; x < full; x += 128) {
-            const int m = std::min(128, full - x);
-            const float* f0[4];
-            const float* f1[4];
-            float* o[4];
-            for (int k = 0; k < 4; ++k) {
-              f0[k] = fine.row(k, 2 * y) + 2 * x;
-              f1[k] = fine.row(k, 2 * y + 1) + 2 * x;
-              o[k] = cv.row(k, y) + x;
-            }
-            const float* wa = fwt.row(0, 2 * y) + 2 * x;
-            const float* wb = fwt.row(0, 2 * y + 1) + 2 * x;
-            const bool any = core::any_positive(wa, 2 * m) || core::any_positive(wb, 2 * m);  // a child the pull counts
-            if (!any) {  // no child with confidence: Σ w = 0 gives value 0, confidence 0
-              for (int k = 0; k < 4; ++k) std::fill(o[k], o[k] + m, 0.0f);
-              std::fill(cwt.row(0, y) + x, cwt.row(0, y) + x + m, 0.0f);
-              continue;
-            }
-            if (kern::all_one(wa, 2 * m) && kern::all_one(wb, 2 * m)) {
-              bool zero = true;
-              for (int k = 0; k < 4 && zero; ++k)
-                zero = !kern::any_bits(f0[k], 2 * m) && !kern::any_bits(f1[k], 2 * m);
-              if (zero) {
-                // Four children of confidence 1 and value +0 (a region where the layer is known
-                // to be empty): Σ w v = +0 + 1·(+0) + … = +0, Σ w = 4, so value +0 / 4 = +0 and
-                // confidence min(1, 4/4) = 1, exactly what pull_pairs_w computes.
-                for (int k = 0; k < 4; ++k) std::fill(o[k], o[k] + m, 0.0f);
-                std::fill(cwt.row(0, y) + x, cwt.row(0, y) + x + m, 1.0f);
-                continue;
-              }
-            }
-            kern::pull_pairs_w(f0, f1, wa, wb, m, o, cwt.row(0, y) + x);
-          }
-          x = full;
-        }
-        for (; x < cw; ++x)  // the rest, one pixel at a time
-          pull_pixel(fine, [&](int fx, int fy) { return fwt.row(0, fy)[fx]; }, x, y, cv, cwt);
-      }
+      for (int y = y0; y < y1; ++y) pull_upper_row(fine, fwt, cv, cwt, y);
     }, 8);
   }
   for (int l = p.levels - 2; l >= 1; --l) {
@@ -1300,20 +1308,34 @@ void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][
   }
 }
 
-void pull_from_layer(const FusedLayer& L, Image& cv, Image& cwt) {
-  core::parallel_for(cv.height(), [&](int y0, int y1) {
+// Pyramid level 1 of the layer (cv, cwt) and, if cv2 is non-null, level 2 from it (cv2,
+// cwt2): row y of level 2 right after the level-1 rows 2y, 2y + 1 it reads, while they are
+// in cache (pull_upper_row; the values do not depend on when a row is pulled).
+void pull_from_layer(const FusedLayer& L, Image& cv, Image& cwt, Image* cv2, Image* cwt2) {
+  const int rows = cv2 ? cv2->height() : cv.height();
+  core::parallel_for(rows, [&](int y0, int y1) {
     float r[2][4][kBlock];
     std::uint8_t hb[2][kBlock];
-    for (int yc = y0; yc < y1; ++yc) pull_row(L, yc, cv, cwt, r, hb);
-  }, 4);
+    for (int y = y0; y < y1; ++y) {
+      if (!cv2) {
+        pull_row(L, y, cv, cwt, r, hb);
+        continue;
+      }
+      for (int yc = 2 * y; yc < std::min(2 * y + 2, cv.height()); ++yc) pull_row(L, yc, cv, cwt, r, hb);
+      pull_upper_row(cv, cwt, *cv2, *cwt2, y);
+    }
+  }, cv2 ? 2 : 4);
 }
 
-// The pull of the next layer's pyramid level 1, done in the same pass as a composite (the
-// two read the same input rows, once from memory).
+// The pull of the next layer's pyramid levels 1 and (if cv2 is non-null) 2, done in the same
+// pass as a composite (the two read the same input rows, once from memory; level 2 reads
+// level 1's rows while they are in cache).
 struct NextPull {
   const FusedLayer* L = nullptr;
   Image* cv = nullptr;
   Image* cwt = nullptr;
+  Image* cv2 = nullptr;
+  Image* cwt2 = nullptr;
 };
 
 // The spans of FusedLayer::bspan for one row block of n <= kBlock pixels, from its chunk
@@ -1563,8 +1585,12 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
           }
         }
       }
-      if (next.L)
+      if (next.L) {
         for (int yc = 2 * b; yc < std::min(2 * b + 2, hh); ++yc) pull_row(*next.L, yc, *next.cv, *next.cwt, s.pr, s.phb);
+        // Level 2's row b reads level 1's rows 2b, 2b + 1: those just written (level 2 has
+        // (hh + 1) / 2 = bands rows).
+        if (next.cv2) pull_upper_row(*next.cv, *next.cwt, *next.cv2, *next.cwt2, b);
+      }
     }
     if (task_zero_blocks) zero_blocks.fetch_add(task_zero_blocks, std::memory_order_relaxed);
   }, 1);
@@ -1762,12 +1788,15 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   const Pyramid pyr[2] = {make_pyramid(ws, w, h, "layered.pp"), make_pyramid(ws, w, h, "layered.pq")};
   const bool pyramid = pyr[0].levels > 1;
   auto needs_pull = [&](std::size_t u) { return u < units.size() && units[u].fill && pyramid; };
+  // Level 2 (if the pyramid has one) is pulled in the pass that pulls level 1.
+  const bool has_l2 = pyr[0].levels > 2;
   auto finish_pull = [&](std::size_t u) {
-    pull_push_upper(pyr[u % 2]);
+    pull_push_upper(pyr[u % 2], has_l2 ? 3 : 2);
     units[u].l1 = pyr[u % 2].val[1];
   };
   if (needs_pull(0)) {
-    pull_from_layer(units[0], *pyr[0].val[1], *pyr[0].wgt[1]);
+    pull_from_layer(units[0], *pyr[0].val[1], *pyr[0].wgt[1], has_l2 ? pyr[0].val[2] : nullptr,
+                    has_l2 ? pyr[0].wgt[2] : nullptr);
     finish_pull(0);
   }
 
@@ -1793,7 +1822,10 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     const std::string name = job.back ? "layered.fb" : "layered.ff";
     const FusedLayer& L = units[i];
     NextPull next;
-    if (needs_pull(i + 1)) next = {&units[i + 1], pyr[(i + 1) % 2].val[1], pyr[(i + 1) % 2].wgt[1]};
+    if (needs_pull(i + 1)) {
+      const Pyramid& p = pyr[(i + 1) % 2];
+      next = {&units[i + 1], p.val[1], p.wgt[1], has_l2 ? p.val[2] : nullptr, has_l2 ? p.wgt[2] : nullptr};
+    }
     const AccRows A(s.has ? s.full : nullptr, s.has ? s.half : nullptr, s.factor, &s.zero);
     const double var = job.var;
     const double sigma = std::sqrt(var);

@@ -208,11 +208,15 @@ LAYERED_SIMD void code_summary(const std::uint16_t* __restrict code, const float
 }
 
 // The push at one pyramid level: v ← w v + (1 − w) up where w < 1 (as a select, so it
-// vectorises; a pixel with w >= 1 keeps its value).
-LAYERED_SIMD void push_row(const float* __restrict wr, const float* __restrict up, int n, float* __restrict v) {
+// vectorises; a pixel with w >= 1 keeps its value), with up = top + (bot − top)·t, the
+// vertical lerp of two horizontally up-sampled coarse rows (lerp_rows' expression) computed
+// in the same loop instead of stored to a row buffer first.
+LAYERED_SIMD void push_lerp_row(const float* __restrict wr, const float* __restrict top, const float* __restrict bot,
+                                float t, int n, float* __restrict v) {
   for (int j = 0; j < n; ++j) {
     const float wt = wr[j];
-    const float p = wt * v[j] + (1.0f - wt) * up[j];
+    const float up = top[j] + (bot[j] - top[j]) * t;
+    const float p = wt * v[j] + (1.0f - wt) * up;
     v[j] = wt >= 1.0f ? v[j] : p;
   }
 }
@@ -765,7 +769,6 @@ void pull_push_upper(const Pyramid& p, int first = 2) {
       // a coarse row serves four fine rows, and is up-sampled once per task instead of four
       // times. Default-initialised buffers (only the keys are set).
       std::unique_ptr<HCache[]> cache(new HCache[nb]);
-      float up[4][kBlock];
       for (int y = y0; y < y1; ++y) {
         const float* wr = fwt.row(0, y);
         for (int x0 = 0; x0 < fw; x0 += kBlock) {
@@ -773,8 +776,11 @@ void pull_push_upper(const Pyramid& p, int first = 2) {
           if (!kern::any_below_one(wr + x0, n)) continue;
           HCache& hc = cache[x0 / kBlock];
           if (hc.img != &cv) hc.reset(&cv, 2, x0);
-          hc.get(y, n, up);
-          for (int k = 0; k < 4; ++k) kern::push_row(wr + x0, up[k], n, fv.row(k, y) + x0);
+          const float* const* top;
+          const float* const* bot;
+          float ty;
+          hc.rows(y, n, top, bot, ty);  // the vertical lerp of up_block, inside the push
+          for (int k = 0; k < 4; ++k) kern::push_lerp_row(wr + x0, top[k], bot[k], ty, n, fv.row(k, y) + x0);
         }
       }
     }, 8);

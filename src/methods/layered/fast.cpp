@@ -224,14 +224,30 @@ LAYERED_SIMD void push_lerp_row(const float* __restrict wr, const float* __restr
 // The sum both pulls share, for one channel: the 2×2 children of coarse pixel x (masked
 // fine rows z0, z1: a skipped child is +0) de-interleaved with plain strided copies, then
 // summed in double in pull_level's order and divided by Σ w (0 where Σ w = 0).
+//
+// With rw non-null (every Σ w of the block 0 or a power of two, rw[x] = 1 / sw[x] exactly
+// there, see pull_pairs_w), sv · rw[x] instead of sv / sw[x]: the same double, since both
+// round the same exact value sv·2^−k, which is representable (sv, a sum of four floats
+// weighted by confidences, is 0 or far above double's subnormal range).
 LAYERED_SIMD void pull_sum(const float* __restrict z0, const float* __restrict z1, int m, const double* __restrict sw,
-                           float* __restrict d) {
+                           const double* __restrict rw, float* __restrict d) {
   float e0[128], o0[128], e1[128], o1[128];
   for (int x = 0; x < m; ++x) {
     e0[x] = z0[2 * x];
     o0[x] = z0[2 * x + 1];
     e1[x] = z1[2 * x];
     o1[x] = z1[2 * x + 1];
+  }
+  if (rw) {
+    for (int x = 0; x < m; ++x) {
+      double sv = 0;
+      sv += static_cast<double>(e0[x]);
+      sv += static_cast<double>(o0[x]);
+      sv += static_cast<double>(e1[x]);
+      sv += static_cast<double>(o1[x]);
+      d[x] = sw[x] > 0 ? static_cast<float>(sv * rw[x]) : 0.0f;
+    }
+    return;
   }
   for (int x = 0; x < m; ++x) {
     double sv = 0;
@@ -286,7 +302,7 @@ LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint
       z0[j] = g0[j] ? 0.0f : a[j];
       z1[j] = g1[j] ? 0.0f : b[j];
     }
-    pull_sum(z0, z1, c1 - c0, sw + c0, d + c0);
+    pull_sum(z0, z1, c1 - c0, sw + c0, nullptr, d + c0);
   }
 }
 
@@ -312,6 +328,22 @@ LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, c
     sw[x] = s;
     cw[x] = static_cast<float>(s / 4.0 < 1.0 ? s / 4.0 : 1.0);  // std::min(1.0, s / 4.0)
   }
+  // If every Σ w is 0 or a power of two (a zero mantissa field: Σ w is a sum of confidences,
+  // each at least 4^−l at level l, so never subnormal), its reciprocal is exact: the exponent negated,
+  // bits(2^−e) = (2046 << 52) − bits(2^e) (meaningless where Σ w = 0, which pull_sum masks).
+  // pull_sum then multiplies instead of dividing (one division per channel and pixel, the
+  // bulk of the pull's time on AVX-512): inside a layer's region Σ w = 4 (all children
+  // confident), and only blocks on a hole's border keep the division.
+  double rw[128];
+  std::uint64_t mant = 0;
+  for (int x = 0; x < m; ++x) {
+    std::uint64_t b;
+    __builtin_memcpy(&b, &sw[x], 8);
+    mant |= b & ((std::uint64_t{1} << 52) - 1);
+    const std::uint64_t r = (std::uint64_t{2046} << 52) - b;
+    __builtin_memcpy(&rw[x], &r, 8);
+  }
+  const double* rp = mant == 0 ? rw : nullptr;
   for (int c = 0; c < 4; ++c) {
     const float* __restrict a = f0[c];
     const float* __restrict b = f1[c];
@@ -320,7 +352,7 @@ LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, c
       z0[j] = w0[j] > 0 ? w0[j] * a[j] : 0.0f;
       z1[j] = w1[j] > 0 ? w1[j] * b[j] : 0.0f;
     }
-    pull_sum(z0, z1, m, sw, cv[c]);
+    pull_sum(z0, z1, m, sw, rp, cv[c]);
   }
 }
 

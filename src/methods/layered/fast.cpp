@@ -935,8 +935,12 @@ ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
 }
 
 // kBlock floats of +0: the rows of an accumulator that a ZeroMap shows to be +0.
-alignas(64) const float kZeroRow[kBlock] = {};
-const float* const kZeroRows[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
+// Four rows, so that they have the row caches' layout (channel c at + c·kRowStride, which
+// the fused kernels rely on: fused_simd.hpp).
+static_assert(kBlock == kRowStride);
+alignas(64) const float kZero4[4][kBlock] = {};
+const float* const kZeroRow = kZero4[0];
+const float* const kZeroRows[4] = {kZero4[0], kZero4[1], kZero4[2], kZero4[3]};
 
 // A read-only view of an accumulator's content by row blocks: the full image, or the
 // up-sampling of its half-resolution image computed on the fly.
@@ -1470,12 +1474,11 @@ void fused_row(const FusedLayer& L, int y, int x0, int n, HCache& fill_cache, in
     if (acc_cache->img != acc || acc_cache->x0 != x0) acc_cache->reset(acc, factor, x0);
     acc_cache->rows(y, n, at, ab, r.aty);
   }
-  for (int ch = 0; ch < 4; ++ch) {
-    r.ft[ch] = ft[ch];
-    r.fb[ch] = fb[ch];
-    r.at[ch] = at[ch];
-    r.ab[ch] = ab[ch];
-  }
+  // Rows of the HCaches or kZeroRows: channel ch at + ch·kRowStride, as crow_row_simd reads them.
+  r.ft = ft[0];
+  r.fb = fb[0];
+  r.at = at[0];
+  r.ab = ab[0];
   r.front = front;
   crow_row_simd(r, n, sp.first, sp.second, a0, a1, c);
 }
@@ -1934,8 +1937,8 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
             // cur over B, then F over that, with their up-sampling's vertical lerp in the same
             // kernel (final_row_simd; rows of +0 where a zero map says so).
             FinalRow fr;
-            for (int c = 0; c < 4; ++c) fr.c[c] = cur[c];
-            auto side = [&](const AccRows& R, HCache& cache, int& mode, const float** top, const float** bot, float& ty) {
+            fr.c = cur[0];  // cur, the caches' rows and kZeroRows: channels kRowStride apart
+            auto side = [&](const AccRows& R, HCache& cache, int& mode, const float*& top, const float*& bot, float& ty) {
               ty = 0.0f;
               mode = R.present() ? 1 : 0;
               const float* const* a = kZeroRows;
@@ -1945,10 +1948,8 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
                 cache.rows(y, n, a, b, ty);
                 mode = 2;
               }
-              for (int c = 0; c < 4; ++c) {
-                top[c] = a[c];
-                bot[c] = b[c];
-              }
+              top = a[0];
+              bot = b[0];
             };
             side(BR, caches[nbf + x0 / kBlock], fr.bm, fr.bt, fr.bb, fr.bty);
             side(FR, caches[2 * nbf + x0 / kBlock], fr.fm, fr.ft, fr.fb, fr.fty);

@@ -565,10 +565,18 @@ struct HCache {
     next = (next + 1) & 3;
     key[i] = cy;
     const int cw = img->width();
+    // The coarse columns up_h / up_h4 read, [x0/f − 1, (x0 + n − 1)/f + 1] (clamped).
+    const int c0 = std::max(0, x0 / factor - 1), c1 = std::min(cw, (x0 + n - 1) / factor + 2);
     for (int c = 0; c < 4; ++c) {
       const float* src = img->row(c, cy);
       if (factor == 4) up_h4(src, cw, x0, n, v[i][c]);
       else up_h(src, cw, x0, n, v[i][c]);
+      // The same columns of the next coarse row, which this block's next band (or fine row)
+      // up-samples: the blocks of a band run in between, long for the hardware prefetchers to
+      // find these 256–512-byte runs of a plane by themselves (up_pairs / up_quads waited on
+      // their loads).
+      if (cy + 1 < img->height())
+        for (int x = c0; x < c1; x += 16) __builtin_prefetch(src + cw + x);
     }
     return v[i];
   }

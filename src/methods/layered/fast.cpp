@@ -62,11 +62,22 @@ LAYERED_SIMD void lerp_rows(const float* __restrict top, const float* __restrict
   for (int j = 0; j < n; ++j) dst[j] = top[j] + (bot[j] - top[j]) * t;
 }
 
-// dst = +0 + (top + (bot − top)·t): lerp_rows followed by fill_row's "+0 +" of an all-hole block.
-LAYERED_SIMD void lerp_rows_z(const float* __restrict top, const float* __restrict bot, float t, int n,
-                              float* __restrict dst) {
-  for (int j = 0; j < n; ++j) dst[j] = 0.0f + (top[j] + (bot[j] - top[j]) * t);
+// lerp_rows of four channel rows kBlock floats apart (the row caches' layout), columns
+// [lo, hi), in one call instead of four; with plus_zero dst = +0 + (top + (bot − top)·t):
+// lerp_rows followed by fill_row's "+0 +" of an all-hole block.
+LAYERED_SIMD void lerp_rows4(const float* __restrict top, const float* __restrict bot, float t, int lo, int hi,
+                             bool plus_zero, float* __restrict dst) {
+  for (int c = 0; c < 4; ++c) {
+    const float* __restrict a = top + 256 * c;
+    const float* __restrict b = bot + 256 * c;
+    float* __restrict d = dst + 256 * c;
+    if (plus_zero)
+      for (int j = lo; j < hi; ++j) d[j] = 0.0f + (a[j] + (b[j] - a[j]) * t);
+    else
+      for (int j = lo; j < hi; ++j) d[j] = a[j] + (b[j] - a[j]) * t;
+  }
 }
+
 
 // matting.cpp for one fragment per pixel from the per-pixel codes (see FusedLayer).
 // Columns [lo, hi) of the block (the caller's span; the rest of o is left alone).
@@ -596,7 +607,7 @@ struct HCache {
   const float* pa[4];
   const float* pb[4];
   // The 2× / 4× up-sampling of all channels at fine row y (up_block's result); with
-  // plus_zero, +0 + that (see lerp_rows_z). Written only at columns [lo, hi) of the n
+  // plus_zero, +0 + that (see lerp_rows4). Written only at columns [lo, hi) of the n
   // (the cached horizontal rows still cover all n).
   void get(int y, int n, float (*dst)[kBlock], bool plus_zero = false) { get(y, n, 0, n, dst, plus_zero); }
   void get(int y, int n, int lo, int hi, float (*dst)[kBlock], bool plus_zero = false) {
@@ -605,10 +616,7 @@ struct HCache {
     core::bilinear_footprint((y + 0.5f) * (factor == 4 ? 0.25f : 0.5f), img->height(), ya, yb, ty);
     float (*a)[kBlock] = row(ya, n);
     float (*b)[kBlock] = row(yb, n);
-    for (int c = 0; c < 4; ++c) {
-      if (plus_zero) kern::lerp_rows_z(a[c] + lo, b[c] + lo, ty, hi - lo, dst[c] + lo);
-      else kern::lerp_rows(a[c] + lo, b[c] + lo, ty, hi - lo, dst[c] + lo);
-    }
+    kern::lerp_rows4(a[0], b[0], ty, lo, hi, plus_zero, dst[0]);
   }
 };
 

@@ -1510,6 +1510,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     float tmp[4][kBlock];
     float pr[2][4][kBlock];
     std::uint8_t phb[2][kBlock];
+    float qacc[4 * (kBlock / 4)];  // lerp_quads_acc_simd's partial 4×4 sums
     HCache* acc;   // nbc caches of A's rows, one per column block
     HCache* fill;  // nbc caches of the fill's pyramid level
   };
@@ -1596,6 +1597,52 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
             for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
               for (int ch = 0; ch < 4; ++ch) d[ch] = dst_half->row(ch, yh) + x0 / 2;
               kern::fill_rows(d, 4, (x0 + n + 1) / 2 - x0 / 2, 0.0f);
+            }
+          }
+          continue;
+        }
+        if (A.half && !azero && !dst_full && n % (dst_quarter ? 4 : 2) == 0 && empty(ys[0], x0) &&
+            empty(ys[1], x0) && empty(ys[2], x0) && empty(ys[3], x0)) {
+          // An empty layer over a reduced accumulator that is not +0 here (a quarter of the
+          // band blocks on the bench frame): every row is A's up-sampling (crow's A.get, the
+          // vertical lerp of the cached rows), and the 2×2 / 4×4 box reads it straight from
+          // the lerps in the same kernel (lerp_quads_acc_simd / lerp_pairs_box_simd: the same
+          // lerps and the same sums in the same order as lerp_rows4 then down_quads_simd /
+          // down_pairs), instead of storing the four rows first. With n a multiple of the box
+          // width there is no clamped last output (the general path below takes the rest).
+          HCache& ac = s.acc[x0 / kBlock];
+          if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0);
+          if (dst_quarter) {
+            const int m = n / 4;
+            for (int dy = 0; dy < 4; ++dy) {  // rows in order: the sums' order (see lerp_quads_acc_simd)
+              const float* const* top;
+              const float* const* bot;
+              float ty;
+              ac.rows(ys[dy], n, top, bot, ty);
+              lerp_quads_acc_simd(top[0], bot[0], ty, m, dy == 0, s.qacc);
+            }
+            for (int ch = 0; ch < 4; ++ch) {
+              float* d = dst_quarter->row(ch, b) + x0 / 4;
+              const float* q = s.qacc + (kBlock / 4) * ch;
+              for (int x = 0; x < m; ++x) d[x] = 0.0625f * q[x];
+            }
+          } else {
+            for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
+              const int da = 2 * (yh - 2 * b);  // rows 2yh and min(2yh + 1, h − 1) of the band
+              const float* const* ta;
+              const float* const* ba;
+              const float* const* tb;
+              const float* const* bb;
+              float tya, tyb;
+              // The second row's cache lookup may replace an entry, not the first row's
+              // (HCache::row: rows asked in increasing order; the pointers are read before).
+              ac.rows(ys[da], n, ta, ba, tya);
+              const float* a0 = ta[0];
+              const float* a1 = ba[0];
+              ac.rows(ys[da + 1], n, tb, bb, tyb);
+              float* d[4];
+              for (int ch = 0; ch < 4; ++ch) d[ch] = dst_half->row(ch, yh) + x0 / 2;
+              lerp_pairs_box_simd(a0, a1, tya, tb[0], bb[0], tyb, n / 2, d);
             }
           }
           continue;

@@ -428,6 +428,82 @@ void DownQuadsImpl(const float* r0, const float* r1, const float* r2, const floa
   }
 }
 
+// The fused row v = t + (b − t)·ty (lerp_rows) at p + i.
+template <class D>
+HWY_INLINE hn::Vec<D> LerpAt(D d, const float* t, const float* b, hn::Vec<D> ty, std::size_t i) {
+  const auto tv = hn::LoadU(d, t + i);
+  return hn::Add(tv, hn::Mul(hn::Sub(hn::LoadU(d, b + i), tv), ty));
+}
+
+void LerpQuadsAccImpl(const float* top, const float* bot, float ty, int m, bool first, float* acc) {
+  constexpr int kAcc = kRowStride / 4;  // acc's channel stride
+  for (int ch = 0; ch < 4; ++ch) {
+    const float* t = top + kRowStride * ch;
+    const float* b = bot + kRowStride * ch;
+    float* a = acc + kAcc * ch;
+    int x = 0;
+#if HWY_TARGET != HWY_SCALAR
+    const hn::ScalableTag<float> df;
+    const int n = static_cast<int>(hn::Lanes(df));
+    const auto tyv = hn::Set(df, ty);
+    for (; x + n <= m; x += n) {  // DownQuadsImpl's de-interleave of one row, on the lerps
+      const std::size_t i = 4 * static_cast<std::size_t>(x);
+      const auto v0 = LerpAt(df, t, b, tyv, i), v1 = LerpAt(df, t, b, tyv, i + n),
+                 v2 = LerpAt(df, t, b, tyv, i + 2 * n), v3 = LerpAt(df, t, b, tyv, i + 3 * n);
+      const auto e01 = hn::ConcatEven(df, v1, v0), o01 = hn::ConcatOdd(df, v1, v0);
+      const auto e23 = hn::ConcatEven(df, v3, v2), o23 = hn::ConcatOdd(df, v3, v2);
+      auto sv = first ? hn::Zero(df) : hn::LoadU(df, a + x);
+      sv = hn::Add(sv, hn::ConcatEven(df, e23, e01));  // 4x
+      sv = hn::Add(sv, hn::ConcatEven(df, o23, o01));  // 4x + 1
+      sv = hn::Add(sv, hn::ConcatOdd(df, e23, e01));   // 4x + 2
+      sv = hn::Add(sv, hn::ConcatOdd(df, o23, o01));   // 4x + 3
+      hn::StoreU(sv, df, a + x);
+    }
+#endif
+    for (; x < m; ++x) {
+      float sv = first ? 0.0f : a[x];
+      for (int dx = 0; dx < 4; ++dx) {
+        const int i = 4 * x + dx;
+        sv += t[i] + (b[i] - t[i]) * ty;
+      }
+      a[x] = sv;
+    }
+  }
+}
+
+void LerpPairsBoxImpl(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
+                      float* const* d) {
+  for (int ch = 0; ch < 4; ++ch) {
+    const float* t0 = ta + kRowStride * ch;
+    const float* b0 = ba + kRowStride * ch;
+    const float* t1 = tb + kRowStride * ch;
+    const float* b1 = bb + kRowStride * ch;
+    float* o = d[ch];
+    int x = 0;
+#if HWY_TARGET != HWY_SCALAR
+    const hn::ScalableTag<float> df;
+    const int n = static_cast<int>(hn::Lanes(df));
+    const auto ty0 = hn::Set(df, tya), ty1 = hn::Set(df, tyb), q = hn::Set(df, 0.25f);
+    for (; x + n <= m; x += n) {
+      const std::size_t i = 2 * static_cast<std::size_t>(x);
+      const auto a0 = LerpAt(df, t0, b0, ty0, i), a1 = LerpAt(df, t0, b0, ty0, i + n);
+      const auto c0 = LerpAt(df, t1, b1, ty1, i), c1 = LerpAt(df, t1, b1, ty1, i + n);
+      // down_pairs: 0.25 · (((a[2x] + a[2x + 1]) + b[2x]) + b[2x + 1])
+      auto sv = hn::Add(hn::ConcatEven(df, a1, a0), hn::ConcatOdd(df, a1, a0));
+      sv = hn::Add(sv, hn::ConcatEven(df, c1, c0));
+      sv = hn::Add(sv, hn::ConcatOdd(df, c1, c0));
+      hn::StoreU(hn::Mul(q, sv), df, o + x);
+    }
+#endif
+    for (; x < m; ++x) {
+      const int i = 2 * x;
+      const float a0 = t0[i] + (b0[i] - t0[i]) * tya, a1 = t0[i + 1] + (b0[i + 1] - t0[i + 1]) * tya;
+      const float c0 = t1[i] + (b1[i] - t1[i]) * tyb, c1 = t1[i + 1] + (b1[i + 1] - t1[i + 1]) * tyb;
+      o[x] = 0.25f * (a0 + a1 + c0 + c1);
+    }
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::layered
 HWY_AFTER_NAMESPACE();
@@ -439,6 +515,17 @@ HWY_EXPORT(CrowRowImpl);
 HWY_EXPORT(PullPairsImpl);
 HWY_EXPORT(FinalRowImpl);
 HWY_EXPORT(DownQuadsImpl);
+HWY_EXPORT(LerpQuadsAccImpl);
+HWY_EXPORT(LerpPairsBoxImpl);
+
+void lerp_quads_acc_simd(const float* top, const float* bot, float ty, int m, bool first, float* acc) {
+  HWY_DYNAMIC_DISPATCH(LerpQuadsAccImpl)(top, bot, ty, m, first, acc);
+}
+
+void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
+                         float* const* d) {
+  HWY_DYNAMIC_DISPATCH(LerpPairsBoxImpl)(ta, ba, tya, tb, bb, tyb, m, d);
+}
 
 void down_quads_simd(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d) {
   HWY_DYNAMIC_DISPATCH(DownQuadsImpl)(r0, r1, r2, r3, m, d);

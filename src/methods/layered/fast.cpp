@@ -582,12 +582,14 @@ struct HCache {
       const float* src = img->row(c, cy);
       if (factor == 4) up_h4(src, cw, x0, n, v[i][c]);
       else up_h(src, cw, x0, n, v[i][c]);
-      // The same columns of the next coarse row, which this block's next band (or fine row)
-      // up-samples: the blocks of a band run in between, long for the hardware prefetchers to
-      // find these 256–512-byte runs of a plane by themselves (up_pairs / up_quads waited on
-      // their loads).
-      if (cy + 1 < img->height())
-        for (int x = c0; x < c1; x += 16) __builtin_prefetch(src + cw + x);
+      // The same columns of the coarse row this block's next band up-samples in this row's
+      // place (a band of 4 fine rows advances 4 / factor coarse rows): the band's other
+      // blocks run in between, which is long, and these 256–512-byte runs of a plane are too
+      // short for the hardware prefetchers to find by themselves (up_pairs / up_quads waited
+      // on their loads).
+      const int ahead = 4 / factor;
+      if (cy + ahead < img->height())
+        for (int x = c0; x < c1; x += 16) __builtin_prefetch(src + static_cast<std::size_t>(ahead) * cw + x);
     }
     return v[i];
   }

@@ -62,11 +62,22 @@ LAYERED_SIMD void lerp_rows(const float* __restrict top, const float* __restrict
   for (int j = 0; j < n; ++j) dst[j] = top[j] + (bot[j] - top[j]) * t;
 }
 
-// dst = +0 + (top + (bot − top)·t): lerp_rows followed by fill_row's "+0 +" of an all-hole block.
-LAYERED_SIMD void lerp_rows_z(const float* __restrict top, const float* __restrict bot, float t, int n,
-                              float* __restrict dst) {
-  for (int j = 0; j < n; ++j) dst[j] = 0.0f + (top[j] + (bot[j] - top[j]) * t);
+// lerp_rows of four channel rows kBlock floats apart (the row caches' layout), columns
+// [lo, hi), in one call instead of four; with plus_zero dst = +0 + (top + (bot − top)·t):
+// lerp_rows followed by fill_row's "+0 +" of an all-hole block.
+LAYERED_SIMD void lerp_rows4(const float* __restrict top, const float* __restrict bot, float t, int lo, int hi,
+                             bool plus_zero, float* __restrict dst) {
+  for (int c = 0; c < 4; ++c) {
+    const float* __restrict a = top + 256 * c;
+    const float* __restrict b = bot + 256 * c;
+    float* __restrict d = dst + 256 * c;
+    if (plus_zero)
+      for (int j = lo; j < hi; ++j) d[j] = 0.0f + (a[j] + (b[j] - a[j]) * t);
+    else
+      for (int j = lo; j < hi; ++j) d[j] = a[j] + (b[j] - a[j]) * t;
+  }
 }
+
 
 // matting.cpp for one fragment per pixel from the per-pixel codes (see FusedLayer).
 // Columns [lo, hi) of the block (the caller's span; the rest of o is left alone).
@@ -208,11 +219,20 @@ LAYERED_SIMD void code_summary(const std::uint16_t* __restrict code, const float
 }
 
 // The push at one pyramid level: v ← w v + (1 − w) up where w < 1 (as a select, so it
-// vectorises; a pixel with w >= 1 keeps its value).
-LAYERED_SIMD void push_row(const float* __restrict wr, const float* __restrict up, int n, float* __restrict v) {
+// vectorises; a pixel with w >= 1 keeps its value), with up = top + (bot − top)·t, the
+// vertical lerp of two horizontally up-sampled coarse rows (lerp_rows' expression) computed
+// in the same loop instead of stored to a row buffer first.
+//
+// Where w = 0 (no confident child) the pull stored v = +0 (Σ w = 0 gives 0, every pull and
+// shortcut), so w v + (1 − w) up = 0·(+0) + 1·up = +0 + up: that is what is written there,
+// without v. The value does not depend on what v holds, so a pull may leave v unwritten where
+// w = 0 if this push runs over the level (see pull_row's skip_hole_values).
+LAYERED_SIMD void push_lerp_row(const float* __restrict wr, const float* __restrict top, const float* __restrict bot,
+                                float t, int n, float* __restrict v) {
   for (int j = 0; j < n; ++j) {
     const float wt = wr[j];
-    const float p = wt * v[j] + (1.0f - wt) * up[j];
+    const float up = top[j] + (bot[j] - top[j]) * t;
+    const float p = wt > 0.0f ? wt * v[j] + (1.0f - wt) * up : 0.0f + up;
     v[j] = wt >= 1.0f ? v[j] : p;
   }
 }
@@ -220,14 +240,30 @@ LAYERED_SIMD void push_row(const float* __restrict wr, const float* __restrict u
 // The sum both pulls share, for one channel: the 2×2 children of coarse pixel x (masked
 // fine rows z0, z1: a skipped child is +0) de-interleaved with plain strided copies, then
 // summed in double in pull_level's order and divided by Σ w (0 where Σ w = 0).
+//
+// With rw non-null (every Σ w of the block 0 or a power of two, rw[x] = 1 / sw[x] exactly
+// there, see pull_pairs_w), sv · rw[x] instead of sv / sw[x]: the same double, since both
+// round the same exact value sv·2^−k, which is representable (sv, a sum of four floats
+// weighted by confidences, is 0 or far above double's subnormal range).
 LAYERED_SIMD void pull_sum(const float* __restrict z0, const float* __restrict z1, int m, const double* __restrict sw,
-                           float* __restrict d) {
+                           const double* __restrict rw, float* __restrict d) {
   float e0[128], o0[128], e1[128], o1[128];
   for (int x = 0; x < m; ++x) {
     e0[x] = z0[2 * x];
     o0[x] = z0[2 * x + 1];
     e1[x] = z1[2 * x];
     o1[x] = z1[2 * x + 1];
+  }
+  if (rw) {
+    for (int x = 0; x < m; ++x) {
+      double sv = 0;
+      sv += static_cast<double>(e0[x]);
+      sv += static_cast<double>(o0[x]);
+      sv += static_cast<double>(e1[x]);
+      sv += static_cast<double>(o1[x]);
+      d[x] = sw[x] > 0 ? static_cast<float>(sv * rw[x]) : 0.0f;
+    }
+    return;
   }
   for (int x = 0; x < m; ++x) {
     double sv = 0;
@@ -282,7 +318,7 @@ LAYERED_SIMD void pull_pairs(float (*r0)[256], float (*r1)[256], const std::uint
       z0[j] = g0[j] ? 0.0f : a[j];
       z1[j] = g1[j] ? 0.0f : b[j];
     }
-    pull_sum(z0, z1, c1 - c0, sw + c0, d + c0);
+    pull_sum(z0, z1, c1 - c0, sw + c0, nullptr, d + c0);
   }
 }
 
@@ -308,6 +344,22 @@ LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, c
     sw[x] = s;
     cw[x] = static_cast<float>(s / 4.0 < 1.0 ? s / 4.0 : 1.0);  // std::min(1.0, s / 4.0)
   }
+  // If every Σ w is 0 or a power of two (a zero mantissa field: Σ w is a sum of confidences,
+  // each at least 4^−l at level l, so never subnormal), its reciprocal is exact: the exponent negated,
+  // bits(2^−e) = (2046 << 52) − bits(2^e) (meaningless where Σ w = 0, which pull_sum masks).
+  // pull_sum then multiplies instead of dividing (one division per channel and pixel, the
+  // bulk of the pull's time on AVX-512): inside a layer's region Σ w = 4 (all children
+  // confident), and only blocks on a hole's border keep the division.
+  double rw[128];
+  std::uint64_t mant = 0;
+  for (int x = 0; x < m; ++x) {
+    std::uint64_t b;
+    __builtin_memcpy(&b, &sw[x], 8);
+    mant |= b & ((std::uint64_t{1} << 52) - 1);
+    const std::uint64_t r = (std::uint64_t{2046} << 52) - b;
+    __builtin_memcpy(&rw[x], &r, 8);
+  }
+  const double* rp = mant == 0 ? rw : nullptr;
   for (int c = 0; c < 4; ++c) {
     const float* __restrict a = f0[c];
     const float* __restrict b = f1[c];
@@ -316,7 +368,7 @@ LAYERED_SIMD void pull_pairs_w(const float* const* f0, const float* const* f1, c
       z0[j] = w0[j] > 0 ? w0[j] * a[j] : 0.0f;
       z1[j] = w1[j] > 0 ? w1[j] * b[j] : 0.0f;
     }
-    pull_sum(z0, z1, m, sw, cv[c]);
+    pull_sum(z0, z1, m, sw, rp, cv[c]);
   }
 }
 
@@ -394,6 +446,16 @@ LAYERED_SIMD bool any_bits(const float* __restrict p, int n) {
   return acc != 0;
 }
 
+// p[r][0 … n) = v for the rows r in [0, rows). The short constant fills of the shortcuts
+// (a pull block of known zeros or holes, a +0 band block) are 64–128 floats: GCC expands
+// std::fill of +0 there into `rep stos`, whose start-up (~40 cycles) costs more than the
+// stores (perf: 44 % of pull_row's samples); a vector loop of the clone's width does not.
+LAYERED_SIMD void fill_rows(float* const* p, int rows, int n, float v) {
+  for (int r = 0; r < rows; ++r) {
+    float* __restrict d = p[r];
+    for (int j = 0; j < n; ++j) d[j] = v;
+  }
+}
 
 }  // namespace kern
 
@@ -519,10 +581,20 @@ struct HCache {
     next = (next + 1) & 3;
     key[i] = cy;
     const int cw = img->width();
+    // The coarse columns up_h / up_h4 read, [x0/f − 1, (x0 + n − 1)/f + 1] (clamped).
+    const int c0 = std::max(0, x0 / factor - 1), c1 = std::min(cw, (x0 + n - 1) / factor + 2);
     for (int c = 0; c < 4; ++c) {
       const float* src = img->row(c, cy);
       if (factor == 4) up_h4(src, cw, x0, n, v[i][c]);
       else up_h(src, cw, x0, n, v[i][c]);
+      // The same columns of the coarse row this block's next band up-samples in this row's
+      // place (a band of 4 fine rows advances 4 / factor coarse rows): the band's other
+      // blocks run in between, which is long, and these 256–512-byte runs of a plane are too
+      // short for the hardware prefetchers to find by themselves (up_pairs / up_quads waited
+      // on their loads).
+      const int ahead = 4 / factor;
+      if (cy + ahead < img->height())
+        for (int x = c0; x < c1; x += 16) __builtin_prefetch(src + static_cast<std::size_t>(ahead) * cw + x);
     }
     return v[i];
   }
@@ -542,7 +614,7 @@ struct HCache {
   const float* pa[4];
   const float* pb[4];
   // The 2× / 4× up-sampling of all channels at fine row y (up_block's result); with
-  // plus_zero, +0 + that (see lerp_rows_z). Written only at columns [lo, hi) of the n
+  // plus_zero, +0 + that (see lerp_rows4). Written only at columns [lo, hi) of the n
   // (the cached horizontal rows still cover all n).
   void get(int y, int n, float (*dst)[kBlock], bool plus_zero = false) { get(y, n, 0, n, dst, plus_zero); }
   void get(int y, int n, int lo, int hi, float (*dst)[kBlock], bool plus_zero = false) {
@@ -551,10 +623,7 @@ struct HCache {
     core::bilinear_footprint((y + 0.5f) * (factor == 4 ? 0.25f : 0.5f), img->height(), ya, yb, ty);
     float (*a)[kBlock] = row(ya, n);
     float (*b)[kBlock] = row(yb, n);
-    for (int c = 0; c < 4; ++c) {
-      if (plus_zero) kern::lerp_rows_z(a[c] + lo, b[c] + lo, ty, hi - lo, dst[c] + lo);
-      else kern::lerp_rows(a[c] + lo, b[c] + lo, ty, hi - lo, dst[c] + lo);
-    }
+    kern::lerp_rows4(a[0], b[0], ty, lo, hi, plus_zero, dst[0]);
   }
 };
 
@@ -682,58 +751,66 @@ Pyramid make_pyramid(Workspace& ws, int w, int h, const std::string& prefix = "l
   return p;
 }
 
-// Pull of levels 2 … L from level 1, then the push from the top down to level 1:
-// v ← w v + (1 − w) up(v_{l+1}) where w < 1.
-void pull_push_upper(const Pyramid& p) {
-  for (int l = 2; l < p.levels; ++l) {
+// Row y of pyramid level l + 1 (cv, cwt) pulled from level l (fine, fwt): pull_level's
+// arithmetic, with the shortcuts below. Needs fine rows 2y and 2y + 1 (where it exists) only.
+void pull_upper_row(const Image& fine, const Image& fwt, Image& cv, Image& cwt, int y) {
+  const int fw = fine.width(), fh = fine.height(), cw = cv.width();
+  int x = 0;
+  if (2 * y + 1 < fh) {  // interior blocks of full 2×2 children, 128 at a time
+    const int full = fw / 2;
+    for (; x < full; x += 128) {
+      const int m = std::min(128, full - x);
+      const float* f0[4];
+      const float* f1[4];
+      float* o[4];
+      for (int k = 0; k < 4; ++k) {
+        f0[k] = fine.row(k, 2 * y) + 2 * x;
+        f1[k] = fine.row(k, 2 * y + 1) + 2 * x;
+        o[k] = cv.row(k, y) + x;
+      }
+      const float* wa = fwt.row(0, 2 * y) + 2 * x;
+      const float* wb = fwt.row(0, 2 * y + 1) + 2 * x;
+      const bool any = core::any_positive(wa, 2 * m) || core::any_positive(wb, 2 * m);  // a child the pull counts
+      if (!any) {  // no child with confidence: Σ w = 0 gives value 0, confidence 0
+        float* cwp = cwt.row(0, y) + x;
+        kern::fill_rows(o, 4, m, 0.0f);
+        kern::fill_rows(&cwp, 1, m, 0.0f);
+        continue;
+      }
+      if (kern::all_one(wa, 2 * m) && kern::all_one(wb, 2 * m)) {
+        bool zero = true;
+        for (int k = 0; k < 4 && zero; ++k)
+          zero = !kern::any_bits(f0[k], 2 * m) && !kern::any_bits(f1[k], 2 * m);
+        if (zero) {
+          // Four children of confidence 1 and value +0 (a region where the layer is known
+          // to be empty): Σ w v = +0 + 1·(+0) + … = +0, Σ w = 4, so value +0 / 4 = +0 and
+          // confidence min(1, 4/4) = 1, exactly what pull_pairs_w computes.
+          float* cwp = cwt.row(0, y) + x;
+          kern::fill_rows(o, 4, m, 0.0f);
+          kern::fill_rows(&cwp, 1, m, 1.0f);
+          continue;
+        }
+      }
+      kern::pull_pairs_w(f0, f1, wa, wb, m, o, cwt.row(0, y) + x);
+    }
+    x = full;
+  }
+  for (; x < cw; ++x)  // the rest, one pixel at a time
+    pull_pixel(fine, [&](int fx, int fy) { return fwt.row(0, fy)[fx]; }, x, y, cv, cwt);
+}
+
+// Pull of levels `first` … L (first >= 2) from the level below, then the push from the top
+// down to level 1: v ← w v + (1 − w) up(v_{l+1}) where w < 1. With first = 3, level 2 has
+// been pulled already, row by row, by the pass that wrote level 1 (pull_upper_row on level
+// 1's rows while they were in cache): the same rows from the same inputs.
+void pull_push_upper(const Pyramid& p, int first = 2) {
+  for (int l = first; l < p.levels; ++l) {
     const Image& fine = *p.val[l - 1];
     const Image& fwt = *p.wgt[l - 1];
     Image& cv = *p.val[l];
     Image& cwt = *p.wgt[l];
-    const int fw = fine.width(), fh = fine.height(), cw = cv.width();
     core::parallel_for(cv.height(), [&](int y0, int y1) {
-      for (int y = y0; y < y1; ++y) {
-        int x = 0;
-        if (2 * y + 1 < fh) {  // interior blocks of full 2×2 children, 128 at a time
-          const int full = fw / 2;
-          for (; x < full; x += 128) {
-            const int m = std::min(128, full - x);
-            const float* f0[4];
-            const float* f1[4];
-            float* o[4];
-            for (int k = 0; k < 4; ++k) {
-              f0[k] = fine.row(k, 2 * y) + 2 * x;
-              f1[k] = fine.row(k, 2 * y + 1) + 2 * x;
-              o[k] = cv.row(k, y) + x;
-            }
-            const float* wa = fwt.row(0, 2 * y) + 2 * x;
-            const float* wb = fwt.row(0, 2 * y + 1) + 2 * x;
-            const bool any = core::any_positive(wa, 2 * m) || core::any_positive(wb, 2 * m);  // a child the pull counts
-            if (!any) {  // no child with confidence: Σ w = 0 gives value 0, confidence 0
-              for (int k = 0; k < 4; ++k) std::fill(o[k], o[k] + m, 0.0f);
-              std::fill(cwt.row(0, y) + x, cwt.row(0, y) + x + m, 0.0f);
-              continue;
-            }
-            if (kern::all_one(wa, 2 * m) && kern::all_one(wb, 2 * m)) {
-              bool zero = true;
-              for (int k = 0; k < 4 && zero; ++k)
-                zero = !kern::any_bits(f0[k], 2 * m) && !kern::any_bits(f1[k], 2 * m);
-              if (zero) {
-                // Four children of confidence 1 and value +0 (a region where the layer is known
-                // to be empty): Σ w v = +0 + 1·(+0) + … = +0, Σ w = 4, so value +0 / 4 = +0 and
-                // confidence min(1, 4/4) = 1, exactly what pull_pairs_w computes.
-                for (int k = 0; k < 4; ++k) std::fill(o[k], o[k] + m, 0.0f);
-                std::fill(cwt.row(0, y) + x, cwt.row(0, y) + x + m, 1.0f);
-                continue;
-              }
-            }
-            kern::pull_pairs_w(f0, f1, wa, wb, m, o, cwt.row(0, y) + x);
-          }
-          x = full;
-        }
-        for (; x < cw; ++x)  // the rest, one pixel at a time
-          pull_pixel(fine, [&](int fx, int fy) { return fwt.row(0, fy)[fx]; }, x, y, cv, cwt);
-      }
+      for (int y = y0; y < y1; ++y) pull_upper_row(fine, fwt, cv, cwt, y);
     }, 8);
   }
   for (int l = p.levels - 2; l >= 1; --l) {
@@ -747,7 +824,6 @@ void pull_push_upper(const Pyramid& p) {
       // a coarse row serves four fine rows, and is up-sampled once per task instead of four
       // times. Default-initialised buffers (only the keys are set).
       std::unique_ptr<HCache[]> cache(new HCache[nb]);
-      float up[4][kBlock];
       for (int y = y0; y < y1; ++y) {
         const float* wr = fwt.row(0, y);
         for (int x0 = 0; x0 < fw; x0 += kBlock) {
@@ -755,8 +831,11 @@ void pull_push_upper(const Pyramid& p) {
           if (!kern::any_below_one(wr + x0, n)) continue;
           HCache& hc = cache[x0 / kBlock];
           if (hc.img != &cv) hc.reset(&cv, 2, x0);
-          hc.get(y, n, up);
-          for (int k = 0; k < 4; ++k) kern::push_row(wr + x0, up[k], n, fv.row(k, y) + x0);
+          const float* const* top;
+          const float* const* bot;
+          float ty;
+          hc.rows(y, n, top, bot, ty);  // the vertical lerp of up_block, inside the push
+          for (int k = 0; k < 4; ++k) kern::push_lerp_row(wr + x0, top[k], bot[k], ty, n, fv.row(k, y) + x0);
         }
       }
     }, 8);
@@ -879,8 +958,12 @@ ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
 }
 
 // kBlock floats of +0: the rows of an accumulator that a ZeroMap shows to be +0.
-alignas(64) const float kZeroRow[kBlock] = {};
-const float* const kZeroRows[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
+// Four rows, so that they have the row caches' layout (channel c at + c·kRowStride, which
+// the fused kernels rely on: fused_simd.hpp).
+static_assert(kBlock == kRowStride);
+alignas(64) const float kZero4[4][kBlock] = {};
+const float* const kZeroRow = kZero4[0];
+const float* const kZeroRows[4] = {kZero4[0], kZero4[1], kZero4[2], kZero4[3]};
 
 // A read-only view of an accumulator's content by row blocks: the full image, or the
 // up-sampling of its half-resolution image computed on the fly.
@@ -1213,7 +1296,14 @@ struct FusedLayer {
 
 // Pyramid level 1 of the layer (pull_level's arithmetic, children from the generator): coarse
 // row yc. r / hb: scratch for two fine rows.
-void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][kBlock], std::uint8_t (*hb)[kBlock]) {
+//
+// skip_hole_values: a block of four holes gets its confidences (0) but not its values (+0):
+// only for a level the push then runs over (a pyramid above level 1), which writes +0 + up
+// wherever w = 0 without reading v (push_lerp_row); before it, v is read where w = 0 only by
+// the pull of level 2, which skips such children (their products are masked to +0), so no
+// value depends on what v held there. Saves 4 of the 5 plane fills of such blocks.
+void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][kBlock], std::uint8_t (*hb)[kBlock],
+              bool skip_hole_values = false) {
   const int w = L.w, h = L.h;
   const int rows = 2 * yc + 1 < h ? 2 : 1;
   for (int x0 = 0; x0 < w; x0 += kBlock) {
@@ -1226,8 +1316,9 @@ void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][
       const FusedLayer::Cls c0 = L.cls(2 * yc, x0), c1 = L.cls(2 * yc + 1, x0);
       if (c0 == c1 && c0 != FusedLayer::kGeneral && 2 * m == n) {
         // Four known zeros: value 0 / 4 = 0, confidence 1; four holes: 0 and 0.
-        for (int k = 0; k < 4; ++k) std::fill(cvp[k], cvp[k] + m, 0.0f);
-        std::fill(cwt.row(0, yc) + xc, cwt.row(0, yc) + xc + m, c0 == FusedLayer::kEmptyKnown ? 1.0f : 0.0f);
+        if (!(skip_hole_values && c0 == FusedLayer::kEmptyHole)) kern::fill_rows(cvp, 4, m, 0.0f);
+        float* cwp = cwt.row(0, yc) + xc;
+        kern::fill_rows(&cwp, 1, m, c0 == FusedLayer::kEmptyKnown ? 1.0f : 0.0f);
         continue;
       }
       // Both rows are +0 outside the union [lo, hi) of their spans (FusedLayer::matte), and
@@ -1289,20 +1380,34 @@ void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][
   }
 }
 
-void pull_from_layer(const FusedLayer& L, Image& cv, Image& cwt) {
-  core::parallel_for(cv.height(), [&](int y0, int y1) {
+// Pyramid level 1 of the layer (cv, cwt) and, if cv2 is non-null, level 2 from it (cv2,
+// cwt2): row y of level 2 right after the level-1 rows 2y, 2y + 1 it reads, while they are
+// in cache (pull_upper_row; the values do not depend on when a row is pulled).
+void pull_from_layer(const FusedLayer& L, Image& cv, Image& cwt, Image* cv2, Image* cwt2) {
+  const int rows = cv2 ? cv2->height() : cv.height();
+  core::parallel_for(rows, [&](int y0, int y1) {
     float r[2][4][kBlock];
     std::uint8_t hb[2][kBlock];
-    for (int yc = y0; yc < y1; ++yc) pull_row(L, yc, cv, cwt, r, hb);
-  }, 4);
+    for (int y = y0; y < y1; ++y) {
+      if (!cv2) {
+        pull_row(L, y, cv, cwt, r, hb);
+        continue;
+      }
+      for (int yc = 2 * y; yc < std::min(2 * y + 2, cv.height()); ++yc) pull_row(L, yc, cv, cwt, r, hb, true);
+      pull_upper_row(cv, cwt, *cv2, *cwt2, y);
+    }
+  }, cv2 ? 2 : 4);
 }
 
-// The pull of the next layer's pyramid level 1, done in the same pass as a composite (the
-// two read the same input rows, once from memory).
+// The pull of the next layer's pyramid levels 1 and (if cv2 is non-null) 2, done in the same
+// pass as a composite (the two read the same input rows, once from memory; level 2 reads
+// level 1's rows while they are in cache).
 struct NextPull {
   const FusedLayer* L = nullptr;
   Image* cv = nullptr;
   Image* cwt = nullptr;
+  Image* cv2 = nullptr;
+  Image* cwt2 = nullptr;
 };
 
 // The spans of FusedLayer::bspan for one row block of n <= kBlock pixels, from its chunk
@@ -1399,12 +1504,11 @@ void fused_row(const FusedLayer& L, int y, int x0, int n, HCache& fill_cache, in
     if (acc_cache->img != acc || acc_cache->x0 != x0) acc_cache->reset(acc, factor, x0);
     acc_cache->rows(y, n, at, ab, r.aty);
   }
-  for (int ch = 0; ch < 4; ++ch) {
-    r.ft[ch] = ft[ch];
-    r.fb[ch] = fb[ch];
-    r.at[ch] = at[ch];
-    r.ab[ch] = ab[ch];
-  }
+  // Rows of the HCaches or kZeroRows: channel ch at + ch·kRowStride, as crow_row_simd reads them.
+  r.ft = ft[0];
+  r.fb = fb[0];
+  r.at = at[0];
+  r.ab = ab[0];
   r.front = front;
   crow_row_simd(r, n, sp.first, sp.second, a0, a1, c);
 }
@@ -1420,6 +1524,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     float tmp[4][kBlock];
     float pr[2][4][kBlock];
     std::uint8_t phb[2][kBlock];
+    float qacc[4 * (kBlock / 4)];  // lerp_quads_acc_simd's partial 4×4 sums
     HCache* acc;   // nbc caches of A's rows, one per column block
     HCache* fill;  // nbc caches of the fill's pyramid level
   };
@@ -1480,6 +1585,9 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     std::unique_ptr<HCache[]> caches(new HCache[2 * nbc]);
     s.acc = caches.get();
     s.fill = caches.get() + nbc;
+    // Counted per task and added once (an atomic add per block bounced the counter's cache
+    // line between the two cores).
+    std::uint64_t task_zero_blocks = 0;
     for (int b = b0; b < b1; ++b) {
       int ys[4], src[4];
       for (int dy = 0; dy < 4; ++dy) ys[dy] = std::min(4 * b + dy, h - 1);
@@ -1489,16 +1597,67 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
         if ((!A.present() || azero) && empty(ys[0], x0) && empty(ys[1], x0) && empty(ys[2], x0) && empty(ys[3], x0)) {
           // An empty layer over (or under) +0: the composite is +0, and so are its 2×2 and
           // 4×4 box means (0.25 · (+0 + … + +0) = +0).
-          zero_blocks.fetch_add(1, std::memory_order_relaxed);
+          ++task_zero_blocks;
+          float* d[4];
           if (dst_full) {
-            for (int dy = 0; dy < 4 && 4 * b + dy < h; ++dy)
-              for (int ch = 0; ch < 4; ++ch) std::fill_n(dst_full->row(ch, 4 * b + dy) + x0, n, 0.0f);
+            for (int dy = 0; dy < 4 && 4 * b + dy < h; ++dy) {
+              for (int ch = 0; ch < 4; ++ch) d[ch] = dst_full->row(ch, 4 * b + dy) + x0;
+              kern::fill_rows(d, 4, n, 0.0f);
+            }
           } else if (dst_quarter) {
-            for (int ch = 0; ch < 4; ++ch) std::fill(dst_quarter->row(ch, b) + x0 / 4, dst_quarter->row(ch, b) + (x0 + n + 3) / 4, 0.0f);
+            for (int ch = 0; ch < 4; ++ch) d[ch] = dst_quarter->row(ch, b) + x0 / 4;
+            kern::fill_rows(d, 4, (x0 + n + 3) / 4 - x0 / 4, 0.0f);
           } else {
-            for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh)
-              for (int ch = 0; ch < 4; ++ch)
-                std::fill(dst_half->row(ch, yh) + x0 / 2, dst_half->row(ch, yh) + (x0 + n + 1) / 2, 0.0f);
+            for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
+              for (int ch = 0; ch < 4; ++ch) d[ch] = dst_half->row(ch, yh) + x0 / 2;
+              kern::fill_rows(d, 4, (x0 + n + 1) / 2 - x0 / 2, 0.0f);
+            }
+          }
+          continue;
+        }
+        if (A.half && !azero && !dst_full && n % (dst_quarter ? 4 : 2) == 0 && empty(ys[0], x0) &&
+            empty(ys[1], x0) && empty(ys[2], x0) && empty(ys[3], x0)) {
+          // An empty layer over a reduced accumulator that is not +0 here (a quarter of the
+          // band blocks on the bench frame): every row is A's up-sampling (crow's A.get, the
+          // vertical lerp of the cached rows), and the 2×2 / 4×4 box reads it straight from
+          // the lerps in the same kernel (lerp_quads_acc_simd / lerp_pairs_box_simd: the same
+          // lerps and the same sums in the same order as lerp_rows4 then down_quads_simd /
+          // down_pairs), instead of storing the four rows first. With n a multiple of the box
+          // width there is no clamped last output (the general path below takes the rest).
+          HCache& ac = s.acc[x0 / kBlock];
+          if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0);
+          if (dst_quarter) {
+            const int m = n / 4;
+            for (int dy = 0; dy < 4; ++dy) {  // rows in order: the sums' order (see lerp_quads_acc_simd)
+              const float* const* top;
+              const float* const* bot;
+              float ty;
+              ac.rows(ys[dy], n, top, bot, ty);
+              lerp_quads_acc_simd(top[0], bot[0], ty, m, dy == 0, s.qacc);
+            }
+            for (int ch = 0; ch < 4; ++ch) {
+              float* d = dst_quarter->row(ch, b) + x0 / 4;
+              const float* q = s.qacc + (kBlock / 4) * ch;
+              for (int x = 0; x < m; ++x) d[x] = 0.0625f * q[x];
+            }
+          } else {
+            for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
+              const int da = 2 * (yh - 2 * b);  // rows 2yh and min(2yh + 1, h − 1) of the band
+              const float* const* ta;
+              const float* const* ba;
+              const float* const* tb;
+              const float* const* bb;
+              float tya, tyb;
+              // The second row's cache lookup may replace an entry, not the first row's
+              // (HCache::row: rows asked in increasing order; the pointers are read before).
+              ac.rows(ys[da], n, ta, ba, tya);
+              const float* a0 = ta[0];
+              const float* a1 = ba[0];
+              ac.rows(ys[da + 1], n, tb, bb, tyb);
+              float* d[4];
+              for (int ch = 0; ch < 4; ++ch) d[ch] = dst_half->row(ch, yh) + x0 / 2;
+              lerp_pairs_box_simd(a0, a1, tya, tb[0], bb[0], tyb, n / 2, d);
+            }
           }
           continue;
         }
@@ -1544,9 +1703,15 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
           }
         }
       }
-      if (next.L)
-        for (int yc = 2 * b; yc < std::min(2 * b + 2, hh); ++yc) pull_row(*next.L, yc, *next.cv, *next.cwt, s.pr, s.phb);
+      if (next.L) {
+        for (int yc = 2 * b; yc < std::min(2 * b + 2, hh); ++yc)
+          pull_row(*next.L, yc, *next.cv, *next.cwt, s.pr, s.phb, next.cv2 != nullptr);
+        // Level 2's row b reads level 1's rows 2b, 2b + 1: those just written (level 2 has
+        // (hh + 1) / 2 = bands rows).
+        if (next.cv2) pull_upper_row(*next.cv, *next.cwt, *next.cv2, *next.cwt2, b);
+      }
     }
+    if (task_zero_blocks) zero_blocks.fetch_add(task_zero_blocks, std::memory_order_relaxed);
   }, 1);
 }
 
@@ -1742,12 +1907,15 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   const Pyramid pyr[2] = {make_pyramid(ws, w, h, "layered.pp"), make_pyramid(ws, w, h, "layered.pq")};
   const bool pyramid = pyr[0].levels > 1;
   auto needs_pull = [&](std::size_t u) { return u < units.size() && units[u].fill && pyramid; };
+  // Level 2 (if the pyramid has one) is pulled in the pass that pulls level 1.
+  const bool has_l2 = pyr[0].levels > 2;
   auto finish_pull = [&](std::size_t u) {
-    pull_push_upper(pyr[u % 2]);
+    pull_push_upper(pyr[u % 2], has_l2 ? 3 : 2);
     units[u].l1 = pyr[u % 2].val[1];
   };
   if (needs_pull(0)) {
-    pull_from_layer(units[0], *pyr[0].val[1], *pyr[0].wgt[1]);
+    pull_from_layer(units[0], *pyr[0].val[1], *pyr[0].wgt[1], has_l2 ? pyr[0].val[2] : nullptr,
+                    has_l2 ? pyr[0].wgt[2] : nullptr);
     finish_pull(0);
   }
 
@@ -1773,7 +1941,10 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     const std::string name = job.back ? "layered.fb" : "layered.ff";
     const FusedLayer& L = units[i];
     NextPull next;
-    if (needs_pull(i + 1)) next = {&units[i + 1], pyr[(i + 1) % 2].val[1], pyr[(i + 1) % 2].wgt[1]};
+    if (needs_pull(i + 1)) {
+      const Pyramid& p = pyr[(i + 1) % 2];
+      next = {&units[i + 1], p.val[1], p.wgt[1], has_l2 ? p.val[2] : nullptr, has_l2 ? p.wgt[2] : nullptr};
+    }
     const AccRows A(s.has ? s.full : nullptr, s.has ? s.half : nullptr, s.factor, &s.zero);
     const double var = job.var;
     const double sigma = std::sqrt(var);
@@ -1844,8 +2015,8 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
             // cur over B, then F over that, with their up-sampling's vertical lerp in the same
             // kernel (final_row_simd; rows of +0 where a zero map says so).
             FinalRow fr;
-            for (int c = 0; c < 4; ++c) fr.c[c] = cur[c];
-            auto side = [&](const AccRows& R, HCache& cache, int& mode, const float** top, const float** bot, float& ty) {
+            fr.c = cur[0];  // cur, the caches' rows and kZeroRows: channels kRowStride apart
+            auto side = [&](const AccRows& R, HCache& cache, int& mode, const float*& top, const float*& bot, float& ty) {
               ty = 0.0f;
               mode = R.present() ? 1 : 0;
               const float* const* a = kZeroRows;
@@ -1855,10 +2026,8 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
                 cache.rows(y, n, a, b, ty);
                 mode = 2;
               }
-              for (int c = 0; c < 4; ++c) {
-                top[c] = a[c];
-                bot[c] = b[c];
-              }
+              top = a[0];
+              bot = b[0];
             };
             side(BR, caches[nbf + x0 / kBlock], fr.bm, fr.bt, fr.bb, fr.bty);
             side(FR, caches[2 * nbf + x0 / kBlock], fr.fm, fr.ft, fr.fb, fr.fty);

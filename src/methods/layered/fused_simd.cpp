@@ -18,20 +18,31 @@ namespace dofkit::detail::layered {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-// The row pointers of one crow segment, indexed by column (the tail points them at padded copies).
+// The row pointers of one crow segment (the tail points them at padded copies): the colour
+// rows, and one pointer per four-channel row group (ft, fb, at, ab, c), channel ch at
+// + S·ch (S = kRowStride, or the tail copies' stride).
 struct CrowPtrs {
   const std::uint16_t* code;
   const float* w0;
   const float* in[4];
-  const float* ft[4];
-  const float* fb[4];
-  const float* at[4];
-  const float* ab[4];
-  float* c[4];
+  const float* ft;
+  const float* fb;
+  const float* at;
+  const float* ab;
+  float* c;
 };
 
-template <bool M, bool H, bool FG, int AM, bool FRONT>
-HWY_INLINE void CrowVec(const CrowRow& r, const CrowPtrs& p, std::size_t j) {
+// CrowRow's scalars, copied out of it into a local: Highway's vector stores may alias
+// anything, so read through the CrowRow the compiler reloaded them (and recomputed the
+// vectors made from them) for every vector of the loop.
+struct CrowScalars {
+  int k;
+  float fty, aty;
+  bool opaque, under;
+};
+
+template <bool M, bool H, bool FG, int AM, bool FRONT, int S>
+HWY_INLINE void CrowVec(const CrowScalars& r, const CrowPtrs& p, std::size_t j) {
   const hn::ScalableTag<float> df;
   const hn::RebindToSigned<decltype(df)> di;
   const hn::Rebind<std::uint16_t, decltype(df)> dh;
@@ -53,8 +64,8 @@ HWY_INLINE void CrowVec(const CrowRow& r, const CrowPtrs& p, std::size_t j) {
     const auto hb = hn::RebindMask(df, hn::Gt(hn::Set(di, r.k + 1), hn::ShiftRight<6>(cd)));  // k >= hk
     const auto ty = hn::Set(df, r.fty);
     auto lerp = [&](int ch) {
-      const auto t = hn::LoadU(df, p.ft[ch] + j);
-      return hn::Add(t, hn::Mul(hn::Sub(hn::LoadU(df, p.fb[ch] + j), t), ty));
+      const auto t = hn::LoadU(df, p.ft + S * ch + j);
+      return hn::Add(t, hn::Mul(hn::Sub(hn::LoadU(df, p.fb + S * ch + j), t), ty));
     };
     auto v0 = hn::Add(hn::Mul(zero, m0), lerp(0));
     auto v1 = hn::Add(hn::Mul(zero, m1), lerp(1));
@@ -81,17 +92,17 @@ HWY_INLINE void CrowVec(const CrowRow& r, const CrowPtrs& p, std::size_t j) {
     m3 = hn::IfThenElse(hb, v3, m3);
   }
   if constexpr (AM == 0) {
-    hn::StoreU(m0, df, p.c[0] + j);
-    hn::StoreU(m1, df, p.c[1] + j);
-    hn::StoreU(m2, df, p.c[2] + j);
-    hn::StoreU(m3, df, p.c[3] + j);
+    hn::StoreU(m0, df, p.c + j);
+    hn::StoreU(m1, df, p.c + S + j);
+    hn::StoreU(m2, df, p.c + 2 * S + j);
+    hn::StoreU(m3, df, p.c + 3 * S + j);
   } else {
     auto a0 = zero, a1 = zero, a2 = zero, a3 = zero;
     if constexpr (AM == 2) {  // the accumulator's bilinear up-sampling, vertical lerp
       const auto ty = hn::Set(df, r.aty);
       auto lerp = [&](int ch) {
-        const auto t = hn::LoadU(df, p.at[ch] + j);
-        return hn::Add(t, hn::Mul(hn::Sub(hn::LoadU(df, p.ab[ch] + j), t), ty));
+        const auto t = hn::LoadU(df, p.at + S * ch + j);
+        return hn::Add(t, hn::Mul(hn::Sub(hn::LoadU(df, p.ab + S * ch + j), t), ty));
       };
       a0 = lerp(0);
       a1 = lerp(1);
@@ -100,62 +111,66 @@ HWY_INLINE void CrowVec(const CrowRow& r, const CrowPtrs& p, std::size_t j) {
     }
     if constexpr (FRONT) {  // composite.cpp over(): f + (1 − f.a)·b
       const auto t = hn::Sub(one, m3);
-      hn::StoreU(hn::Add(m0, hn::Mul(t, a0)), df, p.c[0] + j);
-      hn::StoreU(hn::Add(m1, hn::Mul(t, a1)), df, p.c[1] + j);
-      hn::StoreU(hn::Add(m2, hn::Mul(t, a2)), df, p.c[2] + j);
-      hn::StoreU(hn::Add(m3, hn::Mul(t, a3)), df, p.c[3] + j);
+      hn::StoreU(hn::Add(m0, hn::Mul(t, a0)), df, p.c + j);
+      hn::StoreU(hn::Add(m1, hn::Mul(t, a1)), df, p.c + S + j);
+      hn::StoreU(hn::Add(m2, hn::Mul(t, a2)), df, p.c + 2 * S + j);
+      hn::StoreU(hn::Add(m3, hn::Mul(t, a3)), df, p.c + 3 * S + j);
     } else {
       const auto t = hn::Sub(one, a3);
-      hn::StoreU(hn::Add(a0, hn::Mul(t, m0)), df, p.c[0] + j);
-      hn::StoreU(hn::Add(a1, hn::Mul(t, m1)), df, p.c[1] + j);
-      hn::StoreU(hn::Add(a2, hn::Mul(t, m2)), df, p.c[2] + j);
-      hn::StoreU(hn::Add(a3, hn::Mul(t, m3)), df, p.c[3] + j);
+      hn::StoreU(hn::Add(a0, hn::Mul(t, m0)), df, p.c + j);
+      hn::StoreU(hn::Add(a1, hn::Mul(t, m1)), df, p.c + S + j);
+      hn::StoreU(hn::Add(a2, hn::Mul(t, m2)), df, p.c + 2 * S + j);
+      hn::StoreU(hn::Add(a3, hn::Mul(t, m3)), df, p.c + 3 * S + j);
     }
   }
 }
 
 template <bool M, bool H, bool FG, int AM, bool FRONT>
-HWY_INLINE void CrowLoop(const CrowRow& r, int s, int e, float (*c)[256]) {
+HWY_INLINE void CrowLoop(const CrowRow& row, int s, int e, float (*c)[256]) {
   const hn::ScalableTag<float> df;
   const int n = static_cast<int>(hn::Lanes(df));
+  const CrowScalars r{row.k, row.fty, row.aty, row.opaque, row.under};
   CrowPtrs p;
-  p.code = r.code;
-  p.w0 = r.w0;
-  for (int ch = 0; ch < 4; ++ch) {
-    p.in[ch] = r.in[ch];
-    p.ft[ch] = r.ft[ch];
-    p.fb[ch] = r.fb[ch];
-    p.at[ch] = r.at[ch];
-    p.ab[ch] = r.ab[ch];
-    p.c[ch] = c[ch];
-  }
+  p.code = row.code;
+  p.w0 = row.w0;
+  for (int ch = 0; ch < 4; ++ch) p.in[ch] = row.in[ch];
+  p.ft = row.ft;
+  p.fb = row.fb;
+  p.at = row.at;
+  p.ab = row.ab;
+  p.c = c[0];
   int j = s;
-  for (; j + n <= e; j += n) CrowVec<M, H, FG, AM, FRONT>(r, p, static_cast<std::size_t>(j));
+  for (; j + n <= e; j += n) CrowVec<M, H, FG, AM, FRONT, kRowStride>(r, p, static_cast<std::size_t>(j));
   if (j >= e) return;
-  // Tail: the same vector code on copies of the m = e − j remaining columns, padded.
+  // Tail: the same vector code on copies of the m = e − j remaining columns, padded (the
+  // row groups with the copies' own channel stride L).
   const int m = e - j;
-  HWY_ALIGN float buf[25][HWY_LANES(float)] = {};
-  HWY_ALIGN std::uint16_t cbuf[HWY_LANES(float)] = {};
+  constexpr int L = HWY_LANES(float);
+  HWY_ALIGN float buf[5][L] = {};
+  HWY_ALIGN float grp[5][4 * L] = {};
+  HWY_ALIGN std::uint16_t cbuf[L] = {};
   CrowPtrs t;
+  for (int i = 0; i < m; ++i) cbuf[i] = (M || H) ? row.code[j + i] : 0;
   auto copy = [&](const float* src, int slot) {
-    if (src)
-      for (int i = 0; i < m; ++i) buf[slot][i] = src[j + i];
+    for (int i = 0; i < m; ++i) buf[slot][i] = src[j + i];
     return buf[slot];
   };
-  for (int i = 0; i < m; ++i) cbuf[i] = (M || H) ? r.code[j + i] : 0;
+  auto copy4 = [&](const float* src, int slot) {
+    for (int ch = 0; ch < 4; ++ch)
+      for (int i = 0; i < m; ++i) grp[slot][L * ch + i] = src[kRowStride * ch + j + i];
+    return grp[slot];
+  };
   t.code = cbuf;
-  t.w0 = M ? copy(r.w0, 0) : buf[0];
-  for (int ch = 0; ch < 4; ++ch) {
-    t.in[ch] = M ? copy(r.in[ch], 1 + ch) : buf[1 + ch];
-    t.ft[ch] = H ? copy(r.ft[ch], 5 + ch) : buf[5 + ch];
-    t.fb[ch] = H ? copy(r.fb[ch], 9 + ch) : buf[9 + ch];
-    t.at[ch] = AM == 2 ? copy(r.at[ch], 13 + ch) : buf[13 + ch];
-    t.ab[ch] = AM == 2 ? copy(r.ab[ch], 17 + ch) : buf[17 + ch];
-    t.c[ch] = buf[21 + ch];
-  }
-  CrowVec<M, H, FG, AM, FRONT>(r, t, 0);
+  t.w0 = M ? copy(row.w0, 0) : buf[0];
+  for (int ch = 0; ch < 4; ++ch) t.in[ch] = M ? copy(row.in[ch], 1 + ch) : buf[1 + ch];
+  t.ft = H ? copy4(row.ft, 0) : grp[0];
+  t.fb = H ? copy4(row.fb, 1) : grp[1];
+  t.at = AM == 2 ? copy4(row.at, 2) : grp[2];
+  t.ab = AM == 2 ? copy4(row.ab, 3) : grp[3];
+  t.c = grp[4];
+  CrowVec<M, H, FG, AM, FRONT, L>(r, t, 0);
   for (int ch = 0; ch < 4; ++ch)
-    for (int i = 0; i < m; ++i) c[ch][j + i] = buf[21 + ch][i];
+    for (int i = 0; i < m; ++i) c[ch][j + i] = grp[4][L * ch + i];
 }
 
 template <bool M, bool H, bool FG>
@@ -174,16 +189,22 @@ void CrowRowImpl(const CrowRow& r, int n, int lo, int hi, int a0, int a1, float 
   if (hi <= lo) lo = hi = n;
   if (a1 <= a0) a0 = a1 = n;
   const bool fg = r.opaque || r.under;
-  int cut[6] = {0, lo, hi, a0, a1, n};
-  for (int i = 1; i < 6; ++i)  // the cuts in order (insertion sort)
-    for (int q = i; q > 0 && cut[q] < cut[q - 1]; --q) {
-      const int t = cut[q];
-      cut[q] = cut[q - 1];
-      cut[q - 1] = t;
-    }
-  for (int i = 0; i < 5; ++i) {
-    const int s = cut[i], e = cut[i + 1];
-    if (e <= s) continue;
+  // The cuts in order: a sorting network of compare-exchanges on scalars (GCC vectorised the
+  // insertion sort this replaced into stores and overlapping reloads of a stack array that
+  // missed store forwarding: ~6 % of this kernel's samples).
+  int q0 = lo, q1 = hi, q2 = a0, q3 = a1;
+  auto cx = [](int& x, int& y) {
+    const int t = x < y ? x : y;
+    y = x < y ? y : x;
+    x = t;
+  };
+  cx(q0, q1);
+  cx(q2, q3);
+  cx(q0, q2);
+  cx(q1, q3);
+  cx(q1, q2);
+  auto seg = [&](int s, int e) {
+    if (e <= s) return;
     const bool m = s >= lo && s < hi, h = s >= a0 && s < a1;
     if (m && h) {
       if (fg) CrowSeg<true, true, true>(r, s, e, c);
@@ -196,7 +217,12 @@ void CrowRowImpl(const CrowRow& r, int n, int lo, int hi, int a0, int a1, float 
     } else {
       CrowSeg<false, false, false>(r, s, e, c);
     }
-  }
+  };
+  seg(0, q0);
+  seg(q0, q1);
+  seg(q1, q2);
+  seg(q2, q3);
+  seg(q3, n);
 }
 
 
@@ -257,13 +283,25 @@ void PullPairsImpl(const PullRows& r, int m, int p0, int p1, float* const* cv, f
     }
     const auto sw = hn::PromoteTo(dd, s);
     const auto any = hn::Gt(sw, hn::Zero(dd));
+    // Σ w is a count of children, 0 … 4. Where no lane has Σ w = 3, sv / Σ w is sv · r with
+    // r = 1, 1/2, 1/4 for Σ w = 1, 2, 4 (and anything where Σ w = 0: masked): dividing by
+    // 2^k and multiplying by 2^−k give the same double, as both round the same exact value
+    // sv·2^−k, which is representable (sv, a sum of four floats, is 0 or at least 2^−149 in
+    // magnitude: no underflow in double). The four double divisions of a vector (~16 cycles
+    // each at 8 lanes on AVX-512, where the demote after them took a third of the samples)
+    // become multiplies; boundary vectors with a 3 keep them.
+    const bool pow2 = hn::AllFalse(dh, hn::Eq(s, hn::Set(dh, 3.0f)));
+    const auto r = hn::PromoteTo(
+        dd, hn::IfThenElse(hn::Eq(s, hn::Set(dh, 4.0f)), hn::Set(dh, 0.25f),
+                           hn::IfThenElse(hn::Eq(s, hn::Set(dh, 2.0f)), hn::Set(dh, 0.5f), hn::Set(dh, 1.0f))));
     for (int c = 0; c < 4; ++c) {
       auto sv = hn::Zero(dd);
       sv = hn::Add(sv, hn::PromoteTo(dd, ze[0][c]));
       sv = hn::Add(sv, hn::PromoteTo(dd, zo[0][c]));
       sv = hn::Add(sv, hn::PromoteTo(dd, ze[1][c]));
       sv = hn::Add(sv, hn::PromoteTo(dd, zo[1][c]));
-      hn::StoreU(hn::DemoteTo(dh, hn::IfThenElseZero(any, hn::Div(sv, sw))), dh, cv[c] + x);
+      const auto q = pow2 ? hn::Mul(sv, r) : hn::Div(sv, sw);
+      hn::StoreU(hn::DemoteTo(dh, hn::IfThenElseZero(any, q)), dh, cv[c] + x);
     }
   }
 #endif
@@ -286,27 +324,29 @@ void PullPairsImpl(const PullRows& r, int m, int p0, int p1, float* const* cv, f
 
 
 // One column of FinalRowImpl (T = float) or a vector of them (T = a Highway vector); the
-// loads, arithmetic and stores come from the ops object.
+// loads, arithmetic and stores come from the ops object. The row groups' channels lie
+// kRowStride floats apart; bty, fty are FinalRow's, copied into locals (see CrowScalars).
 template <int BM, int FM, class Ops>
-HWY_INLINE void FinalAt(const FinalRow& r, const Ops& o, std::size_t j, float* const* out) {
-  using T = decltype(o.load(r.c[0] + j));
+HWY_INLINE void FinalAt(const FinalRow& r, float bty, float fty, const Ops& o, std::size_t j, float* const* out) {
+  using T = decltype(o.load(r.c + j));
   const T one = o.set(1.0f);
-  auto acc = [&](int mode, const float* const* top, const float* const* bot, float ty, int ch) {
-    if (mode == 1) return o.load(top[ch] + j);
-    const T t = o.load(top[ch] + j);
-    return o.add(t, o.mul(o.sub(o.load(bot[ch] + j), t), o.set(ty)));  // lerp_rows
+  auto acc = [&](int mode, const float* top, const float* bot, float ty, int ch) {
+    const std::size_t i = static_cast<std::size_t>(kRowStride) * ch + j;
+    if (mode == 1) return o.load(top + i);
+    const T t = o.load(top + i);
+    return o.add(t, o.mul(o.sub(o.load(bot + i), t), o.set(ty)));  // lerp_rows
   };
-  const T c3 = o.load(r.c[3] + j);
+  const T c3 = o.load(r.c + 3 * kRowStride + j);
   const T t = o.sub(one, c3);  // one_minus
   T f3 = one, u = one;
   if constexpr (FM != 0) {
-    f3 = acc(FM, r.ft, r.fb, r.fty, 3);
+    f3 = acc(FM, r.ft, r.fb, fty, 3);
     u = o.sub(one, f3);
   }
   for (int ch = 0; ch < 4; ++ch) {  // final_channel
-    T v = ch == 3 ? c3 : o.load(r.c[ch] + j);
-    if constexpr (BM != 0) v = o.add(v, o.mul(t, acc(BM, r.bt, r.bb, r.bty, ch)));
-    if constexpr (FM != 0) v = o.add(ch == 3 ? f3 : acc(FM, r.ft, r.fb, r.fty, ch), o.mul(u, v));
+    T v = ch == 3 ? c3 : o.load(r.c + kRowStride * ch + j);
+    if constexpr (BM != 0) v = o.add(v, o.mul(t, acc(BM, r.bt, r.bb, bty, ch)));
+    if constexpr (FM != 0) v = o.add(ch == 3 ? f3 : acc(FM, r.ft, r.fb, fty, ch), o.mul(u, v));
     o.store(v, out[ch] + j);
   }
 }
@@ -330,12 +370,16 @@ struct VecOps {
 };
 
 template <int BM, int FM>
-HWY_INLINE void FinalLoop(const FinalRow& r, int n, float* const* out) {
+HWY_INLINE void FinalLoop(const FinalRow& row, int n, float* const* out_rows) {
   const VecOps vo;
   const int lanes = static_cast<int>(hn::Lanes(vo.d));
+  // Locals (see CrowScalars): the row pointers and weights are not re-read after each store.
+  const FinalRow r = row;
+  float* const out[4] = {out_rows[0], out_rows[1], out_rows[2], out_rows[3]};
+  const float bty = r.bty, fty = r.fty;
   int j = 0;
-  for (; j + lanes <= n; j += lanes) FinalAt<BM, FM>(r, vo, static_cast<std::size_t>(j), out);
-  for (; j < n; ++j) FinalAt<BM, FM>(r, ScalarOps(), static_cast<std::size_t>(j), out);
+  for (; j + lanes <= n; j += lanes) FinalAt<BM, FM>(r, bty, fty, vo, static_cast<std::size_t>(j), out);
+  for (; j < n; ++j) FinalAt<BM, FM>(r, bty, fty, ScalarOps(), static_cast<std::size_t>(j), out);
 }
 
 void FinalRowImpl(const FinalRow& r, int n, float* const* out) {
@@ -384,6 +428,82 @@ void DownQuadsImpl(const float* r0, const float* r1, const float* r2, const floa
   }
 }
 
+// The fused row v = t + (b − t)·ty (lerp_rows) at p + i.
+template <class D>
+HWY_INLINE hn::Vec<D> LerpAt(D d, const float* t, const float* b, hn::Vec<D> ty, std::size_t i) {
+  const auto tv = hn::LoadU(d, t + i);
+  return hn::Add(tv, hn::Mul(hn::Sub(hn::LoadU(d, b + i), tv), ty));
+}
+
+void LerpQuadsAccImpl(const float* top, const float* bot, float ty, int m, bool first, float* acc) {
+  constexpr int kAcc = kRowStride / 4;  // acc's channel stride
+  for (int ch = 0; ch < 4; ++ch) {
+    const float* t = top + kRowStride * ch;
+    const float* b = bot + kRowStride * ch;
+    float* a = acc + kAcc * ch;
+    int x = 0;
+#if HWY_TARGET != HWY_SCALAR
+    const hn::ScalableTag<float> df;
+    const int n = static_cast<int>(hn::Lanes(df));
+    const auto tyv = hn::Set(df, ty);
+    for (; x + n <= m; x += n) {  // DownQuadsImpl's de-interleave of one row, on the lerps
+      const std::size_t i = 4 * static_cast<std::size_t>(x);
+      const auto v0 = LerpAt(df, t, b, tyv, i), v1 = LerpAt(df, t, b, tyv, i + n),
+                 v2 = LerpAt(df, t, b, tyv, i + 2 * n), v3 = LerpAt(df, t, b, tyv, i + 3 * n);
+      const auto e01 = hn::ConcatEven(df, v1, v0), o01 = hn::ConcatOdd(df, v1, v0);
+      const auto e23 = hn::ConcatEven(df, v3, v2), o23 = hn::ConcatOdd(df, v3, v2);
+      auto sv = first ? hn::Zero(df) : hn::LoadU(df, a + x);
+      sv = hn::Add(sv, hn::ConcatEven(df, e23, e01));  // 4x
+      sv = hn::Add(sv, hn::ConcatEven(df, o23, o01));  // 4x + 1
+      sv = hn::Add(sv, hn::ConcatOdd(df, e23, e01));   // 4x + 2
+      sv = hn::Add(sv, hn::ConcatOdd(df, o23, o01));   // 4x + 3
+      hn::StoreU(sv, df, a + x);
+    }
+#endif
+    for (; x < m; ++x) {
+      float sv = first ? 0.0f : a[x];
+      for (int dx = 0; dx < 4; ++dx) {
+        const int i = 4 * x + dx;
+        sv += t[i] + (b[i] - t[i]) * ty;
+      }
+      a[x] = sv;
+    }
+  }
+}
+
+void LerpPairsBoxImpl(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
+                      float* const* d) {
+  for (int ch = 0; ch < 4; ++ch) {
+    const float* t0 = ta + kRowStride * ch;
+    const float* b0 = ba + kRowStride * ch;
+    const float* t1 = tb + kRowStride * ch;
+    const float* b1 = bb + kRowStride * ch;
+    float* o = d[ch];
+    int x = 0;
+#if HWY_TARGET != HWY_SCALAR
+    const hn::ScalableTag<float> df;
+    const int n = static_cast<int>(hn::Lanes(df));
+    const auto ty0 = hn::Set(df, tya), ty1 = hn::Set(df, tyb), q = hn::Set(df, 0.25f);
+    for (; x + n <= m; x += n) {
+      const std::size_t i = 2 * static_cast<std::size_t>(x);
+      const auto a0 = LerpAt(df, t0, b0, ty0, i), a1 = LerpAt(df, t0, b0, ty0, i + n);
+      const auto c0 = LerpAt(df, t1, b1, ty1, i), c1 = LerpAt(df, t1, b1, ty1, i + n);
+      // down_pairs: 0.25 · (((a[2x] + a[2x + 1]) + b[2x]) + b[2x + 1])
+      auto sv = hn::Add(hn::ConcatEven(df, a1, a0), hn::ConcatOdd(df, a1, a0));
+      sv = hn::Add(sv, hn::ConcatEven(df, c1, c0));
+      sv = hn::Add(sv, hn::ConcatOdd(df, c1, c0));
+      hn::StoreU(hn::Mul(q, sv), df, o + x);
+    }
+#endif
+    for (; x < m; ++x) {
+      const int i = 2 * x;
+      const float a0 = t0[i] + (b0[i] - t0[i]) * tya, a1 = t0[i + 1] + (b0[i + 1] - t0[i + 1]) * tya;
+      const float c0 = t1[i] + (b1[i] - t1[i]) * tyb, c1 = t1[i + 1] + (b1[i + 1] - t1[i + 1]) * tyb;
+      o[x] = 0.25f * (a0 + a1 + c0 + c1);
+    }
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::layered
 HWY_AFTER_NAMESPACE();
@@ -395,6 +515,17 @@ HWY_EXPORT(CrowRowImpl);
 HWY_EXPORT(PullPairsImpl);
 HWY_EXPORT(FinalRowImpl);
 HWY_EXPORT(DownQuadsImpl);
+HWY_EXPORT(LerpQuadsAccImpl);
+HWY_EXPORT(LerpPairsBoxImpl);
+
+void lerp_quads_acc_simd(const float* top, const float* bot, float ty, int m, bool first, float* acc) {
+  HWY_DYNAMIC_DISPATCH(LerpQuadsAccImpl)(top, bot, ty, m, first, acc);
+}
+
+void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
+                         float* const* d) {
+  HWY_DYNAMIC_DISPATCH(LerpPairsBoxImpl)(ta, ba, tya, tb, bb, tyb, m, d);
+}
 
 void down_quads_simd(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d) {
   HWY_DYNAMIC_DISPATCH(DownQuadsImpl)(r0, r1, r2, r3, m, d);

@@ -11,18 +11,24 @@ namespace dofkit::detail::layered {
 /// the per-pixel code), its push-pull fill at hole pixels (k >= code >> 6: +0·matte + the
 /// vertical lerp of the fill level's cached rows, then inpaint.cpp's opaque / under rules),
 /// and "over" with the accumulator's row (the vertical lerp of its cached rows, or +0).
+///
+/// The four channels of the fill's and the accumulator's rows (ft, fb, at, ab) and of the
+/// output c lie kRowStride floats apart (channel ch of ft at ft + ch·kRowStride: the row
+/// caches' and the scratch rows' layout), so one pointer serves all four: 5 base pointers
+/// instead of 20 keep the kernel's loop in registers.
+constexpr int kRowStride = 256;
 struct CrowRow {
   const std::uint16_t* code;
   const float* w0;
   const float* in[4];  // colour rows
   int k;
-  const float* ft[4];  // fill level: horizontally up-sampled coarse rows (top, bottom)
-  const float* fb[4];
+  const float* ft;  // fill level: horizontally up-sampled coarse rows (top, bottom), 4 channels
+  const float* fb;
   float fty;
   bool opaque, under;
   int am;  // accumulator: 0 none (the row is the layer), 1 rows of +0, 2 lerp of at / ab by aty
-  const float* at[4];
-  const float* ab[4];
+  const float* at;
+  const float* ab;
   float aty;
   bool front;  // layer in front of the accumulator (L over A), else behind (A over L)
 };
@@ -50,17 +56,30 @@ void pull_pairs_simd(const PullRows& r, int m, int p0, int p1, float* const* cv,
 /// B and F each absent (mode 0), given as rows (1: b / f, e.g. +0 rows or a full-resolution
 /// accumulator) or as the vertical lerp of two cached up-sampled rows (2: top, bottom, ty).
 /// out = f + (1 − f.a)·(c + (1 − c.a)·b), with the absent steps left out.
+/// c, bt, bb, ft, fb: 4 channels kRowStride floats apart (as in CrowRow).
 struct FinalRow {
-  const float* c[4];
+  const float* c;
   int bm, fm;
-  const float* bt[4];
-  const float* bb[4];
+  const float* bt;
+  const float* bb;
   float bty;
-  const float* ft[4];
-  const float* fb[4];
+  const float* ft;
+  const float* fb;
   float fty;
 };
 void final_row_simd(const FinalRow& r, int n, float* const* out);
+
+/// One fine row of composite.cpp's 4×4 box over rows given as the vertical lerp of two cached
+/// up-sampled rows (top, bottom: 4 channels kRowStride floats apart; v = t + (b − t)·ty, as
+/// lerp_rows): acc[ch][x] (+)= v[4x] + v[4x + 1] + v[4x + 2] + v[4x + 3] in that order, from
+/// +0 if first (acc: 4 channels kRowStride / 4 apart), for the outputs [0, m). Four calls,
+/// one per fine row in order, leave acc = what down_quads_simd sums before its 0.0625 ·.
+void lerp_quads_acc_simd(const float* top, const float* bot, float ty, int m, bool first, float* acc);
+
+/// composite.cpp's 2×2 box of two fine rows given as such lerps (rows a: ta, ba, tya; b: tb,
+/// bb, tyb): d[ch][x] = 0.25 · (a[2x] + a[2x + 1] + b[2x] + b[2x + 1]) for x in [0, m).
+void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
+                         float* const* d);
 
 /// composite.cpp's 4×4 box for the outputs [0, m) (all 16 taps in range): d[x] = 0.0625 ·
 /// (0 + r0[4x] + r0[4x + 1] + … + r3[4x + 3]), summed in that order.

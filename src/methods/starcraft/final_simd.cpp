@@ -37,6 +37,11 @@ int FinalWeights(const WeightRow& r, int x0, int x1, bool& any) {
   float* const wl_row = r.wl;
   float* const wsrc_row = r.wsrc;
   const bool keep_own_blur = r.keep_own_blur;
+  float* const alpha_out = r.alpha_out;
+  // The mix's alpha on an opaque frame: small = (16 ones)·(1/17), medium = w / w = 1, large =
+  // num / cb = 1 (its alpha plane is its weight plane), source 1 (see final.cpp).
+  const auto small_one = hn::Mul(hn::Set(d, 16.0f), hn::Set(d, 1.0f / 17.0f));
+  const bool stream = alpha_out && reinterpret_cast<std::uintptr_t>(alpha_out + x0) % (n * sizeof(float)) == 0;
   auto alpha_max = zero;  // alpha >= 0, so "some alpha != 0" is "max alpha > 0"
   int x = x0;
   for (; x + n <= x1; x += n) {
@@ -60,8 +65,15 @@ int FinalWeights(const WeightRow& r, int x0, int x1, bool& any) {
     hn::StoreU(ys, d, ws_row + x);
     hn::StoreU(zs, d, wm_row + x);
     hn::StoreU(ww, d, wl_row + x);
-    hn::StoreU(hn::Sub(one, alpha), d, wsrc_row + x);
+    const auto wsrc = hn::Sub(one, alpha);
+    hn::StoreU(wsrc, d, wsrc_row + x);
     alpha_max = hn::Max(alpha_max, alpha);
+    if (alpha_out) {
+      const auto mixed = hn::Add(hn::Add(hn::Add(hn::Mul(ys, small_one), zs), ww), wsrc);
+      const auto a = hn::IfThenElse(hn::Eq(wsrc, one), one, mixed);
+      if (stream) hn::Stream(a, d, alpha_out + x);
+      else hn::StoreU(a, d, alpha_out + x);
+    }
   }
   if (!hn::AllTrue(d, hn::Eq(alpha_max, zero))) any = true;
   return x;

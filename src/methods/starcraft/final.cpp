@@ -292,7 +292,13 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
                      keep_own_blur, sc.ws.data(), sc.wm.data(), sc.wl.data(), sc.wsrc.data(),
                      opaque ? out.row(3, y) : nullptr};
   bool any = false;
-  for (int x = final_weights_simd(wr, 0, w, any); x < w; ++x) any |= weights_scalar(wr, x);
+  // The alpha row (opaque frames) is written once and not read again: the vector part starts
+  // where it is 64-byte aligned, so that FinalWeights can stream it (the planes of an Image
+  // start at 16 mod 64); the columns before take the scalar form.
+  int x = 0;
+  if (wr.alpha_out)
+    for (; x < w && reinterpret_cast<std::uintptr_t>(wr.alpha_out + x) % 64 != 0; ++x) any |= weights_scalar(wr, x);
+  for (x = final_weights_simd(wr, x, w, any); x < w; ++x) any |= weights_scalar(wr, x);
   if (any && exact && med_wt) exact_medium(*exact, wr.wm, y, sc, med, med_wt);
   for (int ch = 0; ch < (opaque ? 3 : 4); ++ch) {
     const float* src = color.row(ch, y);

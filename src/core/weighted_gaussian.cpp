@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "core/clones.hpp"
@@ -41,11 +42,16 @@ using strip::Vec8u;
 #define WG_STORE8(p, v) (*reinterpret_cast<Vec8u*>(p) = (v))
 using strip::strip_passes;
 
-/// Per-thread strip scratch, grown on demand and kept (no allocation per frame).
+/// Per-thread strip scratch, grown on demand and kept (no allocation per frame). 64-byte
+/// aligned (the vector's own storage is 16-byte aligned, an mmap'd chunk at 16 mod 64 for
+/// the sizes used here), as core/filters.cpp's strip scratch: the callers lay their strips and
+/// rows out at multiples of 16 floats, so that no 16-lane strip sample or row vector straddles
+/// two cache lines.
 float* scratch(std::size_t floats) {
   thread_local std::vector<float> buf;
-  if (buf.size() < floats) buf.resize(floats);
-  return buf.data();
+  if (buf.size() < floats + 16) buf.resize(floats + 16);
+  const std::size_t mis = reinterpret_cast<std::uintptr_t>(buf.data()) % 64;
+  return buf.data() + (64 - mis) % 64 / sizeof(float);
 }
 
 using strip::load_rows_transposed;
@@ -350,7 +356,10 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   // pass's window (2r + 3 rows) plus one group; the horizontal output also one strip of new rows.
   const int ring0 = 2 * r + 3 + kLanes + kGroup;
   const int ring = 2 * r + 3 + kGroup;
-  const std::size_t row = static_cast<std::size_t>(w);
+  // Row stride of the rings and row buffers: w rounded up to 16 floats, so that every row
+  // starts on a 64-byte boundary of the aligned scratch (the vertical passes' vectors then
+  // never straddle two lines, nor do the transposes' row accesses: see unaligned_head).
+  const std::size_t row = (static_cast<std::size_t>(w) + 15) / 16 * 16;
   const std::size_t strip = static_cast<std::size_t>(w + 2 * pad) * kLanes;
   const std::size_t n_ring0 = static_cast<std::size_t>(np) * ring0 * row;
   const std::size_t n_rings = static_cast<std::size_t>(std::max(0, passes - 1)) * np * ring * row;

@@ -160,6 +160,10 @@ inline bool weights_scalar(const WeightRow& r, int x) {
   r.wl[x] = lwt.large;
   const float alpha = (16.0f / 17.0f) * lwt.small + lwt.medium + lwt.large;
   r.wsrc[x] = 1.0f - alpha;
+  if (r.alpha_out) {  // mix_scalar's alpha on an opaque frame (see FinalWeights)
+    const float wsrc = r.wsrc[x];
+    r.alpha_out[x] = wsrc == 1.0f ? 1.0f : lwt.small * (16.0f * (1.0f / 17.0f)) + lwt.medium + lwt.large + wsrc;
+  }
   return alpha != 0.0f;
 }
 
@@ -220,7 +224,8 @@ void exact_medium(const MediumExact& e, const float* wm, int y, RowScratch& sc, 
 
 void final_row(const Image& color, const Image& depth, const Image& level, const float* const med_in[4],
                const float* med_wt, const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
-               const FinalGeometry& g, RowScratch& sc, int y, std::uint64_t pass, const MediumExact* exact) {
+               const FinalGeometry& g, RowScratch& sc, int y, std::uint64_t pass, const MediumExact* exact,
+               bool opaque) {
   const float* med[4] = {med_in[0], med_in[1], med_in[2], med_in[3]};
   const int w = g.w, h = g.h, lw = g.lw, lh = g.lh;
   // Vertical lerp of the quarter-res rows around this row, then horizontal lerp to full res:
@@ -233,6 +238,7 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
   const float ty = fy - y0f;
   const int ya = clampi(static_cast<int>(y0f), 0, lh - 1), yb = clampi(static_cast<int>(y0f) + 1, 0, lh - 1);
   for (int p = 0; p < 6; ++p) {
+    if (opaque && p == 3) continue;  // the alpha numerator: not read on opaque frames (below)
     const Image& img = p < 5 ? large : inv_depth;
     const int pl = p < 5 ? p : 0;
     const float* ra = img.row(pl, ya);
@@ -276,12 +282,25 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
   }
   const float* cb = sc.hrow.data() + static_cast<std::size_t>(4) * w;
   // Level decision and weights, once per pixel.
+  // Opaque frame: every source alpha is 1, so each level's alpha is too — small: 16 ones times
+  // 1/17; medium: its numerator is its weight (medium_and_final), w / w = 1, or the source's 1;
+  // large: its alpha plane is its weight plane bit for bit (large_blur), num / cb = 1, or the
+  // medium's 1 — and the mix's alpha is a function of the weights alone, ((ws·small + wm·1) +
+  // wl·1) + wsrc·1, or the source's 1 in focus. The weights pass writes it (alpha_out), and
+  // channel 3 reads no source row, block sum or level row.
   const WeightRow wr{level.row(0, y), depth.row(0, y), sc.hrow.data() + static_cast<std::size_t>(5) * w, cb,
-                     keep_own_blur, sc.ws.data(), sc.wm.data(), sc.wl.data(), sc.wsrc.data()};
+                     keep_own_blur, sc.ws.data(), sc.wm.data(), sc.wl.data(), sc.wsrc.data(),
+                     opaque ? out.row(3, y) : nullptr};
   bool any = false;
-  for (int x = final_weights_simd(wr, 0, w, any); x < w; ++x) any |= weights_scalar(wr, x);
+  // The alpha row (opaque frames) is written once and not read again: the vector part starts
+  // where it is 64-byte aligned, so that FinalWeights can stream it (the planes of an Image
+  // start at 16 mod 64); the columns before take the scalar form.
+  int x = 0;
+  if (wr.alpha_out)
+    for (; x < w && reinterpret_cast<std::uintptr_t>(wr.alpha_out + x) % 64 != 0; ++x) any |= weights_scalar(wr, x);
+  for (x = final_weights_simd(wr, x, w, any); x < w; ++x) any |= weights_scalar(wr, x);
   if (any && exact && med_wt) exact_medium(*exact, wr.wm, y, sc, med, med_wt);
-  for (int ch = 0; ch < 4; ++ch) {
+  for (int ch = 0; ch < (opaque ? 3 : 4); ++ch) {
     const float* src = color.row(ch, y);
     float* o = out.row(ch, y);
     if (!any) {  // whole row in focus: the source, bit for bit
@@ -345,7 +364,7 @@ std::uint64_t new_final_pass_id() {
 
 void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
                     const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
-                    std::uint64_t pass, const float* med_wt, const MediumExact* exact) {
+                    std::uint64_t pass, const float* med_wt, const MediumExact* exact, bool opaque) {
   const int w = color.width(), h = color.height();
   const FinalGeometry g{w, h, large.width(), large.height()};
   thread_local RowScratch sc;  // per worker, kept between frames
@@ -354,7 +373,8 @@ void final_pass_row(const Image& color, const Image& depth, const Image& level, 
   for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
   // (A pass id is never reused, so slots filled by an earlier pass, of any width, never match.)
   if (sc.blocks.size() < static_cast<std::size_t>(16) * w) sc.blocks.resize(static_cast<std::size_t>(16) * w);
-  final_row(color, depth, level, med, med_wt, large, inv_depth, keep_own_blur, out, g, sc, y, pass, exact);
+  final_row(color, depth, level, med, med_wt, large, inv_depth, keep_own_blur, out, g, sc, y, pass, exact,
+            opaque && med_wt && med[3] == med_wt);
 }
 
 }  // namespace dofkit::detail::starcraft

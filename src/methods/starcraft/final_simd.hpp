@@ -18,6 +18,10 @@ struct WeightRow {
   float* wm;
   float* wl;
   float* wsrc;
+  /// Set on opaque frames (every source alpha 1, so the medium and large levels' alpha is 1
+  /// too, see final.cpp): the output's alpha row, written here from the weights as the mix
+  /// would write it, ((ws·(16·(1/17)) + wm) + wl) + wsrc, or 1 where wsrc = 1.
+  float* alpha_out = nullptr;
 };
 int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any);
 

@@ -82,7 +82,16 @@ bool large_blur(const Image& color, const Image& level, float sigma_total, bool 
   if (alpha_is_one) *alpha_is_one = opaque.load();
   if (!sanitary.load()) return false;  // the caller renders again from sanitised colour
   const float s = quarter_res_sigma(sigma_total);
-  for (int ch = 0; ch < 5; ++ch) (plain ? core::gaussian_blur_plane_plain : core::gaussian_blur_plane)(large.plane(ch), lw, lh, s, s, 3);
+  // Opaque frame (fast form): every block's alpha term is its level term — Σ c·1 sums the same
+  // values in the same order as Σ c, so the c-weighted alpha is exactly 1 (or the mean of
+  // ones, 1) and plane 3 = c_block · 1 = plane 4, bit for bit, in the vector and the scalar
+  // reductions alike. Its blur is then plane 4's blur: blurred once and copied.
+  const bool alpha_is_weight = !plain && opaque.load();
+  for (int ch = 0; ch < 5; ++ch) {
+    if (alpha_is_weight && ch == 3) continue;
+    (plain ? core::gaussian_blur_plane_plain : core::gaussian_blur_plane)(large.plane(ch), lw, lh, s, s, 3);
+  }
+  if (alpha_is_weight) std::copy(large.plane(4), large.plane(4) + large.plane_size(), large.plane(3));
   return true;
 }
 

@@ -132,7 +132,8 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
           [&](int y, const float* const* rows) {
             const float* wt = rows[nplanes];
             const float* med[4] = {rows[0], rows[1], rows[2], nplanes == 4 ? rows[3] : wt};
-            final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass, wt, &exact);
+            final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass, wt, &exact,
+                           opaque);
           },
           false);
       flush_streams();  // the mix's non-temporal stores are globally visible before the task ends

@@ -189,9 +189,13 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
 /// block sums of the source rows it read for the next rows of the same pass).
 /// exact (with med_wt): recompute the sums of the pixels the row mixes the medium level into
 /// whose med_wt < kExactMediumBelow (see there).
+/// opaque (with med_wt and med[3] == med_wt): every alpha of `color` is 1 and large's plane 3
+/// is its plane 4 (large_blur on an opaque frame); the output's alpha then comes from the
+/// level weights alone (same values).
 void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
                     const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
-                    std::uint64_t pass, const float* med_wt = nullptr, const MediumExact* exact = nullptr);
+                    std::uint64_t pass, const float* med_wt = nullptr, const MediumExact* exact = nullptr,
+                    bool opaque = false);
 /// A number no earlier final pass of the process used.
 std::uint64_t new_final_pass_id();
 

@@ -35,7 +35,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <immintrin.h>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -273,20 +272,15 @@ STERNA_SIMD void composite_chunk(const Pair& R, int xa, int n, bool cubic) {
   }
 }
 
-// In-focus chunks are copies. Non-temporal stores (where dst is 16-byte aligned) write them
-// without first reading the destination lines into the cache: 8.0 → 6.3 ms CPU for a 1080p
-// frame that is all copies. Computed chunks go through an L1 staging block and are streamed
-// out row by row the same way (streaming each group's 8 scattered 32-byte vectors directly
-// was slower: they defeat the write-combining buffers).
-void stream_copy(const float* src, float* dst, int n) {
-  int i = 0;
-  for (; i < n && (reinterpret_cast<std::uintptr_t>(dst + i) & 15) != 0; ++i) dst[i] = src[i];
-  for (; i + 4 <= n; i += 4) _mm_stream_ps(dst + i, _mm_loadu_ps(src + i));
-  for (; i < n; ++i) dst[i] = src[i];
-}
-
+// Output goes straight to the output planes with ordinary stores, copied (in-focus) chunks
+// by memcpy. Until round 15 both went out by non-temporal stores (computed chunks through an
+// L1 staging block), which paid on the Zen 3 / Zen 4 VMs (an all-copy 1080p frame 8.0 → 6.3 ms
+// CPU there). On the Emerald Rapids VM of round 15 (2 MB L2 per core, a large shared L3)
+// the streamed stores were the composite's hottest instructions and the plain stores take
+// the composite from ≈ 21 to ≈ 18.5 ms CPU per 1080p frame (1 thread, means of 4 alternating
+// rounds; docs/performance_sterna.md, round 15).
 std::vector<float>& scratch(int slot, std::size_t n) {
-  thread_local std::vector<float> bufs[3];
+  thread_local std::vector<float> bufs[2];
   if (bufs[slot].size() < n) bufs[slot].resize(n);
   return bufs[slot];
 }
@@ -309,8 +303,6 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
     const std::size_t wpad = (static_cast<std::size_t>(w) + 15) / 16 * 16;
     float* fillbuf = scratch(1, 32 * wpad).data();
     int slot_row[4] = {-1, -1, -1, -1};
-    float* stage = scratch(2, 8 * static_cast<std::size_t>(kChunk) + 16).data();
-    stage += (16 - (reinterpret_cast<std::uintptr_t>(stage) >> 2) % 16) % 16;
     auto slot_plane = [&](int slot, int k) { return fillbuf + (static_cast<std::size_t>(slot) * 8 + k) * wpad; };
     // slot[k] ← the slot holding rows[k] (n rows, possibly repeated at the borders); rows not
     // held yet are filled into slots no row of the list holds.
@@ -407,23 +399,20 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
         R.near = wnear && cblend > 0.0f;
         if (!R.far && !R.near) {
           for (int r = 0; r < nrows; ++r)
-            for (int c = 0; c < 4; ++c) stream_copy(color.row(c, ys[r]) + xa, out.row(c, ys[r]) + xa, n);
+            for (int c = 0; c < 4; ++c)
+              std::memcpy(out.row(c, ys[r]) + xa, color.row(c, ys[r]) + xa, static_cast<std::size_t>(n) * sizeof(float));
           continue;
         }
         for (int r = 0; r < nrows; ++r) {
           for (int c = 0; c < 4; ++c) {
             R.col[r][c] = color.row(c, ys[r]) + xa;
-            R.out[r][c] = stage + static_cast<std::size_t>(r * 4 + c) * kChunk;
+            R.out[r][c] = out.row(c, ys[r]) + xa;
           }
           R.fq[r] = fqbuf + static_cast<std::size_t>(r) * W + xa;
         }
         composite_chunk(R, xa, n, cubic);
-        for (int r = 0; r < nrows; ++r)
-          for (int c = 0; c < 4; ++c)
-            stream_copy(stage + static_cast<std::size_t>(r * 4 + c) * kChunk, out.row(c, ys[r]) + xa, n);
       }
     }
-    _mm_sfence();  // the streamed copies are globally visible before the task completes
   }, 4);
 }
 

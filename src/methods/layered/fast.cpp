@@ -174,6 +174,18 @@ LAYERED_SIMD void down_pairs(const float* __restrict a, const float* __restrict 
   for (int xh = 0; xh < m; ++xh) d[xh] = 0.25f * (a[2 * xh] + a[2 * xh + 1] + b[2 * xh] + b[2 * xh + 1]);
 }
 
+// True if some x in [0, n) has 0 < |x| < 2^-96: subnormals, or values a few multiplies away
+// from them (the accumulator's blur tails; see ZeroMap::tiny).
+LAYERED_SIMD bool any_tiny(const float* __restrict p, int n) {
+  const std::uint32_t lim = 0x0f800000u - 1u;  // 0x0f800000 = 2^-96
+  std::uint32_t any = 0;
+  for (int i = 0; i < n; ++i) {
+    const std::uint32_t u = std::bit_cast<std::uint32_t>(p[i]) & 0x7fffffffu;
+    any |= (u - 1u) < lim ? 1u : 0u;  // u = 0 wraps: not counted
+  }
+  return any != 0;
+}
+
 // Summary of one row block of the code pass (render_gaussian_fused): pres = the layers any
 // pixel has a non-zero matte in, hk = smallest | largest hole start << 8, and into ne the
 // layers with a non-zero matted alpha: layer j0 where 0 + (1 − 0)·w0·a > 0 (that is,
@@ -918,17 +930,22 @@ struct ZeroMap {
   const std::uint8_t* nz = nullptr;
   int nb = 0, ch = 0, factor = 2;
   // True if fine rows [y_first, y_last] of block x0 read only +0 samples.
-  bool zero(int y_first, int y_last, int x0) const {
-    if (!nz) return false;
+  bool zero(int y_first, int y_last, int x0) const { return !nz ? false : max_code(y_first, y_last, x0) == 0; }
+  // True if they read a tiny sample (0 < |x| < 2^-96, any_tiny): subnormals, or close to
+  // them. The kernels that multiply such rows then multiply through double (the same bits,
+  // without the float multiply's ~20× microcode assist on subnormal operands or results).
+  bool tiny(int y_first, int y_last, int x0) const { return nz && max_code(y_first, y_last, x0) == 2; }
+  // The largest nz code (0 +0, 1 non-zero, 2 with a tiny sample) of the coarse rows read.
+  int max_code(int y_first, int y_last, int x0) const {
     const float scale = factor == 4 ? 0.25f : 0.5f;
     int ya, yb, yc, yd;
     float t;
     core::bilinear_footprint((y_first + 0.5f) * scale, ch, ya, yb, t);
     core::bilinear_footprint((y_last + 0.5f) * scale, ch, yc, yd, t);
     const int b = x0 / kBlock;
-    for (int cy = std::min(ya, yb); cy <= std::max(yc, yd); ++cy)
-      if (nz[static_cast<std::size_t>(cy) * nb + b]) return false;
-    return true;
+    int m = 0;
+    for (int cy = std::min(ya, yb); cy <= std::max(yc, yd); ++cy) m = std::max(m, static_cast<int>(nz[static_cast<std::size_t>(cy) * nb + b]));
+    return m;
   }
 };
 
@@ -951,7 +968,9 @@ ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
           // A dense accumulator is settled by its first sample; a sparse one needs the scan.
           any = kern::any_bits(r + lo, 1) || kern::any_bits(r + lo, hi - lo + 1);
         }
-        nz[static_cast<std::size_t>(y) * nb + b] = any ? 1 : 0;
+        bool tiny = false;
+        for (int c = 0; c < 4 && any && !tiny; ++c) tiny = kern::any_tiny(img.row(c, y) + lo, hi - lo + 1);
+        nz[static_cast<std::size_t>(y) * nb + b] = tiny ? 2 : (any ? 1 : 0);
       }
   }, 8);
   return z;
@@ -976,6 +995,8 @@ struct AccRows {
       : full(f), half(hf), factor(fac), zm(hf ? z : nullptr) {}
   // True if the rows [y_first, y_last] of block x0 are known to be +0.
   bool zero(int y_first, int y_last, int x0) const { return zm && zm->zero(y_first, y_last, x0); }
+  // True if they read tiny samples (ZeroMap::tiny).
+  bool tiny(int y_first, int y_last, int x0) const { return zm && zm->tiny(y_first, y_last, x0); }
   explicit AccRows(const FastAccumulator& a) {
     if (!a.has_content()) return;
     if (a.half_pending()) {
@@ -1626,6 +1647,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
           // width there is no clamped last output (the general path below takes the rest).
           HCache& ac = s.acc[x0 / kBlock];
           if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0);
+          const bool exact = A.tiny(ys[0], ys[3], x0);
           if (dst_quarter) {
             const int m = n / 4;
             for (int dy = 0; dy < 4; ++dy) {  // rows in order: the sums' order (see lerp_quads_acc_simd)
@@ -1633,7 +1655,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
               const float* const* bot;
               float ty;
               ac.rows(ys[dy], n, top, bot, ty);
-              lerp_quads_acc_simd(top[0], bot[0], ty, m, dy == 0, s.qacc);
+              lerp_quads_acc_simd(top[0], bot[0], ty, m, dy == 0, s.qacc, exact);
             }
             for (int ch = 0; ch < 4; ++ch) {
               float* d = dst_quarter->row(ch, b) + x0 / 4;
@@ -1656,7 +1678,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
               ac.rows(ys[da + 1], n, tb, bb, tyb);
               float* d[4];
               for (int ch = 0; ch < 4; ++ch) d[ch] = dst_half->row(ch, yh) + x0 / 2;
-              lerp_pairs_box_simd(a0, a1, tya, tb[0], bb[0], tyb, n / 2, d);
+              lerp_pairs_box_simd(a0, a1, tya, tb[0], bb[0], tyb, n / 2, d, exact);
             }
           }
           continue;
@@ -2031,6 +2053,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
             };
             side(BR, caches[nbf + x0 / kBlock], fr.bm, fr.bt, fr.bb, fr.bty);
             side(FR, caches[2 * nbf + x0 / kBlock], fr.fm, fr.ft, fr.fb, fr.fty);
+            fr.exact = (fr.bm == 2 && BR.tiny(y, y, x0)) || (fr.fm == 2 && FR.tiny(y, y, x0));
             final_row_simd(fr, n, o);
             continue;
           }

@@ -484,7 +484,7 @@ namespace {
 // bit-identical to one sample_bilinear call per pixel.
 
 // dst[j] = horizontal lerp of coarse row src (cw samples) at fine column x0 + j.
-inline void up_h(const float* src, int cw, int x0, int n, float* dst) {
+inline void up_h(const float* src, int cw, int x0, int n, float* dst, bool exact = false) {
   auto one = [&](int x) {
     const int i = x >> 1;
     int a, b;
@@ -508,14 +508,15 @@ inline void up_h(const float* src, int cw, int x0, int n, float* dst) {
   const int i_end = std::min((x1 >> 1), cw - 1);  // pairs with 2i + 1 < x1 and i + 1 <= cw − 1
   int i = x >> 1;
   if (i < i_end) {
-    kern::up_pairs(src, i, i_end, dst + (x - x0));
+    if (exact) up_pairs_exact_simd(src, i, i_end, dst + (x - x0));
+    else kern::up_pairs(src, i, i_end, dst + (x - x0));
     i = i_end;
   }
   for (x = 2 * i; x < x1; ++x) dst[x - x0] = one(x);
 }
 
 // The same for 4× (composite.cpp reduce_and_blur); x0 is a multiple of 4.
-inline void up_h4(const float* src, int cw, int x0, int n, float* dst) {
+inline void up_h4(const float* src, int cw, int x0, int n, float* dst, bool exact = false) {
   auto one = [&](int x) {
     const int i = x >> 2, q = x & 3;
     int a, b;
@@ -537,7 +538,8 @@ inline void up_h4(const float* src, int cw, int x0, int n, float* dst) {
   const int i_end = std::min(x1 >> 2, cw - 1);  // quads with 4i + 3 < x1 and i + 1 <= cw − 1
   int i = x >> 2;
   if (i < i_end) {
-    kern::up_quads(src, i, i_end, dst + (x - x0));
+    if (exact) up_quads_exact_simd(src, i, i_end, dst + (x - x0));
+    else kern::up_quads(src, i, i_end, dst + (x - x0));
     i = i_end;
   }
   for (x = std::max(x, 4 * i); x < x1; ++x) dst[x - x0] = one(x);
@@ -578,10 +580,16 @@ struct HCache {
   int key[4] = {-1, -1, -1, -1};
   int next = 0;
   float v[4][4][kBlock];
-  void reset(const Image* im, int fac, int bx0) {
+  // Per coarse row cy, nz[cy · nzb + x0 / kBlock] == 2 marks tiny samples (a ZeroMap's codes,
+  // optional): such rows are up-sampled with the exact multiplies (up_*_exact_simd).
+  const std::uint8_t* nz = nullptr;
+  int nzb = 0;
+  void reset(const Image* im, int fac, int bx0, const std::uint8_t* tiny_codes = nullptr, int tiny_nb = 0) {
     img = im;
     factor = fac;
     x0 = bx0;
+    nz = tiny_codes;
+    nzb = tiny_nb;
     key[0] = key[1] = key[2] = key[3] = -1;
     next = 0;
   }
@@ -595,10 +603,11 @@ struct HCache {
     const int cw = img->width();
     // The coarse columns up_h / up_h4 read, [x0/f − 1, (x0 + n − 1)/f + 1] (clamped).
     const int c0 = std::max(0, x0 / factor - 1), c1 = std::min(cw, (x0 + n - 1) / factor + 2);
+    const bool exact = nz && nz[static_cast<std::size_t>(cy) * nzb + x0 / kBlock] == 2;
     for (int c = 0; c < 4; ++c) {
       const float* src = img->row(c, cy);
-      if (factor == 4) up_h4(src, cw, x0, n, v[i][c]);
-      else up_h(src, cw, x0, n, v[i][c]);
+      if (factor == 4) up_h4(src, cw, x0, n, v[i][c], exact);
+      else up_h(src, cw, x0, n, v[i][c], exact);
       // The same columns of the coarse row this block's next band up-samples in this row's
       // place (a band of 4 fine rows advances 4 / factor coarse rows): the band's other
       // blocks run in between, which is long, and these 256–512-byte runs of a plane are too
@@ -1012,7 +1021,7 @@ struct AccRows {
     if (full) {
       for (int c = 0; c < 4; ++c) p[c] = full->row(c, y) + x0;
     } else if (cache) {
-      if (cache->img != half || cache->x0 != x0) cache->reset(half, factor, x0);
+      if (cache->img != half || cache->x0 != x0) cache->reset(half, factor, x0, zm ? zm->nz : nullptr, zm ? zm->nb : 0);
       cache->get(y, n, buf);
       for (int c = 0; c < 4; ++c) p[c] = buf[c];
     } else {
@@ -1486,7 +1495,7 @@ std::atomic<std::uint64_t> zero_blocks{0};
 // under) an accumulator of +0 rows / of the up-sampling of `acc` (reduced by `factor`, rows
 // cached in acc_cache). For a layer whose fill, if any, has a pyramid level (L.l1).
 void fused_row(const FusedLayer& L, int y, int x0, int n, HCache& fill_cache, int am, HCache* acc_cache,
-               const Image* acc, int factor, bool front, float (*c)[kBlock]) {
+               const Image* acc, int factor, bool front, float (*c)[kBlock], const ZeroMap* azm = nullptr) {
   const int k = L.k;
   const std::size_t bi = static_cast<std::size_t>(y) * L.nb + x0 / kBlock;
   const std::size_t base = static_cast<std::size_t>(y) * L.w + x0;
@@ -1522,7 +1531,8 @@ void fused_row(const FusedLayer& L, int y, int x0, int n, HCache& fill_cache, in
   r.aty = 0.0f;
   r.am = am;
   if (am == 2) {
-    if (acc_cache->img != acc || acc_cache->x0 != x0) acc_cache->reset(acc, factor, x0);
+    if (acc_cache->img != acc || acc_cache->x0 != x0)
+      acc_cache->reset(acc, factor, x0, azm ? azm->nz : nullptr, azm ? azm->nb : 0);
     acc_cache->rows(y, n, at, ab, r.aty);
   }
   // Rows of the HCaches or kZeroRows: channel ch at + ch·kRowStride, as crow_row_simd reads them.
@@ -1560,7 +1570,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
   // A row of a block where layer k is not known empty, in one kernel (fused_row).
   auto crow_fused = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s, bool azero) {
     const int am = !A.present() ? 0 : (azero ? 1 : 2);
-    fused_row(L, y, x0, n, s.fill[x0 / kBlock], am, &s.acc[x0 / kBlock], A.half, A.factor, layer_in_front, c);
+    fused_row(L, y, x0, n, s.fill[x0 / kBlock], am, &s.acc[x0 / kBlock], A.half, A.factor, layer_in_front, c, A.zm);
   };
   // azero: A's rows here are known to be +0 (ZeroMap): they are taken as rows of +0 instead
   // of being up-sampled (the same values, see ZeroMap).
@@ -1646,7 +1656,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
           // down_pairs), instead of storing the four rows first. With n a multiple of the box
           // width there is no clamped last output (the general path below takes the rest).
           HCache& ac = s.acc[x0 / kBlock];
-          if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0);
+          if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0, A.zm ? A.zm->nz : nullptr, A.zm ? A.zm->nb : 0);
           const bool exact = A.tiny(ys[0], ys[3], x0);
           if (dst_quarter) {
             const int m = n / 4;
@@ -2044,7 +2054,8 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
               const float* const* a = kZeroRows;
               const float* const* b = kZeroRows;
               if (R.present() && !R.zero(y, y, x0)) {
-                if (cache.img != R.half || cache.x0 != x0) cache.reset(R.half, R.factor, x0);
+                if (cache.img != R.half || cache.x0 != x0)
+                  cache.reset(R.half, R.factor, x0, R.zm ? R.zm->nz : nullptr, R.zm ? R.zm->nb : 0);
                 cache.rows(y, n, a, b, ty);
                 mode = 2;
               }

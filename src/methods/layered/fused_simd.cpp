@@ -548,6 +548,55 @@ void LerpPairsBoxImpl(const float* ta, const float* ba, float tya, const float* 
   else LerpPairsBoxT<false>(ta, ba, tya, tb, bb, tyb, m, d);
 }
 
+// fast.cpp's kern::up_pairs / kern::up_quads (the same expressions in the same order) with
+// MulX<true>: for coarse rows with tiny samples.
+void UpPairsExactImpl(const float* src, int i0, int i1, float* dst) {
+  const float* s = src + i0;
+  const int m = i1 - i0;
+  int i = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<float> df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto w0 = hn::Set(df, 0.75f), w1 = hn::Set(df, 0.25f);
+  for (; i + n <= m; i += n) {
+    const auto lo = hn::LoadU(df, s + i - 1), mid = hn::LoadU(df, s + i), hi = hn::LoadU(df, s + i + 1);
+    const auto e = hn::Add(lo, MulX<true>(df, hn::Sub(mid, lo), w0));
+    const auto o = hn::Add(mid, MulX<true>(df, hn::Sub(hi, mid), w1));
+    hn::StoreInterleaved2(e, o, df, dst + 2 * static_cast<std::size_t>(i));
+  }
+#endif
+  for (; i < m; ++i) {
+    const float lo = s[i - 1], mid = s[i], hi = s[i + 1];
+    dst[2 * i] = lo + (mid - lo) * 0.75f;
+    dst[2 * i + 1] = mid + (hi - mid) * 0.25f;
+  }
+}
+
+void UpQuadsExactImpl(const float* src, int i0, int i1, float* dst) {
+  const float* s = src + i0;
+  const int m = i1 - i0;
+  int i = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<float> df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto w0 = hn::Set(df, 0.625f), w1 = hn::Set(df, 0.875f), w2 = hn::Set(df, 0.125f), w3 = hn::Set(df, 0.375f);
+  for (; i + n <= m; i += n) {
+    const auto lo = hn::LoadU(df, s + i - 1), mid = hn::LoadU(df, s + i), hi = hn::LoadU(df, s + i + 1);
+    const auto dl = hn::Sub(mid, lo), dh = hn::Sub(hi, mid);
+    hn::StoreInterleaved4(hn::Add(lo, MulX<true>(df, dl, w0)), hn::Add(lo, MulX<true>(df, dl, w1)),
+                          hn::Add(mid, MulX<true>(df, dh, w2)), hn::Add(mid, MulX<true>(df, dh, w3)), df,
+                          dst + 4 * static_cast<std::size_t>(i));
+  }
+#endif
+  for (; i < m; ++i) {
+    const float lo = s[i - 1], mid = s[i], hi = s[i + 1];
+    dst[4 * i] = lo + (mid - lo) * 0.625f;
+    dst[4 * i + 1] = lo + (mid - lo) * 0.875f;
+    dst[4 * i + 2] = mid + (hi - mid) * 0.125f;
+    dst[4 * i + 3] = mid + (hi - mid) * 0.375f;
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::layered
 HWY_AFTER_NAMESPACE();
@@ -561,6 +610,15 @@ HWY_EXPORT(FinalRowImpl);
 HWY_EXPORT(DownQuadsImpl);
 HWY_EXPORT(LerpQuadsAccImpl);
 HWY_EXPORT(LerpPairsBoxImpl);
+HWY_EXPORT(UpPairsExactImpl);
+HWY_EXPORT(UpQuadsExactImpl);
+
+void up_pairs_exact_simd(const float* src, int i0, int i1, float* dst) {
+  HWY_DYNAMIC_DISPATCH(UpPairsExactImpl)(src, i0, i1, dst);
+}
+void up_quads_exact_simd(const float* src, int i0, int i1, float* dst) {
+  HWY_DYNAMIC_DISPATCH(UpQuadsExactImpl)(src, i0, i1, dst);
+}
 
 void lerp_quads_acc_simd(const float* top, const float* bot, float ty, int m, bool first, float* acc, bool exact) {
   HWY_DYNAMIC_DISPATCH(LerpQuadsAccImpl)(top, bot, ty, m, first, exact, acc);

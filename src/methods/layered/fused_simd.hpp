@@ -89,4 +89,10 @@ void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const floa
 /// (0 + r0[4x] + r0[4x + 1] + … + r3[4x + 3]), summed in that order.
 void down_quads_simd(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d);
 
+/// fast.cpp's kern::up_pairs / kern::up_quads (the 2× / 4× horizontal up-sampling of the
+/// coarse pairs / quads [i0, i1)) with the multiplies through double: the same bits, no
+/// subnormal assists (for coarse rows with tiny samples).
+void up_pairs_exact_simd(const float* src, int i0, int i1, float* dst);
+void up_quads_exact_simd(const float* src, int i0, int i1, float* dst);
+
 }  // namespace dofkit::detail::layered

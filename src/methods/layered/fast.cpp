@@ -958,6 +958,9 @@ struct ZeroMap {
   }
 };
 
+// Blocks build_zero_map has marked tiny (code 2), for the tests (tiny_block_count).
+std::atomic<std::uint64_t> g_tiny_blocks{0};
+
 // Measures the ZeroMap of `img` (reduced by `factor` from a fine width fw) into nz (ch · nb bytes).
 ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
   ZeroMap z;
@@ -967,6 +970,7 @@ ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
   z.factor = factor;
   const int cw = img.width(), nb = z.nb;
   core::parallel_for(img.height(), [&](int y0, int y1) {
+    std::uint64_t tiny_blocks = 0;
     for (int y = y0; y < y1; ++y)
       for (int b = 0; b < nb; ++b) {
         const int x0 = b * kBlock, n = std::min(kBlock, fw - x0);
@@ -980,7 +984,9 @@ ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
         bool tiny = false;
         for (int c = 0; c < 4 && any && !tiny; ++c) tiny = kern::any_tiny(img.row(c, y) + lo, hi - lo + 1);
         nz[static_cast<std::size_t>(y) * nb + b] = tiny ? 2 : (any ? 1 : 0);
+        tiny_blocks += tiny ? 1 : 0;
       }
+    if (tiny_blocks) g_tiny_blocks.fetch_add(tiny_blocks, std::memory_order_relaxed);
   }, 8);
   return z;
 }
@@ -1751,6 +1757,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
 
 std::uint64_t fused_render_count() { return g_fused_renders.load(); }
 std::uint64_t zero_block_count() { return zero_blocks.load(); }
+std::uint64_t tiny_block_count() { return g_tiny_blocks.load(); }
 
 bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, const LayerPlan& plan, bool half_res,
                            bool quarter_res, bool do_fill, bool fill_under, Image& out) {

@@ -174,6 +174,18 @@ LAYERED_SIMD void down_pairs(const float* __restrict a, const float* __restrict 
   for (int xh = 0; xh < m; ++xh) d[xh] = 0.25f * (a[2 * xh] + a[2 * xh + 1] + b[2 * xh] + b[2 * xh + 1]);
 }
 
+// True if some x in [0, n) has 0 < |x| < 2^-96: subnormals, or values a few multiplies away
+// from them (the accumulator's blur tails; see ZeroMap::tiny).
+LAYERED_SIMD bool any_tiny(const float* __restrict p, int n) {
+  const std::uint32_t lim = 0x0f800000u - 1u;  // 0x0f800000 = 2^-96
+  std::uint32_t any = 0;
+  for (int i = 0; i < n; ++i) {
+    const std::uint32_t u = std::bit_cast<std::uint32_t>(p[i]) & 0x7fffffffu;
+    any |= (u - 1u) < lim ? 1u : 0u;  // u = 0 wraps: not counted
+  }
+  return any != 0;
+}
+
 // Summary of one row block of the code pass (render_gaussian_fused): pres = the layers any
 // pixel has a non-zero matte in, hk = smallest | largest hole start << 8, and into ne the
 // layers with a non-zero matted alpha: layer j0 where 0 + (1 − 0)·w0·a > 0 (that is,
@@ -472,7 +484,7 @@ namespace {
 // bit-identical to one sample_bilinear call per pixel.
 
 // dst[j] = horizontal lerp of coarse row src (cw samples) at fine column x0 + j.
-inline void up_h(const float* src, int cw, int x0, int n, float* dst) {
+inline void up_h(const float* src, int cw, int x0, int n, float* dst, bool exact = false) {
   auto one = [&](int x) {
     const int i = x >> 1;
     int a, b;
@@ -496,14 +508,15 @@ inline void up_h(const float* src, int cw, int x0, int n, float* dst) {
   const int i_end = std::min((x1 >> 1), cw - 1);  // pairs with 2i + 1 < x1 and i + 1 <= cw − 1
   int i = x >> 1;
   if (i < i_end) {
-    kern::up_pairs(src, i, i_end, dst + (x - x0));
+    if (exact) up_pairs_exact_simd(src, i, i_end, dst + (x - x0));
+    else kern::up_pairs(src, i, i_end, dst + (x - x0));
     i = i_end;
   }
   for (x = 2 * i; x < x1; ++x) dst[x - x0] = one(x);
 }
 
 // The same for 4× (composite.cpp reduce_and_blur); x0 is a multiple of 4.
-inline void up_h4(const float* src, int cw, int x0, int n, float* dst) {
+inline void up_h4(const float* src, int cw, int x0, int n, float* dst, bool exact = false) {
   auto one = [&](int x) {
     const int i = x >> 2, q = x & 3;
     int a, b;
@@ -525,7 +538,8 @@ inline void up_h4(const float* src, int cw, int x0, int n, float* dst) {
   const int i_end = std::min(x1 >> 2, cw - 1);  // quads with 4i + 3 < x1 and i + 1 <= cw − 1
   int i = x >> 2;
   if (i < i_end) {
-    kern::up_quads(src, i, i_end, dst + (x - x0));
+    if (exact) up_quads_exact_simd(src, i, i_end, dst + (x - x0));
+    else kern::up_quads(src, i, i_end, dst + (x - x0));
     i = i_end;
   }
   for (x = std::max(x, 4 * i); x < x1; ++x) dst[x - x0] = one(x);
@@ -566,10 +580,16 @@ struct HCache {
   int key[4] = {-1, -1, -1, -1};
   int next = 0;
   float v[4][4][kBlock];
-  void reset(const Image* im, int fac, int bx0) {
+  // Per coarse row cy, nz[cy · nzb + x0 / kBlock] == 2 marks tiny samples (a ZeroMap's codes,
+  // optional): such rows are up-sampled with the exact multiplies (up_*_exact_simd).
+  const std::uint8_t* nz = nullptr;
+  int nzb = 0;
+  void reset(const Image* im, int fac, int bx0, const std::uint8_t* tiny_codes = nullptr, int tiny_nb = 0) {
     img = im;
     factor = fac;
     x0 = bx0;
+    nz = tiny_codes;
+    nzb = tiny_nb;
     key[0] = key[1] = key[2] = key[3] = -1;
     next = 0;
   }
@@ -583,10 +603,11 @@ struct HCache {
     const int cw = img->width();
     // The coarse columns up_h / up_h4 read, [x0/f − 1, (x0 + n − 1)/f + 1] (clamped).
     const int c0 = std::max(0, x0 / factor - 1), c1 = std::min(cw, (x0 + n - 1) / factor + 2);
+    const bool exact = nz && nz[static_cast<std::size_t>(cy) * nzb + x0 / kBlock] == 2;
     for (int c = 0; c < 4; ++c) {
       const float* src = img->row(c, cy);
-      if (factor == 4) up_h4(src, cw, x0, n, v[i][c]);
-      else up_h(src, cw, x0, n, v[i][c]);
+      if (factor == 4) up_h4(src, cw, x0, n, v[i][c], exact);
+      else up_h(src, cw, x0, n, v[i][c], exact);
       // The same columns of the coarse row this block's next band up-samples in this row's
       // place (a band of 4 fine rows advances 4 / factor coarse rows): the band's other
       // blocks run in between, which is long, and these 256–512-byte runs of a plane are too
@@ -918,19 +939,27 @@ struct ZeroMap {
   const std::uint8_t* nz = nullptr;
   int nb = 0, ch = 0, factor = 2;
   // True if fine rows [y_first, y_last] of block x0 read only +0 samples.
-  bool zero(int y_first, int y_last, int x0) const {
-    if (!nz) return false;
+  bool zero(int y_first, int y_last, int x0) const { return !nz ? false : max_code(y_first, y_last, x0) == 0; }
+  // True if they read a tiny sample (0 < |x| < 2^-96, any_tiny): subnormals, or close to
+  // them. The kernels that multiply such rows then multiply through double (the same bits,
+  // without the float multiply's ~20× microcode assist on subnormal operands or results).
+  bool tiny(int y_first, int y_last, int x0) const { return nz && max_code(y_first, y_last, x0) == 2; }
+  // The largest nz code (0 +0, 1 non-zero, 2 with a tiny sample) of the coarse rows read.
+  int max_code(int y_first, int y_last, int x0) const {
     const float scale = factor == 4 ? 0.25f : 0.5f;
     int ya, yb, yc, yd;
     float t;
     core::bilinear_footprint((y_first + 0.5f) * scale, ch, ya, yb, t);
     core::bilinear_footprint((y_last + 0.5f) * scale, ch, yc, yd, t);
     const int b = x0 / kBlock;
-    for (int cy = std::min(ya, yb); cy <= std::max(yc, yd); ++cy)
-      if (nz[static_cast<std::size_t>(cy) * nb + b]) return false;
-    return true;
+    int m = 0;
+    for (int cy = std::min(ya, yb); cy <= std::max(yc, yd); ++cy) m = std::max(m, static_cast<int>(nz[static_cast<std::size_t>(cy) * nb + b]));
+    return m;
   }
 };
+
+// Blocks build_zero_map has marked tiny (code 2), for the tests (tiny_block_count).
+std::atomic<std::uint64_t> g_tiny_blocks{0};
 
 // Measures the ZeroMap of `img` (reduced by `factor` from a fine width fw) into nz (ch · nb bytes).
 ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
@@ -941,6 +970,7 @@ ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
   z.factor = factor;
   const int cw = img.width(), nb = z.nb;
   core::parallel_for(img.height(), [&](int y0, int y1) {
+    std::uint64_t tiny_blocks = 0;
     for (int y = y0; y < y1; ++y)
       for (int b = 0; b < nb; ++b) {
         const int x0 = b * kBlock, n = std::min(kBlock, fw - x0);
@@ -951,8 +981,12 @@ ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
           // A dense accumulator is settled by its first sample; a sparse one needs the scan.
           any = kern::any_bits(r + lo, 1) || kern::any_bits(r + lo, hi - lo + 1);
         }
-        nz[static_cast<std::size_t>(y) * nb + b] = any ? 1 : 0;
+        bool tiny = false;
+        for (int c = 0; c < 4 && any && !tiny; ++c) tiny = kern::any_tiny(img.row(c, y) + lo, hi - lo + 1);
+        nz[static_cast<std::size_t>(y) * nb + b] = tiny ? 2 : (any ? 1 : 0);
+        tiny_blocks += tiny ? 1 : 0;
       }
+    if (tiny_blocks) g_tiny_blocks.fetch_add(tiny_blocks, std::memory_order_relaxed);
   }, 8);
   return z;
 }
@@ -976,6 +1010,8 @@ struct AccRows {
       : full(f), half(hf), factor(fac), zm(hf ? z : nullptr) {}
   // True if the rows [y_first, y_last] of block x0 are known to be +0.
   bool zero(int y_first, int y_last, int x0) const { return zm && zm->zero(y_first, y_last, x0); }
+  // True if they read tiny samples (ZeroMap::tiny).
+  bool tiny(int y_first, int y_last, int x0) const { return zm && zm->tiny(y_first, y_last, x0); }
   explicit AccRows(const FastAccumulator& a) {
     if (!a.has_content()) return;
     if (a.half_pending()) {
@@ -991,7 +1027,7 @@ struct AccRows {
     if (full) {
       for (int c = 0; c < 4; ++c) p[c] = full->row(c, y) + x0;
     } else if (cache) {
-      if (cache->img != half || cache->x0 != x0) cache->reset(half, factor, x0);
+      if (cache->img != half || cache->x0 != x0) cache->reset(half, factor, x0, zm ? zm->nz : nullptr, zm ? zm->nb : 0);
       cache->get(y, n, buf);
       for (int c = 0; c < 4; ++c) p[c] = buf[c];
     } else {
@@ -1465,7 +1501,7 @@ std::atomic<std::uint64_t> zero_blocks{0};
 // under) an accumulator of +0 rows / of the up-sampling of `acc` (reduced by `factor`, rows
 // cached in acc_cache). For a layer whose fill, if any, has a pyramid level (L.l1).
 void fused_row(const FusedLayer& L, int y, int x0, int n, HCache& fill_cache, int am, HCache* acc_cache,
-               const Image* acc, int factor, bool front, float (*c)[kBlock]) {
+               const Image* acc, int factor, bool front, float (*c)[kBlock], const ZeroMap* azm = nullptr) {
   const int k = L.k;
   const std::size_t bi = static_cast<std::size_t>(y) * L.nb + x0 / kBlock;
   const std::size_t base = static_cast<std::size_t>(y) * L.w + x0;
@@ -1501,7 +1537,8 @@ void fused_row(const FusedLayer& L, int y, int x0, int n, HCache& fill_cache, in
   r.aty = 0.0f;
   r.am = am;
   if (am == 2) {
-    if (acc_cache->img != acc || acc_cache->x0 != x0) acc_cache->reset(acc, factor, x0);
+    if (acc_cache->img != acc || acc_cache->x0 != x0)
+      acc_cache->reset(acc, factor, x0, azm ? azm->nz : nullptr, azm ? azm->nb : 0);
     acc_cache->rows(y, n, at, ab, r.aty);
   }
   // Rows of the HCaches or kZeroRows: channel ch at + ch·kRowStride, as crow_row_simd reads them.
@@ -1539,7 +1576,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
   // A row of a block where layer k is not known empty, in one kernel (fused_row).
   auto crow_fused = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s, bool azero) {
     const int am = !A.present() ? 0 : (azero ? 1 : 2);
-    fused_row(L, y, x0, n, s.fill[x0 / kBlock], am, &s.acc[x0 / kBlock], A.half, A.factor, layer_in_front, c);
+    fused_row(L, y, x0, n, s.fill[x0 / kBlock], am, &s.acc[x0 / kBlock], A.half, A.factor, layer_in_front, c, A.zm);
   };
   // azero: A's rows here are known to be +0 (ZeroMap): they are taken as rows of +0 instead
   // of being up-sampled (the same values, see ZeroMap).
@@ -1625,7 +1662,8 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
           // down_pairs), instead of storing the four rows first. With n a multiple of the box
           // width there is no clamped last output (the general path below takes the rest).
           HCache& ac = s.acc[x0 / kBlock];
-          if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0);
+          if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0, A.zm ? A.zm->nz : nullptr, A.zm ? A.zm->nb : 0);
+          const bool exact = A.tiny(ys[0], ys[3], x0);
           if (dst_quarter) {
             const int m = n / 4;
             for (int dy = 0; dy < 4; ++dy) {  // rows in order: the sums' order (see lerp_quads_acc_simd)
@@ -1633,7 +1671,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
               const float* const* bot;
               float ty;
               ac.rows(ys[dy], n, top, bot, ty);
-              lerp_quads_acc_simd(top[0], bot[0], ty, m, dy == 0, s.qacc);
+              lerp_quads_acc_simd(top[0], bot[0], ty, m, dy == 0, s.qacc, exact);
             }
             for (int ch = 0; ch < 4; ++ch) {
               float* d = dst_quarter->row(ch, b) + x0 / 4;
@@ -1656,7 +1694,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
               ac.rows(ys[da + 1], n, tb, bb, tyb);
               float* d[4];
               for (int ch = 0; ch < 4; ++ch) d[ch] = dst_half->row(ch, yh) + x0 / 2;
-              lerp_pairs_box_simd(a0, a1, tya, tb[0], bb[0], tyb, n / 2, d);
+              lerp_pairs_box_simd(a0, a1, tya, tb[0], bb[0], tyb, n / 2, d, exact);
             }
           }
           continue;
@@ -1719,6 +1757,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
 
 std::uint64_t fused_render_count() { return g_fused_renders.load(); }
 std::uint64_t zero_block_count() { return zero_blocks.load(); }
+std::uint64_t tiny_block_count() { return g_tiny_blocks.load(); }
 
 bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, const LayerPlan& plan, bool half_res,
                            bool quarter_res, bool do_fill, bool fill_under, Image& out) {
@@ -2022,7 +2061,8 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
               const float* const* a = kZeroRows;
               const float* const* b = kZeroRows;
               if (R.present() && !R.zero(y, y, x0)) {
-                if (cache.img != R.half || cache.x0 != x0) cache.reset(R.half, R.factor, x0);
+                if (cache.img != R.half || cache.x0 != x0)
+                  cache.reset(R.half, R.factor, x0, R.zm ? R.zm->nz : nullptr, R.zm ? R.zm->nb : 0);
                 cache.rows(y, n, a, b, ty);
                 mode = 2;
               }
@@ -2031,6 +2071,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
             };
             side(BR, caches[nbf + x0 / kBlock], fr.bm, fr.bt, fr.bb, fr.bty);
             side(FR, caches[2 * nbf + x0 / kBlock], fr.fm, fr.ft, fr.fb, fr.fty);
+            fr.exact = (fr.bm == 2 && BR.tiny(y, y, x0)) || (fr.fm == 2 && FR.tiny(y, y, x0));
             final_row_simd(fr, n, o);
             continue;
           }

@@ -93,4 +93,9 @@ std::uint64_t fused_render_count();
 /// tests check that the shortcut is taken).
 std::uint64_t zero_block_count();
 
+/// How many (coarse row, block)s of the reduced accumulators' zero maps have been marked as
+/// holding tiny samples (0 < |x| < 2^-96), whose readers multiply through double (lets the
+/// tests check that the fast-vs-plain comparisons cover those kernels).
+std::uint64_t tiny_block_count();
+
 }  // namespace dofkit::detail::layered

@@ -18,6 +18,30 @@ namespace dofkit::detail::layered {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
+// a · b rounded like the float multiply (the same bits) but without its microcode assist on
+// subnormal operands or results (Intel: ~20× a normal multiply): the product of two floats
+// is exact in double, so demoting it rounds the exact product once, as the float multiply
+// does, gradual underflow included. For rows of an accumulator with subnormal tails (the
+// ZeroMap's tiny blocks, fast.cpp); kExact false is the plain multiply.
+template <bool kExact, class D, class V>
+HWY_INLINE V MulX(D d, V a, V b) {
+#if HWY_TARGET == HWY_SCALAR
+  (void)d;
+  return hn::Mul(a, b);
+#else
+  if constexpr (!kExact) {
+    (void)d;
+    return hn::Mul(a, b);
+  } else {
+    const hn::Half<D> dh;
+    const hn::Rebind<double, decltype(dh)> dw;
+    const auto lo = hn::Mul(hn::PromoteTo(dw, hn::LowerHalf(dh, a)), hn::PromoteTo(dw, hn::LowerHalf(dh, b)));
+    const auto hi = hn::Mul(hn::PromoteTo(dw, hn::UpperHalf(dh, a)), hn::PromoteTo(dw, hn::UpperHalf(dh, b)));
+    return hn::Combine(d, hn::DemoteTo(dh, hi), hn::DemoteTo(dh, lo));
+  }
+#endif
+}
+
 // The row pointers of one crow segment (the tail points them at padded copies): the colour
 // rows, and one pointer per four-channel row group (ft, fb, at, ab, c), channel ch at
 // + S·ch (S = kRowStride, or the tail copies' stride).
@@ -359,6 +383,7 @@ struct ScalarOps {
   float sub(float a, float b) const { return a - b; }
   float mul(float a, float b) const { return a * b; }
 };
+template <bool kExact>
 struct VecOps {
   hn::ScalableTag<float> d;
   auto load(const float* p) const { return hn::LoadU(d, p); }
@@ -366,12 +391,12 @@ struct VecOps {
   auto set(float v) const { return hn::Set(d, v); }
   template <class V> V add(V a, V b) const { return hn::Add(a, b); }
   template <class V> V sub(V a, V b) const { return hn::Sub(a, b); }
-  template <class V> V mul(V a, V b) const { return hn::Mul(a, b); }
+  template <class V> V mul(V a, V b) const { return MulX<kExact>(d, a, b); }
 };
 
-template <int BM, int FM>
+template <int BM, int FM, bool kExact>
 HWY_INLINE void FinalLoop(const FinalRow& row, int n, float* const* out_rows) {
-  const VecOps vo;
+  const VecOps<kExact> vo;
   const int lanes = static_cast<int>(hn::Lanes(vo.d));
   // Locals (see CrowScalars): the row pointers and weights are not re-read after each store.
   const FinalRow r = row;
@@ -382,18 +407,24 @@ HWY_INLINE void FinalLoop(const FinalRow& row, int n, float* const* out_rows) {
   for (; j < n; ++j) FinalAt<BM, FM>(r, bty, fty, ScalarOps(), static_cast<std::size_t>(j), out);
 }
 
-void FinalRowImpl(const FinalRow& r, int n, float* const* out) {
+template <bool kExact>
+HWY_INLINE void FinalRowT(const FinalRow& r, int n, float* const* out) {
   switch (3 * r.bm + r.fm) {
-    case 0: FinalLoop<0, 0>(r, n, out); break;
-    case 1: FinalLoop<0, 1>(r, n, out); break;
-    case 2: FinalLoop<0, 2>(r, n, out); break;
-    case 3: FinalLoop<1, 0>(r, n, out); break;
-    case 4: FinalLoop<1, 1>(r, n, out); break;
-    case 5: FinalLoop<1, 2>(r, n, out); break;
-    case 6: FinalLoop<2, 0>(r, n, out); break;
-    case 7: FinalLoop<2, 1>(r, n, out); break;
-    default: FinalLoop<2, 2>(r, n, out); break;
+    case 0: FinalLoop<0, 0, kExact>(r, n, out); break;
+    case 1: FinalLoop<0, 1, kExact>(r, n, out); break;
+    case 2: FinalLoop<0, 2, kExact>(r, n, out); break;
+    case 3: FinalLoop<1, 0, kExact>(r, n, out); break;
+    case 4: FinalLoop<1, 1, kExact>(r, n, out); break;
+    case 5: FinalLoop<1, 2, kExact>(r, n, out); break;
+    case 6: FinalLoop<2, 0, kExact>(r, n, out); break;
+    case 7: FinalLoop<2, 1, kExact>(r, n, out); break;
+    default: FinalLoop<2, 2, kExact>(r, n, out); break;
   }
+}
+
+void FinalRowImpl(const FinalRow& r, int n, float* const* out) {
+  if (r.exact) FinalRowT<true>(r, n, out);
+  else FinalRowT<false>(r, n, out);
 }
 
 
@@ -429,13 +460,14 @@ void DownQuadsImpl(const float* r0, const float* r1, const float* r2, const floa
 }
 
 // The fused row v = t + (b − t)·ty (lerp_rows) at p + i.
-template <class D>
+template <bool kExact = false, class D>
 HWY_INLINE hn::Vec<D> LerpAt(D d, const float* t, const float* b, hn::Vec<D> ty, std::size_t i) {
   const auto tv = hn::LoadU(d, t + i);
-  return hn::Add(tv, hn::Mul(hn::Sub(hn::LoadU(d, b + i), tv), ty));
+  return hn::Add(tv, MulX<kExact>(d, hn::Sub(hn::LoadU(d, b + i), tv), ty));
 }
 
-void LerpQuadsAccImpl(const float* top, const float* bot, float ty, int m, bool first, float* acc) {
+template <bool kExact>
+HWY_INLINE void LerpQuadsAccT(const float* top, const float* bot, float ty, int m, bool first, float* acc) {
   constexpr int kAcc = kRowStride / 4;  // acc's channel stride
   for (int ch = 0; ch < 4; ++ch) {
     const float* t = top + kRowStride * ch;
@@ -448,8 +480,8 @@ void LerpQuadsAccImpl(const float* top, const float* bot, float ty, int m, bool 
     const auto tyv = hn::Set(df, ty);
     for (; x + n <= m; x += n) {  // DownQuadsImpl's de-interleave of one row, on the lerps
       const std::size_t i = 4 * static_cast<std::size_t>(x);
-      const auto v0 = LerpAt(df, t, b, tyv, i), v1 = LerpAt(df, t, b, tyv, i + n),
-                 v2 = LerpAt(df, t, b, tyv, i + 2 * n), v3 = LerpAt(df, t, b, tyv, i + 3 * n);
+      const auto v0 = LerpAt<kExact>(df, t, b, tyv, i), v1 = LerpAt<kExact>(df, t, b, tyv, i + n),
+                 v2 = LerpAt<kExact>(df, t, b, tyv, i + 2 * n), v3 = LerpAt<kExact>(df, t, b, tyv, i + 3 * n);
       const auto e01 = hn::ConcatEven(df, v1, v0), o01 = hn::ConcatOdd(df, v1, v0);
       const auto e23 = hn::ConcatEven(df, v3, v2), o23 = hn::ConcatOdd(df, v3, v2);
       auto sv = first ? hn::Zero(df) : hn::LoadU(df, a + x);
@@ -471,8 +503,14 @@ void LerpQuadsAccImpl(const float* top, const float* bot, float ty, int m, bool 
   }
 }
 
-void LerpPairsBoxImpl(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
-                      float* const* d) {
+void LerpQuadsAccImpl(const float* top, const float* bot, float ty, int m, bool first, bool exact, float* acc) {
+  if (exact) LerpQuadsAccT<true>(top, bot, ty, m, first, acc);
+  else LerpQuadsAccT<false>(top, bot, ty, m, first, acc);
+}
+
+template <bool kExact>
+HWY_INLINE void LerpPairsBoxT(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb,
+                              int m, float* const* d) {
   for (int ch = 0; ch < 4; ++ch) {
     const float* t0 = ta + kRowStride * ch;
     const float* b0 = ba + kRowStride * ch;
@@ -486,13 +524,13 @@ void LerpPairsBoxImpl(const float* ta, const float* ba, float tya, const float* 
     const auto ty0 = hn::Set(df, tya), ty1 = hn::Set(df, tyb), q = hn::Set(df, 0.25f);
     for (; x + n <= m; x += n) {
       const std::size_t i = 2 * static_cast<std::size_t>(x);
-      const auto a0 = LerpAt(df, t0, b0, ty0, i), a1 = LerpAt(df, t0, b0, ty0, i + n);
-      const auto c0 = LerpAt(df, t1, b1, ty1, i), c1 = LerpAt(df, t1, b1, ty1, i + n);
+      const auto a0 = LerpAt<kExact>(df, t0, b0, ty0, i), a1 = LerpAt<kExact>(df, t0, b0, ty0, i + n);
+      const auto c0 = LerpAt<kExact>(df, t1, b1, ty1, i), c1 = LerpAt<kExact>(df, t1, b1, ty1, i + n);
       // down_pairs: 0.25 · (((a[2x] + a[2x + 1]) + b[2x]) + b[2x + 1])
       auto sv = hn::Add(hn::ConcatEven(df, a1, a0), hn::ConcatOdd(df, a1, a0));
       sv = hn::Add(sv, hn::ConcatEven(df, c1, c0));
       sv = hn::Add(sv, hn::ConcatOdd(df, c1, c0));
-      hn::StoreU(hn::Mul(q, sv), df, o + x);
+      hn::StoreU(MulX<kExact>(df, q, sv), df, o + x);
     }
 #endif
     for (; x < m; ++x) {
@@ -501,6 +539,61 @@ void LerpPairsBoxImpl(const float* ta, const float* ba, float tya, const float* 
       const float c0 = t1[i] + (b1[i] - t1[i]) * tyb, c1 = t1[i + 1] + (b1[i + 1] - t1[i + 1]) * tyb;
       o[x] = 0.25f * (a0 + a1 + c0 + c1);
     }
+  }
+}
+
+void LerpPairsBoxImpl(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
+                      bool exact, float* const* d) {
+  if (exact) LerpPairsBoxT<true>(ta, ba, tya, tb, bb, tyb, m, d);
+  else LerpPairsBoxT<false>(ta, ba, tya, tb, bb, tyb, m, d);
+}
+
+// fast.cpp's kern::up_pairs / kern::up_quads (the same expressions in the same order) with
+// MulX<true>: for coarse rows with tiny samples.
+void UpPairsExactImpl(const float* src, int i0, int i1, float* dst) {
+  const float* s = src + i0;
+  const int m = i1 - i0;
+  int i = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<float> df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto w0 = hn::Set(df, 0.75f), w1 = hn::Set(df, 0.25f);
+  for (; i + n <= m; i += n) {
+    const auto lo = hn::LoadU(df, s + i - 1), mid = hn::LoadU(df, s + i), hi = hn::LoadU(df, s + i + 1);
+    const auto e = hn::Add(lo, MulX<true>(df, hn::Sub(mid, lo), w0));
+    const auto o = hn::Add(mid, MulX<true>(df, hn::Sub(hi, mid), w1));
+    hn::StoreInterleaved2(e, o, df, dst + 2 * static_cast<std::size_t>(i));
+  }
+#endif
+  for (; i < m; ++i) {
+    const float lo = s[i - 1], mid = s[i], hi = s[i + 1];
+    dst[2 * i] = lo + (mid - lo) * 0.75f;
+    dst[2 * i + 1] = mid + (hi - mid) * 0.25f;
+  }
+}
+
+void UpQuadsExactImpl(const float* src, int i0, int i1, float* dst) {
+  const float* s = src + i0;
+  const int m = i1 - i0;
+  int i = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<float> df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto w0 = hn::Set(df, 0.625f), w1 = hn::Set(df, 0.875f), w2 = hn::Set(df, 0.125f), w3 = hn::Set(df, 0.375f);
+  for (; i + n <= m; i += n) {
+    const auto lo = hn::LoadU(df, s + i - 1), mid = hn::LoadU(df, s + i), hi = hn::LoadU(df, s + i + 1);
+    const auto dl = hn::Sub(mid, lo), dh = hn::Sub(hi, mid);
+    hn::StoreInterleaved4(hn::Add(lo, MulX<true>(df, dl, w0)), hn::Add(lo, MulX<true>(df, dl, w1)),
+                          hn::Add(mid, MulX<true>(df, dh, w2)), hn::Add(mid, MulX<true>(df, dh, w3)), df,
+                          dst + 4 * static_cast<std::size_t>(i));
+  }
+#endif
+  for (; i < m; ++i) {
+    const float lo = s[i - 1], mid = s[i], hi = s[i + 1];
+    dst[4 * i] = lo + (mid - lo) * 0.625f;
+    dst[4 * i + 1] = lo + (mid - lo) * 0.875f;
+    dst[4 * i + 2] = mid + (hi - mid) * 0.125f;
+    dst[4 * i + 3] = mid + (hi - mid) * 0.375f;
   }
 }
 
@@ -517,14 +610,23 @@ HWY_EXPORT(FinalRowImpl);
 HWY_EXPORT(DownQuadsImpl);
 HWY_EXPORT(LerpQuadsAccImpl);
 HWY_EXPORT(LerpPairsBoxImpl);
+HWY_EXPORT(UpPairsExactImpl);
+HWY_EXPORT(UpQuadsExactImpl);
 
-void lerp_quads_acc_simd(const float* top, const float* bot, float ty, int m, bool first, float* acc) {
-  HWY_DYNAMIC_DISPATCH(LerpQuadsAccImpl)(top, bot, ty, m, first, acc);
+void up_pairs_exact_simd(const float* src, int i0, int i1, float* dst) {
+  HWY_DYNAMIC_DISPATCH(UpPairsExactImpl)(src, i0, i1, dst);
+}
+void up_quads_exact_simd(const float* src, int i0, int i1, float* dst) {
+  HWY_DYNAMIC_DISPATCH(UpQuadsExactImpl)(src, i0, i1, dst);
+}
+
+void lerp_quads_acc_simd(const float* top, const float* bot, float ty, int m, bool first, float* acc, bool exact) {
+  HWY_DYNAMIC_DISPATCH(LerpQuadsAccImpl)(top, bot, ty, m, first, exact, acc);
 }
 
 void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
-                         float* const* d) {
-  HWY_DYNAMIC_DISPATCH(LerpPairsBoxImpl)(ta, ba, tya, tb, bb, tyb, m, d);
+                         float* const* d, bool exact) {
+  HWY_DYNAMIC_DISPATCH(LerpPairsBoxImpl)(ta, ba, tya, tb, bb, tyb, m, exact, d);
 }
 
 void down_quads_simd(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d) {

@@ -66,6 +66,7 @@ struct FinalRow {
   const float* ft;
   const float* fb;
   float fty;
+  bool exact = false;  // the multiplies through double (same bits; for rows with subnormal tails)
 };
 void final_row_simd(const FinalRow& r, int n, float* const* out);
 
@@ -74,15 +75,24 @@ void final_row_simd(const FinalRow& r, int n, float* const* out);
 /// lerp_rows): acc[ch][x] (+)= v[4x] + v[4x + 1] + v[4x + 2] + v[4x + 3] in that order, from
 /// +0 if first (acc: 4 channels kRowStride / 4 apart), for the outputs [0, m). Four calls,
 /// one per fine row in order, leave acc = what down_quads_simd sums before its 0.0625 ·.
-void lerp_quads_acc_simd(const float* top, const float* bot, float ty, int m, bool first, float* acc);
+/// exact: the multiplies through double (the same bits, no subnormal assists; for rows of an
+/// accumulator with subnormal tails).
+void lerp_quads_acc_simd(const float* top, const float* bot, float ty, int m, bool first, float* acc,
+                         bool exact = false);
 
 /// composite.cpp's 2×2 box of two fine rows given as such lerps (rows a: ta, ba, tya; b: tb,
 /// bb, tyb): d[ch][x] = 0.25 · (a[2x] + a[2x + 1] + b[2x] + b[2x + 1]) for x in [0, m).
 void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
-                         float* const* d);
+                         float* const* d, bool exact = false);
 
 /// composite.cpp's 4×4 box for the outputs [0, m) (all 16 taps in range): d[x] = 0.0625 ·
 /// (0 + r0[4x] + r0[4x + 1] + … + r3[4x + 3]), summed in that order.
 void down_quads_simd(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d);
+
+/// fast.cpp's kern::up_pairs / kern::up_quads (the 2× / 4× horizontal up-sampling of the
+/// coarse pairs / quads [i0, i1)) with the multiplies through double: the same bits, no
+/// subnormal assists (for coarse rows with tiny samples).
+void up_pairs_exact_simd(const float* src, int i0, int i1, float* dst);
+void up_quads_exact_simd(const float* src, int i0, int i1, float* dst);
 
 }  // namespace dofkit::detail::layered

@@ -65,6 +65,10 @@ void composite_fast(const Image& colour, const Image& coc, const Rect& src, int 
   // 32 chunks: each starts by interpolating its first two low-res rows again (64 chunks:
   // 334 row interpolations per 1080p frame for 270 low-res rows; 32: 302).
   const int nchunk = std::min(h, 32);
+  // Non-temporal output stores (composite_row_simd; round 8): the output is not read again
+  // by the method, and streaming it saves the read of every output line into the cache
+  // before it is written (P4 one thread 14.8 → 8.5 ms on the Emerald Rapids VM).
+  constexpr bool stream = true;
   core::parallel_for(nchunk, [&](int c0, int c1) {
     // The two interpolated rows per thread, not per chunk: a thread's chunks reuse the same
     // 138 KB (at 1080p), which stays in its L2; per-chunk rows of one workspace image (64 ×
@@ -114,9 +118,11 @@ void composite_fast(const Image& colour, const Image& coc, const Rect& src, int 
         job.coverage_boost = k.coverage_boost;
         job.g3d = k.variant == Variant::g3d;
         job.double_coc = k.double_coc;
+        job.stream = stream;
         composite_row_simd(job);
       }
     }
+    if (stream) composite_flush_streams();
   });
 }
 

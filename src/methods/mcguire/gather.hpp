@@ -63,8 +63,11 @@ struct CompositeRowJob {
   float far_rescale = 1, coverage_boost = 1;
   bool g3d = false, double_coc = false;
   float* out[4] = {};
+  bool stream = false;  ///< non-temporal stores where the output rows allow (then composite_flush_streams())
 };
 void composite_row_simd(const CompositeRowJob& job);
+/// Orders the composite's non-temporal stores (sfence) before the calling task ends.
+void composite_flush_streams();
 
 /// One low-res row of the composite interpolated horizontally: for each of `nc` channels,
 /// dst[c][x] = a[c][i0[x]] + (a[c][i1[x]] − a[c][i0[x]])·w1[x] for x < w.

@@ -240,7 +240,8 @@ LAYERED_SIMD void code_summary(const std::uint16_t* __restrict code, const float
 // without v. The value does not depend on what v holds, so a pull may leave v unwritten where
 // w = 0 if this push runs over the level (see pull_row's skip_hole_values).
 //
-// The expression is push_lerp_rows4's (below), per pixel of the chunks it runs on.
+// The push is push_rows4_simd (fused_simd.cpp): four channels per call, and per vector of
+// pixels nothing where every w >= 1.
 
 // The sum both pulls share, for one channel: the 2×2 children of coarse pixel x (masked
 // fine rows z0, z1: a skipped child is +0) de-interleaved with plain strided copies, then
@@ -426,60 +427,11 @@ LAYERED_SIMD bool any_byte(const std::uint8_t* __restrict b, int n) {
   return any != 0;
 }
 
-// Bit c set if some w of the 16-pixel chunk [16c, 16c + 16) ∩ [0, n) is < 1 (a pixel the
-// push changes); n <= 256.
-LAYERED_SIMD std::uint32_t below_one_chunks(const float* __restrict w, int n) {
-  std::uint32_t m = 0;
-  int c = 0;
-  for (; 16 * c + 16 <= n; ++c) {
-    int any = 0;
-    for (int j = 0; j < 16; ++j) any |= w[16 * c + j] < 1.0f;
-    m |= static_cast<std::uint32_t>(any != 0) << c;
-  }
-  if (16 * c < n) {
-    int any = 0;
-    for (int j = 16 * c; j < n; ++j) any |= w[j] < 1.0f;
-    m |= static_cast<std::uint32_t>(any != 0) << c;
-  }
-  return m;
-}
-
-// The push (see "The push at one pyramid level" above) for the four channels of one block
-// (cached rows top / bot kBlock floats apart, level rows v + c·ps), only on the 16-pixel
-// chunks set in `chunks` (below_one_chunks): in the others every w >= 1, where the push keeps
-// v, so they are neither read nor stored (the same values; w is read once for four channels,
-// was once per channel by push_lerp_row after an any_below_one scan of the block).
-LAYERED_SIMD void push_lerp_rows4(const float* __restrict wr, const float* __restrict top,
-                                  const float* __restrict bot, float t, int n, std::uint32_t chunks,
-                                  float* __restrict v, std::size_t ps) {
-  while (chunks) {
-    const int c = __builtin_ctz(chunks);
-    chunks &= chunks - 1;
-    const int j0 = 16 * c;
-    if (j0 + 16 <= n) {
-      for (int ch = 0; ch < 4; ++ch) {
-        const float* __restrict tp = top + ch * kBlock + j0;
-        const float* __restrict bp = bot + ch * kBlock + j0;
-        float* __restrict vp = v + ch * ps + j0;
-        const float* __restrict wp = wr + j0;
-        for (int j = 0; j < 16; ++j) {
-          const float wt = wp[j];
-          const float up = tp[j] + (bp[j] - tp[j]) * t;
-          const float p = wt > 0.0f ? wt * vp[j] + (1.0f - wt) * up : 0.0f + up;
-          vp[j] = wt >= 1.0f ? vp[j] : p;
-        }
-      }
-    } else {
-      for (int ch = 0; ch < 4; ++ch)
-        for (int j = j0; j < n; ++j) {
-          const float wt = wr[j];
-          const float up = top[ch * kBlock + j] + (bot[ch * kBlock + j] - top[ch * kBlock + j]) * t;
-          float& x = v[ch * ps + j];
-          const float p = wt > 0.0f ? wt * x + (1.0f - wt) * up : 0.0f + up;
-          x = wt >= 1.0f ? x : p;
-        }
-    }
-  }
+// True if any of w[0 … n) is < 1 (a pixel the push changes).
+LAYERED_SIMD bool any_below_one(const float* __restrict w, int n) {
+  int any = 0;
+  for (int i = 0; i < n; ++i) any |= w[i] < 1.0f;
+  return any != 0;
 }
 
 // True if every w[0 … n) is exactly 1.
@@ -891,15 +843,14 @@ void pull_push_upper(const Pyramid& p, int first = 2) {
         const float* wr = fwt.row(0, y);
         for (int x0 = 0; x0 < fw; x0 += kBlock) {
           const int n = std::min(kBlock, fw - x0);
-          const std::uint32_t chunks = kern::below_one_chunks(wr + x0, n);
-          if (!chunks) continue;
+          if (!kern::any_below_one(wr + x0, n)) continue;
           HCache& hc = cache[x0 / kBlock];
           if (hc.img != &cv) hc.reset(&cv, 2, x0);
           const float* const* top;
           const float* const* bot;
           float ty;
           hc.rows(y, n, top, bot, ty);  // the vertical lerp of up_block, inside the push
-          kern::push_lerp_rows4(wr + x0, top[0], bot[0], ty, n, chunks, fv.row(0, y) + x0, fv.plane_size());
+          push_rows4_simd(wr + x0, top[0], bot[0], ty, n, fv.row(0, y) + x0, fv.plane_size());
         }
       }
     }, 8);
@@ -1378,7 +1329,7 @@ struct FusedLayer {
 //
 // skip_hole_values: a block of four holes gets its confidences (0) but not its values (+0):
 // only for a level the push then runs over (a pyramid above level 1), which writes +0 + up
-// wherever w = 0 without reading v (push_lerp_rows4); before it, v is read where w = 0 only by
+// wherever w = 0 without reading v (push_rows4_simd); before it, v is read where w = 0 only by
 // the pull of level 2, which skips such children (their products are masked to +0), so no
 // value depends on what v held there. Saves 4 of the 5 plane fills of such blocks.
 void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][kBlock], std::uint8_t (*hb)[kBlock],

@@ -239,15 +239,9 @@ LAYERED_SIMD void code_summary(const std::uint16_t* __restrict code, const float
 // shortcut), so w v + (1 − w) up = 0·(+0) + 1·up = +0 + up: that is what is written there,
 // without v. The value does not depend on what v holds, so a pull may leave v unwritten where
 // w = 0 if this push runs over the level (see pull_row's skip_hole_values).
-LAYERED_SIMD void push_lerp_row(const float* __restrict wr, const float* __restrict top, const float* __restrict bot,
-                                float t, int n, float* __restrict v) {
-  for (int j = 0; j < n; ++j) {
-    const float wt = wr[j];
-    const float up = top[j] + (bot[j] - top[j]) * t;
-    const float p = wt > 0.0f ? wt * v[j] + (1.0f - wt) * up : 0.0f + up;
-    v[j] = wt >= 1.0f ? v[j] : p;
-  }
-}
+//
+// The push is push_rows4_simd (fused_simd.cpp): four channels per call, and per vector of
+// pixels nothing where every w >= 1.
 
 // The sum both pulls share, for one channel: the 2×2 children of coarse pixel x (masked
 // fine rows z0, z1: a skipped child is +0) de-interleaved with plain strided copies, then
@@ -433,18 +427,18 @@ LAYERED_SIMD bool any_byte(const std::uint8_t* __restrict b, int n) {
   return any != 0;
 }
 
-// True if every w[0 … n) is exactly 1.
-LAYERED_SIMD bool all_one(const float* __restrict w, int n) {
-  int bad = 0;
-  for (int i = 0; i < n; ++i) bad |= w[i] != 1.0f;
-  return bad == 0;
-}
-
 // True if any of w[0 … n) is < 1 (a pixel the push changes).
 LAYERED_SIMD bool any_below_one(const float* __restrict w, int n) {
   int any = 0;
   for (int i = 0; i < n; ++i) any |= w[i] < 1.0f;
   return any != 0;
+}
+
+// True if every w[0 … n) is exactly 1.
+LAYERED_SIMD bool all_one(const float* __restrict w, int n) {
+  int bad = 0;
+  for (int i = 0; i < n; ++i) bad |= w[i] != 1.0f;
+  return bad == 0;
 }
 
 // True if any of p[0 … n) has a bit set (anything but +0), as an integer OR so it vectorises.
@@ -856,7 +850,7 @@ void pull_push_upper(const Pyramid& p, int first = 2) {
           const float* const* bot;
           float ty;
           hc.rows(y, n, top, bot, ty);  // the vertical lerp of up_block, inside the push
-          for (int k = 0; k < 4; ++k) kern::push_lerp_row(wr + x0, top[k], bot[k], ty, n, fv.row(k, y) + x0);
+          push_rows4_simd(wr + x0, top[0], bot[0], ty, n, fv.row(0, y) + x0, fv.plane_size());
         }
       }
     }, 8);
@@ -1335,7 +1329,7 @@ struct FusedLayer {
 //
 // skip_hole_values: a block of four holes gets its confidences (0) but not its values (+0):
 // only for a level the push then runs over (a pyramid above level 1), which writes +0 + up
-// wherever w = 0 without reading v (push_lerp_row); before it, v is read where w = 0 only by
+// wherever w = 0 without reading v (push_rows4_simd); before it, v is read where w = 0 only by
 // the pull of level 2, which skips such children (their products are masked to +0), so no
 // value depends on what v held there. Saves 4 of the 5 plane fills of such blocks.
 void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][kBlock], std::uint8_t (*hb)[kBlock],

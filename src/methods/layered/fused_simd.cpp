@@ -597,6 +597,42 @@ void UpQuadsExactImpl(const float* src, int i0, int i1, float* dst) {
   }
 }
 
+// fast.cpp's push at a pyramid level (pull_push_upper) for the four channels of one block
+// (see push_rows4_simd): per vector of pixels, nothing where every w >= 1 (the push keeps v
+// there), else the same expression as the scalar form below, lane by lane.
+void PushRows4Impl(const float* wr, const float* top, const float* bot, float t, int n, float* v, std::size_t ps) {
+  int j = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<float> df;
+  const int L = static_cast<int>(hn::Lanes(df));
+  const auto one = hn::Set(df, 1.0f), zero = hn::Zero(df), vt = hn::Set(df, t);
+  for (; j + L <= n; j += L) {
+    const auto wt = hn::LoadU(df, wr + j);
+    const auto keep = hn::Ge(wt, one);
+    if (hn::AllTrue(df, keep)) continue;
+    const auto pos = hn::Gt(wt, zero);
+    const auto omw = hn::Sub(one, wt);
+    for (int ch = 0; ch < 4; ++ch) {
+      const float* tp = top + ch * 256 + j;
+      const float* bp = bot + ch * 256 + j;
+      float* vp = v + ch * ps + j;
+      const auto a = hn::LoadU(df, tp), b = hn::LoadU(df, bp), x = hn::LoadU(df, vp);
+      const auto up = hn::Add(a, hn::Mul(hn::Sub(b, a), vt));
+      const auto p = hn::IfThenElse(pos, hn::Add(hn::Mul(wt, x), hn::Mul(omw, up)), hn::Add(zero, up));
+      hn::StoreU(hn::IfThenElse(keep, x, p), df, vp);
+    }
+  }
+#endif
+  for (int ch = 0; ch < 4; ++ch)
+    for (int i = j; i < n; ++i) {
+      const float wt = wr[i];
+      const float up = top[ch * 256 + i] + (bot[ch * 256 + i] - top[ch * 256 + i]) * t;
+      float& x = v[ch * ps + i];
+      const float p = wt > 0.0f ? wt * x + (1.0f - wt) * up : 0.0f + up;
+      x = wt >= 1.0f ? x : p;
+    }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace dofkit::detail::layered
 HWY_AFTER_NAMESPACE();
@@ -612,6 +648,11 @@ HWY_EXPORT(LerpQuadsAccImpl);
 HWY_EXPORT(LerpPairsBoxImpl);
 HWY_EXPORT(UpPairsExactImpl);
 HWY_EXPORT(UpQuadsExactImpl);
+HWY_EXPORT(PushRows4Impl);
+
+void push_rows4_simd(const float* wr, const float* top, const float* bot, float t, int n, float* v, std::size_t ps) {
+  HWY_DYNAMIC_DISPATCH(PushRows4Impl)(wr, top, bot, t, n, v, ps);
+}
 
 void up_pairs_exact_simd(const float* src, int i0, int i1, float* dst) {
   HWY_DYNAMIC_DISPATCH(UpPairsExactImpl)(src, i0, i1, dst);

@@ -613,8 +613,8 @@ void PushRows4Impl(const float* wr, const float* top, const float* bot, float t,
     const auto pos = hn::Gt(wt, zero);
     const auto omw = hn::Sub(one, wt);
     for (int ch = 0; ch < 4; ++ch) {
-      const float* tp = top + ch * 256 + j;
-      const float* bp = bot + ch * 256 + j;
+      const float* tp = top + ch * kRowStride + j;
+      const float* bp = bot + ch * kRowStride + j;
       float* vp = v + ch * ps + j;
       const auto a = hn::LoadU(df, tp), b = hn::LoadU(df, bp), x = hn::LoadU(df, vp);
       const auto up = hn::Add(a, hn::Mul(hn::Sub(b, a), vt));
@@ -626,7 +626,7 @@ void PushRows4Impl(const float* wr, const float* top, const float* bot, float t,
   for (int ch = 0; ch < 4; ++ch)
     for (int i = j; i < n; ++i) {
       const float wt = wr[i];
-      const float up = top[ch * 256 + i] + (bot[ch * 256 + i] - top[ch * 256 + i]) * t;
+      const float up = top[ch * kRowStride + i] + (bot[ch * kRowStride + i] - top[ch * kRowStride + i]) * t;
       float& x = v[ch * ps + i];
       const float p = wt > 0.0f ? wt * x + (1.0f - wt) * up : 0.0f + up;
       x = wt >= 1.0f ? x : p;

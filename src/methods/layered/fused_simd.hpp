@@ -98,7 +98,7 @@ void up_quads_exact_simd(const float* src, int i0, int i1, float* dst);
 
 /// fast.cpp's push at a pyramid level for columns [0, n) of one block (n <= 256), four
 /// channels: v + c·ps ← w v + (1 − w) up where w < 1 (w > 0; +0 + up where w <= 0), with up =
-/// top + (bot − top)·t from the cached rows top / bot + c·256. Vectors where every w >= 1 are
+/// top + (bot − top)·t from the cached rows top / bot + c·kRowStride. Vectors where every w >= 1 are
 /// neither read nor stored (the push keeps them).
 void push_rows4_simd(const float* wr, const float* top, const float* bot, float t, int n, float* v, std::size_t ps);
 

@@ -35,6 +35,15 @@ constexpr int kAhead = 4;    // rows prefetched ahead by the vertical sweep
 // medium level on one thread, 1080p bench frame, 4 rows 14.4 ms, 8 rows 15.0, 16 rows 15.7
 // (row by row with box_row_acc: 17.0).
 constexpr int kGroup = 4;
+// Where the rings of kGroup rows outgrow the L2 anyway (the bench frame at 3840×2160: its medium
+// level's rings are 6.8 MB, 2.2 MB at 1080p), every ring row comes from L3 whatever the group,
+// and larger groups win instead: fewer box_rows calls, each loading and storing its window
+// and pending sums once per group (medium level + final pass at 4K, 1 thread: ~0.93 of the
+// time with 32 rows; docs/methods/starcraft.md, "4K / 1080p (round 16)"). Same values: a
+// group only splits the same row sequence into calls, the sums carried between them in memory.
+constexpr int kWideGroup = 32;  // <= kResync: at most one re-synchronisation per call
+constexpr std::size_t kGroupRingBytes = std::size_t{4} << 20;
+constexpr int kMaxGroup = kWideGroup;
 
 using strip::Vec8;
 using strip::Vec8u;
@@ -351,11 +360,17 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   else passes = 0;
   const int pad = r + 1;
   const int np = nplanes + 1;  // sweep plane np − 1 = the weights
+  // Rows per box_rows call: kGroup while the rings of that choice fit about an L2, else kWideGroup
+  // (see kGroupRingBytes; the values do not depend on it, only the memory traffic).
+  const std::size_t ring_bytes_small =
+      static_cast<std::size_t>(np) * (2 * r + 3 + kLanes + kGroup + std::max(0, passes - 1) * (2 * r + 3 + kGroup)) *
+      ((static_cast<std::size_t>(w) + 15) / 16 * 16) * sizeof(float);
+  const int group = ring_bytes_small > kGroupRingBytes ? kWideGroup : kGroup;
   const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
-  // The vertical passes produce kGroup rows per step (box_rows), so every ring holds a
+  // The vertical passes produce group rows per step (box_rows), so every ring holds a
   // pass's window (2r + 3 rows) plus one group; the horizontal output also one strip of new rows.
-  const int ring0 = 2 * r + 3 + kLanes + kGroup;
-  const int ring = 2 * r + 3 + kGroup;
+  const int ring0 = 2 * r + 3 + kLanes + group;
+  const int ring = 2 * r + 3 + group;
   // Row stride of the rings and row buffers: w rounded up to 16 floats, so that every row
   // starts on a 64-byte boundary of the aligned scratch (the vertical passes' vectors then
   // never straddle two lines, nor do the transposes' row accesses: see unaligned_head).
@@ -364,13 +379,13 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   const std::size_t n_ring0 = static_cast<std::size_t>(np) * ring0 * row;
   const std::size_t n_rings = static_cast<std::size_t>(std::max(0, passes - 1)) * np * ring * row;
   const std::size_t n_sums = static_cast<std::size_t>(passes) * np * row;
-  const std::size_t n_last = static_cast<std::size_t>(np) * kGroup * row;
+  const std::size_t n_last = static_cast<std::size_t>(np) * group * row;
   const std::size_t n_outs = static_cast<std::size_t>(nplanes) * row;
   float* base = scratch(n_ring0 + n_rings + 2 * n_sums + n_last + n_outs + 3 * strip);
   float* r0 = base;              // [np][ring0][w]
   float* rings = r0 + n_ring0;   // [passes − 1][np][ring][w]
   float* sums = rings + n_rings; // [passes][np][w]
-  float* last = sums + n_sums;   // [np][kGroup][w]: the last pass's latest rows (ring)
+  float* last = sums + n_sums;   // [np][group][w]: the last pass's latest rows (ring)
   float* outs = last + n_last;   // [nplanes][w]: the normalised row
   float* fresh = outs + n_outs;  // [passes][np][w]: next window sums being built (see strip_passes)
   float* cb = fresh + n_sums;    // three strip buffers of the horizontal passes
@@ -386,7 +401,7 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
     return rings + ((static_cast<std::size_t>(k - 1) * np + p) * ring + y % ring) * row;
   };
   auto output = [&](int k, int p, int y) -> float* {
-    if (k == passes - 1) return last + (static_cast<std::size_t>(p) * kGroup + y % kGroup) * row;
+    if (k == passes - 1) return last + (static_cast<std::size_t>(p) * group + y % group) * row;
     return rings + ((static_cast<std::size_t>(k) * np + p) * ring + y % ring) * row;
   };
 
@@ -432,13 +447,13 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   };
 
   // Makes pass k (k = passes: the horizontal passes) produce rows up to j (clamped), at most
-  // kGroup rows per box_rows call. Each group first makes the input pass produce the rows its
+  // group rows per box_rows call. Each group first makes the input pass produce the rows its
   // windows reach (i + r + 1 for its last row i).
   thread_local std::vector<const float*> his, lows, wins;
   thread_local std::vector<float*> outp;
-  his.resize(kGroup);
-  lows.resize(kGroup);
-  outp.resize(kGroup);
+  his.resize(group);
+  lows.resize(group);
+  outp.resize(group);
   wins.resize(2 * static_cast<std::size_t>(r) + 1);
   auto need = [&](auto&& self, int k, int j) -> void {
     j = std::min(j, h - 1);
@@ -447,9 +462,9 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
       return;
     }
     while (produced[k] < j) {
-      const int i0 = produced[k] + 1, n = std::min(kGroup, j - i0 + 1);
+      const int i0 = produced[k] + 1, n = std::min(group, j - i0 + 1);
       self(self, k == 0 ? passes : k - 1, i0 + n - 1 + r + 1);
-      unsigned char flags[kGroup];
+      unsigned char flags[kMaxGroup];
       int resum = -1;  // the row re-summed from scratch, if any
       for (int t = 0; t < n; ++t) {
         const int i = i0 + t, m = i % kResync;
@@ -485,7 +500,7 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   for (int y = passes > 0 ? produced[passes - 1] + 1 : y0; y < y1; ++y) {
     if (passes > 0) {
       // The last pass runs a group ahead (its rows wait in `last`), up to the band's end.
-      if (produced[passes - 1] < y) need(need, passes - 1, std::min(y + kGroup - 1, y1 - 1));
+      if (produced[passes - 1] < y) need(need, passes - 1, std::min(y + group - 1, y1 - 1));
       for (int p = 0; p < np; ++p) raw_rows[p] = output(passes - 1, p, y);
     } else {
       need(need, 0, y);  // no vertical pass: the weighted rows themselves

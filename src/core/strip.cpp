@@ -125,7 +125,10 @@ constexpr int kPrefetch = 16;
 // product of two floats is exact in double (24 + 24 <= 53 bits, and 2^-298 is far inside
 // double's range), so converting it to float rounds the exact product once, as the float
 // multiply does (gradual underflow included): the same bits. The empty asm keeps GCC from
-// narrowing (float)((double)a · (double)b) back to a float multiply (match.pd may).
+// narrowing (float)((double)a · (double)b) back to a float multiply (match.pd may). Clang
+// rejects a 512-bit asm operand here (this inline function has no AVX-512 target of its own;
+// only its callers do), so clang builds (the fuzz build) go without it: a compiler that
+// narrows the expression computes the same bits, it only brings the assist back.
 template <typename V>
 __attribute__((always_inline)) inline V mul_exact16(V a, V b) {
   typedef float F8 __attribute__((vector_size(32)));
@@ -136,7 +139,9 @@ __attribute__((always_inline)) inline V mul_exact16(V a, V b) {
   const F8 bh = __builtin_shufflevector(b, b, 8, 9, 10, 11, 12, 13, 14, 15);
   D8 xl = __builtin_convertvector(al, D8), xh = __builtin_convertvector(ah, D8);
   D8 yl = __builtin_convertvector(bl, D8), yh = __builtin_convertvector(bh, D8);
+#if !defined(__clang__)
   asm("" : "+v"(xl), "+v"(xh), "+v"(yl), "+v"(yh));
+#endif
   const F8 rl = __builtin_convertvector(xl * yl, F8), rh = __builtin_convertvector(xh * yh, F8);
   return __builtin_shufflevector(rl, rh, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
 }

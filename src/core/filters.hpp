@@ -12,6 +12,13 @@ namespace dofkit::core {
 // running sums, clamped taps, one pass per sweep) within ~1e-6 of the local signal magnitude
 // (tests/core). Output is independent of the thread count (fixed strips, same code per lane).
 
+/// Bits of 2^-96 as a float. A magnitude below it (|x| < 2^-96, x != 0) is "tiny": a few
+/// multiplies by blur weights take it to a subnormal, and on Intel cores a vector multiply
+/// with a subnormal operand or result takes a microcode assist (~20× its cost). The fast
+/// forms multiply blocks holding tiny samples through double instead (exact products,
+/// rounded once: the same bits): core/strip.cpp here, and the layered method's up-sampling.
+constexpr unsigned kTinyMagnitudeBits = 0x0f800000u;
+
 /// Box mean of (2·rx+1) × (2·ry+1) taps on one plane (src and dst may alias).
 void box_blur_plane(const float* src, float* dst, int w, int h, int rx, int ry);
 

@@ -13,6 +13,7 @@
 #include <cstdint>
 
 #include "core/clones.hpp"
+#include "core/filters.hpp"
 #include "core/strip.hpp"
 
 namespace dofkit::core::strip {
@@ -375,7 +376,7 @@ SP_AVX512 __attribute__((always_inline)) inline unsigned strip_hmin(U16s m) {
   return m[0];
 }
 SP_AVX512 bool strip_tiny_chunks(const float* a, int n, std::uint16_t* tiny) {
-  constexpr unsigned kLim = 0x0f800000u - 1u;  // 0x0f800000 = 2^-96
+  constexpr unsigned kLim = kTinyMagnitudeBits - 1u;
   const U16s init = U16s{} + 0xffffffffu;
   if (strip_hmin(strip_min_mag(a, 0, n, 8, init)) >= kLim) return false;
   const int nb = (n + kResync - 1) / kResync;

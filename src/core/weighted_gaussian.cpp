@@ -43,7 +43,7 @@ constexpr int kGroup = 4;
 // group only splits the same row sequence into calls, the sums carried between them in memory.
 constexpr int kWideGroup = 32;  // <= kResync: at most one re-synchronisation per call
 constexpr std::size_t kGroupRingBytes = std::size_t{4} << 20;
-constexpr int kMaxGroup = kWideGroup;
+constexpr int kMaxGroup = kGroup > kWideGroup ? kGroup : kWideGroup;
 
 using strip::Vec8;
 using strip::Vec8u;
@@ -360,21 +360,23 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   else passes = 0;
   const int pad = r + 1;
   const int np = nplanes + 1;  // sweep plane np − 1 = the weights
-  // Rows per box_rows call: kGroup while the rings of that choice fit about an L2, else kWideGroup
-  // (see kGroupRingBytes; the values do not depend on it, only the memory traffic).
-  const std::size_t ring_bytes_small =
-      static_cast<std::size_t>(np) * (2 * r + 3 + kLanes + kGroup + std::max(0, passes - 1) * (2 * r + 3 + kGroup)) *
-      ((static_cast<std::size_t>(w) + 15) / 16 * 16) * sizeof(float);
-  const int group = ring_bytes_small > kGroupRingBytes ? kWideGroup : kGroup;
   const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
-  // The vertical passes produce group rows per step (box_rows), so every ring holds a
-  // pass's window (2r + 3 rows) plus one group; the horizontal output also one strip of new rows.
-  const int ring0 = 2 * r + 3 + kLanes + group;
-  const int ring = 2 * r + 3 + group;
   // Row stride of the rings and row buffers: w rounded up to 16 floats, so that every row
   // starts on a 64-byte boundary of the aligned scratch (the vertical passes' vectors then
   // never straddle two lines, nor do the transposes' row accesses: see unaligned_head).
   const std::size_t row = (static_cast<std::size_t>(w) + 15) / 16 * 16;
+  // The vertical passes produce `group` rows per step (box_rows), so every ring holds a
+  // pass's window (2r + 3 rows) plus one group; the horizontal output also one strip of new rows.
+  auto ring0_rows = [&](int g) { return 2 * r + 3 + kLanes + g; };
+  auto ring_rows = [&](int g) { return 2 * r + 3 + g; };
+  auto ring_floats = [&](int g) {
+    return static_cast<std::size_t>(np) * (ring0_rows(g) + std::max(0, passes - 1) * ring_rows(g)) * row;
+  };
+  // Rows per box_rows call: kGroup while the rings of that choice fit about an L2, else kWideGroup
+  // (see kGroupRingBytes; the values do not depend on it, only the memory traffic).
+  const int group = ring_floats(kGroup) * sizeof(float) > kGroupRingBytes ? kWideGroup : kGroup;
+  const int ring0 = ring0_rows(group);
+  const int ring = ring_rows(group);
   const std::size_t strip = static_cast<std::size_t>(w + 2 * pad) * kLanes;
   const std::size_t n_ring0 = static_cast<std::size_t>(np) * ring0 * row;
   const std::size_t n_rings = static_cast<std::size_t>(std::max(0, passes - 1)) * np * ring * row;

@@ -177,7 +177,7 @@ LAYERED_SIMD void down_pairs(const float* __restrict a, const float* __restrict 
 // True if some x in [0, n) has 0 < |x| < 2^-96: subnormals, or values a few multiplies away
 // from them (the accumulator's blur tails; see ZeroMap::tiny).
 LAYERED_SIMD bool any_tiny(const float* __restrict p, int n) {
-  const std::uint32_t lim = 0x0f800000u - 1u;  // 0x0f800000 = 2^-96
+  const std::uint32_t lim = core::kTinyMagnitudeBits - 1u;
   std::uint32_t any = 0;
   for (int i = 0; i < n; ++i) {
     const std::uint32_t u = std::bit_cast<std::uint32_t>(p[i]) & 0x7fffffffu;
@@ -566,6 +566,39 @@ inline void up_block(const float* plane, int cw, int ch, int y, int x0, int n, f
   kern::lerp_rows(top, bot, f.t, n, dst);
 }
 
+// Where a reduced accumulator is exactly +0 (all bits clear), per coarse row and fine column
+// block of kBlock pixels: nz[cy · nb + b] = 0 if every channel of coarse row cy is +0 over the
+// coarse columns the 2× / 4× up-sampling of fine columns [b·kBlock, b·kBlock + n) reads,
+// [x0/f − 1, (x0 + n − 1)/f + 1] (clamped). The up-sampling of such samples is exactly +0 —
+// each lerp is +0 + (+0 − +0)·t with t >= 0 finite — so a reader may take rows of +0 instead
+// of computing them, and a composite of an empty layer over them is +0 (the same bits).
+// The near accumulator F is +0 wherever nothing near lies within its blur's support (the
+// core Gaussian's running sums are recomputed from scratch every 32 samples, so they return
+// to +0 there); the map is measured from the data, so nothing here relies on that.
+struct ZeroMap {
+  const std::uint8_t* nz = nullptr;
+  int nb = 0, ch = 0, factor = 2;
+  // True if fine rows [y_first, y_last] of block x0 read only +0 samples.
+  bool zero(int y_first, int y_last, int x0) const { return !nz ? false : max_code(y_first, y_last, x0) == 0; }
+  // True if they read a tiny sample (0 < |x| < 2^-96, any_tiny): subnormals, or close to
+  // them. The kernels that multiply such rows then multiply through double (the same bits,
+  // without the float multiply's ~20× microcode assist on subnormal operands or results).
+  bool tiny(int y_first, int y_last, int x0) const { return nz && max_code(y_first, y_last, x0) == 2; }
+  // The largest nz code (0 +0, 1 non-zero, 2 with a tiny sample) of the coarse rows read.
+  int max_code(int y_first, int y_last, int x0) const {
+    const float scale = factor == 4 ? 0.25f : 0.5f;
+    int ya, yb, yc, yd;
+    float t;
+    core::bilinear_footprint((y_first + 0.5f) * scale, ch, ya, yb, t);
+    core::bilinear_footprint((y_last + 0.5f) * scale, ch, yc, yd, t);
+    int m = 0;
+    for (int cy = std::min(ya, yb); cy <= std::max(yc, yd); ++cy) m = std::max(m, code(cy, x0));
+    return m;
+  }
+  // The nz code of coarse row cy for the block that starts at fine column x0.
+  int code(int cy, int x0) const { return nz[static_cast<std::size_t>(cy) * nb + x0 / kBlock]; }
+};
+
 // Horizontally up-sampled coarse rows of one column block, kept while the rows of a band are
 // produced (a coarse row serves up to four fine rows): same values as up_block computes.
 struct HCache {
@@ -574,16 +607,14 @@ struct HCache {
   int key[4] = {-1, -1, -1, -1};
   int next = 0;
   float v[4][4][kBlock];
-  // Per coarse row cy, nz[cy · nzb + x0 / kBlock] == 2 marks tiny samples (a ZeroMap's codes,
-  // optional): such rows are up-sampled with the exact multiplies (up_*_exact_simd).
-  const std::uint8_t* nz = nullptr;
-  int nzb = 0;
-  void reset(const Image* im, int fac, int bx0, const std::uint8_t* tiny_codes = nullptr, int tiny_nb = 0) {
+  // The ZeroMap of img (optional): rows whose code is 2 (tiny samples) are up-sampled with the
+  // exact multiplies (up_*_exact_simd).
+  const ZeroMap* zm = nullptr;
+  void reset(const Image* im, int fac, int bx0, const ZeroMap* z = nullptr) {
     img = im;
     factor = fac;
     x0 = bx0;
-    nz = tiny_codes;
-    nzb = tiny_nb;
+    zm = z;
     key[0] = key[1] = key[2] = key[3] = -1;
     next = 0;
   }
@@ -597,7 +628,7 @@ struct HCache {
     const int cw = img->width();
     // The coarse columns up_h / up_h4 read, [x0/f − 1, (x0 + n − 1)/f + 1] (clamped).
     const int c0 = std::max(0, x0 / factor - 1), c1 = std::min(cw, (x0 + n - 1) / factor + 2);
-    const bool exact = nz && nz[static_cast<std::size_t>(cy) * nzb + x0 / kBlock] == 2;
+    const bool exact = zm && zm->code(cy, x0) == 2;
     for (int c = 0; c < 4; ++c) {
       const float* src = img->row(c, cy);
       if (factor == 4) up_h4(src, cw, x0, n, v[i][c], exact);
@@ -920,38 +951,6 @@ void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bo
 // ---------------------------------------------------------------------------------------
 namespace {
 
-// Where a reduced accumulator is exactly +0 (all bits clear), per coarse row and fine column
-// block of kBlock pixels: nz[cy · nb + b] = 0 if every channel of coarse row cy is +0 over the
-// coarse columns the 2× / 4× up-sampling of fine columns [b·kBlock, b·kBlock + n) reads,
-// [x0/f − 1, (x0 + n − 1)/f + 1] (clamped). The up-sampling of such samples is exactly +0 —
-// each lerp is +0 + (+0 − +0)·t with t >= 0 finite — so a reader may take rows of +0 instead
-// of computing them, and a composite of an empty layer over them is +0 (the same bits).
-// The near accumulator F is +0 wherever nothing near lies within its blur's support (the
-// core Gaussian's running sums are recomputed from scratch every 32 samples, so they return
-// to +0 there); the map is measured from the data, so nothing here relies on that.
-struct ZeroMap {
-  const std::uint8_t* nz = nullptr;
-  int nb = 0, ch = 0, factor = 2;
-  // True if fine rows [y_first, y_last] of block x0 read only +0 samples.
-  bool zero(int y_first, int y_last, int x0) const { return !nz ? false : max_code(y_first, y_last, x0) == 0; }
-  // True if they read a tiny sample (0 < |x| < 2^-96, any_tiny): subnormals, or close to
-  // them. The kernels that multiply such rows then multiply through double (the same bits,
-  // without the float multiply's ~20× microcode assist on subnormal operands or results).
-  bool tiny(int y_first, int y_last, int x0) const { return nz && max_code(y_first, y_last, x0) == 2; }
-  // The largest nz code (0 +0, 1 non-zero, 2 with a tiny sample) of the coarse rows read.
-  int max_code(int y_first, int y_last, int x0) const {
-    const float scale = factor == 4 ? 0.25f : 0.5f;
-    int ya, yb, yc, yd;
-    float t;
-    core::bilinear_footprint((y_first + 0.5f) * scale, ch, ya, yb, t);
-    core::bilinear_footprint((y_last + 0.5f) * scale, ch, yc, yd, t);
-    const int b = x0 / kBlock;
-    int m = 0;
-    for (int cy = std::min(ya, yb); cy <= std::max(yc, yd); ++cy) m = std::max(m, static_cast<int>(nz[static_cast<std::size_t>(cy) * nb + b]));
-    return m;
-  }
-};
-
 // Blocks build_zero_map has marked tiny (code 2), for the tests (tiny_block_count).
 std::atomic<std::uint64_t> g_tiny_blocks{0};
 
@@ -1021,7 +1020,7 @@ struct AccRows {
     if (full) {
       for (int c = 0; c < 4; ++c) p[c] = full->row(c, y) + x0;
     } else if (cache) {
-      if (cache->img != half || cache->x0 != x0) cache->reset(half, factor, x0, zm ? zm->nz : nullptr, zm ? zm->nb : 0);
+      if (cache->img != half || cache->x0 != x0) cache->reset(half, factor, x0, zm);
       cache->get(y, n, buf);
       for (int c = 0; c < 4; ++c) p[c] = buf[c];
     } else {
@@ -1532,7 +1531,7 @@ void fused_row(const FusedLayer& L, int y, int x0, int n, HCache& fill_cache, in
   r.am = am;
   if (am == 2) {
     if (acc_cache->img != acc || acc_cache->x0 != x0)
-      acc_cache->reset(acc, factor, x0, azm ? azm->nz : nullptr, azm ? azm->nb : 0);
+      acc_cache->reset(acc, factor, x0, azm);
     acc_cache->rows(y, n, at, ab, r.aty);
   }
   // Rows of the HCaches or kZeroRows: channel ch at + ch·kRowStride, as crow_row_simd reads them.
@@ -1656,7 +1655,7 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
           // down_pairs), instead of storing the four rows first. With n a multiple of the box
           // width there is no clamped last output (the general path below takes the rest).
           HCache& ac = s.acc[x0 / kBlock];
-          if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0, A.zm ? A.zm->nz : nullptr, A.zm ? A.zm->nb : 0);
+          if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0, A.zm);
           const bool exact = A.tiny(ys[0], ys[3], x0);
           if (dst_quarter) {
             const int m = n / 4;
@@ -2056,7 +2055,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
               const float* const* b = kZeroRows;
               if (R.present() && !R.zero(y, y, x0)) {
                 if (cache.img != R.half || cache.x0 != x0)
-                  cache.reset(R.half, R.factor, x0, R.zm ? R.zm->nz : nullptr, R.zm ? R.zm->nb : 0);
+                  cache.reset(R.half, R.factor, x0, R.zm);
                 cache.rows(y, n, a, b, ty);
                 mode = 2;
               }

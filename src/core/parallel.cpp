@@ -4,6 +4,7 @@
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <unistd.h>
 
 namespace dofkit::core {
 
@@ -28,5 +29,13 @@ void with_threads(int threads, const std::function<void()>& fn) {
 }
 
 int hardware_threads() { return tbb::info::default_concurrency(); }
+
+std::size_t l2_cache_bytes() {
+  static const std::size_t bytes = [] {
+    const long v = sysconf(_SC_LEVEL2_CACHE_SIZE);
+    return v > 0 ? static_cast<std::size_t>(v) : std::size_t{0};
+  }();
+  return bytes;
+}
 
 }  // namespace dofkit::core

@@ -1,6 +1,7 @@
 // Parallel loops over rows/tiles (oneTBB). Work is split into fixed chunks that each write
 // disjoint outputs, so results never depend on the thread count.
 #pragma once
+#include <cstddef>
 #include <functional>
 
 namespace dofkit::core {
@@ -14,5 +15,8 @@ void with_threads(int threads, const std::function<void()>& fn);
 
 /// Number of hardware threads.
 int hardware_threads();
+
+/// Size of one core's L2 cache in bytes as the C library reports it (0 where unknown).
+std::size_t l2_cache_bytes();
 
 }  // namespace dofkit::core

@@ -36,13 +36,21 @@ constexpr int kAhead = 4;    // rows prefetched ahead by the vertical sweep
 // (row by row with box_row_acc: 17.0).
 constexpr int kGroup = 4;
 // Where the rings of kGroup rows outgrow the L2 anyway (the bench frame at 3840×2160: its medium
-// level's rings are 6.8 MB, 2.2 MB at 1080p), every ring row comes from L3 whatever the group,
-// and larger groups win instead: fewer box_rows calls, each loading and storing its window
-// and pending sums once per group (medium level + final pass at 4K, 1 thread: ~0.93 of the
-// time with 32 rows; docs/methods/starcraft.md, "4K / 1080p (round 16)"). Same values: a
-// group only splits the same row sequence into calls, the sums carried between them in memory.
+// level's rings are 6.8 MB, 2.2 MB at 1080p), every ring row comes from L3 whatever the group.
+// On a core with a 2 MB L2 (the Emerald Rapids VM of round 16) larger groups then win: fewer
+// box_rows calls, each loading and storing its window and pending sums once per group (medium
+// level + final pass at 4K, 1 thread: ~0.93 of the time with 32 rows). On a core with a 1 MB
+// L2 (the Zen 5 VM of round 17) they lose: the whole 4K frame 0.89 of the 32-row time with
+// 4 rows, at 1 and at 2 threads — one 32-row group of the passes' output rows (4 planes × 32
+// rows × 3840 floats, 2 MB) no longer fits the L2 the next pass reads it from. So the wide
+// group is taken only where the rings exceed kGroupRingBytes and the L2 is at least
+// kWideGroupL2Bytes; 1 MB-L2 cores keep kGroup everywhere (docs/methods/starcraft.md,
+// "4K / 1080p (round 16)" and "Zen 5 (round 17)"). Same values: a group only splits the same
+// row sequence into calls, the sums carried between them in memory.
 constexpr int kWideGroup = 32;  // <= kResync: at most one re-synchronisation per call
 constexpr std::size_t kGroupRingBytes = std::size_t{4} << 20;
+constexpr std::size_t kWideGroupL2Bytes = std::size_t{2} << 20;
+thread_local int g_group_override = 0;  // set_weighted_gaussian_group
 constexpr int kMaxGroup = kGroup > kWideGroup ? kGroup : kWideGroup;
 
 using strip::Vec8;
@@ -349,6 +357,8 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
 // the oldest or the newest rows whenever they are referenced). A band's passes start at rows
 // that are multiples of kResync, where the window sums are recomputed from scratch, so every
 // row's arithmetic is that of the whole-image sweep.
+void set_weighted_gaussian_group(int rows) { g_group_override = rows; }
+
 void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
                             int passes, float tiny, int y0, int y1, RowSink sink, void* ctx, bool normalise) {
   y0 = std::max(y0, 0);
@@ -372,9 +382,13 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   auto ring_floats = [&](int g) {
     return static_cast<std::size_t>(np) * (ring0_rows(g) + std::max(0, passes - 1) * ring_rows(g)) * row;
   };
-  // Rows per box_rows call: kGroup while the rings of that choice fit about an L2, else kWideGroup
-  // (see kGroupRingBytes; the values do not depend on it, only the memory traffic).
-  const int group = ring_floats(kGroup) * sizeof(float) > kGroupRingBytes ? kWideGroup : kGroup;
+  // Rows per box_rows call: kGroup while the rings of that choice fit about an L2, else, on a
+  // large-L2 core, kWideGroup (see kWideGroup; the values do not depend on it, only the memory
+  // traffic).
+  const int group = g_group_override == kGroup || g_group_override == kWideGroup ? g_group_override
+                    : ring_floats(kGroup) * sizeof(float) > kGroupRingBytes && l2_cache_bytes() >= kWideGroupL2Bytes
+                        ? kWideGroup
+                        : kGroup;
   const int ring0 = ring0_rows(group);
   const int ring = ring_rows(group);
   const std::size_t strip = static_cast<std::size_t>(w + 2 * pad) * kLanes;

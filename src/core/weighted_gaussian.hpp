@@ -51,6 +51,12 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
       const_cast<void*>(static_cast<const void*>(&row_out)), normalise);
 }
 
+/// Rows per call of weighted_gaussian_rows' vertical passes: 0 (the default) lets it choose
+/// by the rings' size and the L2 (see kWideGroup in weighted_gaussian.cpp); 4 or 32 forces
+/// that group on the calling thread, for the tests that hold both to the same bits on any
+/// machine. The output never depends on it.
+void set_weighted_gaussian_group(int rows);
+
 /// The normalised convolution's sums at one pixel, evaluated without running sums: out[k] =
 /// the cascade applied to c·src[k] (c·src rounded to float, as the sweeps form it) for
 /// k < nplanes, out[nplanes] = the cascade applied to c, in double. The cascade is linear, so

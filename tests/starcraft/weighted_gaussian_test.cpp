@@ -112,14 +112,21 @@ TEST(WeightedGaussian, StreamedRowsEqualThePlaneFormForAnyBanding) {
   // weighted_gaussian_rows streams bands of rows; each band warms its passes up from rows
   // above it, so any banding must give the plane form's output bit for bit. Bands start at,
   // just after and between the 32-row re-synchronisation points and at the image edges.
-  // 1000 × 150 at σ 40: rings over 4 MB, so the vertical passes take 32 rows per call
-  // (kWideGroup) instead of 4; the other cases the small group.
+  // Each case runs with the group the function chooses (1000 × 150 at σ 40: rings over 4 MB,
+  // so 32 rows per call on a core with a 2 MB L2, 4 on others) and with each group forced
+  // (set_weighted_gaussian_group), so both are checked on any machine.
+  struct GroupReset {
+    ~GroupReset() { core::set_weighted_gaussian_group(0); }
+  } reset;
+  for (int group : {0, 4, 32})
   for (const auto& size : {std::pair{1, 1}, {6, 1}, {5, 3}, {17, 33}, {50, 119}, {203, 117}, {1000, 150}}) {
     const int w = size.first, h = size.second;  // not a structured binding: the lambda below captures w
     const Planes p = make_planes(w, h);
     const std::size_t n = static_cast<std::size_t>(w) * h;
     for (float sigma : {0.0f, 0.7f, 3.3f, 9.0f, 40.0f}) {
+      core::set_weighted_gaussian_group(0);
       const std::vector<float> ref = fused(p, sigma, 1);
+      core::set_weighted_gaussian_group(group);
       for (const std::vector<int>& cuts : {std::vector<int>{0, h}, std::vector<int>{0, 1, 33, 64, h},
                                            std::vector<int>{0, h / 3, h / 2 + 1, h - 1, h}}) {
         std::vector<float> out(3 * n, -1.0f);
@@ -130,7 +137,8 @@ TEST(WeightedGaussian, StreamedRowsEqualThePlaneFormForAnyBanding) {
                                          for (int k = 0; k < 3; ++k)
                                            std::copy(rows[k], rows[k] + w, out.data() + k * n + std::size_t(y) * w);
                                        });
-        EXPECT_EQ(out, ref) << w << "x" << h << " sigma " << sigma << " bands " << cuts.size() - 1;
+        EXPECT_EQ(out, ref) << w << "x" << h << " sigma " << sigma << " bands " << cuts.size() - 1 << " group "
+                            << group;
       }
     }
   }

@@ -32,8 +32,12 @@ int hardware_threads() { return tbb::info::default_concurrency(); }
 
 std::size_t l2_cache_bytes() {
   static const std::size_t bytes = [] {
-    const long v = sysconf(_SC_LEVEL2_CACHE_SIZE);
+#ifdef _SC_LEVEL2_CACHE_SIZE
+    const long v = sysconf(_SC_LEVEL2_CACHE_SIZE);  // glibc: from CPUID
     return v > 0 ? static_cast<std::size_t>(v) : std::size_t{0};
+#else
+    return std::size_t{0};
+#endif
   }();
   return bytes;
 }

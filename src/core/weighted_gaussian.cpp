@@ -350,6 +350,8 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
   }
 }
 
+void set_weighted_gaussian_group(int rows) { g_group_override = rows; }
+
 // Streamed form. Every pass is a sequence of full-width rows; the horizontal passes produce
 // the first sequence kLanes rows at a time (the strip technique above, written into a ring),
 // each vertical pass k produces its row i once rows i + r + 1 of its input exist and keeps its
@@ -357,8 +359,6 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
 // the oldest or the newest rows whenever they are referenced). A band's passes start at rows
 // that are multiples of kResync, where the window sums are recomputed from scratch, so every
 // row's arithmetic is that of the whole-image sweep.
-void set_weighted_gaussian_group(int rows) { g_group_override = rows; }
-
 void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
                             int passes, float tiny, int y0, int y1, RowSink sink, void* ctx, bool normalise) {
   y0 = std::max(y0, 0);

@@ -390,10 +390,11 @@ SP_AVX512 bool strip_tiny_chunks(const float* a, int n, std::uint16_t* tiny) {
 
 SP_AVX512 float* strip_passes16(float* a, float* b, int n, int pad, int r, float alpha, int passes) {
   // The blocks near tiny samples take the multiplies through double (mul_exact16: the same
-  // bits, no subnormal assists); the rest the plain float multiplies.
+  // bits, no subnormal assists) on cores whose float multiply is slow there
+  // (exact_tiny_multiplies); the rest, and every block elsewhere, the plain float multiplies.
   constexpr int kMaxChunks = 1024;
   std::uint16_t tiny[kMaxChunks + 1];
-  if (n <= kMaxChunks * kResync && strip_tiny_chunks(a + static_cast<std::ptrdiff_t>(pad) * kLanes, n, tiny))
+  if (n <= kMaxChunks * kResync && exact_tiny_multiplies() && strip_tiny_chunks(a + static_cast<std::ptrdiff_t>(pad) * kLanes, n, tiny))
     return strip_passes_w<16>(a, b, n, pad, r, alpha, passes, tiny);
   return strip_passes_w<16>(a, b, n, pad, r, alpha, passes);
 }

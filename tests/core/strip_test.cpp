@@ -12,6 +12,7 @@
 #include <random>
 #include <vector>
 
+#include "core/filters.hpp"
 #include "core/strip.hpp"
 
 namespace dofkit::core::strip {
@@ -70,6 +71,39 @@ TEST(Strip, PassesEqualTheirResummingDefinitionBitForBit) {
                              want.data() + static_cast<std::size_t>(pad + i) * kL, kL * sizeof(float)) == 0;
         EXPECT_TRUE(same) << "r " << r << " n " << n << " passes " << passes;
       }
+}
+
+TEST(Strip, TinySamplesGiveTheSameBitsWithAndWithoutTheExactMultiplies) {
+  // Blur tails near subnormals (|x| < 2^-96, down to the smallest subnormals): the blocks that
+  // hold them multiply through double where core::exact_tiny_multiplies() says so, and through
+  // the float multiply otherwise; both must be the definition's bits, on any machine.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  struct Reset {
+    ~Reset() { set_exact_tiny_multiplies(-1); }
+  } reset;
+  for (int mode : {1, 0})
+    for (int r : {1, 5, 20})
+      for (int n : {33, 200, 517})
+        for (int passes : {1, 3, 4}) {
+          set_exact_tiny_multiplies(mode);
+          const int pad = r + 1;
+          std::vector<float> a(static_cast<std::size_t>(n + 2 * pad) * kL);
+          for (std::size_t i = 0; i < a.size(); ++i) {
+            const float t = u(rng);
+            const bool tail = (i / kL) % 96 < 40;  // runs of tiny samples among ordinary ones
+            a[i] = tail ? (t < 0.3f ? 1e-40f * u(rng) : (t < 0.6f ? 3e-30f * u(rng) : 0.0f)) : u(rng);
+          }
+          const float alpha = 0.25f + 0.5f * u(rng);
+          const std::vector<float> want = reference(a, n, pad, r, alpha, passes);
+          std::vector<float> b(a.size(), 0.0f);
+          const float* got = strip_passes(a.data(), b.data(), n, pad, r, alpha, passes);
+          bool same = true;
+          for (int i = 0; i < n && same; ++i)
+            same = std::memcmp(got + static_cast<std::size_t>(pad + i) * kL,
+                               want.data() + static_cast<std::size_t>(pad + i) * kL, kL * sizeof(float)) == 0;
+          EXPECT_TRUE(same) << "exact " << mode << " r " << r << " n " << n << " passes " << passes;
+        }
 }
 
 // The row transposes against their definition: 16×16 blocks on AVX-512 (from the first column

@@ -9,6 +9,7 @@
 #include <random>
 #include <string>
 
+#include "core/filters.hpp"
 #include "dofkit/render.hpp"
 #include "methods/layered/fast.hpp"
 #include "scene/bench_frame.hpp"
@@ -220,11 +221,21 @@ TEST(LayeredFast, BitIdenticalOnTheBenchFrame) {
   rs.camera = scene::bench_camera(960);
   const std::uint64_t zero_before = detail::layered::zero_block_count();
   const std::uint64_t tiny_before = detail::layered::tiny_block_count();
-  expect_same(f, rs, "bench frame 960x540");
+  // The near accumulator's blur tails hold subnormals here: where the exact multiplies are
+  // taken (core::exact_tiny_multiplies, forced on here), the fused kernels that read them
+  // multiply through double (MulX), the plain form with float multiplies; where they are not
+  // (forced off), the fast form takes the float kernels too. Both give the plain form's bits.
+  struct Reset {
+    ~Reset() { core::set_exact_tiny_multiplies(-1); }
+  } reset;
+  core::set_exact_tiny_multiplies(1);
+  expect_same(f, rs, "bench frame 960x540, exact multiplies");
   EXPECT_GT(detail::layered::zero_block_count(), zero_before);
-  // The near accumulator's blur tails hold subnormals here: the fused kernels that read
-  // them multiply through double (MulX), the plain form with float multiplies.
   EXPECT_GT(detail::layered::tiny_block_count(), tiny_before);
+  core::set_exact_tiny_multiplies(0);
+  const std::uint64_t tiny_mid = detail::layered::tiny_block_count();
+  expect_same(f, rs, "bench frame 960x540, float multiplies");
+  EXPECT_EQ(detail::layered::tiny_block_count(), tiny_mid);
 }
 
 TEST(LayeredFast, BitIdenticalToPlainMultiLayerInput) {

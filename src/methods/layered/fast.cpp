@@ -962,6 +962,9 @@ ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
   z.ch = img.height();
   z.factor = factor;
   const int cw = img.width(), nb = z.nb;
+  // Code 2 (tiny) only where the exact multiplies pay (core::exact_tiny_multiplies); elsewhere
+  // such blocks are 1 and take the float kernels: the same bits.
+  const bool exact = core::exact_tiny_multiplies();
   core::parallel_for(img.height(), [&](int y0, int y1) {
     std::uint64_t tiny_blocks = 0;
     for (int y = y0; y < y1; ++y)
@@ -975,7 +978,7 @@ ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
           any = kern::any_bits(r + lo, 1) || kern::any_bits(r + lo, hi - lo + 1);
         }
         bool tiny = false;
-        for (int c = 0; c < 4 && any && !tiny; ++c) tiny = kern::any_tiny(img.row(c, y) + lo, hi - lo + 1);
+        for (int c = 0; c < 4 && any && exact && !tiny; ++c) tiny = kern::any_tiny(img.row(c, y) + lo, hi - lo + 1);
         nz[static_cast<std::size_t>(y) * nb + b] = tiny ? 2 : (any ? 1 : 0);
         tiny_blocks += tiny ? 1 : 0;
       }

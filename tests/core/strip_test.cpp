@@ -47,6 +47,18 @@ std::vector<float> reference(std::vector<float> a, int n, int pad, int r, float 
   return a;
 }
 
+// strip_passes over the strip a equals reference() bit for bit at outputs [0, n).
+bool passes_match_definition(const std::vector<float>& a, int n, int pad, int r, float alpha, int passes) {
+  const std::vector<float> want = reference(a, n, pad, r, alpha, passes);
+  std::vector<float> in = a, b(a.size(), 0.0f);
+  const float* got = strip_passes(in.data(), b.data(), n, pad, r, alpha, passes);
+  for (int i = 0; i < n; ++i)
+    if (std::memcmp(got + static_cast<std::size_t>(pad + i) * kL, want.data() + static_cast<std::size_t>(pad + i) * kL,
+                    kL * sizeof(float)) != 0)
+      return false;
+  return true;
+}
+
 TEST(Strip, PassesEqualTheirResummingDefinitionBitForBit) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
@@ -62,14 +74,7 @@ TEST(Strip, PassesEqualTheirResummingDefinitionBitForBit) {
           x = t < 0.05f ? 300.0f * u(rng) : (t < 0.15f ? 0.0f : u(rng));
         }
         const float alpha = 0.25f + 0.5f * u(rng);
-        const std::vector<float> want = reference(a, n, pad, r, alpha, passes);
-        std::vector<float> b(a.size(), 0.0f);
-        const float* got = strip_passes(a.data(), b.data(), n, pad, r, alpha, passes);
-        bool same = true;
-        for (int i = 0; i < n && same; ++i)
-          same = std::memcmp(got + static_cast<std::size_t>(pad + i) * kL,
-                             want.data() + static_cast<std::size_t>(pad + i) * kL, kL * sizeof(float)) == 0;
-        EXPECT_TRUE(same) << "r " << r << " n " << n << " passes " << passes;
+        EXPECT_TRUE(passes_match_definition(a, n, pad, r, alpha, passes)) << "r " << r << " n " << n << " passes " << passes;
       }
 }
 
@@ -95,14 +100,8 @@ TEST(Strip, TinySamplesGiveTheSameBitsWithAndWithoutTheExactMultiplies) {
             a[i] = tail ? (t < 0.3f ? 1e-40f * u(rng) : (t < 0.6f ? 3e-30f * u(rng) : 0.0f)) : u(rng);
           }
           const float alpha = 0.25f + 0.5f * u(rng);
-          const std::vector<float> want = reference(a, n, pad, r, alpha, passes);
-          std::vector<float> b(a.size(), 0.0f);
-          const float* got = strip_passes(a.data(), b.data(), n, pad, r, alpha, passes);
-          bool same = true;
-          for (int i = 0; i < n && same; ++i)
-            same = std::memcmp(got + static_cast<std::size_t>(pad + i) * kL,
-                               want.data() + static_cast<std::size_t>(pad + i) * kL, kL * sizeof(float)) == 0;
-          EXPECT_TRUE(same) << "exact " << mode << " r " << r << " n " << n << " passes " << passes;
+          EXPECT_TRUE(passes_match_definition(a, n, pad, r, alpha, passes))
+              << "exact " << mode << " r " << r << " n " << n << " passes " << passes;
         }
 }
 

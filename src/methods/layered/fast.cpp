@@ -583,8 +583,11 @@ struct ZeroMap {
   // True if they read a tiny sample (0 < |x| < 2^-96, any_tiny): subnormals, or close to
   // them. The kernels that multiply such rows then multiply through double (the same bits,
   // without the float multiply's ~20× microcode assist on subnormal operands or results).
+  // build_zero_map marks such samples only where core::exact_tiny_multiplies() holds, so
+  // elsewhere this is always false and every kernel takes the float multiplies.
   bool tiny(int y_first, int y_last, int x0) const { return nz && max_code(y_first, y_last, x0) == 2; }
-  // The largest nz code (0 +0, 1 non-zero, 2 with a tiny sample) of the coarse rows read.
+  // The largest nz code (0 +0, 1 non-zero, 2 with a tiny sample where the exact multiplies are
+  // taken) of the coarse rows read.
   int max_code(int y_first, int y_last, int x0) const {
     const float scale = factor == 4 ? 0.25f : 0.5f;
     int ya, yb, yc, yd;

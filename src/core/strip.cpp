@@ -14,6 +14,7 @@
 
 #include "core/clones.hpp"
 #include "core/filters.hpp"
+#include "core/simd_target.hpp"
 #include "core/strip.hpp"
 
 namespace dofkit::core::strip {
@@ -42,7 +43,7 @@ namespace {
 bool has_avx512f() {
 #if DOFKIT_STRIP_AVX512
   static const bool yes = __builtin_cpu_supports("avx512f");
-  return yes;
+  return yes && simd_level_cap() >= SimdLevel::avx512;
 #else
   return false;
 #endif

@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "core/parallel.hpp"
+#include "core/simd_target.hpp"
 #include "methods/sterna/fast.hpp"
 #include "methods/sterna/v8.hpp"
 
@@ -963,13 +964,16 @@ __attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) void fold_ro
     const Job& job, int ty0, int ty1, float* vbuf, float* acc, float* inv_den, int stride) {
   fold_rows_body<V16, 4, 4>(job, ty0, ty1, vbuf, acc, inv_den, stride);
 }
+// The widest copy the CPU runs, at most core::simd_level_cap() (tests pin narrower ones).
 const Kernels& kernels() {
-  static const Kernels k =
-      !__builtin_cpu_supports("fma")      ? Kernels{gather_strip_base, constant_near_base}
-      : __builtin_cpu_supports("avx512f") ? Kernels{gather_strip_avx512, constant_near_avx512, fold_rows_avx512, 64}
-      : __builtin_cpu_supports("avx2")    ? Kernels{gather_strip_avx2, constant_near_avx2}
-                                          : Kernels{gather_strip_base, constant_near_base};
-  return k;
+  static const Kernels k512{gather_strip_avx512, constant_near_avx512, fold_rows_avx512, 64};
+  static const Kernels k2{gather_strip_avx2, constant_near_avx2};
+  static const Kernels kb{gather_strip_base, constant_near_base};
+  const core::SimdLevel cap = core::simd_level_cap();
+  if (!__builtin_cpu_supports("fma")) return kb;
+  if (__builtin_cpu_supports("avx512f") && cap >= core::SimdLevel::avx512) return k512;
+  if (__builtin_cpu_supports("avx2") && cap >= core::SimdLevel::avx2) return k2;
+  return kb;
 }
 #endif
 
@@ -1114,7 +1118,8 @@ __attribute__((target("avx2"))) int far_texels_avx2(const PerTexel& P, int y, in
 void far_per_texel(const Settings& s, Buffers& b) {
   const int w = b.w, h = b.h;
 #if !defined(__clang__)  // (clang, the fuzz build: far_texels only)
-  static const bool avx2 = __builtin_cpu_supports("avx2");
+  static const bool cpu_avx2 = __builtin_cpu_supports("avx2");
+  const bool avx2 = cpu_avx2 && core::simd_level_cap() >= core::SimdLevel::avx2;
 #endif
   core::parallel_for(h, [&](int y0, int y1) {
     PerTexel P;

@@ -24,6 +24,7 @@
 
 #include "commands.hpp"
 #include "core/parallel.hpp"
+#include "core/simd_target.hpp"
 #include "io/image_io.hpp"
 #include "quality_run.hpp"
 #include "scene/bench_frame.hpp"
@@ -66,7 +67,8 @@ double peak_rss_mb() {
 }
 
 // Runs one measurement in this process and prints one JSON object.
-void run_child(const std::string& method, Size size, int threads, int iterations) {
+void run_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd) {
+  if (!simd.empty() && !core::pin_simd_target(simd)) throw_usage("--simd " + simd + ": not a target this machine runs");
   const Frame frame = scene::bench_frame(size.w, size.h);
   std::vector<double> ms, cpu;
   // One untimed warm-up, then `iterations` timed runs of `body` (wall and CPU ms each).
@@ -110,14 +112,16 @@ void run_child(const std::string& method, Size size, int threads, int iterations
   j["cpu_ms"] = cpu[cpu.size() / 2];
   j["mpix_per_s"] = size.w * double(size.h) / 1e6 / (ms[ms.size() / 2] / 1000.0);
   j["peak_rss_mb"] = peak_rss_mb();
+  j["simd"] = core::simd_target();
   std::cout << j.dump() << std::endl;
 }
 
-nlohmann::json spawn_child(const std::string& method, Size size, int threads, int iterations) {
+nlohmann::json spawn_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd) {
   const std::string self = "/proc/self/exe";
   std::vector<std::string> args = {"dofkit", "bench", "--child", method, "--size",
                                    std::to_string(size.w) + "x" + std::to_string(size.h), "--threads",
                                    std::to_string(threads), "--iterations", std::to_string(iterations)};
+  if (!simd.empty()) args.insert(args.end(), {"--simd", simd});
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -158,6 +162,7 @@ void add_bench_command(CLI::App& app) {
     bool json = false;
     std::string child;
     std::string write_frame;
+    std::string simd;
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("bench",
@@ -174,6 +179,9 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--write-frame", opts->write_frame,
                   "write the synthetic frame of the first --size (default 1920x1080) as DIR/color.exr and "
                   "DIR/depth.exr (float) and print the render flags of its camera, instead of timing");
+  cmd->add_option("--simd", opts->simd,
+                  "run the kernels of this SIMD target instead of the widest one the machine has, to see "
+                  "what a machine without the wider ones gets (e.g. AVX2, SSE4; a name it does not run prints the list)");
   cmd->add_option("--child", opts->child, "internal: run one measurement")->group("");
   cmd->callback([opts] {
     std::vector<Size> sizes;
@@ -185,8 +193,13 @@ void add_bench_command(CLI::App& app) {
     if (sizes.empty()) sizes = {{1920, 1080}, {3840, 2160}};
     if (opts->threads < 0) throw_usage("--threads: must be >= 0");
     const int threads = opts->threads > 0 ? opts->threads : core::hardware_threads();
+    const std::vector<std::string> targets = core::simd_targets();
+    std::string target_list;
+    for (const std::string& t : targets) target_list += (target_list.empty() ? "" : ", ") + t;
+    if (!opts->simd.empty() && std::find(targets.begin(), targets.end(), opts->simd) == targets.end())
+      throw_usage("--simd " + opts->simd + ": not a SIMD target this machine runs (it runs " + target_list + ")");
     if (!opts->child.empty()) {
-      run_child(opts->child, sizes.front(), threads, opts->iterations);
+      run_child(opts->child, sizes.front(), threads, opts->iterations, opts->simd);
       return;
     }
     if (!opts->write_frame.empty()) {
@@ -217,14 +230,17 @@ void add_bench_command(CLI::App& app) {
       }
     }
     nlohmann::json rows = nlohmann::json::array();
+    if (!opts->json)
+      std::cerr << fmt::format("SIMD target: {} (this machine runs {})\n",
+                               opts->simd.empty() ? targets.front() : opts->simd, target_list);
     for (const Size& size : sizes) {
-      nlohmann::json copy = spawn_child("copy", size, threads, std::max(opts->iterations, 15));
+      nlohmann::json copy = spawn_child("copy", size, threads, std::max(opts->iterations, 15), opts->simd);
       copy["ratio_to_copy"] = 1.0;
       rows.push_back(copy);
       if (!opts->json)
         std::cerr << fmt::format("{}x{}: copy {:.2f} ms\n", size.w, size.h, copy["median_ms"].get<double>());
       for (const auto& m : names) {
-        nlohmann::json r = spawn_child(m, size, threads, opts->iterations);
+        nlohmann::json r = spawn_child(m, size, threads, opts->iterations, opts->simd);
         r["ratio_to_copy"] = r["median_ms"].get<double>() / copy["median_ms"].get<double>();
         if (!opts->json)
           std::cerr << fmt::format("{}x{}: {} {:.2f} ms\n", size.w, size.h, m, r["median_ms"].get<double>());

@@ -7,9 +7,12 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <sys/wait.h>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "core/simd_target.hpp"
 #include "io/image_io.hpp"
 #include "io/io_test_util.hpp"
 #include "scene/bench_frame.hpp"
@@ -68,6 +71,40 @@ TEST(BenchCli, RejectsAnUnknownMethodWithOneLine) {
   std::string line;
   std::getline(f, line);
   EXPECT_NE(line.find("nosuch"), std::string::npos) << line;
+}
+
+// --simd: the rows name the target their kernels ran; one the machine does not run is a usage
+// error that lists those it does.
+TEST(BenchCli, SimdPinsTheTargetAndNamesItInEveryRow) {
+  const std::vector<std::string> targets = dofkit::core::simd_targets();
+  ASSERT_FALSE(targets.empty());
+  ScratchDir dir;
+  for (const std::string& want : {std::string(), targets.back()}) {
+    SCOPED_TRACE(want);
+    const std::string out = (dir.path() / "bench.json").string();
+    const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit bench --size 40x24 --methods mcguire,sterna " +
+                            (want.empty() ? "" : "--simd " + want + " ") + "--threads 1 --iterations 1 --json >" +
+                            out + " 2>/dev/null";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    std::ifstream f(out);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    const nlohmann::json rows = nlohmann::json::parse(ss.str());
+    ASSERT_EQ(rows.size(), 3u);
+    for (const nlohmann::json& r : rows) EXPECT_EQ(r["simd"], want.empty() ? targets.front() : want) << r.dump();
+  }
+  const std::string err = (dir.path() / "err.txt").string();
+  const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit bench --size 16x16 --methods mcguire --simd NEON4 " +
+                          "--iterations 1 2>" + err + " >/dev/null";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+  std::ifstream f(err);
+  std::string line, rest;
+  std::getline(f, line);
+  EXPECT_NE(line.find("--simd NEON4"), std::string::npos) << line;
+  EXPECT_NE(line.find(targets.front()), std::string::npos) << line;
+  EXPECT_FALSE(std::getline(f, rest)) << "more than one line: " << rest;
 }
 
 TEST(BenchCli, WriteFrameWritesTheTimedFrameAndItsCameraFlags) {

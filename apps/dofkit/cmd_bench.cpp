@@ -24,6 +24,7 @@
 
 #include "commands.hpp"
 #include "core/parallel.hpp"
+#include "core/pass_profile.hpp"
 #include "core/simd_target.hpp"
 #include "io/image_io.hpp"
 #include "quality_run.hpp"
@@ -67,10 +68,14 @@ double peak_rss_mb() {
 }
 
 // Runs one measurement in this process and prints one JSON object.
-void run_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd) {
+void run_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd,
+               bool passes) {
   if (!simd.empty() && !core::pin_simd_target(simd)) throw_usage("--simd " + simd + ": not a target this machine runs");
   const Frame frame = scene::bench_frame(size.w, size.h);
   std::vector<double> ms, cpu;
+  // Per pass path (core/pass_profile.hpp, in first-seen order): its ms in each timed run.
+  std::vector<std::pair<std::string, std::vector<double>>> pass_ms;
+  core::set_pass_profiling(passes);
   // One untimed warm-up, then `iterations` timed runs of `body` (wall and CPU ms each).
   auto time_runs = [&](const auto& body) {
     using clock = std::chrono::steady_clock;
@@ -80,9 +85,15 @@ void run_child(const std::string& method, Size size, int threads, int iterations
       body();
       const auto t1 = clock::now();
       const double c1 = cpu_ms();
+      const std::vector<core::PassTime> took = core::take_pass_profile();
       if (i > 0) {
         ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
         cpu.push_back(c1 - c0);
+        for (const core::PassTime& t : took) {
+          auto it = std::find_if(pass_ms.begin(), pass_ms.end(), [&](const auto& p) { return p.first == t.path; });
+          if (it == pass_ms.end()) it = pass_ms.insert(pass_ms.end(), {t.path, {}});
+          it->second.push_back(t.ms);
+        }
       }
     }
   };
@@ -113,15 +124,27 @@ void run_child(const std::string& method, Size size, int threads, int iterations
   j["mpix_per_s"] = size.w * double(size.h) / 1e6 / (ms[ms.size() / 2] / 1000.0);
   j["peak_rss_mb"] = peak_rss_mb();
   j["simd"] = core::simd_target();
+  if (passes) {
+    // A pass that ran in only some frames counts 0 ms in the others.
+    nlohmann::json list = nlohmann::json::array();
+    for (auto& [path, v] : pass_ms) {
+      v.resize(ms.size(), 0.0);
+      std::sort(v.begin(), v.end());
+      list.push_back({{"pass", path}, {"median_ms", v[v.size() / 2]}, {"min_ms", v.front()}});
+    }
+    j["passes"] = list;
+  }
   std::cout << j.dump() << std::endl;
 }
 
-nlohmann::json spawn_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd) {
+nlohmann::json spawn_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd,
+                           bool passes) {
   const std::string self = "/proc/self/exe";
   std::vector<std::string> args = {"dofkit", "bench", "--child", method, "--size",
                                    std::to_string(size.w) + "x" + std::to_string(size.h), "--threads",
                                    std::to_string(threads), "--iterations", std::to_string(iterations)};
   if (!simd.empty()) args.insert(args.end(), {"--simd", simd});
+  if (passes) args.push_back("--passes");
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -163,6 +186,7 @@ void add_bench_command(CLI::App& app) {
     std::string child;
     std::string write_frame;
     std::string simd;
+    bool passes = false;
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("bench",
@@ -182,6 +206,9 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--simd", opts->simd,
                   "run the kernels of this SIMD target instead of the widest one the machine has, to see "
                   "what a machine without the wider ones gets (e.g. AVX2, SSE4; a name it does not run prints the list)");
+  cmd->add_flag("--passes", opts->passes,
+               "also time each pass of each method (median ms per frame; nested passes are included in their "
+               "parents) and print the breakdown after the table (JSON: a 'passes' list per row)");
   cmd->add_option("--child", opts->child, "internal: run one measurement")->group("");
   cmd->callback([opts] {
     std::vector<Size> sizes;
@@ -199,7 +226,7 @@ void add_bench_command(CLI::App& app) {
     if (!opts->simd.empty() && std::find(targets.begin(), targets.end(), opts->simd) == targets.end())
       throw_usage("--simd " + opts->simd + ": not a SIMD target this machine runs (it runs " + target_list + ")");
     if (!opts->child.empty()) {
-      run_child(opts->child, sizes.front(), threads, opts->iterations, opts->simd);
+      run_child(opts->child, sizes.front(), threads, opts->iterations, opts->simd, opts->passes);
       return;
     }
     if (!opts->write_frame.empty()) {
@@ -234,13 +261,13 @@ void add_bench_command(CLI::App& app) {
       std::cerr << fmt::format("SIMD target: {} (this machine runs {})\n",
                                opts->simd.empty() ? targets.front() : opts->simd, target_list);
     for (const Size& size : sizes) {
-      nlohmann::json copy = spawn_child("copy", size, threads, std::max(opts->iterations, 15), opts->simd);
+      nlohmann::json copy = spawn_child("copy", size, threads, std::max(opts->iterations, 15), opts->simd, false);
       copy["ratio_to_copy"] = 1.0;
       rows.push_back(copy);
       if (!opts->json)
         std::cerr << fmt::format("{}x{}: copy {:.2f} ms\n", size.w, size.h, copy["median_ms"].get<double>());
       for (const auto& m : names) {
-        nlohmann::json r = spawn_child(m, size, threads, opts->iterations, opts->simd);
+        nlohmann::json r = spawn_child(m, size, threads, opts->iterations, opts->simd, opts->passes);
         r["ratio_to_copy"] = r["median_ms"].get<double>() / copy["median_ms"].get<double>();
         if (!opts->json)
           std::cerr << fmt::format("{}x{}: {} {:.2f} ms\n", size.w, size.h, m, r["median_ms"].get<double>());
@@ -259,6 +286,20 @@ void add_bench_command(CLI::App& app) {
                                r["threads"].get<int>(), r["median_ms"].get<double>(), r["min_ms"].get<double>(),
                                r["cpu_ms"].get<double>(), r["mpix_per_s"].get<double>(),
                                r["peak_rss_mb"].get<double>(), r["ratio_to_copy"].get<double>());
+    if (!opts->passes) return;
+    // Per method and size: each pass's median ms per frame and its share of the frame's median.
+    for (const auto& r : rows) {
+      if (!r.contains("passes")) continue;
+      const double frame = r["median_ms"].get<double>();
+      std::cout << fmt::format("\n{} {}x{}, {} thread(s): {:.2f} ms per frame\n\n| pass | median ms | min ms | % of frame |\n"
+                               "|---|---:|---:|---:|\n",
+                               r["method"].get<std::string>(), r["width"].get<int>(), r["height"].get<int>(),
+                               r["threads"].get<int>(), frame);
+      for (const auto& p : r["passes"])
+        std::cout << fmt::format("| {} | {:.2f} | {:.2f} | {:.0f} |\n", p["pass"].get<std::string>(),
+                                 p["median_ms"].get<double>(), p["min_ms"].get<double>(),
+                                 frame > 0 ? 100.0 * p["median_ms"].get<double>() / frame : 0.0);
+    }
   });
 }
 

@@ -11,6 +11,7 @@
 #include "core/clones.hpp"
 #include "core/coc_range.hpp"
 #include "core/parallel.hpp"
+#include "core/pass_profile.hpp"
 #include "methods/method.hpp"
 #include "render/sanitize.hpp"
 
@@ -250,7 +251,10 @@ void Renderer::set_camera(const CameraModel& camera) {
 const RenderResult& Renderer::render(const Frame& frame_in) {
   const RenderSettings& settings = impl_->settings;
   const detail::MethodDef& method = *impl_->method;
-  validate_frame(frame_in, "frame", false);  // the depth values are checked by fill_coc
+  {
+    core::PassScope pass("frame check");
+    validate_frame(frame_in, "frame", false);  // the depth values are checked by fill_coc
+  }
   RenderResult& result = impl_->result;
   const detail::Params params(method.name, settings.params);
   std::optional<detail::DebugSink> sink;
@@ -262,19 +266,28 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     // the colour is checked here and sanitised into a copy where needed.
     std::atomic<bool> dirty{false};
     const bool deferred = method.checks_colour && frame_in.layer_color.empty();
-    const Frame& frame = deferred ? frame_in : detail::sanitized_frame(frame_in, impl_->sanitized);
+    const Frame& frame = [&]() -> const Frame& {
+      if (deferred) return frame_in;
+      core::PassScope pass("colour check");
+      return detail::sanitized_frame(frame_in, impl_->sanitized);
+    }();
     const CocFunction coc_of(settings.camera, frame.width());
     core::CocRange range;
-    if (const std::size_t bad = fill_coc(frame.depth, coc_of, result.coc, &range))
-      throw_bad_depth(frame.depth, bad, "frame: depth");
+    {
+      core::PassScope pass("coc map");
+      if (const std::size_t bad = fill_coc(frame.depth, coc_of, result.coc, &range))
+        throw_bad_depth(frame.depth, bad, "frame: depth");
+    }
     result.image.resize(frame.width(), frame.height(), 4);
     sink.emplace(settings.debug_view);
+    core::PassScope pass(method.name.c_str());
     method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,
                    deferred ? &dirty : nullptr, &range},
                   result.image);
     if (deferred && dirty.load()) {
       // Rare (hostile input): everything from the first try is discarded. The depth, and so
       // the CoC, are the caller's in both tries.
+      core::PassScope again("colour check + render again");
       const Frame& clean = detail::sanitized_frame(frame_in, impl_->sanitized);
       sink.emplace(settings.debug_view);
       method.render({clean, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr,

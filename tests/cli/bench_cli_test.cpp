@@ -2,6 +2,7 @@
 // (Spawns the binary: bench re-invokes itself for every measurement. No timing is asserted.)
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -105,6 +106,39 @@ TEST(BenchCli, SimdPinsTheTargetAndNamesItInEveryRow) {
   EXPECT_NE(line.find("--simd NEON4"), std::string::npos) << line;
   EXPECT_NE(line.find(targets.front()), std::string::npos) << line;
   EXPECT_FALSE(std::getline(f, rest)) << "more than one line: " << rest;
+}
+
+// --passes: every method row carries its passes (render()'s steps, the method, its passes under
+// its name), each inside the frame it was timed in; the copy row and runs without the flag
+// carry none.
+TEST(BenchCli, PassesListEachMethodsPassesWithinItsFrame) {
+  ScratchDir dir;
+  const std::string out = (dir.path() / "bench.json").string();
+  const std::string cmd = std::string(DOFKIT_BINARY_DIR) +
+                          "/dofkit bench --size 64x36 --methods mcguire,sterna --threads 1 --iterations 3 --passes --json >" +
+                          out + " 2>/dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream f(out);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const nlohmann::json rows = nlohmann::json::parse(ss.str());
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_FALSE(rows[0].contains("passes"));  // copy
+  for (const auto& [i, pass] : {std::pair<int, const char*>{1, "mcguire/horizontal"}, {2, "sterna/gather"}}) {
+    const nlohmann::json& r = rows[i];
+    ASSERT_TRUE(r.contains("passes")) << r.dump();
+    const std::string method = r["method"];
+    std::vector<std::string> names;
+    for (const nlohmann::json& p : r["passes"]) {
+      names.push_back(p["pass"]);
+      EXPECT_GE(p["min_ms"].get<double>(), 0.0);
+      EXPECT_LE(p["min_ms"].get<double>(), p["median_ms"].get<double>());
+      // Each pass is timed inside its frame, so its median cannot exceed the frame's.
+      EXPECT_LE(p["median_ms"].get<double>(), r["median_ms"].get<double>()) << p.dump();
+    }
+    for (const std::string want : {std::string("coc map"), method, std::string(pass)})
+      EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want << " in " << r["passes"].dump();
+  }
 }
 
 TEST(BenchCli, WriteFrameWritesTheTimedFrameAndItsCameraFlags) {

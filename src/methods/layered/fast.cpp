@@ -4,12 +4,14 @@
 #include <atomic>
 #include <bit>
 #include <memory>
+#include <optional>
 #include <cmath>
 #include <utility>
 
 #include "core/clones.hpp"
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
+#include "core/pass_profile.hpp"
 #include "core/row_scan.hpp"
 #include "methods/layered/composite.hpp"
 #include "methods/layered/fused_simd.hpp"
@@ -1800,6 +1802,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   std::uint32_t* bhole = reinterpret_cast<std::uint32_t*>(ws.image("layered.holes", 16 * nb, h, 1).plane(0));
   std::atomic<std::uint32_t> nonempty{0}, holes{0};
   std::atomic<bool> bail{false};
+  std::optional<core::PassScope> code_pass(std::in_place, "code pass");
   core::parallel_for(h, [&](int y0, int y1) {
     std::uint32_t ne = 0, ho = 0;
     bool bad = false;
@@ -1879,6 +1882,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     if (ho) holes.fetch_or(ho, std::memory_order_relaxed);
     if (bad) bail.store(true, std::memory_order_relaxed);
   }, 4);
+  code_pass.reset();
   if (bail.load()) return false;
   const std::uint32_t ne = nonempty.load(), ho = holes.load();
   auto is_full = [&](int k) { return ((ne >> k) & 1u) != 0; };
@@ -1952,6 +1956,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     units[u].l1 = pyr[u % 2].val[1];
   };
   if (needs_pull(0)) {
+    core::PassScope pass("fill pull");
     pull_from_layer(units[0], *pyr[0].val[1], *pyr[0].wgt[1], has_l2 ? pyr[0].val[2] : nullptr,
                     has_l2 ? pyr[0].wgt[2] : nullptr);
     finish_pull(0);
@@ -1990,8 +1995,12 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       const int qw = (w + 3) / 4, qh = (h + 3) / 4;
       Image& dst = ws.image(name + ".quarter" + std::to_string(s.flip_q), qw, qh, 4);
       s.flip_q ^= 1;
-      composite_pass(L, A, job.back, nullptr, nullptr, &dst, next);
+      {
+        core::PassScope pass("layer composite");
+        composite_pass(L, A, job.back, nullptr, nullptr, &dst, next);
+      }
       const double v = (sigma * sigma - 1.25 - 8.0 / 3.0) / 16.0;
+      core::PassScope pass("layer blur");
       if (v > 0) core::gaussian_blur(dst, static_cast<float>(std::sqrt(v)));
       s.full = nullptr;
       s.half = &dst;
@@ -2001,8 +2010,12 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       const int hw = (w + 1) / 2, hh = (h + 1) / 2;
       Image& dst = ws.image(name + ".half" + std::to_string(s.flip), hw, hh, 4);
       s.flip ^= 1;
-      composite_pass(L, A, job.back, nullptr, &dst, nullptr, next);
+      {
+        core::PassScope pass("layer composite");
+        composite_pass(L, A, job.back, nullptr, &dst, nullptr, next);
+      }
       const double v = (sigma * sigma - 0.25 - 2.0 / 3.0) / 4.0;
+      core::PassScope pass("layer blur");
       if (v > 0) core::gaussian_blur(dst, static_cast<float>(std::sqrt(v)));
       s.full = nullptr;
       s.half = &dst;
@@ -2010,20 +2023,28 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
       s.zero = build_zero_map(dst, 2, w, zero_store(name + ".nz"));
     } else {
       Image& dst = ws.image(name + ".full", w, h, 4);
-      composite_pass(L, A, job.back, &dst, nullptr, nullptr, next);
+      {
+        core::PassScope pass("layer composite");
+        composite_pass(L, A, job.back, &dst, nullptr, nullptr, next);
+      }
+      core::PassScope pass("layer blur");
       if (var > 0) core::gaussian_blur(dst, static_cast<float>(sigma));
       s.full = &dst;
       s.half = nullptr;
       s.zero = ZeroMap();
     }
     s.has = true;
-    if (next.L) finish_pull(i + 1);
+    if (next.L) {
+      core::PassScope pass("fill pull");
+      finish_pull(i + 1);
+    }
   }
 
   // I = F over L_focus over B (final_composite's arithmetic; the focus layer on the fly).
   const FusedLayer* Lf = focus_full ? &units.back() : nullptr;
   const AccRows BR(B.full, B.half, B.factor, &B.zero), FR(F.full, F.half, F.factor, &F.zero);
   out.resize(w, h, 4);
+  core::PassScope final_pass("final composite");
   // Bands of 4 rows, column block by column block, so the horizontally up-sampled coarse
   // rows of B, F and the focus layer's fill are computed once per band (HCache), not twice
   // per fine row.

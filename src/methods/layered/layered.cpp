@@ -27,6 +27,7 @@
 
 #include "core/filters.hpp"
 #include "core/parallel.hpp"
+#include "core/pass_profile.hpp"
 #include "methods/layered/anchors.hpp"
 #include "methods/layered/composite.hpp"
 #include "methods/layered/disc_blur.hpp"
@@ -104,7 +105,12 @@ void render_layered(const MethodContext& ctx, Image& out) {
   // render()'s colour check when render() left it to us (ctx.colour_dirty; single RGB-D
   // frames), before anything at all is derived from the colour (the plan's extremes count
   // only fragments with alpha > 0). On failure render() renders again from a sanitised copy.
-  if (!coc_extremes(frags, near_px, far_px, ctx.colour_dirty != nullptr)) {
+  bool clean;
+  {
+    core::PassScope pass("colour check + coc extremes");
+    clean = coc_extremes(frags, near_px, far_px, ctx.colour_dirty != nullptr);
+  }
+  if (!clean) {
     ctx.colour_dirty->store(true);
     return;
   }
@@ -115,7 +121,11 @@ void render_layered(const MethodContext& ctx, Image& out) {
   plan.band = ctx.params.get_double("matte_band", disc ? 0.25 : 1.0, 0.0, 1.0);
 
   // The fused Gaussian stack (one fragment per pixel, no debug view): no layer is stored.
-  if (fast && !disc && render_gaussian_fused(ctx, frags, plan, half_res, quarter_res, do_fill, fill_under, out)) return;
+  if (fast && !disc) {
+    core::PassScope pass("fused stack");
+    if (render_gaussian_fused(ctx, frags, plan, half_res, quarter_res, do_fill, fill_under, out)) return;
+  }
+  core::PassScope pass("layer by layer");
 
   const int w = frame.width(), h = frame.height();
   Image plain_layer, plain_focus;

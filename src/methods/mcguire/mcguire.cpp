@@ -18,6 +18,7 @@
 #include <cmath>
 
 #include "core/coc_range.hpp"
+#include "core/pass_profile.hpp"
 #include "methods/mcguire/fast.hpp"
 #include "methods/mcguire/mcguire.hpp"
 #include "methods/method.hpp"
@@ -124,6 +125,7 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
   Image* packed = nullptr;
   if (!fast_blur || plain_composite) {
     packed = &ws.image("mcguire.packed", src.w, src.h, mcguire::kPacked);
+    core::PassScope pass("pack");
     mcguire::pack_coc(colour, ctx.coc, src, k, *packed);
   }
   ctx.debug.offer("coc", [&] {
@@ -168,16 +170,28 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     return;
   }
   if (plain) {
-    mcguire::blur_horizontal_plain(*packed, k, ox, wo, t_blur, t_near);
+    {
+      core::PassScope pass("horizontal");
+      mcguire::blur_horizontal_plain(*packed, k, ox, wo, t_blur, t_near);
+    }
+    core::PassScope pass("vertical");
     mcguire::blur_vertical_plain(t_blur, t_near, k, oy, ho, blur, near);
   } else if (fast_blur) {
     // Per t_near row, the outputs outside which it is +0 (P3 skips those columns).
     int* near_span = reinterpret_cast<int*>(ws.image("mcguire.fast.near_span", 2, src.h, 1).plane(0));
-    mcguire::blur_horizontal_fast(colour, ctx.coc, src, k, ox, wo, t_blur, t_near, ws, ctx.colour_dirty, near_span);
+    {
+      core::PassScope pass("horizontal");
+      mcguire::blur_horizontal_fast(colour, ctx.coc, src, k, ox, wo, t_blur, t_near, ws, ctx.colour_dirty, near_span);
+    }
     if (ctx.colour_dirty && ctx.colour_dirty->load()) return;  // render() starts again from sanitised colour
+    core::PassScope pass("vertical");
     mcguire::blur_vertical_fast(t_blur, t_near, k, oy, ho, blur, near, ws, near_span);
   } else {
-    mcguire::blur_horizontal(*packed, k, ox, wo, t_blur, t_near);
+    {
+      core::PassScope pass("horizontal");
+      mcguire::blur_horizontal(*packed, k, ox, wo, t_blur, t_near);
+    }
+    core::PassScope pass("vertical");
     mcguire::blur_vertical(t_blur, t_near, k, oy, ho, blur, near);
   }
   ctx.debug.offer("far", blur);
@@ -189,6 +203,7 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     return v;
   });
   Image weights;
+  core::PassScope pass("composite");
   if (plain_composite)
     mcguire::composite(*packed, ox, oy, blur, near, k, inner, out, ctx.debug.wants("weights") ? &weights : nullptr);
   else

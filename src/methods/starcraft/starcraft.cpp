@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/pass_profile.hpp"
 #include "methods/method.hpp"
 #include "methods/starcraft/starcraft.hpp"
 
@@ -38,15 +39,23 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   const int lw = down_size(w), lh = down_size(h);
   // Intermediate buffers live in the renderer's workspace: no allocation per frame.
   Image& level = ctx.workspace.image("starcraft.level", w, h, 1);
-  compute_levels(ctx, g, level, s.plain);
+  {
+    core::PassScope pass("levels");
+    compute_levels(ctx, g, level, s.plain);
+  }
   ctx.debug.offer("coc", level);
 
   Image& large = ctx.workspace.image("starcraft.large", lw, lh, 5);
   bool opaque = false;  // every alpha exactly 1 (found by the large level's reduction)
   // The large level's reduction is the first pass that reads the colour, and it reads every
   // sample once: it also makes render()'s sanitation check when render() left it to us.
-  if (!large_blur(color, level, g.sigma_large, s.coc_reduce_max, large, s.plain, &opaque,
-                  ctx.colour_dirty != nullptr)) {
+  bool clean;
+  {
+    core::PassScope pass("large level");
+    clean = large_blur(color, level, g.sigma_large, s.coc_reduce_max, large, s.plain, &opaque,
+                       ctx.colour_dirty != nullptr);
+  }
+  if (!clean) {
     ctx.colour_dirty->store(true);
     return;
   }
@@ -61,7 +70,10 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   });
 
   Image& inv_depth = ctx.workspace.image("starcraft.inv_depth", lw, lh, 1);
-  depth_blur(ctx.frame.depth, g.sigma_depth, inv_depth, s.plain);
+  {
+    core::PassScope pass("depth blur");
+    depth_blur(ctx.frame.depth, g.sigma_depth, inv_depth, s.plain);
+  }
   ctx.debug.offer("blurred_depth", [&] {
     Image img(inv_depth.width(), inv_depth.height(), 1);
     for (std::size_t i = 0; i < img.plane_size(); ++i) {
@@ -76,12 +88,16 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   const bool fused = !s.plain && !ctx.debug.wants("medium") && !ctx.debug.wants("used_coc") &&
                      !ctx.debug.wants("small") && !ctx.debug.wants("weights");
   if (fused) {
+    core::PassScope pass("medium + final");
     medium_and_final(color, ctx.frame.depth, level, g.sigma_medium, s.medium_boxes, opaque, large, inv_depth, s.keep_own_blur, out);
     return;
   }
   Image& medium = ctx.workspace.image("starcraft.medium", w, h, 4);
   Image& medium_weight = ctx.workspace.image("starcraft.medium_weight", w, h, 1);
-  medium_blur(color, level, g.sigma_medium, s.medium_boxes, medium, medium_weight, s.plain, &large);
+  {
+    core::PassScope pass("medium level");
+    medium_blur(color, level, g.sigma_medium, s.medium_boxes, medium, medium_weight, s.plain, &large);
+  }
   ctx.debug.offer("medium", medium);
 
   Image used, small, weights;
@@ -89,6 +105,7 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   if (ctx.debug.wants("used_coc")) dbg.used_level = &used;
   if (ctx.debug.wants("small")) dbg.small = &small;
   if (ctx.debug.wants("weights")) dbg.weights = &weights;
+  core::PassScope pass("final");
   if (s.plain)
     final_pass_plain(color, ctx.frame.depth, level, medium, large, inv_depth, s.keep_own_blur, out, dbg);
   else

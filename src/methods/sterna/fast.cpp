@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "core/parallel.hpp"
+#include "core/pass_profile.hpp"
 
 namespace dofkit::detail::sterna::fast {
 
@@ -56,16 +57,28 @@ void render(const MethodContext& ctx, const Settings& s, Image& out) {
 
   // The downsample reads every colour sample: it also makes render()'s sanitation check
   // when render() left it to the method (nothing before it depends on colour values).
-  if (!prepare(ctx, s, b)) {
+  bool clean;
+  {
+    core::PassScope pass("prepare");
+    clean = prepare(ctx, s, b);
+  }
+  if (!clean) {
     ctx.colour_dirty->store(true);
     return;
   }
-  dilate(s, b);
-  gather(s, b);
+  {
+    core::PassScope pass("dilate");
+    dilate(s, b);
+  }
+  {
+    core::PassScope pass("gather");
+    gather(s, b);
+  }
   // (P8, the fill, runs inside the composite, row by row.)
   BlendRow blend;
   blend.init(ctx, s);
   out.resize(b.W, b.H, 4);
+  core::PassScope pass("fill + composite");
   composite(ctx, s, blend, b, out);
 }
 

@@ -20,17 +20,29 @@
 
 using dofkit::test::ScratchDir;
 
-TEST(BenchCli, JsonListsOneRowPerMethodAndSizeWithTheCopyBaseline) {
-  ScratchDir dir;
+namespace {
+
+// `dofkit bench ARGS --json` (stderr dropped), parsed; an empty list, with a failure recorded,
+// if the command fails.
+nlohmann::json bench_json(const ScratchDir& dir, const std::string& args) {
   const std::string out = (dir.path() / "bench.json").string();
-  const std::string cmd = std::string(DOFKIT_BINARY_DIR) +
-                          "/dofkit bench --size 48x32 --size 40x24 --methods sterna,mcguire:variant=book --threads 1 "
-                          "--iterations 1 --json >" + out + " 2>/dev/null";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit bench " + args + " --json >" + out + " 2>/dev/null";
+  if (std::system(cmd.c_str()) != 0) {
+    ADD_FAILURE() << "failed: " << cmd;
+    return nlohmann::json::array();
+  }
   std::ifstream f(out);
   std::stringstream ss;
   ss << f.rdbuf();
-  const nlohmann::json rows = nlohmann::json::parse(ss.str());
+  return nlohmann::json::parse(ss.str());
+}
+
+}  // namespace
+
+TEST(BenchCli, JsonListsOneRowPerMethodAndSizeWithTheCopyBaseline) {
+  ScratchDir dir;
+  const nlohmann::json rows =
+      bench_json(dir, "--size 48x32 --size 40x24 --methods sterna,mcguire:variant=book --threads 1 --iterations 1");
   ASSERT_TRUE(rows.is_array());
   ASSERT_EQ(rows.size(), 6u);  // per size: copy, sterna, mcguire:variant=book
   const char* sizes[2][2] = {{"48", "32"}, {"40", "24"}};
@@ -46,6 +58,7 @@ TEST(BenchCli, JsonListsOneRowPerMethodAndSizeWithTheCopyBaseline) {
     EXPECT_GT(r["median_ms"].get<double>(), 0.0);
     EXPECT_GT(r["peak_rss_mb"].get<double>(), 0.0);
     EXPECT_GE(r["cpu_ms"].get<double>(), 0.0);
+    EXPECT_FALSE(r.contains("passes")) << "row " << i << ": passes without --passes";
   }
   for (int s = 0; s < 2; ++s) {
     const nlohmann::json& copy = rows[3 * s];
@@ -82,15 +95,9 @@ TEST(BenchCli, SimdPinsTheTargetAndNamesItInEveryRow) {
   ScratchDir dir;
   for (const std::string& want : {std::string(), targets.back()}) {
     SCOPED_TRACE(want);
-    const std::string out = (dir.path() / "bench.json").string();
-    const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit bench --size 40x24 --methods mcguire,sterna " +
-                            (want.empty() ? "" : "--simd " + want + " ") + "--threads 1 --iterations 1 --json >" +
-                            out + " 2>/dev/null";
-    ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-    std::ifstream f(out);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    const nlohmann::json rows = nlohmann::json::parse(ss.str());
+    const nlohmann::json rows = bench_json(
+        dir, "--size 40x24 --methods mcguire,sterna " + (want.empty() ? "" : "--simd " + want + " ") +
+                 "--threads 1 --iterations 1");
     ASSERT_EQ(rows.size(), 3u);
     for (const nlohmann::json& r : rows) EXPECT_EQ(r["simd"], want.empty() ? targets.front() : want) << r.dump();
   }
@@ -109,19 +116,11 @@ TEST(BenchCli, SimdPinsTheTargetAndNamesItInEveryRow) {
 }
 
 // --passes: every method row carries its passes (render()'s steps, the method, its passes under
-// its name), each inside the frame it was timed in; the copy row and runs without the flag
-// carry none.
+// its name), each inside the frame it was timed in; the copy row carries none (and rows of runs
+// without the flag none either: JsonListsOneRowPerMethodAndSizeWithTheCopyBaseline).
 TEST(BenchCli, PassesListEachMethodsPassesWithinItsFrame) {
   ScratchDir dir;
-  const std::string out = (dir.path() / "bench.json").string();
-  const std::string cmd = std::string(DOFKIT_BINARY_DIR) +
-                          "/dofkit bench --size 64x36 --methods mcguire,sterna --threads 1 --iterations 3 --passes --json >" +
-                          out + " 2>/dev/null";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  std::ifstream f(out);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  const nlohmann::json rows = nlohmann::json::parse(ss.str());
+  const nlohmann::json rows = bench_json(dir, "--size 64x36 --methods mcguire,sterna --threads 1 --iterations 3 --passes");
   ASSERT_EQ(rows.size(), 3u);
   EXPECT_FALSE(rows[0].contains("passes"));  // copy
   for (const auto& [i, pass] : {std::pair<int, const char*>{1, "mcguire/horizontal"}, {2, "sterna/gather"}}) {

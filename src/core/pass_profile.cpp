@@ -36,8 +36,6 @@ void set_pass_profiling(bool on) {
   g_on.store(on, std::memory_order_relaxed);
 }
 
-bool pass_profiling() { return g_on.load(std::memory_order_relaxed); }
-
 std::vector<PassTime> take_pass_profile() {
   Record& r = record();
   std::lock_guard<std::mutex> lock(r.m);

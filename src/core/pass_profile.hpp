@@ -16,9 +16,6 @@ namespace dofkit::core {
 /// Starts (true) or stops recording; starting also clears what was recorded.
 void set_pass_profiling(bool on);
 
-/// Whether scopes record now.
-bool pass_profiling();
-
 struct PassTime {
   std::string path;    // e.g. "sterna/gather"
   double ms = 0;       // summed wall time of the scopes with this path since the last take

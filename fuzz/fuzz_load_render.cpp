@@ -70,17 +70,30 @@ CameraModel camera_from(const std::uint8_t* c) {
   CameraModel cam;
   const double a = c[2], b = c[3];
   switch (c[1] % 5) {
-    case 0: cam.model = BlurAtInfinity{0.05 + a * 0.1, b / 4.0}; break;
-    case 1: cam.model = ThinLens{10.0 + (c[3] & 0x3f) * 4.0, 0.25 + (b / 16.0), 0.02 + a * 0.05, 36.0}; break;
+    case 0:
+      cam.model = BlurAtInfinity{0.05 + a * 0.1, b / 4.0};
+      break;
+    case 1:
+      cam.model = ThinLens{10.0 + (c[3] & 0x3f) * 4.0, 0.25 + (b / 16.0), 0.02 + a * 0.05, 36.0};
+      break;
     case 2: {
       const double nb = 0.1 + a * 0.02, ns = nb + (c[3] & 15) * 0.3, fs = ns + (c[3] >> 4) * 0.5;
-      cam.model = FourPlane{nb, ns, fs, (c[7] & 1) ? std::numeric_limits<double>::infinity() : fs + 1 + a * 0.1,
-                            b / 8.0, a / 8.0, (c[7] & 2) != 0};
+      cam.model = FourPlane{nb,
+                            ns,
+                            fs,
+                            (c[7] & 1) ? std::numeric_limits<double>::infinity() : fs + 1 + a * 0.1,
+                            b / 8.0,
+                            a / 8.0,
+                            (c[7] & 2) != 0};
       break;
     }
-    case 3: cam.model = StarCraft{0.1 + a * 0.1, (c[3] & 15) * 0.25, (c[3] & 15) * 0.25 + 0.01 + (c[3] >> 4), a / 64.0, b / 8.0}; break;
-    default: cam.model = NearFarBlend{a * 0.01, a * 0.01 + 0.1 + (c[3] & 15) * 0.2, a * 0.01 + 0.1 + (c[3] & 15) * 0.2,
-                                      a * 0.01 + 0.2 + (c[3] & 15) * 0.2 + (c[3] >> 4), b / 8.0};
+    case 3:
+      cam.model =
+          StarCraft{0.1 + a * 0.1, (c[3] & 15) * 0.25, (c[3] & 15) * 0.25 + 0.01 + (c[3] >> 4), a / 64.0, b / 8.0};
+      break;
+    default:
+      cam.model = NearFarBlend{a * 0.01, a * 0.01 + 0.1 + (c[3] & 15) * 0.2, a * 0.01 + 0.1 + (c[3] & 15) * 0.2,
+                               a * 0.01 + 0.2 + (c[3] & 15) * 0.2 + (c[3] >> 4), b / 8.0};
   }
   cam.max_coc_px = c[4] == 255 ? std::numeric_limits<double>::infinity() : 1.0 + c[4] / 8.0;
   return cam;
@@ -137,10 +150,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   opt.clip_far = (c[0] & 0x40) ? std::numeric_limits<double>::infinity() : 100.0;
 
   Image colour, depth;
-  try { colour = io::read_color(path); } catch (const Error&) {}
-  try { depth = io::read_depth(path, opt); } catch (const Error&) {}
-  try { io::read_mask(path); } catch (const Error&) {}
-  try { io::load_frame(path, "", opt); } catch (const Error&) {}
+  try {
+    colour = io::read_color(path);
+  } catch (const Error&) {
+  }
+  try {
+    depth = io::read_depth(path, opt);
+  } catch (const Error&) {
+  }
+  try {
+    io::read_mask(path);
+  } catch (const Error&) {
+  }
+  try {
+    io::load_frame(path, "", opt);
+  } catch (const Error&) {
+  }
   std::remove(path.c_str());
   if (colour.empty()) return 0;
   if (colour.channels() != 4) bug("read_color returned " + std::to_string(colour.channels()) + " planes");

@@ -77,8 +77,9 @@ int main(int argc, char** argv) {
   auto depth = [](int x, int y) { return (x + y) % 5 == 0 ? INFINITY : 0.5f + 0.7f * ((x * 3 + y) % 7); };
 
   // EXR: RGBA + Z float (the colour file's own depth), half RGB, single-channel depth named Y.
-  raw(tmp + ".exr", 9, 7, {"R", "G", "B", "A", "Z"}, OIIO::TypeDesc::FLOAT,
-      [&](int x, int y, int c) { return c < 3 ? 0.1f * (x + c) : c == 3 ? 1.0f : depth(x, y); });
+  raw(tmp + ".exr", 9, 7, {"R", "G", "B", "A", "Z"}, OIIO::TypeDesc::FLOAT, [&](int x, int y, int c) {
+    return c < 3 ? 0.1f * (x + c) : c == 3 ? 1.0f : depth(x, y);
+  });
   seed(dir, "exr_rgbaz_float", tmp + ".exr", {0, 0, 20, 24, 40, 0, 0, 0});
   io::WriteOptions half;
   half.bits = 16;

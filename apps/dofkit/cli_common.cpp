@@ -77,28 +77,32 @@ void CameraFlags::add(CLI::App* cmd, const std::string& group) {
                               "MODEL physical thin lens: aperture f-number N (> 0), e.g. 2.8. With --focus, "
                               "--focal-length, --sensor-width")
                   ->group(group);
-  focal_length_ = cmd->add_option("--focal-length", focal_length_mm_, "thin lens focal length, millimetres (default 50)")
-                      ->group(group);
-  sensor_width_ = cmd->add_option("--sensor-width", sensor_width_mm_,
-                                  "thin lens sensor width, millimetres (default 36, full frame); the image width spans it")
-                      ->group(group);
+  focal_length_ =
+      cmd->add_option("--focal-length", focal_length_mm_, "thin lens focal length, millimetres (default 50)")
+          ->group(group);
+  sensor_width_ =
+      cmd->add_option("--sensor-width", sensor_width_mm_,
+                      "thin lens sensor width, millimetres (default 36, full frame); the image width spans it")
+          ->group(group);
   blur_inf_ = cmd->add_option("--blur-at-infinity", blur_inf_px_,
                               "MODEL thin lens given by K, the blur radius of a point at infinity, pixels (>= 0): "
                               "r(z) = K (focus/z - 1). With --focus")
                   ->group(group);
-  planes_ = cmd->add_option("--planes", planes_text_,
-                            "MODEL four-plane artist model NB,NS,FS,FB, metres, 0 < NB < NS <= FS < FB (FB may be inf): "
-                            "blur ramps from --near-radius at NB to 0 at NS, and from 0 at FS to --far-radius at FB")
-                ->group(group);
+  planes_ =
+      cmd->add_option("--planes", planes_text_,
+                      "MODEL four-plane artist model NB,NS,FS,FB, metres, 0 < NB < NS <= FS < FB (FB may be inf): "
+                      "blur ramps from --near-radius at NB to 0 at NS, and from 0 at FS to --far-radius at FB")
+          ->group(group);
   near_radius_ = cmd->add_option("--near-radius", near_radius_px_, "--planes: maximum near blur radius, pixels (>= 0)")
                      ->group(group);
-  far_radius_ = cmd->add_option("--far-radius", far_radius_px_, "--planes: maximum far blur radius, pixels (>= 0)")
-                    ->group(group);
-  planes_ramp_ = cmd->add_option("--planes-ramp", planes_ramp_v_,
-                                 "--planes: ramps linear in z (default, as in the sources) or in inverse-z (follows the "
-                                 "physical lens law between the planes)")
-                     ->check(CLI::IsMember({"z", "inverse-z"}))
-                     ->group(group);
+  far_radius_ =
+      cmd->add_option("--far-radius", far_radius_px_, "--planes: maximum far blur radius, pixels (>= 0)")->group(group);
+  planes_ramp_ =
+      cmd->add_option("--planes-ramp", planes_ramp_v_,
+                      "--planes: ramps linear in z (default, as in the sources) or in inverse-z (follows the "
+                      "physical lens law between the planes)")
+          ->check(CLI::IsMember({"z", "inverse-z"}))
+          ->group(group);
   starcraft_ = cmd->add_option("--starcraft", starcraft_text_,
                                "MODEL StarCraft II levels FOCUS,FULL,NONE,AMOUNT: focus distance and ranges in metres "
                                "(sharp within FULL of FOCUS, fully blurred from NONE > FULL), AMOUNT >= 0; level 1 = "
@@ -113,13 +117,16 @@ void CameraFlags::add(CLI::App* cmd, const std::string& group) {
                                 "--starcraft / --near-far: radius of full blur, pixels (>= 0; default 16 for "
                                 "--starcraft, 12 for --near-far)")
                     ->group(group);
-  max_coc_ = cmd->add_option("--max-coc", max_coc_px_, "clamp every CoC radius to this many pixels (> 0; default: none). Radii are also capped at a "
-                               "quarter of the image width (at least 8 px)")
-                 ->group(group);
-  reference_width_ = cmd->add_option("--reference-width", reference_width_px_,
-                                     "image width, pixels, at which pixel radii are given (default: the input's width); "
-                                     "radii scale with the input width / this")
-                         ->group(group);
+  max_coc_ =
+      cmd->add_option("--max-coc", max_coc_px_,
+                      "clamp every CoC radius to this many pixels (> 0; default: none). Radii are also capped at a "
+                      "quarter of the image width (at least 8 px)")
+          ->group(group);
+  reference_width_ =
+      cmd->add_option("--reference-width", reference_width_px_,
+                      "image width, pixels, at which pixel radii are given (default: the input's width); "
+                      "radii scale with the input width / this")
+          ->group(group);
 }
 
 bool CameraFlags::model_given() const {
@@ -130,7 +137,8 @@ std::optional<std::pair<int, int>> CameraFlags::focus_at() const {
   if (!given(focus_at_)) return std::nullopt;
   const std::vector<double> v = parse_numbers(focus_at_text_, 2, "--focus-at", "X,Y pixel coordinates");
   for (double c : v)
-    if (c != std::floor(c) || c < 0 || c > 1e9) throw_usage("--focus-at " + focus_at_text_ + ": X and Y must be whole pixels >= 0");
+    if (c != std::floor(c) || c < 0 || c > 1e9)
+      throw_usage("--focus-at " + focus_at_text_ + ": X and Y must be whole pixels >= 0");
   return std::make_pair(static_cast<int>(v[0]), static_cast<int>(v[1]));
 }
 
@@ -142,7 +150,8 @@ void CameraFlags::check() const {
   if (given(starcraft_)) models.push_back("--starcraft");
   if (given(near_far_)) models.push_back("--near-far");
   if (models.empty())
-    throw_usage("no CoC model: give one of --f-number (thin lens), --blur-at-infinity, --planes, --starcraft or --near-far");
+    throw_usage(
+        "no CoC model: give one of --f-number (thin lens), --blur-at-infinity, --planes, --starcraft or --near-far");
   if (models.size() > 1) {
     std::string list;
     for (const auto& m : models) list += (list.empty() ? "" : " and ") + m;
@@ -254,10 +263,11 @@ CameraModel CameraFlags::build(const Image* depth) const {
 // --- depth ---------------------------------------------------------------------------------
 
 void DepthFlags::add(CLI::App* cmd, const std::string& group) {
-  cmd->add_option("--depth-kind", kind_,
-                  "how the depth file encodes depth: z (planar distance along the view axis, default), distance "
-                  "(radial distance from the camera; needs --fov-deg), disparity (z = --disparity-scale / value; 8/16-bit "
-                  "files: normalised, bright = near), ndc or ndc-reversed (window depth in [0,1]; needs --clip)")
+  cmd->add_option(
+         "--depth-kind", kind_,
+         "how the depth file encodes depth: z (planar distance along the view axis, default), distance "
+         "(radial distance from the camera; needs --fov-deg), disparity (z = --disparity-scale / value; 8/16-bit "
+         "files: normalised, bright = near), ndc or ndc-reversed (window depth in [0,1]; needs --clip)")
       ->check(CLI::IsMember({"z", "distance", "disparity", "ndc", "ndc-reversed"}))
       ->group(group);
   fov_ = cmd->add_option("--fov-deg", fov_deg_, "horizontal field of view, degrees (0..180), for --depth-kind distance")
@@ -279,7 +289,8 @@ void DepthFlags::add(CLI::App* cmd, const std::string& group) {
 io::DepthOptions DepthFlags::build() const {
   io::DepthOptions o;
   o.kind = io::parse_depth_kind(kind_);
-  if (given(fov_) && o.kind != io::DepthKind::distance) throw_usage("--fov-deg: only applies with --depth-kind distance");
+  if (given(fov_) && o.kind != io::DepthKind::distance)
+    throw_usage("--fov-deg: only applies with --depth-kind distance");
   if (given(scale_) && o.kind != io::DepthKind::disparity)
     throw_usage("--disparity-scale: only applies with --depth-kind disparity");
   const bool ndc = o.kind == io::DepthKind::ndc || o.kind == io::DepthKind::ndc_reversed;
@@ -324,15 +335,16 @@ void check_paths(const std::vector<NamedPath>& inputs, const std::vector<NamedPa
     const fs::path c = canon(out.path);
     for (const Seen& other : seen) {
       std::error_code ec;
-      const bool same = other.canonical == c ||
-                        (fs::exists(other.canonical, ec) && fs::exists(c, ec) && fs::equivalent(other.canonical, c, ec));
+      const bool same = other.canonical == c || (fs::exists(other.canonical, ec) && fs::exists(c, ec) &&
+                                                 fs::equivalent(other.canonical, c, ec));
       if (same)
         throw_usage(out.flag + " " + out.path + ": is the same file as " + other.named->flag + " " + other.named->path +
                     (other.input ? " (refusing to overwrite an input)" : " (two outputs cannot share a file)"));
     }
     const fs::path dir = fs::absolute(out.path).parent_path();
     std::error_code ec;
-    if (!fs::is_directory(dir, ec)) throw_bad_input(out.flag + " " + out.path + ": folder " + dir.string() + " does not exist");
+    if (!fs::is_directory(dir, ec))
+      throw_bad_input(out.flag + " " + out.path + ": folder " + dir.string() + " does not exist");
     if (fs::is_directory(c, ec)) throw_bad_input(out.flag + " " + out.path + ": is a folder");
     seen.push_back({&out, c, false});
   }

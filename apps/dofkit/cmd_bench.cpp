@@ -44,8 +44,7 @@ struct Size {
 RenderSettings bench_settings(const std::string& method_spec, int w, int threads) {
   // Same syntax as `dofkit quality --methods`: name or name:key=value,key=value.
   const std::vector<MethodSpec> specs = parse_method_list(method_spec);
-  if (specs.size() != 1 || specs[0].name == "input")
-    throw_usage("--methods " + method_spec + ": expected one method");
+  if (specs.size() != 1 || specs[0].name == "input") throw_usage("--methods " + method_spec + ": expected one method");
   RenderSettings s;
   s.method = specs[0].name;
   s.params = specs[0].params;
@@ -100,9 +99,8 @@ void run_child(const std::string& method, Size size, int threads, int iterations
   if (method == "copy") {
     // The memory floor: read the RGBA float frame once and write it once.
     Image out(size.w, size.h, 4);
-    time_runs([&] {
-      std::memcpy(out.data().data(), frame.color.data().data(), frame.color.data().size() * sizeof(float));
-    });
+    time_runs(
+        [&] { std::memcpy(out.data().data(), frame.color.data().data(), frame.color.data().size() * sizeof(float)); });
   } else {
     // A Renderer, as a game loop would use it: buffers are kept between frames.
     Renderer renderer(bench_settings(method, size.w, threads));
@@ -140,9 +138,11 @@ void run_child(const std::string& method, Size size, int threads, int iterations
 nlohmann::json spawn_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd,
                            bool passes) {
   const std::string self = "/proc/self/exe";
-  std::vector<std::string> args = {"dofkit", "bench", "--child", method, "--size",
-                                   std::to_string(size.w) + "x" + std::to_string(size.h), "--threads",
-                                   std::to_string(threads), "--iterations", std::to_string(iterations)};
+  std::vector<std::string> args = {"dofkit",       "bench",
+                                   "--child",      method,
+                                   "--size",       std::to_string(size.w) + "x" + std::to_string(size.h),
+                                   "--threads",    std::to_string(threads),
+                                   "--iterations", std::to_string(iterations)};
   if (!simd.empty()) args.insert(args.end(), {"--simd", simd});
   if (passes) args.push_back("--passes");
   std::vector<char*> argv;
@@ -203,12 +203,13 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--write-frame", opts->write_frame,
                   "write the synthetic frame of the first --size (default 1920x1080) as DIR/color.exr and "
                   "DIR/depth.exr (float) and print the render flags of its camera, instead of timing");
-  cmd->add_option("--simd", opts->simd,
-                  "run the kernels of this SIMD target instead of the widest one the machine has, to see "
-                  "what a machine without the wider ones gets (e.g. AVX2, SSE4; a name it does not run prints the list)");
+  cmd->add_option(
+      "--simd", opts->simd,
+      "run the kernels of this SIMD target instead of the widest one the machine has, to see "
+      "what a machine without the wider ones gets (e.g. AVX2, SSE4; a name it does not run prints the list)");
   cmd->add_flag("--passes", opts->passes,
-               "also time each pass of each method (median ms per frame; nested passes are included in their "
-               "parents) and print the breakdown after the table (JSON: a 'passes' list per row)");
+                "also time each pass of each method (median ms per frame; nested passes are included in their "
+                "parents) and print the breakdown after the table (JSON: a 'passes' list per row)");
   cmd->add_option("--child", opts->child, "internal: run one measurement")->group("");
   cmd->callback([opts] {
     std::vector<Size> sizes;
@@ -278,23 +279,25 @@ void add_bench_command(CLI::App& app) {
       std::cout << rows.dump(2) << "\n";
       return;
     }
-    std::cout << fmt::format("| method | size | threads | median ms | min ms | CPU ms | Mpix/s | peak RSS MB | × copy |\n");
+    std::cout << fmt::format(
+        "| method | size | threads | median ms | min ms | CPU ms | Mpix/s | peak RSS MB | × copy |\n");
     std::cout << "|---|---|---|---:|---:|---:|---:|---:|---:|\n";
     for (const auto& r : rows)
       std::cout << fmt::format("| {} | {}x{} | {} | {:.2f} | {:.2f} | {:.1f} | {:.1f} | {:.0f} | {:.1f} |\n",
                                r["method"].get<std::string>(), r["width"].get<int>(), r["height"].get<int>(),
                                r["threads"].get<int>(), r["median_ms"].get<double>(), r["min_ms"].get<double>(),
-                               r["cpu_ms"].get<double>(), r["mpix_per_s"].get<double>(),
-                               r["peak_rss_mb"].get<double>(), r["ratio_to_copy"].get<double>());
+                               r["cpu_ms"].get<double>(), r["mpix_per_s"].get<double>(), r["peak_rss_mb"].get<double>(),
+                               r["ratio_to_copy"].get<double>());
     if (!opts->passes) return;
     // Per method and size: each pass's median ms per frame and its share of the frame's median.
     for (const auto& r : rows) {
       if (!r.contains("passes")) continue;
       const double frame = r["median_ms"].get<double>();
-      std::cout << fmt::format("\n{} {}x{}, {} thread(s): {:.2f} ms per frame\n\n| pass | median ms | min ms | % of frame |\n"
-                               "|---|---:|---:|---:|\n",
-                               r["method"].get<std::string>(), r["width"].get<int>(), r["height"].get<int>(),
-                               r["threads"].get<int>(), frame);
+      std::cout << fmt::format(
+          "\n{} {}x{}, {} thread(s): {:.2f} ms per frame\n\n| pass | median ms | min ms | % of frame |\n"
+          "|---|---:|---:|---:|\n",
+          r["method"].get<std::string>(), r["width"].get<int>(), r["height"].get<int>(), r["threads"].get<int>(),
+          frame);
       for (const auto& p : r["passes"])
         std::cout << fmt::format("| {} | {:.2f} | {:.2f} | {:.0f} |\n", p["pass"].get<std::string>(),
                                  p["median_ms"].get<double>(), p["min_ms"].get<double>(),

@@ -38,17 +38,20 @@ void add_compare_command(CLI::App& app) {
     bool json = false;
   };
   auto opts = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand(
-      "compare",
-      "score TEST against the reference REF: PSNR and SSIM of clipped sRGB, edge PSNR (with "
-      "--depth), linear RMSE\nexample: dofkit compare ground_truth.exr out.exr --depth depth.exr");
+  auto* cmd =
+      app.add_subcommand("compare",
+                         "score TEST against the reference REF: PSNR and SSIM of clipped sRGB, edge PSNR (with "
+                         "--depth), linear RMSE\nexample: dofkit compare ground_truth.exr out.exr --depth depth.exr");
   cmd->add_option("REF", opts->ref, "reference image (e.g. the ground truth)")->required();
   cmd->add_option("TEST", opts->test, "image to score")->required();
-  cmd->add_option("--depth", opts->depth,
-                  "pinhole depth (planar z) of the reference: enables edge PSNR (pixels within 12 px of a depth jump > 5 %)");
-  cmd->add_option("--crop", opts->crop,
-                  "score only the region X0,Y0,X1,Y1 (pixels; X1, Y1 exclusive); the edge band is found on the whole depth map");
-  cmd->add_flag("--json", opts->json, "print one JSON object (PSNR inf as the string \"inf\", undefined values as null)");
+  cmd->add_option(
+      "--depth", opts->depth,
+      "pinhole depth (planar z) of the reference: enables edge PSNR (pixels within 12 px of a depth jump > 5 %)");
+  cmd->add_option(
+      "--crop", opts->crop,
+      "score only the region X0,Y0,X1,Y1 (pixels; X1, Y1 exclusive); the edge band is found on the whole depth map");
+  cmd->add_flag("--json", opts->json,
+                "print one JSON object (PSNR inf as the string \"inf\", undefined values as null)");
   cmd->callback([opts] {
     Image ref = io::read_color(opts->ref);
     Image test = io::read_color(opts->test);

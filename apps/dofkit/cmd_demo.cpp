@@ -21,10 +21,10 @@ void add_demo_command(CLI::App& app) {
     int layers = 4;  // the layered method gets the hidden surfaces it is designed for
   };
   auto opts = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand(
-      "demo",
-      "the guided tour: every method on every built-in scene against the thin-lens ground truth; "
-      "writes contact sheets and the quality table to ./dofkit-demo/");
+  auto* cmd =
+      app.add_subcommand("demo",
+                         "the guided tour: every method on every built-in scene against the thin-lens ground truth; "
+                         "writes contact sheets and the quality table to ./dofkit-demo/");
   cmd->add_option("--out", opts->out, "output folder (default ./dofkit-demo)");
   cmd->add_option("--size", opts->size, "scene size WxH in pixels (default 480x270)");
   cmd->add_option("--samples", opts->samples, "ground-truth lens samples per pixel (default: the scene's own)");

@@ -27,7 +27,8 @@ void add_quality_command(CLI::App& app) {
                   "with parameters name:key=value,key=value; input_layers=N sets that row's input layers "
                   "(default: input and every method)");
   cmd->add_option("--size", opts->size, "scene size WxH in pixels (default 320x180)");
-  cmd->add_option("--samples", opts->samples, "ground-truth lens samples per pixel (default: the scene's own, >= 45 dB noise floor)");
+  cmd->add_option("--samples", opts->samples,
+                  "ground-truth lens samples per pixel (default: the scene's own, >= 45 dB noise floor)");
   cmd->add_option("--layers", opts->layers,
                   "fragments per pixel in the input frames (front to back; 0 = plain RGB-D, the default); "
                   "a row may override it: layered:input_layers=4");

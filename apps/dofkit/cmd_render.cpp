@@ -126,7 +126,8 @@ std::string expand_frame(const std::string& path, const FramePattern& p, int fra
 // FIRST-LAST or FIRST-LASTxSTEP (inclusive, FIRST >= 0), or one frame number.
 std::vector<int> parse_frames(const std::string& text) {
   auto bad = [&] {
-    throw_usage("--frames " + text + ": expected FIRST-LAST or FIRST-LASTxSTEP (e.g. 1001-1100, 1-99x2), frame numbers >= 0");
+    throw_usage("--frames " + text +
+                ": expected FIRST-LAST or FIRST-LASTxSTEP (e.g. 1001-1100, 1-99x2), frame numbers >= 0");
   };
   long first = 0, last = 0, step = 1;
   char dash = 0, x = 0;
@@ -172,7 +173,8 @@ void check_method(const std::string& method, const std::map<std::string, std::st
       // Not a structured binding: clang 14 cannot capture those in a lambda.
       const std::string& key = kv.first;
       const std::string& value = kv.second;
-      const bool known = std::any_of(m.params.begin(), m.params.end(), [&](const ParamInfo& p) { return p.name == key; });
+      const bool known =
+          std::any_of(m.params.begin(), m.params.end(), [&](const ParamInfo& p) { return p.name == key; });
       if (!known)
         throw_usage("--set " + key + "=" + value + ": unknown parameter for method " + method +
                     (keys.empty() ? std::string(" (it has none)") : " (known: " + keys + ")"));
@@ -207,8 +209,8 @@ struct FrameField {
   bool output;
 };
 constexpr FrameField kFrameFields[] = {
-    {"--color", &FramePaths::color, false},       {"--depth", &FramePaths::depth, false},
-    {"--layers", &FramePaths::layers, false},     {"--mask", &FramePaths::mask, false},
+    {"--color", &FramePaths::color, false},           {"--depth", &FramePaths::depth, false},
+    {"--layers", &FramePaths::layers, false},         {"--mask", &FramePaths::mask, false},
     {"--mask-depth", &FramePaths::mask_depth, false}, {"--output", &FramePaths::output, true},
     {"--output-coc", &FramePaths::output_coc, true},  {"--debug-output", &FramePaths::debug_output, true}};
 
@@ -238,9 +240,9 @@ FrameInputs read_inputs(const RenderArgs& a, const FramePaths& p, const io::Dept
       if (io::has_depth_channel(p.color)) frame.depth = io::read_depth(p.color, depth_opt);
     }
     if (!frame.depth.same_size(frame.color))
-      throw_bad_input((p.depth.empty() ? p.layers : p.depth) + ": depth is " + std::to_string(frame.depth.width()) + "x" +
-                      std::to_string(frame.depth.height()) + " but colour is " + std::to_string(frame.color.width()) +
-                      "x" + std::to_string(frame.color.height()));
+      throw_bad_input((p.depth.empty() ? p.layers : p.depth) + ": depth is " + std::to_string(frame.depth.width()) +
+                      "x" + std::to_string(frame.depth.height()) + " but colour is " +
+                      std::to_string(frame.color.width()) + "x" + std::to_string(frame.color.height()));
     validate_frame(frame, (p.color.empty() ? p.layers : p.color).c_str());
   }
   Image& mask = in.mask;
@@ -431,7 +433,8 @@ void run_render(RenderArgs& a) {
   }
   if (!a.frames.empty())
     std::cerr << "dofkit: " << frames.size() << " frames in "
-              << static_cast<long>(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1000 + 0.5)
+              << static_cast<long>(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1000 +
+                                   0.5)
               << " ms\n";
 }
 
@@ -449,9 +452,10 @@ void add_render_command(CLI::App& app) {
                   "depth map, same size: a single-channel file (any channel name) or an EXR with a Z channel; "
                   "default: the Z channel of --color")
       ->group(in);
-  cmd->add_option("--layers", args->layers,
-                  "multi-fragment input for the layered method: deep EXR or the layered EXR of `dofkit scene --layers`; "
-                  "without --color its front-to-back composite is the colour")
+  cmd->add_option(
+         "--layers", args->layers,
+         "multi-fragment input for the layered method: deep EXR or the layered EXR of `dofkit scene --layers`; "
+         "without --color its front-to-back composite is the colour")
       ->group(in);
   cmd->add_option("--max-pixels", args->max_pixels,
                   "refuse input files whose header declares more than this many pixels (width x height), "
@@ -471,8 +475,9 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--set", args->sets, "KEY=VALUE method parameter, repeatable (see `dofkit methods`)")
       ->allow_extra_args(false)
       ->group(meth);
-  cmd->add_option("--threads", args->threads, "worker threads, 0 = all hardware threads (default); output is identical "
-                                              "for every count")
+  cmd->add_option("--threads", args->threads,
+                  "worker threads, 0 = all hardware threads (default); output is identical "
+                  "for every count")
       ->group(meth);
   cmd->add_option("--debug-view", args->debug_view,
                   "NAME of an intermediate buffer to save with --debug-output; `list` prints the method's views")

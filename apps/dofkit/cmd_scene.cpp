@@ -40,7 +40,6 @@ struct SceneArgs {
   bool list = false;
 };
 
-
 // Shortest decimal that reads back as the same double (for flags that must reproduce exactly).
 std::string exact(double v) {
   char buf[64];
@@ -126,9 +125,7 @@ void run_scene(const SceneArgs& a) {
   j["seed"] = a.seed;
   j["render_flags"] = flags.str();
   j["ground_truth_seconds"] = seconds;
-  j["files"] = {{"color", "color.exr"},
-                {"depth", "depth.exr"},
-                {"ground_truth", "ground_truth.exr"}};
+  j["files"] = {{"color", "color.exr"}, {"depth", "depth.exr"}, {"ground_truth", "ground_truth.exr"}};
   if (a.layers > 0) j["files"]["layers"] = "layers.exr";
   // Written through a temporary file + rename like every other output.
   const auto tmp = dir / ".params.json.tmp";
@@ -145,18 +142,17 @@ void run_scene(const SceneArgs& a) {
   std::filesystem::rename(tmp, dir / "params.json", ec);
   if (ec) throw_bad_input("--out: cannot write '" + (dir / "params.json").string() + "': " + ec.message());
   std::cout << "wrote " << a.out << "/{color,depth" << (a.layers > 0 ? ",layers" : "")
-            << ",ground_truth}.exr and params.json; reproduce the camera with: dofkit render " << flags.str()
-            << "\n";
+            << ",ground_truth}.exr and params.json; reproduce the camera with: dofkit render " << flags.str() << "\n";
 }
 
 }  // namespace
 
 void add_scene_command(CLI::App& app) {
   auto args = std::make_shared<SceneArgs>();
-  auto* cmd = app.add_subcommand(
-      "scene",
-      "render a built-in scene: pinhole colour + depth (+ layers) and the thin-lens ground truth\n"
-      "example: dofkit scene occluder --out scenes/occluder --size 640x360");
+  auto* cmd =
+      app.add_subcommand("scene",
+                         "render a built-in scene: pinhole colour + depth (+ layers) and the thin-lens ground truth\n"
+                         "example: dofkit scene occluder --out scenes/occluder --size 640x360");
   cmd->add_option("name", args->name, "scene name (see --list)");
   cmd->add_flag("--list", args->list, "list the built-in scenes with a description");
   cmd->add_option("--out", args->out, "output directory (created if missing)");
@@ -168,7 +164,8 @@ void add_scene_command(CLI::App& app) {
   cmd->add_option("--blur-at-infinity", args->blur_px,
                   "blur radius K of a point at infinity, px at the rendered width (default: the scene's, "
                   "scaled from 640 px wide)");
-  cmd->add_option("--layers", args->layers, "surfaces per pixel written to layers.exr, front to back (0 = none; default 4)");
+  cmd->add_option("--layers", args->layers,
+                  "surfaces per pixel written to layers.exr, front to back (0 = none; default 4)");
   cmd->add_option("--blades", args->blades, "aperture blades: 0 = circular, >= 3 = regular polygon");
   cmd->add_option("--rotation", args->rotation_deg, "aperture polygon rotation in degrees");
   cmd->add_option("--seed", args->seed, "lens sampling seed (default 1)");

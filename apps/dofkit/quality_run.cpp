@@ -179,8 +179,8 @@ std::vector<MethodSpec> default_method_list() {
 void parse_size(const std::string& text, const char* option, int& width, int& height) {
   int w = 0, h = 0;
   char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') ||
-      w < 1 || h < 1 || w > 16384 || h > 16384)
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || w < 1 || h < 1 ||
+      w > 16384 || h > 16384)
     throw_usage(std::string(option) + " " + text + ": expected WxH with 1 <= W, H <= 16384");
   width = w;
   height = h;
@@ -261,8 +261,8 @@ QualityResult run_quality(const QualityOptions& opt) {
     const int tile_w = opt.width / factor;
     const int font = tile_w >= 480 ? 2 : 1;
     std::vector<metrics::SheetCell> cells;
-    cells.push_back({"ground truth (thin lens)", metrics::downsample(gt, factor),
-                     "depth (near bright), edge band blue", metrics::downsample(metrics::depth_view(sr.pinhole.depth, &band), factor)});
+    cells.push_back({"ground truth (thin lens)", metrics::downsample(gt, factor), "depth (near bright), edge band blue",
+                     metrics::downsample(metrics::depth_view(sr.pinhole.depth, &band), factor)});
 
     for (std::size_t i = 0; i < specs.size(); ++i) {
       const MethodSpec& spec = specs[i];
@@ -295,11 +295,11 @@ QualityResult run_quality(const QualityOptions& opt) {
       }
       const metrics::Scores sc = metrics::compare_with_mask(gt, out, &band);
       result.rows.push_back({name, spec.label, sc.psnr_db, sc.ssim, sc.edge_psnr_db, ms});
-      const std::string title =
-          spec.name == "input" ? std::string("input (pinhole)")
-                               : spec.label + (std::isnan(ms) ? "" : fmt::format("  {:.0f} ms", ms));
-      const std::string caption = fmt::format("psnr {} ssim {:.3f} edge {}", fmt_db(sc.psnr_db), sc.ssim,
-                                              fmt_db(sc.edge_psnr_db));
+      const std::string title = spec.name == "input"
+                                    ? std::string("input (pinhole)")
+                                    : spec.label + (std::isnan(ms) ? "" : fmt::format("  {:.0f} ms", ms));
+      const std::string caption =
+          fmt::format("psnr {} ssim {:.3f} edge {}", fmt_db(sc.psnr_db), sc.ssim, fmt_db(sc.edge_psnr_db));
       const Image heat = metrics::heat_map(metrics::abs_error_map(gt, out), kHeatMax);
       metrics::SheetCell cell{title, metrics::downsample(out, factor), caption, metrics::downsample(heat, factor)};
       if (spec.name == "input")
@@ -309,8 +309,9 @@ QualityResult run_quality(const QualityOptions& opt) {
       ++done;
     }
     const std::string heading = fmt::format(
-        "{} {}x{} - top: image; bottom: |error| vs ground truth, mean over RGB of sRGB values: black 0, red, yellow, white >= {:.1f}", name,
-        opt.width, opt.height, kHeatMax);
+        "{} {}x{} - top: image; bottom: |error| vs ground truth, mean over RGB of sRGB values: black 0, red, yellow, "
+        "white >= {:.1f}",
+        name, opt.width, opt.height, kHeatMax);
     const int columns = std::min<int>(cells.size(), tile_w <= 400 ? 5 : 4);
     const Image sheet = metrics::contact_sheet(heading, cells, columns, font);
     const std::string path = (fs::path(opt.out_dir) / (name + ".png")).string();

@@ -35,15 +35,15 @@ struct QualityOptions {
   std::vector<MethodSpec> methods;  ///< empty = default_method_list()
   int width = 320;                  ///< scene size, pixels
   int height = 180;
-  int samples = 0;                  ///< ground-truth lens samples per pixel (0 = scene default)
+  int samples = 0;  ///< ground-truth lens samples per pixel (0 = scene default)
   /// Fragments per pixel (front to back) in the input frames' layer_* (0 = single-layer
   /// RGB-D). Methods that do not use layers ignore them; the layered method uses them.
   int layers = 0;
-  std::string out_dir;              ///< where sheets and tables go (created if missing)
-  int threads = 0;                  ///< worker threads (0 = all)
+  std::string out_dir;  ///< where sheets and tables go (created if missing)
+  int threads = 0;      ///< worker threads (0 = all)
   /// --set method.key=value: parameters for every row of that method.
   std::map<std::string, std::map<std::string, std::string>> set;
-  std::string command_line;         ///< recorded in the Markdown and JSON (how to regenerate)
+  std::string command_line;  ///< recorded in the Markdown and JSON (how to regenerate)
 };
 
 struct QualityResult {

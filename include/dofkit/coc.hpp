@@ -14,10 +14,10 @@ namespace dofkit {
 
 /// Physical thin lens: r(z) = K (z_F / z − 1) with K = (W / S_w) f² / (2 N (z_F − f)).
 struct ThinLens {
-  double focal_length_mm = 50.0;   ///< f, millimetres (> 0)
-  double f_number = 2.8;           ///< N, dimensionless (> 0)
-  double focus_distance_m = 5.0;   ///< z_F, metres (> focal length)
-  double sensor_width_mm = 36.0;   ///< S_w, millimetres (> 0); the image width spans it
+  double focal_length_mm = 50.0;  ///< f, millimetres (> 0)
+  double f_number = 2.8;          ///< N, dimensionless (> 0)
+  double focus_distance_m = 5.0;  ///< z_F, metres (> focal length)
+  double sensor_width_mm = 36.0;  ///< S_w, millimetres (> 0); the image width spans it
 };
 
 /// Thin lens given directly by its blur radius at infinity: r(z) = K (z_F / z − 1).
@@ -43,11 +43,11 @@ struct FourPlane {
 /// [0, 1] selects a blur level. To drive other methods it maps to a signed radius
 /// r = ±c · max_radius_px (sign by side of the focus distance).
 struct StarCraft {
-  double focus_distance_m = 5.0;  ///< F, metres
-  double full_focus_range_m = 0.5;///< R_full, metres: |z − F| below this is sharp
-  double no_focus_range_m = 5.0;  ///< R_none, metres (> R_full): full blur from here (amount 1)
-  double amount = 1.0;            ///< α, dimensionless (>= 0)
-  double max_radius_px = 16.0;    ///< radius of level 1, pixels at the reference width
+  double focus_distance_m = 5.0;    ///< F, metres
+  double full_focus_range_m = 0.5;  ///< R_full, metres: |z − F| below this is sharp
+  double no_focus_range_m = 5.0;    ///< R_none, metres (> R_full): full blur from here (amount 1)
+  double amount = 1.0;              ///< α, dimensionless (>= 0)
+  double max_radius_px = 16.0;      ///< radius of level 1, pixels at the reference width
 };
 
 /// Sterna's near/far blend factors: near = saturate((z − ne)/(nb − ne)),

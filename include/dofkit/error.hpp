@@ -19,9 +19,7 @@ class Error : public std::runtime_error {
   Error(ErrorKind kind, const std::string& message) : std::runtime_error(message), kind_(kind) {}
   ErrorKind kind() const noexcept { return kind_; }
   /// CLI exit code for this error: usage 2, bad input 3, internal 1.
-  int exit_code() const noexcept {
-    return kind_ == ErrorKind::usage ? 2 : kind_ == ErrorKind::bad_input ? 3 : 1;
-  }
+  int exit_code() const noexcept { return kind_ == ErrorKind::usage ? 2 : kind_ == ErrorKind::bad_input ? 3 : 1; }
 
  private:
   ErrorKind kind_;

@@ -50,7 +50,7 @@ void require(bool ok, const std::string& message) {
 
 double thin_lens_k_px(const ThinLens& lens, double image_width_px) {
   const double f = lens.focal_length_mm;
-  const double zf = lens.focus_distance_m * 1000.0;  // mm
+  const double zf = lens.focus_distance_m * 1000.0;        // mm
   const double p = image_width_px / lens.sensor_width_mm;  // px per mm
   return p * f * f / (2.0 * lens.f_number * (zf - f));
 }
@@ -75,31 +75,27 @@ void validate(const CameraModel& camera) {
         auto finite_pos = [](double v) { return std::isfinite(v) && v > 0; };
         if constexpr (std::is_same_v<T, ThinLens>) {
           require(finite_pos(m.f_number), "--f-number: must be > 0 (got " + num(m.f_number) + ")");
-          require(finite_pos(m.focal_length_mm),
-                  "--focal-length: must be > 0 mm (got " + num(m.focal_length_mm) + ")");
-          require(finite_pos(m.sensor_width_mm),
-                  "--sensor-width: must be > 0 mm (got " + num(m.sensor_width_mm) + ")");
+          require(finite_pos(m.focal_length_mm), "--focal-length: must be > 0 mm (got " + num(m.focal_length_mm) + ")");
+          require(finite_pos(m.sensor_width_mm), "--sensor-width: must be > 0 mm (got " + num(m.sensor_width_mm) + ")");
           require(std::isfinite(m.focus_distance_m) && m.focus_distance_m * 1000.0 > m.focal_length_mm,
-                  "--focus: must be farther than the focal length (" + num(m.focal_length_mm) +
-                      " mm); got " + num(m.focus_distance_m) + " m");
+                  "--focus: must be farther than the focal length (" + num(m.focal_length_mm) + " mm); got " +
+                      num(m.focus_distance_m) + " m");
         } else if constexpr (std::is_same_v<T, BlurAtInfinity>) {
           require(finite_pos(m.focus_distance_m), "--focus: must be > 0 m (got " + num(m.focus_distance_m) + ")");
           require(std::isfinite(m.blur_at_infinity_px) && m.blur_at_infinity_px >= 0,
                   "--blur-at-infinity: must be >= 0 px (got " + num(m.blur_at_infinity_px) + ")");
         } else if constexpr (std::is_same_v<T, FourPlane>) {
-          require(finite_pos(m.near_blurry_m) && m.near_blurry_m < m.near_sharp_m &&
-                      m.near_sharp_m <= m.far_sharp_m && m.far_sharp_m < m.far_blurry_m &&
-                      std::isfinite(m.far_sharp_m),
-                  "--planes: need 0 < NB < NS <= FS < FB (got " + num(m.near_blurry_m) + "," +
-                      num(m.near_sharp_m) + "," + num(m.far_sharp_m) + "," + num(m.far_blurry_m) + ")");
+          require(finite_pos(m.near_blurry_m) && m.near_blurry_m < m.near_sharp_m && m.near_sharp_m <= m.far_sharp_m &&
+                      m.far_sharp_m < m.far_blurry_m && std::isfinite(m.far_sharp_m),
+                  "--planes: need 0 < NB < NS <= FS < FB (got " + num(m.near_blurry_m) + "," + num(m.near_sharp_m) +
+                      "," + num(m.far_sharp_m) + "," + num(m.far_blurry_m) + ")");
           require(std::isfinite(m.near_radius_px) && m.near_radius_px >= 0,
                   "--near-radius: must be >= 0 px (got " + num(m.near_radius_px) + ")");
           require(std::isfinite(m.far_radius_px) && m.far_radius_px >= 0,
                   "--far-radius: must be >= 0 px (got " + num(m.far_radius_px) + ")");
         } else if constexpr (std::is_same_v<T, StarCraft>) {
           require(finite_pos(m.focus_distance_m), "--starcraft: FOCUS must be > 0 m");
-          require(std::isfinite(m.full_focus_range_m) && m.full_focus_range_m >= 0,
-                  "--starcraft: FULL must be >= 0 m");
+          require(std::isfinite(m.full_focus_range_m) && m.full_focus_range_m >= 0, "--starcraft: FULL must be >= 0 m");
           require(std::isfinite(m.no_focus_range_m) && m.no_focus_range_m > m.full_focus_range_m,
                   "--starcraft: NONE must be greater than FULL");
           require(std::isfinite(m.amount) && m.amount >= 0, "--starcraft: AMOUNT must be >= 0");
@@ -169,8 +165,8 @@ namespace {
 // if-converted: it could trap). Compiled for AVX-512F / AVX2 / baseline, picked at run time;
 // the sequence (divide, subtract, multiply) contains no multiply-add, so every target rounds
 // alike. The selects are if-converted only without -ftrapping-math (DOFKIT_NO_TRAPPING_MATH).
-DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH
-void thin_lens_row(const float* z, float* r, int n, double k, double focus, double hi) {
+DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH void thin_lens_row(const float* z, float* r, int n, double k, double focus,
+                                                         double hi) {
   const double lo = -hi;
   for (int i = 0; i < n; ++i) {
     const double zd = z[i];
@@ -214,11 +210,16 @@ CocModelKind with_focus(const CocModelKind& model, double focus_m) {
         using T = std::decay_t<decltype(m)>;
         if constexpr (std::is_same_v<T, FourPlane>) {
           const double k = focus_m / focus_distance_m(model);
-          m.near_blurry_m *= k; m.near_sharp_m *= k; m.far_sharp_m *= k; m.far_blurry_m *= k;
+          m.near_blurry_m *= k;
+          m.near_sharp_m *= k;
+          m.far_sharp_m *= k;
+          m.far_blurry_m *= k;
         } else if constexpr (std::is_same_v<T, NearFarBlend>) {
           const double d = focus_m - focus_distance_m(model);
           m.near_begin_m = std::max(0.0, m.near_begin_m + d);
-          m.near_end_m += d; m.far_begin_m += d; m.far_end_m += d;
+          m.near_end_m += d;
+          m.far_begin_m += d;
+          m.far_end_m += d;
         } else {
           m.focus_distance_m = focus_m;
         }
@@ -314,8 +315,8 @@ std::string describe(const CameraModel& camera) {
           s << "starcraft focus=" << m.focus_distance_m << "m full=" << m.full_focus_range_m
             << "m none=" << m.no_focus_range_m << "m amount=" << m.amount << " max=" << m.max_radius_px << "px";
         else
-          s << "near/far blend " << m.near_begin_m << "," << m.near_end_m << "," << m.far_begin_m << ","
-            << m.far_end_m << "m max=" << m.max_radius_px << "px";
+          s << "near/far blend " << m.near_begin_m << "," << m.near_end_m << "," << m.far_begin_m << "," << m.far_end_m
+            << "m max=" << m.max_radius_px << "px";
       },
       camera.model);
   if (std::isfinite(camera.max_coc_px)) s << " max-coc=" << camera.max_coc_px << "px";

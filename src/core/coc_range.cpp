@@ -18,8 +18,8 @@ typedef float V8 __attribute__((vector_size(32)));
 // With `alpha`, a value whose alpha is not > 0 counts as 0 (a select, so the loop stays
 // branch-free; the mask test is hoisted out of the loop by the template parameter).
 template <bool kMasked>
-__attribute__((always_inline)) inline void row_range_t(const float* __restrict r, const float* __restrict alpha, int n, float* far_max,
-                        float* near_max) {
+__attribute__((always_inline)) inline void row_range_t(const float* __restrict r, const float* __restrict alpha, int n,
+                                                       float* far_max, float* near_max) {
   V8 f = V8{} + *far_max, m = V8{} + *near_max;
   int x = 0;
   for (; x + 8 <= n; x += 8) {

@@ -53,7 +53,9 @@ bool exact_tiny_multiplies() {
   return slow;
 }
 
-void set_exact_tiny_multiplies(int mode) { g_exact_tiny_mode.store(mode < 0 ? -1 : (mode ? 1 : 0), std::memory_order_relaxed); }
+void set_exact_tiny_multiplies(int mode) {
+  g_exact_tiny_mode.store(mode < 0 ? -1 : (mode ? 1 : 0), std::memory_order_relaxed);
+}
 
 namespace {
 inline int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
@@ -74,20 +76,23 @@ void extended_box_params(float sigma, int passes, int& r, float& alpha) {
 
 void extended_box_x_plain(float* data, int w, int h, int r, float alpha) {
   const double norm = 1.0 / (2.0 * r + 1.0 + 2.0 * alpha);
-  parallel_for(h, [&](int y0, int y1) {
-    std::vector<float> row(w);
-    for (int y = y0; y < y1; ++y) {
-      float* p = data + static_cast<std::size_t>(y) * w;
-      std::copy(p, p + w, row.begin());
-      auto at = [&](int i) { return static_cast<double>(row[clampi(i, 0, w - 1)]); };
-      double sum = 0;
-      for (int i = -r; i <= r; ++i) sum += at(i);
-      for (int x = 0; x < w; ++x) {
-        p[x] = static_cast<float>((sum + alpha * (at(x - r - 1) + at(x + r + 1))) * norm);
-        sum += at(x + r + 1) - at(x - r);
-      }
-    }
-  }, 8);
+  parallel_for(
+      h,
+      [&](int y0, int y1) {
+        std::vector<float> row(w);
+        for (int y = y0; y < y1; ++y) {
+          float* p = data + static_cast<std::size_t>(y) * w;
+          std::copy(p, p + w, row.begin());
+          auto at = [&](int i) { return static_cast<double>(row[clampi(i, 0, w - 1)]); };
+          double sum = 0;
+          for (int i = -r; i <= r; ++i) sum += at(i);
+          for (int x = 0; x < w; ++x) {
+            p[x] = static_cast<float>((sum + alpha * (at(x - r - 1) + at(x + r + 1))) * norm);
+            sum += at(x + r + 1) - at(x - r);
+          }
+        }
+      },
+      8);
 }
 
 void extended_box_y_plain(float* data, int w, int h, int r, float alpha) {
@@ -100,8 +105,8 @@ void extended_box_y_plain(float* data, int w, int h, int r, float alpha) {
     for (int b = b0; b < b1; ++b) {
       const int x0 = b * kBlock, nx = std::min(kBlock, w - x0);
       for (int y = 0; y < h; ++y)
-        std::copy(data + static_cast<std::size_t>(y) * w + x0,
-                  data + static_cast<std::size_t>(y) * w + x0 + nx, col.begin() + y * kBlock);
+        std::copy(data + static_cast<std::size_t>(y) * w + x0, data + static_cast<std::size_t>(y) * w + x0 + nx,
+                  col.begin() + y * kBlock);
       auto rowp = [&](int y) { return col.data() + static_cast<std::size_t>(clampi(y, 0, h - 1)) * kBlock; };
       std::fill(sum.begin(), sum.end(), 0.0);
       for (int i = -r; i <= r; ++i) {
@@ -131,12 +136,14 @@ void box_blur_plane_plain(const float* src, float* dst, int w, int h, int rx, in
 void gaussian_blur_plane_plain(float* data, int w, int h, float sigma_x, float sigma_y, int passes) {
   if (w <= 0 || h <= 0) return;
   if (sigma_x > 0) {
-    int r; float a;
+    int r;
+    float a;
     extended_box_params(sigma_x, passes, r, a);
     for (int i = 0; i < passes; ++i) extended_box_x_plain(data, w, h, r, a);
   }
   if (sigma_y > 0) {
-    int r; float a;
+    int r;
+    float a;
     extended_box_params(sigma_y, passes, r, a);
     for (int i = 0; i < passes; ++i) extended_box_y_plain(data, w, h, r, a);
   }
@@ -147,7 +154,6 @@ void gaussian_blur_plain(Image& img, float sigma, int passes) {
   for (int c = 0; c < img.channels(); ++c)
     gaussian_blur_plane_plain(img.plane(c), img.width(), img.height(), sigma, sigma, passes);
 }
-
 
 // ---------------------------------------------------------------------------------------
 // Fast forms.
@@ -232,12 +238,14 @@ void box_blur_plane(const float* src, float* dst, int w, int h, int rx, int ry) 
 void gaussian_blur_plane(float* data, int w, int h, float sigma_x, float sigma_y, int passes) {
   if (w <= 0 || h <= 0) return;
   if (sigma_x > 0) {
-    int r; float a;
+    int r;
+    float a;
     extended_box_params(sigma_x, passes, r, a);
     extended_box_passes_x(data, w, h, r, a, passes);
   }
   if (sigma_y > 0) {
-    int r; float a;
+    int r;
+    float a;
     extended_box_params(sigma_y, passes, r, a);
     extended_box_passes_y(data, w, h, r, a, passes);
   }

@@ -17,9 +17,9 @@ namespace dofkit::core {
 void set_pass_profiling(bool on);
 
 struct PassTime {
-  std::string path;    // e.g. "sterna/gather"
-  double ms = 0;       // summed wall time of the scopes with this path since the last take
-  int calls = 0;       // how many scopes with this path closed
+  std::string path;  // e.g. "sterna/gather"
+  double ms = 0;     // summed wall time of the scopes with this path since the last take
+  int calls = 0;     // how many scopes with this path closed
 };
 
 /// What was recorded since the last call (paths in the order their first scope opened), and

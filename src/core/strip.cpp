@@ -100,8 +100,8 @@ template <int W>
 struct Pass {
   static constexpr int kV = kLanes / W;  // vectors per step
   typedef typename VecOf<W>::T V;
-  const float* src;     // input, sample 0
-  float* dst;           // output, sample 0
+  const float* src;       // input, sample 0
+  float* dst;             // output, sample 0
   V s[kV], f[kV], g[kV];  // window sum; pending fresh sums of the next two resync points
 };
 
@@ -157,8 +157,8 @@ __attribute__((always_inline)) inline V mul_exact16(V a, V b) {
 template <int W, int NP, int kFresh, bool kExact, int kV = kLanes / W, typename V = typename VecOf<W>::T>
 __attribute__((always_inline)) inline void cascade_steps(int t, int end, const float* const (&lo)[NP],
                                                          const float* const (&hi)[NP], float* const (&d)[NP],
-                                                         V (&s)[NP][kV], V (&f)[NP][kV], V (&g)[NP][kV],
-                                                         V (&l)[NP][kV], V va, V vn) {
+                                                         V (&s)[NP][kV], V (&f)[NP][kV], V (&g)[NP][kV], V (&l)[NP][kV],
+                                                         V va, V vn) {
   for (; t < end; ++t) {
     const std::ptrdiff_t o = static_cast<std::ptrdiff_t>(t) * kLanes;
     __builtin_prefetch(d[0] + o + kPrefetch * kLanes, 1);  // see kPrefetch
@@ -219,11 +219,13 @@ __attribute__((always_inline)) inline void cascade_block(Pass<W>* const* ps, con
 
 // Replicates sample 0 into samples −1 … −(r + 1) and sample n − 1 into n … n + r.
 inline void fill_pad_left(float* p, int r) {
-  for (int i = 1; i <= r + 1; ++i) __builtin_memcpy(p - static_cast<std::ptrdiff_t>(i) * kLanes, p, sizeof(float) * kLanes);
+  for (int i = 1; i <= r + 1; ++i)
+    __builtin_memcpy(p - static_cast<std::ptrdiff_t>(i) * kLanes, p, sizeof(float) * kLanes);
 }
 inline void fill_pad_right(float* p, int n, int r) {
   const float* e = p + static_cast<std::ptrdiff_t>(n - 1) * kLanes;
-  for (int i = 1; i <= r + 1; ++i) __builtin_memcpy(p + static_cast<std::ptrdiff_t>(n - 1 + i) * kLanes, e, sizeof(float) * kLanes);
+  for (int i = 1; i <= r + 1; ++i)
+    __builtin_memcpy(p + static_cast<std::ptrdiff_t>(n - 1 + i) * kLanes, e, sizeof(float) * kLanes);
 }
 
 constexpr int kMaxCascade = 3;  // passes per cascade: the callers run 1–3
@@ -278,15 +280,18 @@ __attribute__((always_inline)) inline float* strip_passes_w(float* a, float* b, 
               p.f[v] += SP_LOADW(p.src + static_cast<std::ptrdiff_t>(k) * kLanes + v * W);
           if (i0 == 0 || !carry) {
             p.s[v] = zero;
-            for (int k = -r; k <= r; ++k) p.s[v] += SP_LOADW(p.src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes + v * W);
+            for (int k = -r; k <= r; ++k)
+              p.s[v] += SP_LOADW(p.src + static_cast<std::ptrdiff_t>(i0 + k) * kLanes + v * W);
           } else {
             p.s[v] = p.f[v];
             p.f[v] = p.g[v];
             p.g[v] = zero;
           }
         }
-        if (i0 + kResync <= n) full[nfull] = &p, full_i0[nfull++] = i0;
-        else part = &p, part_i0 = i0;
+        if (i0 + kResync <= n)
+          full[nfull] = &p, full_i0[nfull++] = i0;
+        else
+          part = &p, part_i0 = i0;
       }
       // Exact multiplies for this step's blocks if any input chunk within their reach holds a
       // tiny sample: pass p (1-based over all passes) at block B depends on the input chunks
@@ -307,10 +312,17 @@ __attribute__((always_inline)) inline float* strip_passes_w(float* a, float* b, 
       if (exact) {
         if constexpr (W == 16) {
           switch (nfull) {
-            case 1: cascade_block<W, 1, true>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
-            case 2: cascade_block<W, 2, true>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
-            case 3: cascade_block<W, 3, true>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
-            default: break;
+            case 1:
+              cascade_block<W, 1, true>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn);
+              break;
+            case 2:
+              cascade_block<W, 2, true>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn);
+              break;
+            case 3:
+              cascade_block<W, 3, true>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn);
+              break;
+            default:
+              break;
           }
           if (part) {
             const int len = n - part_i0;
@@ -319,10 +331,17 @@ __attribute__((always_inline)) inline float* strip_passes_w(float* a, float* b, 
         }
       } else {
         switch (nfull) {
-          case 1: cascade_block<W, 1>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
-          case 2: cascade_block<W, 2>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
-          case 3: cascade_block<W, 3>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn); break;
-          default: break;
+          case 1:
+            cascade_block<W, 1>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn);
+            break;
+          case 2:
+            cascade_block<W, 2>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn);
+            break;
+          case 3:
+            cascade_block<W, 3>(full, full_i0, kResync, from(1, kResync), from(2, kResync), r, va, vn);
+            break;
+          default:
+            break;
         }
         if (part) {
           const int len = n - part_i0;
@@ -395,7 +414,8 @@ SP_AVX512 float* strip_passes16(float* a, float* b, int n, int pad, int r, float
   // (exact_tiny_multiplies); the rest, and every block elsewhere, the plain float multiplies.
   constexpr int kMaxChunks = 1024;
   std::uint16_t tiny[kMaxChunks + 1];
-  if (n <= kMaxChunks * kResync && exact_tiny_multiplies() && strip_tiny_chunks(a + static_cast<std::ptrdiff_t>(pad) * kLanes, n, tiny))
+  if (n <= kMaxChunks * kResync && exact_tiny_multiplies() &&
+      strip_tiny_chunks(a + static_cast<std::ptrdiff_t>(pad) * kLanes, n, tiny))
     return strip_passes_w<16>(a, b, n, pad, r, alpha, passes, tiny);
   return strip_passes_w<16>(a, b, n, pad, r, alpha, passes);
 }
@@ -550,7 +570,8 @@ __attribute__((always_inline)) inline void transpose16(const Vec16 r[16], Vec16 
   // u[c], u[4 + c], u[8 + c], u[12 + c].
   for (int i = 0; i < 16; i += 8)
     for (int c = 0; c < 4; ++c) {
-      w[i + c] = __builtin_shufflevector(u[i + c], u[i + 4 + c], 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19, 20, 21, 22, 23);
+      w[i + c] =
+          __builtin_shufflevector(u[i + c], u[i + 4 + c], 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19, 20, 21, 22, 23);
       w[i + 4 + c] =
           __builtin_shufflevector(u[i + c], u[i + 4 + c], 8, 9, 10, 11, 12, 13, 14, 15, 24, 25, 26, 27, 28, 29, 30, 31);
     }
@@ -558,7 +579,8 @@ __attribute__((always_inline)) inline void transpose16(const Vec16 r[16], Vec16 
     o[c] = __builtin_shufflevector(w[c], w[8 + c], 0, 1, 2, 3, 8, 9, 10, 11, 16, 17, 18, 19, 24, 25, 26, 27);
     o[4 + c] = __builtin_shufflevector(w[c], w[8 + c], 4, 5, 6, 7, 12, 13, 14, 15, 20, 21, 22, 23, 28, 29, 30, 31);
     o[8 + c] = __builtin_shufflevector(w[4 + c], w[12 + c], 0, 1, 2, 3, 8, 9, 10, 11, 16, 17, 18, 19, 24, 25, 26, 27);
-    o[12 + c] = __builtin_shufflevector(w[4 + c], w[12 + c], 4, 5, 6, 7, 12, 13, 14, 15, 20, 21, 22, 23, 28, 29, 30, 31);
+    o[12 + c] =
+        __builtin_shufflevector(w[4 + c], w[12 + c], 4, 5, 6, 7, 12, 13, 14, 15, 20, 21, 22, 23, 28, 29, 30, 31);
   }
 }
 

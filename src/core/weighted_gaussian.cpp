@@ -215,13 +215,15 @@ void normalise_row(const float* __restrict num, const float* __restrict wt, cons
 
 using namespace weighted_gaussian_detail;
 
-void weighted_gaussian(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                       int passes, float tiny, float* const* dst, float* weight, bool normalise) {
+void weighted_gaussian(const float* const* src, int nplanes, const float* c, int w, int h, float sigma, int passes,
+                       float tiny, float* const* dst, float* weight, bool normalise) {
   if (w <= 0 || h <= 0 || nplanes <= 0) return;
   int r = 0;
   float alpha = 0.0f;
-  if (sigma > 0 && passes > 0) extended_box_params(sigma, passes, r, alpha);
-  else passes = 0;
+  if (sigma > 0 && passes > 0)
+    extended_box_params(sigma, passes, r, alpha);
+  else
+    passes = 0;
   const int pad = r + 1;
 
   // Horizontal sweep: strips of kLanes rows. The weights' strip is loaded once and used to
@@ -275,11 +277,10 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
     // steps in `last` (a ring of lag + 1 rows) before they are written. With two or more passes
     // the write comes (passes − 1) · delay >= delay steps after that last read anyway.
     const int lag = passes == 1 ? delay : 0;
-    const std::size_t floats =
-        ring_floats + (static_cast<std::size_t>(passes) + 1 + lag) * np * kBlock;
+    const std::size_t floats = ring_floats + (static_cast<std::size_t>(passes) + 1 + lag) * np * kBlock;
     parallel_for(blocks, [&](int b0, int b1) {
       float* rings = scratch(floats);
-      float* sums = rings + ring_floats;                                   // [passes][np][kBlock]
+      float* sums = rings + ring_floats;                                    // [passes][np][kBlock]
       float* last = sums + static_cast<std::size_t>(passes) * np * kBlock;  // [lag + 1][np][kBlock]
       thread_local std::vector<const float*> rows;
       rows.resize(2 * static_cast<std::size_t>(r) + 1);
@@ -340,8 +341,10 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
           const float* wt = done + static_cast<std::size_t>(nplanes) * kBlock;
           for (int p = 0; p < nplanes; ++p) {
             const float* num = done + static_cast<std::size_t>(p) * kBlock;
-            if (normalise) normalise_row(num, wt, src[p] + o, dst[p] + o, nx, tiny);
-            else std::copy(num, num + nx, dst[p] + o);
+            if (normalise)
+              normalise_row(num, wt, src[p] + o, dst[p] + o, nx, tiny);
+            else
+              std::copy(num, num + nx, dst[p] + o);
           }
           if (!normalise) std::copy(wt, wt + nx, weight + o);
         }
@@ -359,15 +362,17 @@ void set_weighted_gaussian_group(int rows) { g_group_override = rows; }
 // the oldest or the newest rows whenever they are referenced). A band's passes start at rows
 // that are multiples of kResync, where the window sums are recomputed from scratch, so every
 // row's arithmetic is that of the whole-image sweep.
-void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                            int passes, float tiny, int y0, int y1, RowSink sink, void* ctx, bool normalise) {
+void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma, int passes,
+                            float tiny, int y0, int y1, RowSink sink, void* ctx, bool normalise) {
   y0 = std::max(y0, 0);
   y1 = std::min(y1, h);
   if (w <= 0 || h <= 0 || nplanes <= 0 || y0 >= y1) return;
   int r = 0;
   float alpha = 0.0f;
-  if (sigma > 0 && passes > 0) extended_box_params(sigma, passes, r, alpha);
-  else passes = 0;
+  if (sigma > 0 && passes > 0)
+    extended_box_params(sigma, passes, r, alpha);
+  else
+    passes = 0;
   const int pad = r + 1;
   const int np = nplanes + 1;  // sweep plane np − 1 = the weights
   const float norm = static_cast<float>(1.0 / (2.0 * r + 1.0 + 2.0 * alpha));
@@ -398,13 +403,13 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
   const std::size_t n_last = static_cast<std::size_t>(np) * group * row;
   const std::size_t n_outs = static_cast<std::size_t>(nplanes) * row;
   float* base = scratch(n_ring0 + n_rings + 2 * n_sums + n_last + n_outs + 3 * strip);
-  float* r0 = base;              // [np][ring0][w]
-  float* rings = r0 + n_ring0;   // [passes − 1][np][ring][w]
-  float* sums = rings + n_rings; // [passes][np][w]
-  float* last = sums + n_sums;   // [np][group][w]: the last pass's latest rows (ring)
-  float* outs = last + n_last;   // [nplanes][w]: the normalised row
-  float* fresh = outs + n_outs;  // [passes][np][w]: next window sums being built (see strip_passes)
-  float* cb = fresh + n_sums;    // three strip buffers of the horizontal passes
+  float* r0 = base;               // [np][ring0][w]
+  float* rings = r0 + n_ring0;    // [passes − 1][np][ring][w]
+  float* sums = rings + n_rings;  // [passes][np][w]
+  float* last = sums + n_sums;    // [np][group][w]: the last pass's latest rows (ring)
+  float* outs = last + n_last;    // [nplanes][w]: the normalised row
+  float* fresh = outs + n_outs;   // [passes][np][w]: next window sums being built (see strip_passes)
+  float* cb = fresh + n_sums;     // three strip buffers of the horizontal passes
   float* sa = cb + strip;
   float* sb = sa + strip;
   auto clamp_row = [&](int y) { return y < 0 ? 0 : (y >= h ? h - 1 : y); };
@@ -423,8 +428,8 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
 
   // First row each pass computes, walking back from the band: pass k must start at a
   // re-synchronisation row and cover the rows pass k + 1 reads.
-  thread_local std::vector<int> produced, first;  // per pass: last row done, first row in this band
-  produced.assign(static_cast<std::size_t>(passes) + 1, 0);        // [passes] = the horizontal passes
+  thread_local std::vector<int> produced, first;             // per pass: last row done, first row in this band
+  produced.assign(static_cast<std::size_t>(passes) + 1, 0);  // [passes] = the horizontal passes
   first.assign(static_cast<std::size_t>(passes) + 1, 0);
   const bool carry = 2 * r + 1 <= kResync;
   const int acc_from = kResync - 2 * r - 1;  // block offset from which hi rows belong to the next window
@@ -486,8 +491,10 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
         const int i = i0 + t, m = i % kResync;
         unsigned char f = 0;
         if (m == 0) {
-          if (carry && i != first[k]) f |= kFromFresh;
-          else f |= kResum, resum = i;
+          if (carry && i != first[k])
+            f |= kFromFresh;
+          else
+            f |= kResum, resum = i;
         }
         if (carry && m >= acc_from) f |= (m == acc_from ? kZeroFresh : 0) | kAccumulate;
         flags[t] = f;
@@ -534,8 +541,8 @@ void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c
     }
     const float* wt = raw_rows[nplanes];
     for (int p = 0; p < nplanes; ++p)
-      normalise_row(raw_rows[p], wt, src[p] + static_cast<std::size_t>(y) * w,
-                    outs + static_cast<std::size_t>(p) * row, w, tiny);
+      normalise_row(raw_rows[p], wt, src[p] + static_cast<std::size_t>(y) * w, outs + static_cast<std::size_t>(p) * row,
+                    w, tiny);
     sink(ctx, y, out_rows.data());
   }
 }
@@ -582,8 +589,8 @@ void cascade_row(int n, int i, int r, double alpha, int passes, std::vector<doub
 
 }  // namespace
 
-void weighted_gaussian_at(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                          int passes, int x, int y, double* out) {
+void weighted_gaussian_at(const float* const* src, int nplanes, const float* c, int w, int h, float sigma, int passes,
+                          int x, int y, double* out) {
   for (int k = 0; k <= nplanes; ++k) out[k] = 0.0;
   const std::size_t at = static_cast<std::size_t>(y) * w + x;
   if (!(sigma > 0) || passes <= 0) {  // no blur: the weighted sample itself

@@ -23,8 +23,8 @@ namespace dofkit::core {
 /// weight: scratch of w × h floats (holds c blurred along x on return). sigma: Gaussian σ in
 /// px (both axes; <= 0: no blur, out = src where c > tiny); passes: boxes per axis; tiny: the
 /// smallest blurred weight that is divided by (below it the source is kept).
-void weighted_gaussian(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                       int passes, float tiny, float* const* dst, float* weight, bool normalise = true);
+void weighted_gaussian(const float* const* src, int nplanes, const float* c, int w, int h, float sigma, int passes,
+                       float tiny, float* const* dst, float* weight, bool normalise = true);
 
 /// The same normalised Gaussian, streamed: computes the output rows y0 … y1 − 1 in order,
 /// full width, without intermediate planes, and hands each to `row_out(y, rows)` (rows[k] =
@@ -38,12 +38,12 @@ void weighted_gaussian(const float* const* src, int nplanes, const float* c, int
 /// can divide only where it uses the result (`tiny` is then unused).
 /// Row consumer of weighted_gaussian_rows: sink(ctx, y, rows).
 using RowSink = void (*)(void* ctx, int y, const float* const* rows);
-void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                            int passes, float tiny, int y0, int y1, RowSink sink, void* ctx, bool normalise = true);
+void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma, int passes,
+                            float tiny, int y0, int y1, RowSink sink, void* ctx, bool normalise = true);
 /// Same with any callable f(y, rows) (no std::function: nothing is allocated per call).
 template <class F>
-void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                            int passes, float tiny, int y0, int y1, F&& row_out, bool normalise = true) {
+void weighted_gaussian_rows(const float* const* src, int nplanes, const float* c, int w, int h, float sigma, int passes,
+                            float tiny, int y0, int y1, F&& row_out, bool normalise = true) {
   using Fn = std::remove_reference_t<F>;
   weighted_gaussian_rows(
       src, nplanes, c, w, h, sigma, passes, tiny, y0, y1,
@@ -69,7 +69,7 @@ void set_weighted_gaussian_group(int rows);
 /// float running sums are off by residues of everything that passed through them since their
 /// last re-synchronisation (see weighted_gaussian.cpp). O(R²) per pixel: for the few pixels
 /// where that residue is not negligible (medium level of starcraft: a small blurred weight).
-void weighted_gaussian_at(const float* const* src, int nplanes, const float* c, int w, int h, float sigma,
-                          int passes, int x, int y, double* out);
+void weighted_gaussian_at(const float* const* src, int nplanes, const float* c, int w, int h, float sigma, int passes,
+                          int x, int y, double* out);
 
 }  // namespace dofkit::core

@@ -30,8 +30,8 @@ std::string temp_name_for(const fs::path& target, int attempt) {
   const std::string ext = target.extension().string();
   const std::string stem = target.stem().string();
   char tag[64];
-  std::snprintf(tag, sizeof tag, ".dofkit-tmp-%ld-%u-%08x-%d", static_cast<long>(::getpid()),
-                counter.fetch_add(1), static_cast<unsigned>(rng()), attempt);
+  std::snprintf(tag, sizeof tag, ".dofkit-tmp-%ld-%u-%08x-%d", static_cast<long>(::getpid()), counter.fetch_add(1),
+                static_cast<unsigned>(rng()), attempt);
   return (target.parent_path() / ("." + stem + tag + ext)).string();
 }
 

@@ -132,8 +132,9 @@ struct PresentedName {
       layer = full.substr(0, dot + 1);
       suffix = full.substr(dot + 1);
     }
-    static constexpr const char* kSpecial[] = {"R",  "Red", "G",  "Green", "B",  "Blue", "Y",     "real",  "imag", "A",
-                                               "Alpha", "AR", "RA", "AG",  "GA", "AB",   "BA",    "Z",     "Depth", "Zback"};
+    static constexpr const char* kSpecial[] = {"R",    "Red",  "G",  "Green", "B",     "Blue", "Y",
+                                               "real", "imag", "A",  "Alpha", "AR",    "RA",   "AG",
+                                               "GA",   "AB",   "BA", "Z",     "Depth", "Zback"};
     for (int i = 0; i < static_cast<int>(std::size(kSpecial)); ++i)
       if (iequals(suffix, kSpecial[i])) {
         special = i;
@@ -155,7 +156,8 @@ bool writes_compression(const std::string& compression) {
 
 void write_scanline(const std::string& file, const std::string& display_path, int width, int height,
                     const std::vector<OutChannel>& channels_in, bool half, const std::string& compression) {
-  if (!writes_compression(compression)) throw_internal(display_path + ": EXR compression " + compression + " not handled here");
+  if (!writes_compression(compression))
+    throw_internal(display_path + ": EXR compression " + compression + " not handled here");
   if (width <= 0 || height <= 0 || channels_in.empty()) throw_internal(display_path + ": nothing to write");
   const auto fail = [&](const char* what, exr_result_t rc) {
     std::string m = t_last_error.empty() ? exr_get_error_code_as_string(rc) : t_last_error;
@@ -198,7 +200,8 @@ void write_scanline(const std::string& file, const std::string& display_path, in
       if (!s.compressor) s.compressor.reset(libdeflate_alloc_compressor(kZipLevel));
       if (!s.compressor) throw_internal(display_path + ": cannot allocate a deflate compressor");
       out.resize(libdeflate_zlib_compress_bound(s.compressor.get(), bytes));
-      const std::size_t packed = libdeflate_zlib_compress(s.compressor.get(), s.coded.data(), bytes, out.data(), out.size());
+      const std::size_t packed =
+          libdeflate_zlib_compress(s.compressor.get(), s.coded.data(), bytes, out.data(), out.size());
       if (packed == 0 || packed >= bytes) {
         out.assign(s.raw.begin(), s.raw.end());  // incompressible: stored raw
       } else {
@@ -245,8 +248,8 @@ struct ScanlineReader::Impl {
     bool half = false;
     std::size_t offset = 0;  // byte offset of this channel's samples within a stored row
   };
-  std::vector<Channel> file_channels;    // in file (sorted) order
-  std::vector<int> presented_to_file;    // presentation index → file index
+  std::vector<Channel> file_channels;  // in file (sorted) order
+  std::vector<int> presented_to_file;  // presentation index → file index
   std::size_t row_bytes = 0;
   int min_y = 0, lines = 1, chunks = 0;
   exr_compression_t compression = EXR_COMPRESSION_NONE;
@@ -353,8 +356,8 @@ bool ScanlineReader::read_strided(const std::vector<int>& channels, const std::v
       const int n = std::min(m.lines, height_ - row0);
       const std::size_t expected = m.row_bytes * static_cast<std::size_t>(n);
       exr_chunk_info_t ci{};
-      if (exr_read_scanline_chunk_info(m.ctxt, 0, m.min_y + row0, &ci) != EXR_ERR_SUCCESS || ci.start_y != m.min_y + row0 ||
-          ci.height != n || ci.packed_size == 0 || ci.packed_size > expected) {
+      if (exr_read_scanline_chunk_info(m.ctxt, 0, m.min_y + row0, &ci) != EXR_ERR_SUCCESS ||
+          ci.start_y != m.min_y + row0 || ci.height != n || ci.packed_size == 0 || ci.packed_size > expected) {
         ok = false;
         return;
       }
@@ -374,8 +377,8 @@ bool ScanlineReader::read_strided(const std::vector<int>& channels, const std::v
         b.raw.resize(expected);
         std::size_t got = 0;
         if (!b.inflater ||
-            libdeflate_zlib_decompress(b.inflater.get(), b.packed.data(), ci.packed_size, b.coded.data(), expected, &got) !=
-                LIBDEFLATE_SUCCESS ||
+            libdeflate_zlib_decompress(b.inflater.get(), b.packed.data(), ci.packed_size, b.coded.data(), expected,
+                                       &got) != LIBDEFLATE_SUCCESS ||
             got != expected) {
           ok = false;
           return;

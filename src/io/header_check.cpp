@@ -42,11 +42,17 @@ void check_budget(long long w, long long h, const std::string& path, const char*
 // covers; 0 = not bounded here (PIZ's Huffman run codes, B44's flat blocks, DWA).
 std::uint64_t exr_max_ratio(int compression) {
   switch (compression) {
-    case 0: return 1;                              // NONE
-    case 1: return 64;                             // RLE: a 2-byte run codes at most 128 bytes
-    case 2: case 3: return kMaxDeflateRatio;       // ZIPS, ZIP
-    case 5: return kMaxDeflateRatio * 4 / 3 + 1;   // PXR24: float samples stored as 3 deflated bytes
-    default: return 0;
+    case 0:
+      return 1;  // NONE
+    case 1:
+      return 64;  // RLE: a 2-byte run codes at most 128 bytes
+    case 2:
+    case 3:
+      return kMaxDeflateRatio;  // ZIPS, ZIP
+    case 5:
+      return kMaxDeflateRatio * 4 / 3 + 1;  // PXR24: float samples stored as 3 deflated bytes
+    default:
+      return 0;
   }
 }
 
@@ -141,8 +147,8 @@ class Walker {
       const std::uint64_t have = static_cast<std::uint64_t>(after_header - table_bytes);
       if (ratio > 0 && need > static_cast<unsigned __int128>(have) * ratio)
         throw_bad_input(path_ + ": cannot read " + role_ + " image: its " + std::to_string(p.w) + "x" +
-                        std::to_string(p.h) + " pixels need more bytes than its " +
-                        std::to_string(have) + " bytes of pixel data can hold (truncated or corrupt)");
+                        std::to_string(p.h) + " pixels need more bytes than its " + std::to_string(have) +
+                        " bytes of pixel data can hold (truncated or corrupt)");
     }
   }
 
@@ -303,7 +309,8 @@ void check_png(std::ifstream& f, std::size_t file_size, const std::string& path,
   // bytes per row.
   if (pixel_bits > 0 && w > 0 && h > 0) {
     check_budget(w, h, path, role);
-    const unsigned __int128 need = static_cast<unsigned __int128>((static_cast<std::uint64_t>(w) * pixel_bits + 7) / 8) * h;
+    const unsigned __int128 need =
+        static_cast<unsigned __int128>((static_cast<std::uint64_t>(w) * pixel_bits + 7) / 8) * h;
     if (need > static_cast<unsigned __int128>(idat_bytes) * kMaxDeflateRatio)
       throw_bad_input(path + ": cannot read " + role + " image: its " + std::to_string(w) + "x" + std::to_string(h) +
                       " pixels need more bytes than its " + std::to_string(idat_bytes) +
@@ -315,11 +322,17 @@ void check_png(std::ifstream& f, std::size_t file_size, const std::string& path,
 // zstd, LZMA, …). LZW: a code of at least 9 bits stands for a string of at most 4096 bytes.
 std::uint64_t tiff_max_ratio(std::uint32_t compression) {
   switch (compression) {
-    case 1: return 1;                                // none
-    case 5: return 4096 * 8 / 9 + 1;                 // LZW
-    case 8: case 32946: return kMaxDeflateRatio;     // deflate (Adobe, and the old code)
-    case 32773: return 64;                           // PackBits: a 2-byte run codes 128 bytes
-    default: return 0;
+    case 1:
+      return 1;  // none
+    case 5:
+      return 4096 * 8 / 9 + 1;  // LZW
+    case 8:
+    case 32946:
+      return kMaxDeflateRatio;  // deflate (Adobe, and the old code)
+    case 32773:
+      return 64;  // PackBits: a 2-byte run codes 128 bytes
+    default:
+      return 0;
   }
 }
 
@@ -328,8 +341,7 @@ std::uint64_t tiff_max_ratio(std::uint32_t compression) {
 // of the next IFD. OIIO 2.4 reads a strip or tile that lies (partly) past the end of the file as
 // zeros and reports success, so a truncated TIFF would load as a silently black image: every
 // strip/tile (offset, byte count) pair of every IFD must lie inside the file.
-void check_tiff(std::ifstream& f, std::size_t file_size, bool big_endian, const std::string& path,
-                const char* role) {
+void check_tiff(std::ifstream& f, std::size_t file_size, bool big_endian, const std::string& path, const char* role) {
   auto fail = [&](const std::string& why) {
     throw_bad_input(path + ": cannot read " + role + " image: not a valid TIFF: " + why);
   };
@@ -395,8 +407,10 @@ void check_tiff(std::ifstream& f, std::size_t file_size, bool big_endian, const 
         if (tag == 262 && inline_value) photometric = v;
         if (tag == 258) {
           unsigned char b2[2];
-          if (inline_value) bits = v;
-          else if (type == 3 && read_at(u32(e + 8), 2, b2)) bits = u16(b2);
+          if (inline_value)
+            bits = v;
+          else if (type == 3 && read_at(u32(e + 8), 2, b2))
+            bits = u16(b2);
         }
       }
     }
@@ -404,7 +418,8 @@ void check_tiff(std::ifstream& f, std::size_t file_size, bool big_endian, const 
     // without strips as zeros.
     if (offsets.empty()) fail("directory " + std::to_string(seen.size() - 1) + " has no strips or tiles");
     if (offsets.size() != counts.size())
-      fail(std::to_string(offsets.size()) + " strip/tile offsets but " + std::to_string(counts.size()) + " byte counts");
+      fail(std::to_string(offsets.size()) + " strip/tile offsets but " + std::to_string(counts.size()) +
+           " byte counts");
     for (std::size_t i = 0; i < offsets.size(); ++i)
       if (offsets[i] > file_size || counts[i] > file_size - offsets[i])
         fail("strip/tile " + std::to_string(i) + " (" + std::to_string(counts[i]) + " bytes at offset " +

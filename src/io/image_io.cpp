@@ -51,7 +51,6 @@ void set_pixel_budget(long long pixels) {
 
 long long pixel_budget() { return g_pixel_budget.load(); }
 
-
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
@@ -263,9 +262,12 @@ Image read_color(const std::string& path) {
     std::vector<int> plain;
     for (int c = 0; c < spec.nchannels; ++c)
       if (c != a && c != spec.z_channel && spec.channelnames[c] != "Z") plain.push_back(c);
-    if (plain.empty()) throw_bad_input(path + ": colour image has no colour channel (channels " + channel_list(spec) + ")");
-    if (plain.size() < 3) r = g = b = plain[0];
-    else r = plain[0], g = plain[1], b = plain[2];
+    if (plain.empty())
+      throw_bad_input(path + ": colour image has no colour channel (channels " + channel_list(spec) + ")");
+    if (plain.size() < 3)
+      r = g = b = plain[0];
+    else
+      r = plain[0], g = plain[1], b = plain[2];
   }
   if (f.exr) {
     // The direct EXR reader fills the planes itself (float, premultiplied: as the loop below
@@ -298,26 +300,26 @@ Image read_color(const std::string& path) {
   // Per pixel, independent: both cores (a 1080p JPEG's serial loop was ~6 % of its call).
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, img.plane_size(), 1 << 14),
                     [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t i = range.begin(); i < range.end(); ++i) {
-      const float* p = buf.data() + i * stride;
-      const float alpha = has_alpha ? p[a - cb] : 1.0f;
-      out[3][i] = alpha;
-      for (int c = 0; c < 3; ++c) {
-        float v = p[src[c]];
-        if (integer) {
-          // Integer files hold sRGB-encoded colour. With straight alpha the stored value is
-          // the encoded colour itself; with associated alpha it is encoded·α (the encoder's
-          // premultiplication), so divide α out before decoding and multiply it back after.
-          if (has_alpha && !unassociated) v = alpha > 0 ? v / alpha : 0.0f;
-          v = decode_srgb(v);
-          if (has_alpha) v *= alpha;
-        } else if (has_alpha && unassociated) {
-          v *= alpha;  // a float file that declares straight alpha
-        }
-        out[c][i] = v;
-      }
-    }
-  });
+                      for (std::size_t i = range.begin(); i < range.end(); ++i) {
+                        const float* p = buf.data() + i * stride;
+                        const float alpha = has_alpha ? p[a - cb] : 1.0f;
+                        out[3][i] = alpha;
+                        for (int c = 0; c < 3; ++c) {
+                          float v = p[src[c]];
+                          if (integer) {
+                            // Integer files hold sRGB-encoded colour. With straight alpha the stored value is
+                            // the encoded colour itself; with associated alpha it is encoded·α (the encoder's
+                            // premultiplication), so divide α out before decoding and multiply it back after.
+                            if (has_alpha && !unassociated) v = alpha > 0 ? v / alpha : 0.0f;
+                            v = decode_srgb(v);
+                            if (has_alpha) v *= alpha;
+                          } else if (has_alpha && unassociated) {
+                            v *= alpha;  // a float file that declares straight alpha
+                          }
+                          out[c][i] = v;
+                        }
+                      }
+                    });
   return img;
 }
 
@@ -334,11 +336,16 @@ DepthKind parse_depth_kind(const std::string& name) {
 
 const char* depth_kind_name(DepthKind kind) {
   switch (kind) {
-    case DepthKind::z: return "z";
-    case DepthKind::distance: return "distance";
-    case DepthKind::disparity: return "disparity";
-    case DepthKind::ndc: return "ndc";
-    case DepthKind::ndc_reversed: return "ndc-reversed";
+    case DepthKind::z:
+      return "z";
+    case DepthKind::distance:
+      return "distance";
+    case DepthKind::disparity:
+      return "disparity";
+    case DepthKind::ndc:
+      return "ndc";
+    case DepthKind::ndc_reversed:
+      return "ndc-reversed";
   }
   return "?";
 }
@@ -347,11 +354,13 @@ namespace {
 
 void check_depth_options(const DepthOptions& opt) {
   switch (opt.kind) {
-    case DepthKind::z: break;
+    case DepthKind::z:
+      break;
     case DepthKind::distance:
       if (!(opt.fov_deg > 0 && opt.fov_deg < 180))
-        throw_usage("--fov-deg: --depth-kind distance needs the horizontal field of view in degrees, 0 < FOV < 180 (got " +
-                    fmt_num(opt.fov_deg) + ")");
+        throw_usage(
+            "--fov-deg: --depth-kind distance needs the horizontal field of view in degrees, 0 < FOV < 180 (got " +
+            fmt_num(opt.fov_deg) + ")");
       break;
     case DepthKind::disparity:
       if (!(opt.disparity_scale > 0 && std::isfinite(opt.disparity_scale)))
@@ -386,7 +395,8 @@ struct DepthConverter {
     if (std::isnan(d)) return nan;
     const double n = opt.clip_near, f = opt.clip_far;
     switch (opt.kind) {
-      case DepthKind::z: return d > 0 ? d : nan;
+      case DepthKind::z:
+        return d > 0 ? d : nan;
       case DepthKind::distance: {
         if (!(d > 0)) return nan;
         // The ray through the pixel centre makes angle φ with the axis, tan φ = ρ / F where
@@ -418,10 +428,13 @@ struct DepthConverter {
 const char* valid_range_text(DepthKind k) {
   switch (k) {
     case DepthKind::z:
-    case DepthKind::distance: return "NaN, zero or negative";
-    case DepthKind::disparity: return "NaN or negative";
+    case DepthKind::distance:
+      return "NaN, zero or negative";
+    case DepthKind::disparity:
+      return "NaN or negative";
     case DepthKind::ndc:
-    case DepthKind::ndc_reversed: return "NaN or outside [0, 1]";
+    case DepthKind::ndc_reversed:
+      return "NaN or outside [0, 1]";
   }
   return "invalid";
 }
@@ -442,8 +455,8 @@ Image read_depth(const std::string& path, const DepthOptions& opt) {
       c = 0;
       grey_rgb = true;
     } else {
-      throw_bad_input(path + ": depth image has " + std::to_string(spec.nchannels) + " channels (" + channel_list(spec) +
-                      ") and none is named Z or depth.Z; give a single-channel depth file");
+      throw_bad_input(path + ": depth image has " + std::to_string(spec.nchannels) + " channels (" +
+                      channel_list(spec) + ") and none is named Z or depth.Z; give a single-channel depth file");
     }
   }
   const int W = spec.width, H = spec.height;
@@ -547,9 +560,10 @@ Frame load_frame(const std::string& color_path, const std::string& depth_path, c
     frame.depth = read_depth(depth_path, opt);
   }
   if (!frame.depth.same_size(frame.color)) {
-    throw_bad_input((depth_path.empty() ? color_path : depth_path) + ": depth is " + std::to_string(frame.depth.width()) +
-                    "x" + std::to_string(frame.depth.height()) + " but colour " + color_path + " is " +
-                    std::to_string(frame.color.width()) + "x" + std::to_string(frame.color.height()));
+    throw_bad_input((depth_path.empty() ? color_path : depth_path) + ": depth is " +
+                    std::to_string(frame.depth.width()) + "x" + std::to_string(frame.depth.height()) + " but colour " +
+                    color_path + " is " + std::to_string(frame.color.width()) + "x" +
+                    std::to_string(frame.color.height()));
   }
   // Depth values were already checked (or mapped to +inf) above; this catches anything else.
   validate_frame(frame, color_path.c_str());
@@ -584,8 +598,9 @@ void check_output_format(const std::string& path, const WriteOptions& opt, const
     throw_usage(flag + " " + path + ": unsupported output format '" + extension_of(path) +
                 "' (use .exr, .png, .jpg, .jpeg, .tif or .tiff)");
   const int bits = effective_bits(fmt, opt.bits);
-  const bool ok = (fmt == Format::exr && (bits == 16 || bits == 32)) || (fmt == Format::png && (bits == 8 || bits == 16)) ||
-                  (fmt == Format::jpeg && bits == 8) || (fmt == Format::tiff && (bits == 8 || bits == 16 || bits == 32));
+  const bool ok = (fmt == Format::exr && (bits == 16 || bits == 32)) ||
+                  (fmt == Format::png && (bits == 8 || bits == 16)) || (fmt == Format::jpeg && bits == 8) ||
+                  (fmt == Format::tiff && (bits == 8 || bits == 16 || bits == 32));
   if (!ok)
     throw_usage(flag + " " + path + ": " + std::to_string(bits) +
                 " bits per channel is not available for this format (EXR 16/32, PNG 8/16, JPEG 8, TIFF 8/16/32)");
@@ -614,15 +629,16 @@ bool is_png_path(const std::string& path) { return format_of(path) == Format::pn
 
 void encode_image(const std::string& file, const std::string& format_path, const Image& img, const WriteOptions& opt) {
   check_output_format(format_path, opt, "output");
-  if (img.empty() || img.width() <= 0 || img.height() <= 0) throw_internal(format_path + ": cannot write an empty image");
+  if (img.empty() || img.width() <= 0 || img.height() <= 0)
+    throw_internal(format_path + ": cannot write an empty image");
   const Format fmt = format_of(format_path);
   const int bits = effective_bits(fmt, opt.bits);
   const bool float_file = fmt == Format::exr || bits == 32;
   const int C = img.channels();
   const bool colour = C == 3 || C == 4;
   if (!colour && C != 1 && (fmt == Format::png || fmt == Format::jpeg))
-    throw_usage(format_path + ": cannot write a " + std::to_string(C) + "-channel image as " + extension_of(format_path) +
-                " (use .exr or .tif)");
+    throw_usage(format_path + ": cannot write a " + std::to_string(C) + "-channel image as " +
+                extension_of(format_path) + " (use .exr or .tif)");
   const bool srgb = colour && (opt.encoding == Encoding::srgb || (opt.encoding == Encoding::automatic && !float_file));
   const bool in_alpha = C == 4;
   const bool out_alpha = in_alpha && opt.keep_alpha && fmt != Format::jpeg;
@@ -715,14 +731,18 @@ void encode_image(const std::string& file, const std::string& format_path, const
     spec.channelnames = {fmt == Format::exr ? opt.channel_name : std::string("Y")};
   }
   if (straight) spec.int_attributes.emplace_back("oiio:UnassociatedAlpha", 1);
-  if (fmt == Format::exr && !opt.compression.empty()) spec.string_attributes.emplace_back("Compression", opt.compression);
+  if (fmt == Format::exr && !opt.compression.empty())
+    spec.string_attributes.emplace_back("Compression", opt.compression);
   if (!float_file) spec.string_attributes.emplace_back("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
 
   std::string error;
   switch (oiio::module().write(file, format_path, spec, buf.data(), error)) {
-    case oiio::WriteResult::ok: return;
-    case oiio::WriteResult::no_writer: throw_internal(format_path + ": no writer for this format: " + error);
-    case oiio::WriteResult::failed: throw_bad_input(format_path + ": cannot write: " + error);
+    case oiio::WriteResult::ok:
+      return;
+    case oiio::WriteResult::no_writer:
+      throw_internal(format_path + ": no writer for this format: " + error);
+    case oiio::WriteResult::failed:
+      throw_bad_input(format_path + ": cannot write: " + error);
   }
 }
 

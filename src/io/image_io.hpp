@@ -26,11 +26,11 @@ enum class DepthKind {
 
 struct DepthOptions {
   DepthKind kind = DepthKind::z;
-  double fov_deg = 0;              ///< horizontal field of view, degrees (distance kind)
-  double disparity_scale = 1;      ///< z = scale / d (disparity kind)
-  double clip_near = 0.1;          ///< near clip, scene units (ndc kinds)
-  double clip_far = 1000;          ///< far clip, scene units; +inf allowed (ndc kinds)
-  bool invalid_as_far = false;     ///< NaN / negative / zero depth → +inf instead of an error
+  double fov_deg = 0;           ///< horizontal field of view, degrees (distance kind)
+  double disparity_scale = 1;   ///< z = scale / d (disparity kind)
+  double clip_near = 0.1;       ///< near clip, scene units (ndc kinds)
+  double clip_far = 1000;       ///< far clip, scene units; +inf allowed (ndc kinds)
+  bool invalid_as_far = false;  ///< NaN / negative / zero depth → +inf instead of an error
 };
 
 /// Reads a colour image → RGBA premultiplied linear, 4 planes. Throws Error(bad_input)
@@ -67,9 +67,9 @@ struct WriteOptions {
   /// Bits per channel; 0 = format default: EXR 32 (float), PNG/TIFF/JPEG 8.
   /// EXR: 16 (half) or 32 (float); PNG: 8 or 16; TIFF: 8, 16 or 32 (float); JPEG: 8.
   int bits = 0;
-  std::string channel_name = "Y";       ///< for single-channel EXR
-  bool keep_alpha = true;               ///< write A (else RGB only)
-  int jpeg_quality = 95;                ///< JPEG quality, 1..100
+  std::string channel_name = "Y";  ///< for single-channel EXR
+  bool keep_alpha = true;          ///< write A (else RGB only)
+  int jpeg_quality = 95;           ///< JPEG quality, 1..100
   /// EXR compression (kExrCompressions; "" = zip, OpenImageIO's default). Other formats: "".
   std::string compression;
   /// PNG zlib level, 0 (stored, fastest) … 9 (smallest); -1 = 6, libpng's usual default.
@@ -78,7 +78,7 @@ struct WriteOptions {
 };
 /// The EXR compressions write_image accepts (OpenEXR's, by OpenImageIO's names); pxr24, b44,
 /// b44a, dwaa and dwab are lossy.
-inline constexpr const char* kExrCompressions[] = {"none", "rle",  "zips", "zip",  "piz",
+inline constexpr const char* kExrCompressions[] = {"none",  "rle", "zips", "zip",  "piz",
                                                    "pxr24", "b44", "b44a", "dwaa", "dwab"};
 void write_image(const std::string& path, const Image& img, const WriteOptions& opt = {});
 

@@ -173,7 +173,7 @@ void write(const std::string& file, const std::string& display_path, int width, 
   cinfo.image_height = static_cast<JDIMENSION>(height);
   cinfo.input_components = channels;
   cinfo.in_color_space = channels == 1 ? JCS_GRAYSCALE : JCS_RGB;
-  jpeg_set_defaults(&cinfo);               // JFIF, 4:2:0 chroma, accurate integer DCT, Huffman tables
+  jpeg_set_defaults(&cinfo);                // JFIF, 4:2:0 chroma, accurate integer DCT, Huffman tables
   jpeg_set_quality(&cinfo, quality, TRUE);  // baseline-limited quantisation tables
   jpeg_start_compress(&cinfo, TRUE);
   while (cinfo.next_scanline < cinfo.image_height) {

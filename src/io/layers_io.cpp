@@ -70,13 +70,11 @@ void fill_visible(Frame& frame, const std::string& path) {
   if (frame.layer_color.empty()) return;
   const int w = frame.layer_color[0].width(), h = frame.layer_color[0].height();
   if (!frame.color.empty() && (frame.color.width() != w || frame.color.height() != h))
-    throw_bad_input(path + ": layers are " + std::to_string(w) + "x" + std::to_string(h) +
-                    " but the colour image is " + std::to_string(frame.color.width()) + "x" +
-                    std::to_string(frame.color.height()));
+    throw_bad_input(path + ": layers are " + std::to_string(w) + "x" + std::to_string(h) + " but the colour image is " +
+                    std::to_string(frame.color.width()) + "x" + std::to_string(frame.color.height()));
   if (!frame.depth.empty() && (frame.depth.width() != w || frame.depth.height() != h))
-    throw_bad_input(path + ": layers are " + std::to_string(w) + "x" + std::to_string(h) +
-                    " but the depth map is " + std::to_string(frame.depth.width()) + "x" +
-                    std::to_string(frame.depth.height()));
+    throw_bad_input(path + ": layers are " + std::to_string(w) + "x" + std::to_string(h) + " but the depth map is " +
+                    std::to_string(frame.depth.width()) + "x" + std::to_string(frame.depth.height()));
   const bool want_color = frame.color.empty(), want_depth = frame.depth.empty();
   if (!want_color && !want_depth) return;
   if (want_color) frame.color = Image(w, h, 4, 0.0f);
@@ -105,7 +103,8 @@ void read_deep(oiio::Input& in, const std::string& path, Frame& frame, int max_l
   const int nc = static_cast<int>(dd.channelnames.size());
   const std::int64_t npix = static_cast<std::int64_t>(spec.width) * spec.height;
   if (static_cast<std::int64_t>(dd.counts.size()) != npix)
-    throw_bad_input(path + ": deep data covers " + std::to_string(dd.counts.size()) + " pixels, not " + std::to_string(npix));
+    throw_bad_input(path + ": deep data covers " + std::to_string(dd.counts.size()) + " pixels, not " +
+                    std::to_string(npix));
   int ch[5] = {-1, -1, -1, -1, -1};  // R G B A Z
   for (int c = 0; c < nc; ++c) {
     const std::string b = base_name(dd.channelnames[c]);
@@ -177,8 +176,7 @@ void read_flat_layers(oiio::Input& in, const std::string& path, Frame& frame, in
       most = std::max(most, l);
     }
   }
-  if (most < 0)
-    throw_bad_input(path + ": neither a deep EXR nor a layered EXR (no L<i>.R/G/B/A/Z channels)");
+  if (most < 0) throw_bad_input(path + ": neither a deep EXR nor a layered EXR (no L<i>.R/G/B/A/Z channels)");
   const int nl = std::min(most + 1, max_layers);
   // Every kept layer needs its Z; R, G, B default to 0 and A to 1 when missing.
   for (int l = 0; l < nl; ++l) {
@@ -193,13 +191,17 @@ void read_flat_layers(oiio::Input& in, const std::string& path, Frame& frame, in
   for (int l = 0; l < nl; ++l) {
     bool has_a = false;
     for (const auto& m : map) has_a |= (m.first == l && m.second == 'A');
-    if (!has_a) std::fill(frame.layer_color[l].plane(3), frame.layer_color[l].plane(3) + frame.layer_color[l].plane_size(), 1.0f);
+    if (!has_a)
+      std::fill(frame.layer_color[l].plane(3), frame.layer_color[l].plane(3) + frame.layer_color[l].plane_size(), 1.0f);
   }
   for (int c = 0; c < nc; ++c) {
     const auto [l, comp] = map[c];
     if (l < 0 || l >= nl) continue;
     float* dst = comp == 'Z' ? frame.layer_depth[l].plane(0)
-                             : frame.layer_color[l].plane(comp == 'R' ? 0 : comp == 'G' ? 1 : comp == 'B' ? 2 : 3);
+                             : frame.layer_color[l].plane(comp == 'R'   ? 0
+                                                          : comp == 'G' ? 1
+                                                          : comp == 'B' ? 2
+                                                                        : 3);
     for (std::size_t i = 0, n = static_cast<std::size_t>(w) * h; i < n; ++i) dst[i] = buf[i * nc + c];
   }
   // Validate depths of present fragments (NaN / <= 0 are corrupt; absent fragments may be inf).
@@ -239,21 +241,20 @@ void write_layers_exr(const std::string& path, const Frame& frame) {
     const Image& d = frame.layer_depth[l];
     if (c.width() != w || c.height() != h || c.channels() != 4 || d.width() != w || d.height() != h ||
         d.channels() != 1)
-      throw_usage(path + ": layer " + std::to_string(l) + " is not a " + std::to_string(w) + "x" +
-                  std::to_string(h) + " RGBA + Z pair");
+      throw_usage(path + ": layer " + std::to_string(l) + " is not a " + std::to_string(w) + "x" + std::to_string(h) +
+                  " RGBA + Z pair");
   }
   std::vector<exr::OutChannel> channels;
   for (int l = 0; l < nl; ++l) {
     const char* comps[5] = {".R", ".G", ".B", ".A", ".Z"};
     for (int k = 0; k < 5; ++k)
-      channels.push_back({"L" + std::to_string(l) + comps[k],
-                          k < 4 ? frame.layer_color[l].plane(k) : frame.layer_depth[l].plane(0)});
+      channels.push_back(
+          {"L" + std::to_string(l) + comps[k], k < 4 ? frame.layer_color[l].plane(k) : frame.layer_depth[l].plane(0)});
   }
   // Written to a temporary next to the target and renamed, so a failure never leaves a
   // partial file.
-  write_atomically(path, [&](const std::string& temp) {
-    exr::write_scanline(temp, path, w, h, channels, /*half=*/false, "zip");
-  });
+  write_atomically(
+      path, [&](const std::string& temp) { exr::write_scanline(temp, path, w, h, channels, /*half=*/false, "zip"); });
 }
 
 }  // namespace dofkit::io

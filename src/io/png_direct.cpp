@@ -311,7 +311,8 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, std::string* broke
       dst = data.data();
     }
     std::uint8_t crc_bytes[4];
-    if ((n && !f.read(reinterpret_cast<char*>(dst), n)) || !f.read(reinterpret_cast<char*>(crc_bytes), 4)) return nullptr;
+    if ((n && !f.read(reinterpret_cast<char*>(dst), n)) || !f.read(reinterpret_cast<char*>(crc_bytes), 4))
+      return nullptr;
     const uLong crc = crc32(crc32(0, head + 4, 4), dst, n);
     if (static_cast<std::uint32_t>(crc) != get32(crc_bytes)) {
       // libpng's default: an error for a critical chunk, a warning (the chunk is dropped) for
@@ -328,21 +329,32 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, std::string* broke
       const int depth = dst[8], ctype = dst[9];
       if (w == 0 || h == 0) return refuse("its IHDR declares a zero width or height");
       if (w > 0x7fffffffu || h > 0x7fffffffu) return refuse("its IHDR declares a width or height above 2^31 - 1");
-      if (dst[10] != 0) return refuse("its IHDR declares compression method " + std::to_string(dst[10]) + " (only 0 exists)");
-      if (dst[11] != 0) return refuse("its IHDR declares filter method " + std::to_string(dst[11]) + " (only 0 exists)");
-      if (dst[12] > 1) return refuse("its IHDR declares interlace method " + std::to_string(dst[12]) + " (only 0 and 1 exist)");
+      if (dst[10] != 0)
+        return refuse("its IHDR declares compression method " + std::to_string(dst[10]) + " (only 0 exists)");
+      if (dst[11] != 0)
+        return refuse("its IHDR declares filter method " + std::to_string(dst[11]) + " (only 0 exists)");
+      if (dst[12] > 1)
+        return refuse("its IHDR declares interlace method " + std::to_string(dst[12]) + " (only 0 and 1 exist)");
       const bool valid = (ctype == 0 && (depth == 1 || depth == 2 || depth == 4 || depth == 8 || depth == 16)) ||
                          (ctype == 3 && (depth == 1 || depth == 2 || depth == 4 || depth == 8)) ||
                          ((ctype == 2 || ctype == 4 || ctype == 6) && (depth == 8 || depth == 16));
       if (!valid)
-        return refuse("its IHDR declares colour type " + std::to_string(ctype) + " with bit depth " + std::to_string(depth) +
-                      ", which PNG does not allow");
+        return refuse("its IHDR declares colour type " + std::to_string(ctype) + " with bit depth " +
+                      std::to_string(depth) + ", which PNG does not allow");
       if ((depth != 8 && depth != 16) || ctype == 3 || dst[12] != 0) return nullptr;  // OpenImageIO's
       switch (ctype) {
-        case 0: r->names_ = {"Y"}; break;
-        case 4: r->names_ = {"Y", "A"}; break;
-        case 2: r->names_ = {"R", "G", "B"}; break;
-        default: r->names_ = {"R", "G", "B", "A"}; break;
+        case 0:
+          r->names_ = {"Y"};
+          break;
+        case 4:
+          r->names_ = {"Y", "A"};
+          break;
+        case 2:
+          r->names_ = {"R", "G", "B"};
+          break;
+        default:
+          r->names_ = {"R", "G", "B", "A"};
+          break;
       }
       r->width_ = static_cast<int>(w);
       r->height_ = static_cast<int>(h);
@@ -371,7 +383,7 @@ bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
   std::vector<std::uint8_t> rows(H * stride);
   {
     std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> d(libdeflate_alloc_decompressor(),
-                                                                                 libdeflate_free_decompressor);
+                                                                                   libdeflate_free_decompressor);
     if (!d) return false;
     // Exactly the declared rows, Adler-32 checked. A stream that ends early is an error for
     // libpng too ("Not enough image data"); a bad Adler-32 or data past the rows only a warning.
@@ -392,7 +404,8 @@ bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
     const std::uint8_t* up = y ? rows.data() + (y - 1) * stride + 1 : nullptr;
     const std::size_t head = std::min(bpp, row_bytes);
     switch (cur[-1]) {
-      case 0: break;
+      case 0:
+        break;
       case 1:
         for (std::size_t i = head; i < row_bytes; ++i) cur[i] = static_cast<std::uint8_t>(cur[i] + cur[i - bpp]);
         break;

@@ -39,8 +39,8 @@ struct Layout {
 /// (sRGB, gAMA and cHRM chunks), else as linear (gAMA 1.0), as OpenImageIO's writer does.
 /// Throws Error(bad_input) naming `display_path` on a write error, Error(internal) on a
 /// layout it does not take.
-void write(const std::string& file, const std::string& display_path, const Layout& layout, const float* pixels, int level,
-           bool srgb);
+void write(const std::string& file, const std::string& display_path, const Layout& layout, const float* pixels,
+           int level, bool srgb);
 
 /// A PNG this reader takes (see above), opened: the header parsed, every chunk's CRC checked.
 ///

@@ -46,8 +46,8 @@ constexpr std::uint32_t kOne = 0x3F800000u;
 constexpr int kShift = 16;
 
 struct Steps {
-  std::array<float, 256> step{};        // step[k]: least float whose code is ≥ k (k = 1…255)
-  std::vector<std::uint8_t> start;      // start[b >> 16]: the code of the least float there
+  std::array<float, 256> step{};    // step[k]: least float whose code is ≥ k (k = 1…255)
+  std::vector<std::uint8_t> start;  // start[b >> 16]: the code of the least float there
   Steps() : start((kOne >> kShift) + 1) {
     for (int k = 1; k < 256; ++k) {
       std::uint32_t lo = 0, hi = kOne;  // code(lo) < k ≤ code(hi) (code(1.0) = 255)

@@ -144,7 +144,7 @@ void write(const std::string& file, const std::string& display_path, const Layou
   dir.push_back(short_or_long(256, static_cast<std::uint32_t>(W)));
   dir.push_back(short_or_long(257, static_cast<std::uint32_t>(H)));
   dir.push_back(repeated_short(258, C, static_cast<std::uint32_t>(lay.bits)));
-  dir.push_back(shorts(259, {8}));              // deflate
+  dir.push_back(shorts(259, {8}));                 // deflate
   dir.push_back(shorts(262, {C == 1 ? 1u : 2u}));  // min-is-black grey, RGB
   dir.push_back({273, kLong, static_cast<std::uint32_t>(nstrips), std::vector<std::uint8_t>(4 * nstrips)});
   const std::size_t offsets_entry = dir.size() - 1;
@@ -167,9 +167,9 @@ void write(const std::string& file, const std::string& display_path, const Layou
     dir.push_back({306, kAscii, 20, std::vector<std::uint8_t>(stamp, stamp + 19)});
     dir.back().value.push_back(0);
   }
-  dir.push_back(shorts(317, {integer ? 2u : 3u}));  // predictor
+  dir.push_back(shorts(317, {integer ? 2u : 3u}));              // predictor
   if (C == 4) dir.push_back(shorts(338, {integer ? 2u : 1u}));  // alpha: unassociated / associated
-  dir.push_back(repeated_short(339, C, integer ? 1 : 3));      // uint / IEEE float
+  dir.push_back(repeated_short(339, C, integer ? 1 : 3));       // uint / IEEE float
   if (exif) dir.push_back({34665, kIfd, 1, std::vector<std::uint8_t>(4)});
 
   // (3) offsets: header, directory, its out-of-line values (word-aligned), the EXIF
@@ -192,7 +192,8 @@ void write(const std::string& file, const std::string& display_path, const Layou
   }
   if (pos > kLimit)
     throw_bad_input(display_path + ": cannot write: the file would pass classic TIFF's 4 GiB (write .exr)");
-  for (std::size_t s = 0; s < nstrips; ++s) set32(dir[offsets_entry].value.data() + 4 * s, static_cast<std::uint32_t>(strip_at[s]));
+  for (std::size_t s = 0; s < nstrips; ++s)
+    set32(dir[offsets_entry].value.data() + 4 * s, static_cast<std::uint32_t>(strip_at[s]));
   if (exif) set32(dir.back().value.data(), static_cast<std::uint32_t>(exif_at));
 
   std::vector<std::uint8_t> head = {'I', 'I', 42, 0};

@@ -118,7 +118,8 @@ std::unique_ptr<Reader> Reader::open(const std::string& path) {
     std::uint32_t full = 0;
     char* text = nullptr;
     if (TIFFGetField(tif, TIFFTAG_XPOSITION, &pos) || TIFFGetField(tif, TIFFTAG_YPOSITION, &pos) ||
-        TIFFGetField(tif, TIFFTAG_PIXAR_IMAGEFULLWIDTH, &full) || TIFFGetField(tif, TIFFTAG_PIXAR_IMAGEFULLLENGTH, &full) ||
+        TIFFGetField(tif, TIFFTAG_PIXAR_IMAGEFULLWIDTH, &full) ||
+        TIFFGetField(tif, TIFFTAG_PIXAR_IMAGEFULLLENGTH, &full) ||
         TIFFGetField(tif, TIFFTAG_PIXAR_TEXTUREFORMAT, &text))
       return nullptr;
   }
@@ -126,9 +127,12 @@ std::unique_ptr<Reader> Reader::open(const std::string& path) {
   std::uint16_t* extra = nullptr;
   TIFFGetFieldDefaulted(tif, TIFFTAG_EXTRASAMPLES, &nextra, &extra);
   int colour = 0;
-  if (photometric == PHOTOMETRIC_MINISBLACK) colour = 1;
-  else if (photometric == PHOTOMETRIC_RGB) colour = 3;
-  else return nullptr;
+  if (photometric == PHOTOMETRIC_MINISBLACK)
+    colour = 1;
+  else if (photometric == PHOTOMETRIC_RGB)
+    colour = 3;
+  else
+    return nullptr;
   if (spp != colour && spp != colour + 1) return nullptr;
   const bool alpha = spp == colour + 1;
   // Exactly the extra samples the channel count implies, and an alpha that says what it is
@@ -164,8 +168,10 @@ std::unique_ptr<Reader> Reader::open(const std::string& path) {
     r->block_w_ = static_cast<int>(w);
     r->block_h_ = static_cast<int>(std::min(rps, h));
   }
-  if (colour == 1) r->names_ = alpha ? std::vector<std::string>{"Y", "A"} : std::vector<std::string>{"Y"};
-  else r->names_ = alpha ? std::vector<std::string>{"R", "G", "B", "A"} : std::vector<std::string>{"R", "G", "B"};
+  if (colour == 1)
+    r->names_ = alpha ? std::vector<std::string>{"Y", "A"} : std::vector<std::string>{"Y"};
+  else
+    r->names_ = alpha ? std::vector<std::string>{"R", "G", "B", "A"} : std::vector<std::string>{"R", "G", "B"};
   return r;
 }
 
@@ -206,8 +212,8 @@ bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
   tbb::parallel_for(0, nchunk, [&](int chunk) {
     std::string& error = errors[static_cast<std::size_t>(chunk)];
     TiffPtr t = open_quiet(path_, &error);
-    if (!t || !same_layout(t.get(), want) || (tiled_ ? TIFFNumberOfTiles(t.get()) : TIFFNumberOfStrips(t.get())) <
-                                                   static_cast<std::uint32_t>(nblocks)) {
+    if (!t || !same_layout(t.get(), want) ||
+        (tiled_ ? TIFFNumberOfTiles(t.get()) : TIFFNumberOfStrips(t.get())) < static_cast<std::uint32_t>(nblocks)) {
       ok = false;
       return;
     }
@@ -225,20 +231,25 @@ bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
       // A strip holds exactly its rows; a tile is always whole (padded at the edges).
       const std::size_t need = block_row * static_cast<std::size_t>(tiled_ ? block_h_ : ny);
       error.clear();
-      const tmsize_t got = tiled_ ? TIFFReadEncodedTile(t.get(), static_cast<std::uint32_t>(b), buf.data(), block_bytes)
-                                  : TIFFReadEncodedStrip(t.get(), static_cast<std::uint32_t>(b), buf.data(), block_bytes);
+      const tmsize_t got = tiled_
+                               ? TIFFReadEncodedTile(t.get(), static_cast<std::uint32_t>(b), buf.data(), block_bytes)
+                               : TIFFReadEncodedStrip(t.get(), static_cast<std::uint32_t>(b), buf.data(), block_bytes);
       if (got < 0 || static_cast<std::size_t>(got) < need) {
         failed[static_cast<std::size_t>(chunk)] = b;
         if (error.empty())
-          error = "it holds " + std::to_string(got < 0 ? 0 : got) + " of the " + std::to_string(need) + " bytes it needs";
+          error =
+              "it holds " + std::to_string(got < 0 ? 0 : got) + " of the " + std::to_string(need) + " bytes it needs";
         return;
       }
       for (int y = 0; y < ny; ++y) {
         const unsigned char* src = buf.data() + static_cast<std::size_t>(y) * block_row;
         float* dst = out + ((static_cast<std::size_t>(y0 + y) * width_ + x0) * nc);
-        if (bits_ == 8) convert_row<std::uint8_t>(src, dst, nx, nc, channels_, cb, scale);
-        else if (bits_ == 16) convert_row<std::uint16_t>(src, dst, nx, nc, channels_, cb, scale);
-        else convert_row<float>(src, dst, nx, nc, channels_, cb, 1.0f);
+        if (bits_ == 8)
+          convert_row<std::uint8_t>(src, dst, nx, nc, channels_, cb, scale);
+        else if (bits_ == 16)
+          convert_row<std::uint16_t>(src, dst, nx, nc, channels_, cb, scale);
+        else
+          convert_row<float>(src, dst, nx, nc, channels_, cb, 1.0f);
       }
     }
   });

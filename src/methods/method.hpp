@@ -29,8 +29,7 @@ class Params {
   int get_int(const std::string& key, int def, int lo, int hi) const;
   bool get_bool(const std::string& key, bool def) const;  // on/off, true/false, 1/0, yes/no
   /// One of `choices` (exact match).
-  std::string get_choice(const std::string& key, const std::string& def,
-                         const std::vector<std::string>& choices) const;
+  std::string get_choice(const std::string& key, const std::string& def, const std::vector<std::string>& choices) const;
 
  private:
   std::string method_;
@@ -44,11 +43,17 @@ class DebugSink {
   explicit DebugSink(std::string wanted) : wanted_(std::move(wanted)) {}
   bool wants(const char* name) const { return !wanted_.empty() && wanted_ == name; }
   void offer(const char* name, const Image& img) {
-    if (wants(name)) { result_ = img; found_ = true; }
+    if (wants(name)) {
+      result_ = img;
+      found_ = true;
+    }
   }
   /// Offers a view produced lazily (only built when requested).
   void offer(const char* name, const std::function<Image()>& make) {
-    if (wants(name)) { result_ = make(); found_ = true; }
+    if (wants(name)) {
+      result_ = make();
+      found_ = true;
+    }
   }
   bool found() const { return found_; }
   Image& result() { return result_; }
@@ -79,14 +84,14 @@ class Workspace {
 
 /// Everything a method gets.
 struct MethodContext {
-  const Frame& frame;           ///< colour (RGBA premultiplied) + depth z (+ layers)
-  const Image& coc;             ///< signed CoC radius, image pixels, clamped (1 plane)
-  const CameraModel& camera;    ///< the model as given (methods may use their native model)
-  const CocFunction& coc_of;    ///< z → signed CoC px at this image width (clamped)
-  const Params& params;         ///< validated --set values
-  DebugSink& debug;             ///< where debug views go
-  int threads;                  ///< thread count in force (already applied to the arena)
-  Workspace& workspace;         ///< persistent scratch buffers (see Workspace)
+  const Frame& frame;         ///< colour (RGBA premultiplied) + depth z (+ layers)
+  const Image& coc;           ///< signed CoC radius, image pixels, clamped (1 plane)
+  const CameraModel& camera;  ///< the model as given (methods may use their native model)
+  const CocFunction& coc_of;  ///< z → signed CoC px at this image width (clamped)
+  const Params& params;       ///< validated --set values
+  DebugSink& debug;           ///< where debug views go
+  int threads;                ///< thread count in force (already applied to the arena)
+  Workspace& workspace;       ///< persistent scratch buffers (see Workspace)
   /// Null: render() has checked the colour (and sanitised a copy where needed). Set (only for
   /// a method whose MethodDef::checks_colour is true): render() has *not* looked at the
   /// colour; the method must test every colour sample it is given against the sanitation

@@ -15,23 +15,20 @@ namespace dofkit::metrics {
 namespace {
 
 std::string size_text(const Image& img) {
-  return std::to_string(img.width()) + "x" + std::to_string(img.height()) + "x" +
-         std::to_string(img.channels());
+  return std::to_string(img.width()) + "x" + std::to_string(img.height()) + "x" + std::to_string(img.channels());
 }
 
 void check_pair(const Image& ref, const Image& test, const char* what) {
   if (ref.channels() < 3 || test.channels() < 3)
-    throw_bad_input(std::string(what) + ": needs RGB images, got " + size_text(ref) + " and " +
-                    size_text(test));
+    throw_bad_input(std::string(what) + ": needs RGB images, got " + size_text(ref) + " and " + size_text(test));
   if (!ref.same_size(test) || ref.empty())
-    throw_bad_input(std::string(what) + ": image sizes differ or are empty: reference " +
-                    size_text(ref) + ", test " + size_text(test));
+    throw_bad_input(std::string(what) + ": image sizes differ or are empty: reference " + size_text(ref) + ", test " +
+                    size_text(test));
 }
 
 void check_mask(const Image& ref, const Image& mask, const char* what) {
   if (mask.channels() < 1 || !mask.same_size(ref))
-    throw_bad_input(std::string(what) + ": mask " + size_text(mask) +
-                    " does not match the image " + size_text(ref));
+    throw_bad_input(std::string(what) + ": mask " + size_text(mask) + " does not match the image " + size_text(ref));
 }
 
 /// Sum of per-row partial sums in row order: the same value for any thread partition.
@@ -147,8 +144,7 @@ double ssim_plane(const float* a, const float* b, int w, int h) {
           const double vx = tmp[2 * w + x] - ux * ux;
           const double vy = tmp[3 * w + x] - uy * uy;
           const double vxy = tmp[4 * w + x] - ux * uy;
-          sum += ((2 * ux * uy + kC1) * (2 * vxy + kC2)) /
-                 ((ux * ux + uy * uy + kC1) * (vx + vy + kC2));
+          sum += ((2 * ux * uy + kC1) * (2 * vxy + kC2)) / ((ux * ux + uy * uy + kC1) * (vx + vy + kC2));
         }
         row_sums[y] = sum;
       }
@@ -160,8 +156,8 @@ double ssim_plane(const float* a, const float* b, int w, int h) {
 
 /// Sum over masked pixels (mask null = all) of squared differences of display planes
 /// (3 planes of W × H each) over R, G, B; `count` = number of pixels summed.
-void masked_sse(const std::vector<float>& da, const std::vector<float>& db, int w, int h,
-                const Image* mask, double& sse, double& count) {
+void masked_sse(const std::vector<float>& da, const std::vector<float>& db, int w, int h, const Image* mask,
+                double& sse, double& count) {
   const std::size_t n = static_cast<std::size_t>(w) * h;
   std::vector<double> row_sse(h, 0.0), row_n(h, 0.0);
   core::parallel_for(
@@ -281,8 +277,7 @@ Image edge_band(const Image& depth, int band_px, double jump) {
           const float* r = depth.row(0, y);
           for (int x = 0; x < w; ++x) {
             const float z = r[x];
-            bool e = (x > 0 && depth_jump(z, r[x - 1], jump)) ||
-                     (x + 1 < w && depth_jump(z, r[x + 1], jump)) ||
+            bool e = (x > 0 && depth_jump(z, r[x - 1], jump)) || (x + 1 < w && depth_jump(z, r[x + 1], jump)) ||
                      (y > 0 && depth_jump(z, depth.row(0, y - 1)[x], jump)) ||
                      (y + 1 < h && depth_jump(z, depth.row(0, y + 1)[x], jump));
             edge[static_cast<std::size_t>(y) * w + x] = e ? 1 : 0;
@@ -361,22 +356,19 @@ Scores compare(const Image& ref, const Image& test, const Image* depth) {
   check_pair(ref, test, "compare");
   if (!depth) return compare_with_mask(ref, test, nullptr);
   if (!depth->same_size(ref))
-    throw_bad_input("compare: depth " + size_text(*depth) + " does not match the images " +
-                    size_text(ref));
+    throw_bad_input("compare: depth " + size_text(*depth) + " does not match the images " + size_text(ref));
   const Image band = edge_band(*depth, kEdgeBandPx, kEdgeJump);
   return compare_with_mask(ref, test, &band);
 }
 
 Image crop(const Image& img, int x0, int y0, int x1, int y1) {
   if (x0 < 0 || y0 < 0 || x1 > img.width() || y1 > img.height() || x0 >= x1 || y0 >= y1)
-    throw_usage("crop " + std::to_string(x0) + "," + std::to_string(y0) + "," +
-                std::to_string(x1) + "," + std::to_string(y1) +
-                " is empty or outside the " + std::to_string(img.width()) + "x" +
+    throw_usage("crop " + std::to_string(x0) + "," + std::to_string(y0) + "," + std::to_string(x1) + "," +
+                std::to_string(y1) + " is empty or outside the " + std::to_string(img.width()) + "x" +
                 std::to_string(img.height()) + " image (X0,Y0 inclusive, X1,Y1 exclusive)");
   Image out(x1 - x0, y1 - y0, img.channels());
   for (int c = 0; c < img.channels(); ++c)
-    for (int y = y0; y < y1; ++y)
-      std::copy(img.row(c, y) + x0, img.row(c, y) + x1, out.row(c, y - y0));
+    for (int y = y0; y < y1; ++y) std::copy(img.row(c, y) + x0, img.row(c, y) + x1, out.row(c, y - y0));
   return out;
 }
 

@@ -27,10 +27,11 @@
 namespace dofkit::metrics {
 
 struct Scores {
-  double psnr_db = 0;       ///< whole image (inf for identical images)
-  double ssim = 0;          ///< whole image, mean over RGB
-  double edge_psnr_db = std::numeric_limits<double>::quiet_NaN();  ///< within 12 px of a depth edge (NaN if no depth given / no edge)
-  double rmse_linear = 0;   ///< RMSE of linear RGB (unclipped)
+  double psnr_db = 0;  ///< whole image (inf for identical images)
+  double ssim = 0;     ///< whole image, mean over RGB
+  double edge_psnr_db =
+      std::numeric_limits<double>::quiet_NaN();  ///< within 12 px of a depth edge (NaN if no depth given / no edge)
+  double rmse_linear = 0;                        ///< RMSE of linear RGB (unclipped)
   /// Fraction (0..1) of the pixels inside the edge band (NaN if no depth / mask given).
   double edge_fraction = std::numeric_limits<double>::quiet_NaN();
 };

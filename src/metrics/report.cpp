@@ -207,8 +207,7 @@ Image downsample(const Image& img, int factor) {
         double s = 0;
         int n = 0;
         for (int sy = y * factor; sy < std::min(img.height(), (y + 1) * factor); ++sy)
-          for (int sx = x * factor; sx < std::min(img.width(), (x + 1) * factor); ++sx, ++n)
-            s += img.at(sx, sy, c);
+          for (int sx = x * factor; sx < std::min(img.width(), (x + 1) * factor); ++sx, ++n) s += img.at(sx, sy, c);
         out.at(x, y, c) = n ? static_cast<float>(s / n) : 0.0f;
       }
   return out;
@@ -235,16 +234,17 @@ std::vector<std::string> wrap_text(const std::string& text, int max_width, int s
     }
   };
   for (char ch : text) {
-    if (ch == ' ') flush_word();
-    else word += ch;
+    if (ch == ' ')
+      flush_word();
+    else
+      word += ch;
   }
   flush_word();
   if (!line.empty() || lines.empty()) lines.push_back(line);
   return lines;
 }
 
-Image contact_sheet(const std::string& heading, const std::vector<SheetCell>& cells, int columns,
-                    int font_scale) {
+Image contact_sheet(const std::string& heading, const std::vector<SheetCell>& cells, int columns, int font_scale) {
   if (cells.empty()) throw_usage("contact_sheet: no cells");
   font_scale = std::max(1, font_scale);
   columns = std::clamp(columns, 1, static_cast<int>(cells.size()));
@@ -298,8 +298,7 @@ std::vector<QualityRow> with_means(const std::vector<QualityRow>& rows) {
   std::vector<QualityRow> out = rows;
   std::vector<std::string> order;
   for (const QualityRow& r : rows)
-    if (r.scene != "mean" && std::find(order.begin(), order.end(), r.method) == order.end())
-      order.push_back(r.method);
+    if (r.scene != "mean" && std::find(order.begin(), order.end(), r.method) == order.end()) order.push_back(r.method);
   auto mean = [&](const std::string& m, double QualityRow::*f) {
     double s = 0;
     int n = 0;
@@ -320,9 +319,8 @@ std::string markdown_table(const std::vector<QualityRow>& rows) {
   for (const QualityRow& r : rows) {
     const bool mean = r.scene == "mean";
     const std::string b = mean ? "**" : "";
-    s += "| " + b + r.scene + b + " | " + b + r.method + b + " | " + number(r.psnr_db, 2) + " | " +
-         number(r.ssim, 4) + " | " + number(r.edge_psnr_db, 2) + " | " + number(r.time_ms, 1) +
-         " |\n";
+    s += "| " + b + r.scene + b + " | " + b + r.method + b + " | " + number(r.psnr_db, 2) + " | " + number(r.ssim, 4) +
+         " | " + number(r.edge_psnr_db, 2) + " | " + number(r.time_ms, 1) + " |\n";
   }
   return s;
 }

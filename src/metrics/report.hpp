@@ -55,8 +55,7 @@ std::vector<std::string> wrap_text(const std::string& text, int max_width, int s
 /// Lays the cells out in a grid of `columns` columns on a dark background with
 /// `font_scale`-sized labels (wrapped to the tile width) and a heading. Every cell is sized to the largest images.
 /// Returns RGBA linear (alpha 1).
-Image contact_sheet(const std::string& heading, const std::vector<SheetCell>& cells, int columns,
-                    int font_scale);
+Image contact_sheet(const std::string& heading, const std::vector<SheetCell>& cells, int columns, int font_scale);
 
 /// One row of a quality table.
 struct QualityRow {

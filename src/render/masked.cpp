@@ -37,8 +37,8 @@ void validate_mask(const Frame& frame, const Image& mask, const Image& mask_dept
                       std::to_string(i / w) + ") is outside [0, 1]");
     const float z = mask_depth.plane(0)[i];
     if (m > 0.0f && !(z > 0.0f))
-      throw_bad_input("--mask-depth: depth " + std::to_string(z) + " at masked pixel (" + std::to_string(i % w) +
-                      ", " + std::to_string(i / w) + ") must be > 0");
+      throw_bad_input("--mask-depth: depth " + std::to_string(z) + " at masked pixel (" + std::to_string(i % w) + ", " +
+                      std::to_string(i / w) + ") must be > 0");
   }
 }
 
@@ -66,19 +66,22 @@ RenderResult render_masked(const Frame& frame, const Image& mask, const Image& m
   // reports the radius each pixel's result was made with (mixed where 0 < m < 1).
   const int w = frame.width(), h = frame.height();
   core::with_threads(settings.threads, [&] {
-    core::parallel_for(h, [&](int y0, int y1) {
-      for (int y = y0; y < y1; ++y) {
-        const float* mr = mask.row(0, y);
-        for (int c = 0; c < 4; ++c) {
-          float* b = base.image.row(c, y);
-          const float* o = over.image.row(c, y);
-          for (int x = 0; x < w; ++x) b[x] += mr[x] * (o[x] - b[x]);
-        }
-        float* bc = base.coc.row(0, y);
-        const float* oc = over.coc.row(0, y);
-        for (int x = 0; x < w; ++x) bc[x] += mr[x] * (oc[x] - bc[x]);
-      }
-    }, 16);
+    core::parallel_for(
+        h,
+        [&](int y0, int y1) {
+          for (int y = y0; y < y1; ++y) {
+            const float* mr = mask.row(0, y);
+            for (int c = 0; c < 4; ++c) {
+              float* b = base.image.row(c, y);
+              const float* o = over.image.row(c, y);
+              for (int x = 0; x < w; ++x) b[x] += mr[x] * (o[x] - b[x]);
+            }
+            float* bc = base.coc.row(0, y);
+            const float* oc = over.coc.row(0, y);
+            for (int x = 0; x < w; ++x) bc[x] += mr[x] * (oc[x] - bc[x]);
+          }
+        },
+        16);
   });
   // The debug view (if any) is the masked re-render's: the pass this entry point adds.
   if (!settings.debug_view.empty()) base.debug = std::move(over.debug);

@@ -105,8 +105,8 @@ std::size_t first_not_positive(const float* z) {
   const float* z = depth.plane(0);
   const std::size_t first = first_not_positive(z);
   throw_bad_input(what + " has " + std::to_string(bad) + " NaN, zero or negative value(s), first at pixel (" +
-                  std::to_string(first % depth.width()) + ", " + std::to_string(first / depth.width()) + ") = " +
-                  std::to_string(z[first]));
+                  std::to_string(first % depth.width()) + ", " + std::to_string(first / depth.width()) +
+                  ") = " + std::to_string(z[first]));
 }
 void check_depth_values(const Image& depth, const std::string& what) {
   const std::size_t bad = count_not_positive(depth.plane(0), depth.plane_size());
@@ -125,8 +125,7 @@ void validate_frame(const Frame& frame, const std::string& src, bool visible_dep
                     std::to_string(frame.depth.height()) + " but colour is " + std::to_string(frame.color.width()) +
                     "x" + std::to_string(frame.color.height()));
   if (visible_depth) check_depth_values(frame.depth, src + ": depth");
-  if (frame.layer_color.size() != frame.layer_depth.size())
-    throw_bad_input(src + ": layer colour/depth counts differ");
+  if (frame.layer_color.size() != frame.layer_depth.size()) throw_bad_input(src + ": layer colour/depth counts differ");
   for (std::size_t l = 0; l < frame.layer_color.size(); ++l) {
     if (frame.layer_color[l].channels() != 4 || !frame.layer_color[l].same_size(frame.color) ||
         frame.layer_depth[l].channels() != 1 || !frame.layer_depth[l].same_size(frame.color))
@@ -136,9 +135,7 @@ void validate_frame(const Frame& frame, const std::string& src, bool visible_dep
 }
 }  // namespace
 
-void validate_frame(const Frame& frame, const char* what) {
-  validate_frame(frame, what ? what : "frame", true);
-}
+void validate_frame(const Frame& frame, const char* what) { validate_frame(frame, what ? what : "frame", true); }
 
 namespace {
 // Signed, clamped CoC of every pixel (image pixels). Returns how many depth values
@@ -154,21 +151,24 @@ std::size_t fill_coc(const Image& depth, const CocFunction& f, Image& coc, core:
   std::mutex merge;
   core::CocRange all;
   const int w = depth.width();
-  core::parallel_for(depth.height(), [&](int y0, int y1) {
-    std::size_t n = 0;
-    core::CocRange part;
-    for (int y = y0; y < y1; ++y) {
-      f.evaluate(depth.row(0, y), coc.row(0, y), w);
-      n += count_not_positive(depth.row(0, y), static_cast<std::size_t>(w));
-      if (range) core::coc_row_range(coc.row(0, y), nullptr, w, part.near_max, part.far_max);
-    }
-    bad.fetch_add(n, std::memory_order_relaxed);
-    if (range) {
-      const std::lock_guard<std::mutex> lock(merge);
-      all.near_max = std::max(all.near_max, part.near_max);
-      all.far_max = std::max(all.far_max, part.far_max);
-    }
-  }, 16);
+  core::parallel_for(
+      depth.height(),
+      [&](int y0, int y1) {
+        std::size_t n = 0;
+        core::CocRange part;
+        for (int y = y0; y < y1; ++y) {
+          f.evaluate(depth.row(0, y), coc.row(0, y), w);
+          n += count_not_positive(depth.row(0, y), static_cast<std::size_t>(w));
+          if (range) core::coc_row_range(coc.row(0, y), nullptr, w, part.near_max, part.far_max);
+        }
+        bad.fetch_add(n, std::memory_order_relaxed);
+        if (range) {
+          const std::lock_guard<std::mutex> lock(merge);
+          all.near_max = std::max(all.near_max, part.near_max);
+          all.far_max = std::max(all.far_max, part.far_max);
+        }
+      },
+      16);
   if (range) *range = all;
   return bad.load();
 }
@@ -201,8 +201,8 @@ const detail::MethodDef& checked_method(const RenderSettings& settings) {
     // Not a structured binding: clang 14 (the fuzz build) cannot capture those in a lambda.
     const std::string& key = kv.first;
     const std::string& value = kv.second;
-    const bool known = std::any_of(method->params.begin(), method->params.end(),
-                                   [&](const ParamInfo& p) { return p.name == key; });
+    const bool known =
+        std::any_of(method->params.begin(), method->params.end(), [&](const ParamInfo& p) { return p.name == key; });
     if (!known) {
       std::vector<std::string> names;
       for (const auto& p : method->params) names.push_back(p.name);
@@ -290,15 +290,14 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
       core::PassScope again("colour check + render again");
       const Frame& clean = detail::sanitized_frame(frame_in, impl_->sanitized);
       sink.emplace(settings.debug_view);
-      method.render({clean, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr,
-                     &range},
-                    result.image);
+      method.render(
+          {clean, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr, &range},
+          result.image);
     }
   });
   result.debug = Image();
   if (!settings.debug_view.empty()) {
-    if (!sink->found())
-      throw_internal("method " + method.name + " did not produce debug view " + settings.debug_view);
+    if (!sink->found()) throw_internal("method " + method.name + " did not produce debug view " + settings.debug_view);
     result.debug = std::move(sink->result());
   }
   return result;

@@ -56,12 +56,16 @@ bool color_is_sanitary(const Image& rgba) {
 
 bool rect_is_sanitary(const Image& rgba, int x0, int y0, int w, int h) {
   std::atomic<bool> dirty{false};
-  core::parallel_for(h, [&](int r0, int r1) {
-    for (int y = y0 + r0; y < y0 + r1 && !dirty.load(std::memory_order_relaxed); ++y) {
-      if (!rgba_row_is_sanitary(rgba.row(0, y) + x0, rgba.row(1, y) + x0, rgba.row(2, y) + x0, rgba.row(3, y) + x0, w))
-        dirty.store(true, std::memory_order_relaxed);
-    }
-  }, kGrainRows);
+  core::parallel_for(
+      h,
+      [&](int r0, int r1) {
+        for (int y = y0 + r0; y < y0 + r1 && !dirty.load(std::memory_order_relaxed); ++y) {
+          if (!rgba_row_is_sanitary(rgba.row(0, y) + x0, rgba.row(1, y) + x0, rgba.row(2, y) + x0, rgba.row(3, y) + x0,
+                                    w))
+            dirty.store(true, std::memory_order_relaxed);
+        }
+      },
+      kGrainRows);
   return !dirty.load();
 }
 
@@ -69,20 +73,23 @@ std::size_t sanitize_color(const Image& rgba, Image& out) {
   out.resize(rgba.width(), rgba.height(), rgba.channels());
   std::atomic<std::size_t> changed{0};
   const int w = rgba.width();
-  core::parallel_for(rgba.height(), [&](int y0, int y1) {
-    std::size_t n = 0;
-    for (int y = y0; y < y1; ++y)
-      for (int c = 0; c < rgba.channels(); ++c) {
-        const float* in = rgba.row(c, y);
-        float* o = out.row(c, y);
-        for (int x = 0; x < w; ++x) {
-          const float v = c == 3 ? clean_alpha(in[x]) : clean_rgb(in[x]);
-          n += !same_bits(v, in[x]);
-          o[x] = v;
-        }
-      }
-    changed.fetch_add(n, std::memory_order_relaxed);
-  }, kGrainRows);
+  core::parallel_for(
+      rgba.height(),
+      [&](int y0, int y1) {
+        std::size_t n = 0;
+        for (int y = y0; y < y1; ++y)
+          for (int c = 0; c < rgba.channels(); ++c) {
+            const float* in = rgba.row(c, y);
+            float* o = out.row(c, y);
+            for (int x = 0; x < w; ++x) {
+              const float v = c == 3 ? clean_alpha(in[x]) : clean_rgb(in[x]);
+              n += !same_bits(v, in[x]);
+              o[x] = v;
+            }
+          }
+        changed.fetch_add(n, std::memory_order_relaxed);
+      },
+      kGrainRows);
   return changed.load();
 }
 
@@ -93,7 +100,8 @@ const Frame& sanitized_frame(const Frame& frame, Frame& scratch) {
   sanitize_color(frame.color, scratch.color);
   scratch.depth = frame.depth;  // copy-assign reuses scratch's allocation when it fits
   scratch.layer_color.resize(frame.layer_color.size());
-  for (std::size_t l = 0; l < frame.layer_color.size(); ++l) sanitize_color(frame.layer_color[l], scratch.layer_color[l]);
+  for (std::size_t l = 0; l < frame.layer_color.size(); ++l)
+    sanitize_color(frame.layer_color[l], scratch.layer_color[l]);
   scratch.layer_depth = frame.layer_depth;
   return scratch;
 }

@@ -15,10 +15,14 @@ Frame bench_frame(int w, int h) {
     for (int x = 0; x < w; ++x) {
       const float u = (x + 0.5f) / w;
       float z;
-      if (u > 0.08f && u < 0.16f) z = 1.2f;                                  // near bar
-      else if (std::hypot(u - 0.55f, v - 0.5f) < 0.18f) z = 4.0f;             // subject in focus
-      else if (v > 0.65f) z = 1.5f / std::max(0.02f, (v - 0.6f) * 2.6f);      // ground
-      else z = v < 0.1f ? std::numeric_limits<float>::infinity() : 8.0f + 60.0f * (0.65f - v);  // far wall / sky
+      if (u > 0.08f && u < 0.16f)
+        z = 1.2f;  // near bar
+      else if (std::hypot(u - 0.55f, v - 0.5f) < 0.18f)
+        z = 4.0f;  // subject in focus
+      else if (v > 0.65f)
+        z = 1.5f / std::max(0.02f, (v - 0.6f) * 2.6f);  // ground
+      else
+        z = v < 0.1f ? std::numeric_limits<float>::infinity() : 8.0f + 60.0f * (0.65f - v);  // far wall / sky
       f.depth.at(x, y) = z;
       const float t = std::sin(0.11f * x) * std::sin(0.07f * y) + 0.3f * std::sin(1.7f * x + 0.9f * y);
       f.color.at(x, y, 0) = 0.45f + 0.35f * t;

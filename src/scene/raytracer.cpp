@@ -273,9 +273,7 @@ Rgb shade_background(const Background& bg, Vec3 d) {
 // ---------------------------------------------------------------------------------------------
 // Camera
 
-double LensCamera::f_px() const {
-  return 0.5 * width / std::tan(0.5 * hfov_deg * std::numbers::pi / 180.0);
-}
+double LensCamera::f_px() const { return 0.5 * width / std::tan(0.5 * hfov_deg * std::numbers::pi / 180.0); }
 double LensCamera::lens_radius_m() const { return k_px * focus_m / f_px(); }
 double LensCamera::coc_px(double z) const { return k_px * (focus_m / z - 1.0); }
 
@@ -390,8 +388,7 @@ void check_camera(const LensCamera& cam) {
   if (!(cam.hfov_deg > 0 && cam.hfov_deg < 180)) throw_usage("field of view must be in (0, 180) degrees");
   if (!(cam.focus_m > 0) || !std::isfinite(cam.focus_m)) throw_usage("--focus: must be > 0 metres");
   if (!(cam.k_px >= 0) || !std::isfinite(cam.k_px)) throw_usage("--blur-at-infinity: must be >= 0 px");
-  if (cam.blades != 0 && (cam.blades < 3 || cam.blades > 64))
-    throw_usage("--blades: must be 0 (circle) or 3..64");
+  if (cam.blades != 0 && (cam.blades < 3 || cam.blades > 64)) throw_usage("--blades: must be 0 (circle) or 3..64");
 }
 
 }  // namespace
@@ -487,8 +484,8 @@ bool emitter_region(const Primitive& e, Vec3 p, double lens_r, EmitterRegion& ou
     r = std::max(r, std::hypot(x - cx, y - cy));
   }
   r *= 1.1;
-  if (r > 0.5 * lens_r) return false;                   // large: plain lens samples do well
-  if (std::hypot(cx, cy) > lens_r + r) return false;    // cannot be seen through the lens
+  if (r > 0.5 * lens_r) return false;                 // large: plain lens samples do well
+  if (std::hypot(cx, cy) > lens_r + r) return false;  // cannot be seen through the lens
   out = {cx, cy, r};
   return true;
 }

@@ -55,18 +55,18 @@ struct Rgb {
 ///  * lines: a grid of lines every `line_spacing_m`, `line_width_m` wide, whose radiance is
 ///    multiplied by (1 − line_darkness).
 struct Texture {
-  Rgb a{0.5f, 0.5f, 0.5f};         ///< colour at noise 0
-  Rgb b{0.2f, 0.2f, 0.2f};         ///< colour at noise 1
-  double noise_scale_m = 0.5;      ///< period of the coarsest noise octave, metres
-  int octaves = 7;                 ///< noise octaves (0 = flat colour a)
-  double gain = 0.7;               ///< amplitude ratio between successive octaves
-  double checker_m = 0;            ///< checker square side, metres (0 = none)
-  double checker_contrast = 0.2;   ///< relative brightness swing of the checker
-  double line_spacing_m = 0;       ///< line grid spacing, metres (0 = none)
-  double line_width_m = 0.01;      ///< line width, metres
-  double line_darkness = 0.6;      ///< 0 = invisible lines, 1 = black lines
-  double emission = 1;             ///< radiance multiplier (> 1 for HDR emitters)
-  std::uint32_t seed = 1;          ///< noise seed (part of the scene, not of the render)
+  Rgb a{0.5f, 0.5f, 0.5f};        ///< colour at noise 0
+  Rgb b{0.2f, 0.2f, 0.2f};        ///< colour at noise 1
+  double noise_scale_m = 0.5;     ///< period of the coarsest noise octave, metres
+  int octaves = 7;                ///< noise octaves (0 = flat colour a)
+  double gain = 0.7;              ///< amplitude ratio between successive octaves
+  double checker_m = 0;           ///< checker square side, metres (0 = none)
+  double checker_contrast = 0.2;  ///< relative brightness swing of the checker
+  double line_spacing_m = 0;      ///< line grid spacing, metres (0 = none)
+  double line_width_m = 0.01;     ///< line width, metres
+  double line_darkness = 0.6;     ///< 0 = invisible lines, 1 = black lines
+  double emission = 1;            ///< radiance multiplier (> 1 for HDR emitters)
+  std::uint32_t seed = 1;         ///< noise seed (part of the scene, not of the render)
 };
 
 /// Evaluates a texture at surface coordinates (metres).
@@ -85,7 +85,7 @@ struct Primitive {
   Vec3 axis_u;
   double radius = 0;  ///< sphere / cylinder radius, metres
   Texture tex;
-  std::string name;   ///< for debugging and tests
+  std::string name;  ///< for debugging and tests
 
   static Primitive plane(Vec3 point, Vec3 normal, Vec3 u_axis, Texture t, std::string name = "plane");
   static Primitive box(Vec3 lo, Vec3 hi, Texture t, std::string name = "box");
@@ -98,9 +98,9 @@ struct Primitive {
 /// on the direction's tangent coordinates (d.x/d.z, d.y/d.z) (radians near the axis), so it
 /// depends on the ray direction only, like a real sky.
 struct Background {
-  Rgb top{0.25f, 0.45f, 0.85f};      ///< colour at tan(elevation) = +0.4 (up)
-  Rgb horizon{0.75f, 0.8f, 0.85f};   ///< colour at tan(elevation) = 0 and below
-  Texture clouds;                    ///< multiplies the gradient; its u, v are tangent coords
+  Rgb top{0.25f, 0.45f, 0.85f};     ///< colour at tan(elevation) = +0.4 (up)
+  Rgb horizon{0.75f, 0.8f, 0.85f};  ///< colour at tan(elevation) = 0 and below
+  Texture clouds;                   ///< multiplies the gradient; its u, v are tangent coords
 };
 
 /// A scene: primitives, background and the camera defaults the scene was composed for.
@@ -109,20 +109,20 @@ struct Scene {
   std::string description;
   std::vector<Primitive> prims;
   Background background;
-  double hfov_deg = 60;           ///< horizontal field of view, degrees
-  double focus_m = 5;             ///< default focus distance, metres
-  double k_px_at_640 = 12;        ///< default blur radius at infinity, px at width 640
-  int samples = 128;              ///< default lens samples per pixel (ground truth)
+  double hfov_deg = 60;     ///< horizontal field of view, degrees
+  double focus_m = 5;       ///< default focus distance, metres
+  double k_px_at_640 = 12;  ///< default blur radius at infinity, px at width 640
+  int samples = 128;        ///< default lens samples per pixel (ground truth)
 };
 
 /// The thin-lens camera: resolution, field of view, focus, blur at infinity, aperture shape.
 struct LensCamera {
   int width = 640, height = 360;
-  double hfov_deg = 60;      ///< horizontal field of view, degrees
-  double focus_m = 5;        ///< z_F, metres
-  double k_px = 12;          ///< K, blur radius of a point at infinity, px at `width`
-  int blades = 0;            ///< 0 = circular aperture, >= 3 = regular polygon
-  double rotation_deg = 0;   ///< polygon rotation, degrees (image axes: x right, y down)
+  double hfov_deg = 60;     ///< horizontal field of view, degrees
+  double focus_m = 5;       ///< z_F, metres
+  double k_px = 12;         ///< K, blur radius of a point at infinity, px at `width`
+  int blades = 0;           ///< 0 = circular aperture, >= 3 = regular polygon
+  double rotation_deg = 0;  ///< polygon rotation, degrees (image axes: x right, y down)
 
   /// Pinhole focal length in pixels, F = (W/2)/tan(hfov/2).
   double f_px() const;

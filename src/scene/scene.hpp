@@ -44,9 +44,9 @@ struct SceneDefaults {
 
 /// A rendered scene: the pinhole RGB-D input (+ layers) and the thin-lens ground truth.
 struct SceneRender {
-  Frame pinhole;          ///< colour RGBA (alpha 1), depth z, optional layers
-  Image ground_truth;     ///< RGBA, thin-lens image of the same camera
-  CameraModel camera;     ///< BlurAtInfinity{focus, K} at this width: pass to render()
+  Frame pinhole;       ///< colour RGBA (alpha 1), depth z, optional layers
+  Image ground_truth;  ///< RGBA, thin-lens image of the same camera
+  CameraModel camera;  ///< BlurAtInfinity{focus, K} at this width: pass to render()
   std::string name;
 };
 

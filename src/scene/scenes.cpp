@@ -79,8 +79,8 @@ Scene occluder() {
   // Far wall at 8 m (r = −7.5 px): bricks (checker + mortar lines) over noise.
   s.prims.push_back(Primitive::plane(
       {0, 0, 8}, {0, 0, -1}, {1, 0, 0},
-      with_lines(with_checker(tex({0.75f, 0.42f, 0.25f}, {0.35f, 0.18f, 0.12f}, 1.2, 8, 11), 0.3, 0.25), 0.3,
-                 0.02, 0.7),
+      with_lines(with_checker(tex({0.75f, 0.42f, 0.25f}, {0.35f, 0.18f, 0.12f}, 1.2, 8, 11), 0.3, 0.25), 0.3, 0.02,
+                 0.7),
       "far wall"));
   // Floor 1.2 m below the camera, visible from 3.7 m on.
   s.prims.push_back(Primitive::plane(
@@ -90,9 +90,9 @@ Scene occluder() {
   s.prims.push_back(Primitive::box(
       {-0.7, -0.55, 3.0}, {0.35, 1.2, 3.6},
       with_lines(tex({0.2f, 0.55f, 0.75f}, {0.9f, 0.85f, 0.6f}, 0.4, 8, 13), 0.12, 0.006, 0.75), "focus box"));
-  s.prims.push_back(
-      Primitive::sphere({0.75, 0.7, 3.3}, 0.32, with_checker(tex({0.85f, 0.3f, 0.3f}, {0.95f, 0.9f, 0.4f}, 0.2, 7, 14), 0.08, 0.35),
-                        "focus ball"));
+  s.prims.push_back(Primitive::sphere(
+      {0.75, 0.7, 3.3}, 0.32, with_checker(tex({0.85f, 0.3f, 0.3f}, {0.95f, 0.9f, 0.4f}, 0.2, 7, 14), 0.08, 0.35),
+      "focus ball"));
   // Near pillar at 1.2 m (r = +18 px) covering the box's right edge, and a near ball.
   s.prims.push_back(Primitive::box(
       {0.02, -2.0, 1.2}, {0.16, 2.0, 1.35},
@@ -114,20 +114,19 @@ Scene fence() {
   s.k_px_at_640 = 12;
   s.samples = 128;
   s.background = sky_background();
-  s.prims.push_back(Primitive::plane(
-      {0, 1.4, 0}, {0, -1, 0}, {1, 0, 0},
-      with_checker(tex({0.35f, 0.5f, 0.2f}, {0.12f, 0.2f, 0.08f}, 0.6, 8, 21), 0.5, 0.15), "lawn"));
+  s.prims.push_back(
+      Primitive::plane({0, 1.4, 0}, {0, -1, 0}, {1, 0, 0},
+                       with_checker(tex({0.35f, 0.5f, 0.2f}, {0.12f, 0.2f, 0.08f}, 0.6, 8, 21), 0.5, 0.15), "lawn"));
   // In-focus wall (left) at 5 m with poster-like boxes; far building (right) at 14 m.
-  s.prims.push_back(Primitive::box(
-      {-6, -3, 5.0}, {0.3, 1.4, 5.3},
-      with_lines(tex({0.8f, 0.8f, 0.75f}, {0.25f, 0.3f, 0.35f}, 0.9, 9, 22), 0.25, 0.01, 0.6), "wall"));
-  s.prims.push_back(Primitive::box(
-      {-1.6, -0.9, 4.95}, {-0.7, 0.2, 5.0},
-      with_checker(tex({0.9f, 0.2f, 0.15f}, {0.95f, 0.85f, 0.3f}, 0.2, 7, 23), 0.05, 0.3), "poster"));
+  s.prims.push_back(
+      Primitive::box({-6, -3, 5.0}, {0.3, 1.4, 5.3},
+                     with_lines(tex({0.8f, 0.8f, 0.75f}, {0.25f, 0.3f, 0.35f}, 0.9, 9, 22), 0.25, 0.01, 0.6), "wall"));
+  s.prims.push_back(Primitive::box({-1.6, -0.9, 4.95}, {-0.7, 0.2, 5.0},
+                                   with_checker(tex({0.9f, 0.2f, 0.15f}, {0.95f, 0.85f, 0.3f}, 0.2, 7, 23), 0.05, 0.3),
+                                   "poster"));
   s.prims.push_back(Primitive::box(
       {1.5, -6, 14}, {9, 1.4, 20},
-      with_lines(with_checker(tex({0.5f, 0.55f, 0.65f}, {0.15f, 0.15f, 0.2f}, 2.0, 9, 24), 1.0, 0.3), 0.5,
-                 0.04, 0.7),
+      with_lines(with_checker(tex({0.5f, 0.55f, 0.65f}, {0.15f, 0.15f, 0.2f}, 2.0, 9, 24), 1.0, 0.3), 0.5, 0.04, 0.7),
       "building"));
   // Bars: radius 2 cm (11 px wide) every 22 cm (61 px) at 2 m, blurred to r = +18 px, so each
   // bar is a translucent dark veil through which the background must show (McGuire's hardest
@@ -153,8 +152,7 @@ Scene ground() {
   // Camera 1 m above the ground: the bottom row sees it at 3.1 m (r = +11.4 px).
   s.prims.push_back(Primitive::plane(
       {0, 1.0, 0}, {0, -1, 0}, {1, 0, 0},
-      with_lines(with_checker(tex({0.7f, 0.6f, 0.45f}, {0.2f, 0.25f, 0.15f}, 1.5, 10, 31), 0.5, 0.25), 1.0, 0.02,
-                 0.7),
+      with_lines(with_checker(tex({0.7f, 0.6f, 0.45f}, {0.2f, 0.25f, 0.15f}, 1.5, 10, 31), 0.5, 0.25), 1.0, 0.02, 0.7),
       "ground"));
   const double post_z[] = {3.5, 6.0, 9.0, 16.0};
   const double post_x[] = {-1.6, 1.3, -2.2, 3.0};
@@ -185,9 +183,9 @@ Scene highlights() {
   s.prims.push_back(Primitive::plane(
       {0, 0, 18}, {0, 0, -1}, {1, 0, 0},
       with_lines(tex({0.12f, 0.1f, 0.14f}, {0.03f, 0.03f, 0.05f}, 1.5, 9, 41), 0.6, 0.03, 0.6), "back wall"));
-  s.prims.push_back(Primitive::plane(
-      {0, 1.3, 0}, {0, -1, 0}, {1, 0, 0}, with_checker(tex({0.1f, 0.08f, 0.06f}, {0.03f, 0.03f, 0.03f}, 0.7, 8, 42), 0.4, 0.3),
-      "floor"));
+  s.prims.push_back(
+      Primitive::plane({0, 1.3, 0}, {0, -1, 0}, {1, 0, 0},
+                       with_checker(tex({0.1f, 0.08f, 0.06f}, {0.03f, 0.03f, 0.03f}, 0.7, 8, 42), 0.4, 0.3), "floor"));
   s.prims.push_back(Primitive::box(
       {-0.9, 0.3, 4.0}, {-0.2, 1.3, 4.6},
       with_lines(tex({0.35f, 0.3f, 0.25f}, {0.08f, 0.08f, 0.1f}, 0.3, 7, 43), 0.1, 0.005, 0.7), "table"));
@@ -200,12 +198,12 @@ Scene highlights() {
     Rgb c;
   };
   const E es[] = {
-      {-0.55, -0.15, 1.7, 2.0, {1.0f, 0.85f, 0.6f}},  {0.45, 0.1, 1.9, 1.5, {0.6f, 0.8f, 1.0f}},
-      {-0.2, -0.45, 2.6, 1.5, {1.0f, 0.5f, 0.4f}},    {0.9, -0.5, 3.2, 1.5, {0.7f, 1.0f, 0.6f}},
-      {-0.45, 0.2, 4.0, 1.5, {1.0f, 1.0f, 0.9f}},     {0.3, -0.35, 4.0, 1.0, {1.0f, 0.6f, 0.9f}},
-      {1.6, 0.0, 6.5, 2.0, {1.0f, 0.8f, 0.5f}},       {-2.3, -1.0, 8.0, 2.0, {0.5f, 0.7f, 1.0f}},
-      {-1.0, -0.6, 12.0, 2.5, {1.0f, 0.9f, 0.7f}},    {3.0, -1.3, 12.0, 2.5, {0.9f, 0.5f, 0.3f}},
-      {0.1, -2.5, 17.0, 2.5, {0.8f, 0.9f, 1.0f}},     {-4.5, 0.4, 16.0, 2.5, {1.0f, 0.7f, 0.7f}},
+      {-0.55, -0.15, 1.7, 2.0, {1.0f, 0.85f, 0.6f}}, {0.45, 0.1, 1.9, 1.5, {0.6f, 0.8f, 1.0f}},
+      {-0.2, -0.45, 2.6, 1.5, {1.0f, 0.5f, 0.4f}},   {0.9, -0.5, 3.2, 1.5, {0.7f, 1.0f, 0.6f}},
+      {-0.45, 0.2, 4.0, 1.5, {1.0f, 1.0f, 0.9f}},    {0.3, -0.35, 4.0, 1.0, {1.0f, 0.6f, 0.9f}},
+      {1.6, 0.0, 6.5, 2.0, {1.0f, 0.8f, 0.5f}},      {-2.3, -1.0, 8.0, 2.0, {0.5f, 0.7f, 1.0f}},
+      {-1.0, -0.6, 12.0, 2.5, {1.0f, 0.9f, 0.7f}},   {3.0, -1.3, 12.0, 2.5, {0.9f, 0.5f, 0.3f}},
+      {0.1, -2.5, 17.0, 2.5, {0.8f, 0.9f, 1.0f}},    {-4.5, 0.4, 16.0, 2.5, {1.0f, 0.7f, 0.7f}},
   };
   for (const E& e : es) {
     const double radius_m = e.s_px * e.z / f640;
@@ -237,11 +235,11 @@ Scene portrait() {
   s.samples = 128;
   s.background = dim_background();
   // Background: a bright, busy wall at 4.5 m and two columns at 2.4 m.
-  s.prims.push_back(Primitive::plane(
-      {0, 0, 4.5}, {0, 0, -1}, {1, 0, 0},
-      with_lines(with_checker(tex({0.9f, 0.85f, 0.55f}, {0.15f, 0.35f, 0.2f}, 0.8, 9, 51), 0.25, 0.35), 0.25,
-                 0.012, 0.8),
-      "wall"));
+  s.prims.push_back(
+      Primitive::plane({0, 0, 4.5}, {0, 0, -1}, {1, 0, 0},
+                       with_lines(with_checker(tex({0.9f, 0.85f, 0.55f}, {0.15f, 0.35f, 0.2f}, 0.8, 9, 51), 0.25, 0.35),
+                                  0.25, 0.012, 0.8),
+                       "wall"));
   const Texture column = with_lines(tex({0.8f, 0.3f, 0.2f}, {0.95f, 0.9f, 0.85f}, 0.3, 8, 52), 0.1, 0.008, 0.7);
   s.prims.push_back(Primitive::cylinder({-0.55, -2, 2.4}, {-0.55, 2, 2.4}, 0.09, column, "column"));
   s.prims.push_back(Primitive::cylinder({0.6, -2, 2.6}, {0.6, 2, 2.6}, 0.12, column, "column"));
@@ -274,9 +272,9 @@ Scene sky() {
   s.k_px_at_640 = 12;
   s.samples = 128;
   s.background = sky_background();
-  s.prims.push_back(Primitive::plane(
-      {0, 2.0, 0}, {0, -1, 0}, {1, 0, 0},
-      with_checker(tex({0.3f, 0.45f, 0.15f}, {0.1f, 0.15f, 0.05f}, 2.0, 10, 61), 1.0, 0.15), "field"));
+  s.prims.push_back(
+      Primitive::plane({0, 2.0, 0}, {0, -1, 0}, {1, 0, 0},
+                       with_checker(tex({0.3f, 0.45f, 0.15f}, {0.1f, 0.15f, 0.05f}, 2.0, 10, 61), 1.0, 0.15), "field"));
   const Texture bark = with_lines(tex({0.3f, 0.2f, 0.12f}, {0.08f, 0.06f, 0.05f}, 0.3, 7, 62), 0.08, 0.01, 0.5);
   const Texture leaves = with_checker(tex({0.1f, 0.35f, 0.08f}, {0.5f, 0.7f, 0.2f}, 0.5, 9, 63), 0.15, 0.35);
   struct T {
@@ -296,8 +294,7 @@ Scene sky() {
   // House at 30 m (r = −8 px).
   s.prims.push_back(Primitive::box(
       {4.0, -4.0, 30.0}, {12.0, 2.0, 36.0},
-      with_lines(with_checker(tex({0.85f, 0.8f, 0.7f}, {0.4f, 0.3f, 0.25f}, 3.0, 10, 65), 1.2, 0.3), 0.6, 0.05,
-                 0.6),
+      with_lines(with_checker(tex({0.85f, 0.8f, 0.7f}, {0.4f, 0.3f, 0.25f}, 3.0, 10, 65), 1.2, 0.3), 0.6, 0.05, 0.6),
       "house"));
   return s;
 }

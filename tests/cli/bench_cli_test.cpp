@@ -48,8 +48,8 @@ TEST(BenchCli, JsonListsOneRowPerMethodAndSizeWithTheCopyBaseline) {
   const char* sizes[2][2] = {{"48", "32"}, {"40", "24"}};
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const nlohmann::json& r = rows[i];
-    for (const char* key : {"method", "width", "height", "threads", "median_ms", "min_ms", "mpix_per_s",
-                            "peak_rss_mb", "ratio_to_copy", "cpu_ms"})
+    for (const char* key : {"method", "width", "height", "threads", "median_ms", "min_ms", "mpix_per_s", "peak_rss_mb",
+                            "ratio_to_copy", "cpu_ms"})
       ASSERT_TRUE(r.contains(key)) << "row " << i << " lacks " << key;
     EXPECT_EQ(std::to_string(r["width"].get<int>()), sizes[i / 3][0]);
     EXPECT_EQ(std::to_string(r["height"].get<int>()), sizes[i / 3][1]);
@@ -77,8 +77,8 @@ TEST(BenchCli, JsonListsOneRowPerMethodAndSizeWithTheCopyBaseline) {
 TEST(BenchCli, RejectsAnUnknownMethodWithOneLine) {
   ScratchDir dir;
   const std::string err = (dir.path() / "err.txt").string();
-  const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit bench --size 16x16 --methods nosuch --iterations 1 2>" +
-                          err + " >/dev/null";
+  const std::string cmd = std::string(DOFKIT_BINARY_DIR) +
+                          "/dofkit bench --size 16x16 --methods nosuch --iterations 1 2>" + err + " >/dev/null";
   const int status = std::system(cmd.c_str());
   EXPECT_NE(status, 0);
   std::ifstream f(err);
@@ -95,15 +95,16 @@ TEST(BenchCli, SimdPinsTheTargetAndNamesItInEveryRow) {
   ScratchDir dir;
   for (const std::string& want : {std::string(), targets.back()}) {
     SCOPED_TRACE(want);
-    const nlohmann::json rows = bench_json(
-        dir, "--size 40x24 --methods mcguire,sterna " + (want.empty() ? "" : "--simd " + want + " ") +
-                 "--threads 1 --iterations 1");
+    const nlohmann::json rows =
+        bench_json(dir, "--size 40x24 --methods mcguire,sterna " + (want.empty() ? "" : "--simd " + want + " ") +
+                            "--threads 1 --iterations 1");
     ASSERT_EQ(rows.size(), 3u);
     for (const nlohmann::json& r : rows) EXPECT_EQ(r["simd"], want.empty() ? targets.front() : want) << r.dump();
   }
   const std::string err = (dir.path() / "err.txt").string();
-  const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit bench --size 16x16 --methods mcguire --simd NEON4 " +
-                          "--iterations 1 2>" + err + " >/dev/null";
+  const std::string cmd = std::string(DOFKIT_BINARY_DIR) +
+                          "/dofkit bench --size 16x16 --methods mcguire --simd NEON4 " + "--iterations 1 2>" + err +
+                          " >/dev/null";
   const int status = std::system(cmd.c_str());
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 2);
@@ -120,7 +121,8 @@ TEST(BenchCli, SimdPinsTheTargetAndNamesItInEveryRow) {
 // without the flag none either: JsonListsOneRowPerMethodAndSizeWithTheCopyBaseline).
 TEST(BenchCli, PassesListEachMethodsPassesWithinItsFrame) {
   ScratchDir dir;
-  const nlohmann::json rows = bench_json(dir, "--size 64x36 --methods mcguire,sterna --threads 1 --iterations 3 --passes");
+  const nlohmann::json rows =
+      bench_json(dir, "--size 64x36 --methods mcguire,sterna --threads 1 --iterations 3 --passes");
   ASSERT_EQ(rows.size(), 3u);
   EXPECT_FALSE(rows[0].contains("passes"));  // copy
   for (const auto& [i, pass] : {std::pair<int, const char*>{1, "mcguire/horizontal"}, {2, "sterna/gather"}}) {

@@ -81,8 +81,8 @@ class RenderCli : public ::testing::Test {
   }
 
   std::vector<std::string> exact_call(const std::string& out = "out.exr") const {
-    return {"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus",  "4",  "--blur-at-infinity",
-            "24",      "--max-coc",    "40",      "--method", "reference", "--output", dir_ / out};
+    return {"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus",   "4",        "--blur-at-infinity",
+            "24",      "--max-coc",    "40",      "--method",     "reference", "--output", dir_ / out};
   }
 
   // Expects a failure with `code` whose message contains every part, and that no file but
@@ -160,10 +160,10 @@ TEST_F(RenderCli, ColourExrWithOwnZChannel) {
     for (int x = 0; x < W; ++x)
       px.insert(px.end(), {color_.at(x, y, 0), color_.at(x, y, 1), color_.at(x, y, 2), 1.0f, depth_.at(x, y)});
   raw_write(dir_ / "cz.exr", W, H, {"R", "G", "B", "A", "Z"}, px);
-  ASSERT_EQ(run_render({"--color", dir_ / "cz.exr", "--focus", "4", "--blur-at-infinity", "24", "--output",
-                        dir_ / "a.exr"})
-                .code,
-            0);
+  ASSERT_EQ(
+      run_render({"--color", dir_ / "cz.exr", "--focus", "4", "--blur-at-infinity", "24", "--output", dir_ / "a.exr"})
+          .code,
+      0);
   ASSERT_EQ(run_render({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus", "4", "--blur-at-infinity",
                         "24", "--output", dir_ / "b.exr"})
                 .code,
@@ -190,8 +190,8 @@ TEST_F(RenderCli, EveryCocModelMatchesTheLibraryModel) {
       {{"--blur-at-infinity", "24", "--focus", "4", "--reference-width", "320"}, k},
   };
   for (const Case& c : cases) {
-    std::vector<std::string> args = {"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--output",
-                                     dir_ / "o.exr", "--output-coc", dir_ / "coc.exr"};
+    std::vector<std::string> args = {"--color",  dir_ / "c.exr", "--depth",      dir_ / "z.exr",
+                                     "--output", dir_ / "o.exr", "--output-coc", dir_ / "coc.exr"};
     args.insert(args.end(), c.flags.begin(), c.flags.end());
     const CliResult r = run_render(args);
     ASSERT_EQ(r.code, 0) << c.flags[0] << ": " << r.message;
@@ -205,14 +205,14 @@ TEST_F(RenderCli, EveryCocModelMatchesTheLibraryModel) {
 }
 
 TEST_F(RenderCli, FocusAtUsesTheDepthUnderThePixel) {
-  auto args = std::vector<std::string>{"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--blur-at-infinity",
-                                       "24", "--focus-at", "80,45", "--output", dir_ / "o.exr", "--output-coc",
-                                       dir_ / "coc.exr"};
+  auto args = std::vector<std::string>{"--color",      dir_ / "c.exr",  "--depth", dir_ / "z.exr", "--blur-at-infinity",
+                                       "24",           "--focus-at",    "80,45",   "--output",     dir_ / "o.exr",
+                                       "--output-coc", dir_ / "coc.exr"};
   ASSERT_EQ(run_render(args).code, 0);
   auto in = OIIO::ImageInput::open(dir_ / "coc.exr");
   std::vector<float> raw(W * H);
   ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, raw.data()));
-  EXPECT_NEAR(raw[kBox], 0.0f, 1e-5);  // the 2 m box is in focus
+  EXPECT_NEAR(raw[kBox], 0.0f, 1e-5);                        // the 2 m box is in focus
   EXPECT_NEAR(raw[kBackground], 24 * (2.0 / 10 - 1), 1e-4);  // background: r = K (2/10 − 1)
 }
 
@@ -364,9 +364,9 @@ TEST_F(RenderCli, NoModelOrTwoModels) {
 }
 
 TEST_F(RenderCli, ConflictingFocusFlags) {
-  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--blur-at-infinity", "3", "--output",
-                  dir_ / "o.exr"},
-                 2, {"--focus"});
+  expect_failure(
+      {"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--blur-at-infinity", "3", "--output", dir_ / "o.exr"}, 2,
+      {"--focus"});
   expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus", "4", "--focus-at", "3,3",
                   "--blur-at-infinity", "3", "--output", dir_ / "o.exr"},
                  2, {"--focus-at"});
@@ -456,7 +456,8 @@ struct ProcResult {
 // `env`: NAME=VALUE assignments put before the command (shell syntax), or "".
 ProcResult spawn(const std::string& args, const ScratchDir& dir, const std::string& env = "") {
   const std::string err_file = dir / "stderr.txt";
-  const std::string cmd = env + " " + std::string(DOFKIT_BINARY_DIR) + "/dofkit " + args + " 2>" + err_file + " >/dev/null";
+  const std::string cmd =
+      env + " " + std::string(DOFKIT_BINARY_DIR) + "/dofkit " + args + " 2>" + err_file + " >/dev/null";
   const int status = std::system(cmd.c_str());
   ProcResult r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_bytes(err_file)};
   std::filesystem::remove(err_file);
@@ -466,10 +467,10 @@ std::string q(const std::string& s) { return "'" + s + "'"; }
 }  // namespace
 
 TEST_F(RenderCli, EndToEndExactCall) {
-  const ProcResult r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") +
-                                 " --focus 4 --blur-at-infinity 24 --max-coc 40 --method reference --output " +
-                                 q(dir_ / "out.exr"),
-                             dir_);
+  const ProcResult r =
+      spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") +
+                " --focus 4 --blur-at-infinity 24 --max-coc 40 --method reference --output " + q(dir_ / "out.exr"),
+            dir_);
   ASSERT_EQ(r.code, 0) << r.err;
   const Image out = io::read_color(dir_ / "out.exr");
   EXPECT_EQ(out.width(), W);
@@ -485,9 +486,9 @@ TEST_F(RenderCli, EndToEndOpenImageIOIsLoadedOnlyForFilesThatNeedIt) {
   // EXR in, EXR / PNG / JPEG / TIFF out (the common kinds, *_direct.hpp): OpenImageIO
   // is never needed.
   for (const char* out : {"out.exr", "out.png", "out.jpg", "out.tif"}) {
-    const ProcResult ok = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera +
-                                    " --output " + q(dir_ / out),
-                                dir_, broken);
+    const ProcResult ok = spawn(
+        "render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") + camera + " --output " + q(dir_ / out),
+        dir_, broken);
     EXPECT_EQ(ok.code, 0) << out << ": " << ok.err;
     EXPECT_TRUE(std::filesystem::exists(dir_ / out)) << out;
   }
@@ -542,12 +543,41 @@ TEST_F(RenderCli, EndToEndHelpDocumentsEveryFlag) {
   const int status = std::system((std::string(DOFKIT_BINARY_DIR) + "/dofkit render --help >" + out_file).c_str());
   ASSERT_EQ(WEXITSTATUS(status), 0);
   const std::string help = read_bytes(out_file);
-  for (const char* flag :
-       {"--color", "--depth", "--output", "--method", "--focus", "--f-number", "--focal-length", "--sensor-width",
-        "--blur-at-infinity", "--planes", "--near-radius", "--far-radius", "--starcraft", "--max-radius", "--near-far",
-        "--max-coc", "--focus-at", "--depth-kind", "--fov-deg", "--disparity-scale", "--clip", "--invalid-depth",
-        "--output-coc", "--threads", "--set", "--debug-view", "--debug-output", "--layers", "--mask", "--mask-depth", "--frames", "--compression",
-        "--png-level", "Examples:", "Exit codes"})
+  for (const char* flag : {"--color",
+                           "--depth",
+                           "--output",
+                           "--method",
+                           "--focus",
+                           "--f-number",
+                           "--focal-length",
+                           "--sensor-width",
+                           "--blur-at-infinity",
+                           "--planes",
+                           "--near-radius",
+                           "--far-radius",
+                           "--starcraft",
+                           "--max-radius",
+                           "--near-far",
+                           "--max-coc",
+                           "--focus-at",
+                           "--depth-kind",
+                           "--fov-deg",
+                           "--disparity-scale",
+                           "--clip",
+                           "--invalid-depth",
+                           "--output-coc",
+                           "--threads",
+                           "--set",
+                           "--debug-view",
+                           "--debug-output",
+                           "--layers",
+                           "--mask",
+                           "--mask-depth",
+                           "--frames",
+                           "--compression",
+                           "--png-level",
+                           "Examples:",
+                           "Exit codes"})
     EXPECT_TRUE(contains(help, flag)) << flag;
 }
 
@@ -581,9 +611,9 @@ TEST_F(RenderCli, LayersFileAloneIsAFrame) {
 }
 
 TEST_F(RenderCli, MissingLayersFile) {
-  expect_failure({"--layers", dir_ / "nolayers.exr", "--focus", "4", "--blur-at-infinity", "24", "--output",
-                  dir_ / "out.exr"},
-                 3, {"nolayers.exr"});
+  expect_failure(
+      {"--layers", dir_ / "nolayers.exr", "--focus", "4", "--blur-at-infinity", "24", "--output", dir_ / "out.exr"}, 3,
+      {"nolayers.exr"});
 }
 
 TEST_F(RenderCli, FlagErrorsAreFoundBeforeReadingInputs) {
@@ -597,8 +627,8 @@ TEST_F(RenderCli, FlagErrorsAreFoundBeforeReadingInputs) {
   a.insert(a.end(), {"--focus", "4", "--f-number", "0"});
   expect_failure(a, 2, {"--f-number"});
   a = base();
-  a.insert(a.end(), {"--focus", "4", "--blur-at-infinity", "8", "--debug-view", "nosuchview", "--debug-output",
-                     dir_ / "d.exr"});
+  a.insert(a.end(),
+           {"--focus", "4", "--blur-at-infinity", "8", "--debug-view", "nosuchview", "--debug-output", dir_ / "d.exr"});
   expect_failure(a, 2, {"--debug-view nosuchview"});
   a = base();
   a.insert(a.end(), {"--focus", "4", "--blur-at-infinity", "8", "--set", "bogus=1"});
@@ -643,28 +673,29 @@ void expect_frames_match_single_calls(const ScratchDir& dir, const std::vector<s
 
 TEST_F(RenderCli, FramesRenderLikeOneCallPerFrame) {
   write_sequence(dir_, color_, depth_);
-  const std::vector<std::string> common = {"--blur-at-infinity", "24", "--focus-at", "80,45", "--max-coc", "40",
-                                           "--method", "sterna"};
-  auto seq = std::vector<std::string>{"--color", dir_ / "c.####.exr", "--depth", dir_ / "z.%04d.exr", "--frames", "1-3",
-                                      "--output", dir_ / "o.####.exr", "--output-coc", dir_ / "coc.%d.exr"};
+  const std::vector<std::string> common = {"--blur-at-infinity", "24", "--focus-at", "80,45",
+                                           "--max-coc",          "40", "--method",   "sterna"};
+  auto seq =
+      std::vector<std::string>{"--color",  dir_ / "c.####.exr", "--depth",      dir_ / "z.%04d.exr", "--frames", "1-3",
+                               "--output", dir_ / "o.####.exr", "--output-coc", dir_ / "coc.%d.exr"};
   seq.insert(seq.end(), common.begin(), common.end());
   expect_frames_match_single_calls(dir_, seq, [&](const std::string& n) {
-    auto one = std::vector<std::string>{"--color", dir_ / ("c." + n + ".exr"), "--depth", dir_ / ("z." + n + ".exr"),
-                                        "--output", dir_ / ("single." + n + ".exr")};
+    auto one =
+        std::vector<std::string>{"--color",  dir_ / ("c." + n + ".exr"),     "--depth", dir_ / ("z." + n + ".exr"),
+                                 "--output", dir_ / ("single." + n + ".exr")};
     one.insert(one.end(), common.begin(), common.end());
     return one;
   });
-  for (int k = 1; k <= 3; ++k)
-    EXPECT_TRUE(std::filesystem::exists(dir_ / "coc." + std::to_string(k) + ".exr")) << k;
+  for (int k = 1; k <= 3; ++k) EXPECT_TRUE(std::filesystem::exists(dir_ / "coc." + std::to_string(k) + ".exr")) << k;
   // The frames differ (different inputs and focus), so a stale frame would have been seen.
   EXPECT_NE(io::read_color(dir_ / "o.0001.exr").data(), io::read_color(dir_ / "o.0002.exr").data());
 }
 
 TEST_F(RenderCli, FramesStepAndSingleFrame) {
   write_sequence(dir_, color_, depth_);
-  auto a = std::vector<std::string>{"--color", dir_ / "c.####.exr", "--depth", dir_ / "z.####.exr", "--frames", "1-3x2",
-                                    "--focus", "4", "--blur-at-infinity", "24", "--method", "starcraft",
-                                    "--output", dir_ / "s.##.exr"};
+  auto a = std::vector<std::string>{"--color",  dir_ / "c.####.exr", "--depth",  dir_ / "z.####.exr",  "--frames",
+                                    "1-3x2",    "--focus",           "4",        "--blur-at-infinity", "24",
+                                    "--method", "starcraft",         "--output", dir_ / "s.##.exr"};
   ASSERT_EQ(run_render(a).code, 0);
   EXPECT_TRUE(std::filesystem::exists(dir_ / "s.01.exr"));
   EXPECT_FALSE(std::filesystem::exists(dir_ / "s.02.exr"));
@@ -679,8 +710,9 @@ TEST_F(RenderCli, FramesUsageErrors) {
   const std::vector<std::string> keep = {"c.0001.exr", "c.0002.exr", "c.0003.exr",
                                          "z.0001.exr", "z.0002.exr", "z.0003.exr"};
   auto base = [&](const std::string& frames, const std::string& color, const std::string& out) {
-    return std::vector<std::string>{"--color", dir_ / color, "--depth", dir_ / "z.####.exr", "--frames", frames,
-                                    "--focus", "4", "--blur-at-infinity", "24", "--output", dir_ / out};
+    return std::vector<std::string>{"--color",  dir_ / color, "--depth", dir_ / "z.####.exr",  "--frames",
+                                    frames,     "--focus",    "4",       "--blur-at-infinity", "24",
+                                    "--output", dir_ / out};
   };
   expect_failure(base("1-3", "c.####.exr", "o.exr"), 2, {"--output", "frame pattern"}, keep);
   expect_failure(base("1-3", "c.0001.exr", "o.####.exr"), 2, {"--color", "frame pattern"}, keep);
@@ -733,8 +765,8 @@ TEST_F(RenderCli, CompressionOfExrOutputs) {
   }
   auto png = exact_call("o.png");
   png.insert(png.end(), {"--compression", "none"});
-  expect_failure(png, 2, {"--compression", ".exr"}, {"zip.exr", "none.exr", "piz.exr", "rle.exr", "coc_none.exr",
-                                                     "coc_piz.exr", "coc_rle.exr"});
+  expect_failure(png, 2, {"--compression", ".exr"},
+                 {"zip.exr", "none.exr", "piz.exr", "rle.exr", "coc_none.exr", "coc_piz.exr", "coc_rle.exr"});
   auto unknown = exact_call("o.exr");
   unknown.insert(unknown.end(), {"--compression", "lzw"});
   expect_failure(unknown, 2, {"--compression lzw", "unknown EXR compression", "piz"},
@@ -779,14 +811,16 @@ TEST_F(RenderCli, FramesWithAMaskAndAFixedMaskDepth) {
   io::WriteOptions zo;
   zo.channel_name = "Z";
   io::write_image(dir_ / "mz.exr", Image(W, H, 1, 4.0f), zo);
-  const std::vector<std::string> common = {"--focus", "4", "--blur-at-infinity", "24", "--method", "starcraft",
-                                           "--mask-depth", dir_ / "mz.exr"};
-  auto seq = std::vector<std::string>{"--color", dir_ / "c.####.exr", "--depth", dir_ / "z.####.exr", "--mask",
-                                      dir_ / "m.####.exr", "--frames", "1-3", "--output", dir_ / "o.####.exr"};
+  const std::vector<std::string> common = {"--focus",  "4",         "--blur-at-infinity", "24",
+                                           "--method", "starcraft", "--mask-depth",       dir_ / "mz.exr"};
+  auto seq = std::vector<std::string>{"--color",  dir_ / "c.####.exr", "--depth",  dir_ / "z.####.exr",
+                                      "--mask",   dir_ / "m.####.exr", "--frames", "1-3",
+                                      "--output", dir_ / "o.####.exr"};
   seq.insert(seq.end(), common.begin(), common.end());
   expect_frames_match_single_calls(dir_, seq, [&](const std::string& n) {
-    auto one = std::vector<std::string>{"--color", dir_ / ("c." + n + ".exr"), "--depth", dir_ / ("z." + n + ".exr"),
-                                        "--mask", dir_ / ("m." + n + ".exr"), "--output", dir_ / ("single." + n + ".exr")};
+    auto one =
+        std::vector<std::string>{"--color", dir_ / ("c." + n + ".exr"), "--depth",  dir_ / ("z." + n + ".exr"),
+                                 "--mask",  dir_ / ("m." + n + ".exr"), "--output", dir_ / ("single." + n + ".exr")};
     one.insert(one.end(), common.begin(), common.end());
     return one;
   });

@@ -34,8 +34,8 @@ TEST(PassProfile, NestedScopesRecordTheirPathsInFirstOpenOrder) {
   { PassScope after("after"); }
   const std::vector<PassTime> t = take_pass_profile();
   set_pass_profiling(false);
-  EXPECT_EQ(paths(t), (std::vector<std::string>{"method", "method/first", "method/second", "method/second/inner",
-                                                 "after"}));
+  EXPECT_EQ(paths(t),
+            (std::vector<std::string>{"method", "method/first", "method/second", "method/second/inner", "after"}));
   const int calls[] = {3, 6, 3, 3, 1};
   for (std::size_t i = 0; i < t.size(); ++i) {
     EXPECT_EQ(t[i].calls, calls[i]) << t[i].path;
@@ -60,9 +60,11 @@ TEST(PassProfile, RecordsNothingWhileOff) {
 // Every method's render reports render()'s own steps and its passes under its name.
 TEST(PassProfile, RenderReportsTheMethodsPasses) {
   const Frame frame = scene::bench_frame(96, 54);
-  const std::vector<std::pair<std::string, std::string>> expect = {
-      {"mcguire", "mcguire/horizontal"}, {"sterna", "sterna/gather"}, {"starcraft", "starcraft/medium + final"},
-      {"layered", "layered/fused stack/layer blur"}, {"reference", "reference"}};
+  const std::vector<std::pair<std::string, std::string>> expect = {{"mcguire", "mcguire/horizontal"},
+                                                                   {"sterna", "sterna/gather"},
+                                                                   {"starcraft", "starcraft/medium + final"},
+                                                                   {"layered", "layered/fused stack/layer blur"},
+                                                                   {"reference", "reference"}};
   for (const auto& [method, pass] : expect) {
     SCOPED_TRACE(method);
     RenderSettings s;

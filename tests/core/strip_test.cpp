@@ -67,14 +67,15 @@ TEST(Strip, PassesEqualTheirResummingDefinitionBitForBit) {
   for (int r : {0, 1, 5, 15, 16, 20, 31, 32, 40})
     for (int n : {1, 7, 31, 32, 33, 64, 95, 200, 517})
       for (int passes : {1, 2, 3, 4, 5, 7}) {  // > 3: cascades one after the other
-        const int pad = r + 1 + (n % 3);  // pad may exceed r + 1
+        const int pad = r + 1 + (n % 3);       // pad may exceed r + 1
         std::vector<float> a(static_cast<std::size_t>(n + 2 * pad) * kL);
         for (auto& x : a) {  // HDR-like: highlights and exact zeros make rounding visible
           const float t = u(rng);
           x = t < 0.05f ? 300.0f * u(rng) : (t < 0.15f ? 0.0f : u(rng));
         }
         const float alpha = 0.25f + 0.5f * u(rng);
-        EXPECT_TRUE(passes_match_definition(a, n, pad, r, alpha, passes)) << "r " << r << " n " << n << " passes " << passes;
+        EXPECT_TRUE(passes_match_definition(a, n, pad, r, alpha, passes))
+            << "r " << r << " n " << n << " passes " << passes;
       }
 }
 
@@ -117,7 +118,8 @@ TEST(Strip, TransposesMoveEverySampleExactly) {
       for (bool with_mul : {false, true}) {
         const int stride = shift < 0 ? nx + 1 : (nx + 31) / 16 * 16;
         std::vector<float> store(static_cast<std::size_t>(kL) * stride + 32), mul(static_cast<std::size_t>(kL) * nx);
-        float* base = store.data() + (16 - reinterpret_cast<std::uintptr_t>(store.data()) % 64 / 4) % 16 + std::max(shift, 0);
+        float* base =
+            store.data() + (16 - reinterpret_cast<std::uintptr_t>(store.data()) % 64 / 4) % 16 + std::max(shift, 0);
         for (auto& v : store) v = u(rng);
         for (auto& v : mul) v = u(rng);
         const float* rows[kL];
@@ -156,7 +158,8 @@ TEST(Strip, ColumnCopiesMoveExactlyTheirColumns) {
     load_columns(plane.data() + x0, w, h, nx, s.data());
     for (int y = 0; y < h; ++y)
       for (int j = 0; j < kL; ++j)
-        ASSERT_EQ(s[static_cast<std::size_t>(y) * kL + j], plane[static_cast<std::size_t>(y) * w + x0 + std::min(j, nx - 1)])
+        ASSERT_EQ(s[static_cast<std::size_t>(y) * kL + j],
+                  plane[static_cast<std::size_t>(y) * w + x0 + std::min(j, nx - 1)])
             << "x0 " << x0 << " y " << y << " j " << j;
     std::vector<float> out(plane.size(), 5.0f);
     for (auto& v : s) v = -v;

@@ -127,9 +127,9 @@ TEST(DepthKinds, DisparityEightBitBrightIsNear) {
   o.kind = DepthKind::disparity;
   o.disparity_scale = 1.5;
   const Image d = io::read_depth(dir / "d.png", o);
-  EXPECT_FLOAT_EQ(d.at(0, 0), 1.5f);                                  // white: d = 1 → z = scale
-  EXPECT_NEAR(d.at(1, 0), 1.5 / (128 / 255.0), 1e-5);                 // code 128
-  EXPECT_TRUE(std::isinf(d.at(2, 0)));                                // black: far
+  EXPECT_FLOAT_EQ(d.at(0, 0), 1.5f);                   // white: d = 1 → z = scale
+  EXPECT_NEAR(d.at(1, 0), 1.5 / (128 / 255.0), 1e-5);  // code 128
+  EXPECT_TRUE(std::isinf(d.at(2, 0)));                 // black: far
   EXPECT_LT(d.at(0, 0), d.at(1, 0));
 }
 

@@ -37,7 +37,8 @@ void write_exr(const std::string& path, int w, int h, const std::vector<std::str
   if (tile) spec.tile_width = spec.tile_height = tile;
   spec.attribute("compression", compression);
   std::vector<float> px(static_cast<std::size_t>(w) * h * nc);
-  for (std::size_t i = 0; i < px.size(); ++i) px[i] = std::sin(0.013f * static_cast<float>(i)) * 3.0f + 0.001f * (i % 17);
+  for (std::size_t i = 0; i < px.size(); ++i)
+    px[i] = std::sin(0.013f * static_cast<float>(i)) * 3.0f + 0.001f * (i % 17);
   px[0] = std::numeric_limits<float>::infinity();
   if (px.size() > 5) px[5] = -0.0f;
   auto out = OIIO::ImageOutput::create(path);
@@ -166,7 +167,8 @@ TEST(ExrDirectRead, ReadColorAndDepthGiveTheSameFrameThroughEitherReader) {
       EXPECT_EQ(std::memcmp(ca.data().data(), cb.data().data(), ca.data().size() * sizeof(float)), 0) << z;
     }
   for (const char* comp : {"zip", "piz"})
-    write_exr(dir / (std::string(comp) + ".exr"), 33, 17, {"R", "G", "B", "A", "Z"}, all(5, OIIO::TypeDesc::FLOAT), comp);
+    write_exr(dir / (std::string(comp) + ".exr"), 33, 17, {"R", "G", "B", "A", "Z"}, all(5, OIIO::TypeDesc::FLOAT),
+              comp);
   io::DepthOptions o;
   o.invalid_as_far = true;
   const Image da = io::read_depth(dir / "zip.exr", o), db = io::read_depth(dir / "piz.exr", o);

@@ -22,7 +22,6 @@ using namespace dofkit::test;
 
 namespace {
 
-
 // A plane with smooth parts (compressible), random bit patterns (incompressible: their chunks
 // are stored raw) and the special values.
 std::vector<float> test_plane(int w, int h, int seed, bool random_bits) {
@@ -39,8 +38,14 @@ std::vector<float> test_plane(int w, int h, int seed, bool random_bits) {
       }
       p[static_cast<std::size_t>(y) * w + x] = v;
     }
-  const float specials[] = {std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
-                            std::numeric_limits<float>::quiet_NaN(), -0.0f, 1e-42f, 70000.0f, 6e-8f, -3.5f};
+  const float specials[] = {std::numeric_limits<float>::infinity(),
+                            -std::numeric_limits<float>::infinity(),
+                            std::numeric_limits<float>::quiet_NaN(),
+                            -0.0f,
+                            1e-42f,
+                            70000.0f,
+                            6e-8f,
+                            -3.5f};
   for (std::size_t i = 0; i < std::size(specials) && i < p.size(); ++i) p[i * 7 % p.size()] = specials[i];
   return p;
 }
@@ -60,7 +65,8 @@ void check_case(const Case& c) {
   ScratchDir dir;
   std::vector<std::vector<float>> planes;
   std::vector<io::exr::OutChannel> ch;
-  for (std::size_t i = 0; i < c.names.size(); ++i) planes.push_back(test_plane(c.w, c.h, static_cast<int>(i) + 1, c.random_bits));
+  for (std::size_t i = 0; i < c.names.size(); ++i)
+    planes.push_back(test_plane(c.w, c.h, static_cast<int>(i) + 1, c.random_bits));
   for (std::size_t i = 0; i < c.names.size(); ++i) ch.push_back({c.names[i], planes[i].data()});
   const std::string path = dir / "o.exr";
   io::exr::write_scanline(path, path, c.w, c.h, ch, c.half, c.compression);
@@ -101,7 +107,7 @@ TEST(ExrDirectWrite, EveryCompressionTypeAndChannelSetReadsBackExactly) {
       check_case({comp, half, rgba, 37, 23, false});  // 16-line chunks: one full, one partial
       check_case({comp, half, rgb, 5, 16, false});    // exactly one zip chunk
       check_case({comp, half, z, 1, 1, false});
-      check_case({comp, half, coc, 64, 33, false});   // 16 + 16 + 1 rows
+      check_case({comp, half, coc, 64, 33, false});  // 16 + 16 + 1 rows
     }
 }
 
@@ -120,8 +126,8 @@ TEST(ExrDirectWrite, ChannelsAreStoredInExrOrderWhateverTheOrderGiven) {
   ScratchDir dir;
   const int w = 9, h = 4;
   std::vector<float> r(w * h, 1.0f), g(w * h, 2.0f), b(w * h, 3.0f), a(w * h, 0.5f);
-  io::exr::write_scanline(dir / "o.exr", "o.exr", w, h, {{"R", r.data()}, {"G", g.data()}, {"B", b.data()}, {"A", a.data()}},
-                          false, "zip");
+  io::exr::write_scanline(dir / "o.exr", "o.exr", w, h,
+                          {{"R", r.data()}, {"G", g.data()}, {"B", b.data()}, {"A", a.data()}}, false, "zip");
   // write_image's colour path: R, G, B, A come back as premultiplied RGBA.
   const Image back = io::read_color(dir / "o.exr");
   EXPECT_EQ(back.at(3, 2, 0), 1.0f);
@@ -154,8 +160,9 @@ TEST(ExrDirectWrite, WriteImageTakesTheDirectPathForItsDefaultsAndOpenImageIOFor
 TEST(ExrDirectWrite, AnUnwritableFileIsAOneLineErrorNamingIt) {
   ScratchDir dir;
   std::vector<float> p(16, 1.0f);
-  const std::string m = bad_input_message(
-      [&] { io::exr::write_scanline(dir / "missing/o.exr", "shown/o.exr", 4, 4, {{"Y", p.data()}}, false, "zip"); });
+  const std::string m = bad_input_message([&] {
+    io::exr::write_scanline(dir / "missing/o.exr", "shown/o.exr", 4, 4, {{"Y", p.data()}}, false, "zip");
+  });
   EXPECT_NE(m.find("shown/o.exr: cannot write"), std::string::npos) << m;
   EXPECT_FALSE(fs::exists(dir / "missing"));
 }

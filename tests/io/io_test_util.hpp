@@ -184,8 +184,8 @@ inline std::vector<float> boundary_samples(int w, int h, int c, int seed) {
   return v;
 }
 
-/// OpenImageIO's float → integer rule (io/quantise.hpp) written out, independently of the writer: round half away from zero of v·max in
-/// float (0.49999997 stores 0), clamped to [0, max]; NaN stores 0.
+/// OpenImageIO's float → integer rule (io/quantise.hpp) written out, independently of the writer: round half away from
+/// zero of v·max in float (0.49999997 stores 0), clamped to [0, max]; NaN stores 0.
 inline std::vector<long> quantise_rule(const std::vector<float>& v, int bits) {
   const float max = bits == 8 ? 255.0f : 65535.0f;
   std::vector<long> q;
@@ -216,7 +216,8 @@ std::vector<T> read_oiio(const std::string& path, int* w = nullptr, int* h = nul
 }
 
 /// The same, 8 or 16 bits, as long.
-inline std::vector<long> read_as_long(const std::string& path, int bits, int* w = nullptr, int* h = nullptr, int* c = nullptr) {
+inline std::vector<long> read_as_long(const std::string& path, int bits, int* w = nullptr, int* h = nullptr,
+                                      int* c = nullptr) {
   std::vector<long> out;
   if (bits == 8) {
     for (auto q : read_oiio<std::uint8_t>(path, w, h, c)) out.push_back(q);

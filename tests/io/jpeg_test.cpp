@@ -28,7 +28,6 @@ using namespace dofkit::test;
 
 namespace {
 
-
 // A photograph-like test image in [0, 1]: smooth gradients, edges and noise.
 std::vector<float> picture(int w, int h, int c, int seed) {
   std::vector<float> v(static_cast<std::size_t>(w) * h * c);
@@ -78,7 +77,8 @@ void libjpeg_write(const std::string& path, int w, int h, int c, const std::vect
   jpeg_set_defaults(&cinfo);
   jpeg_set_quality(&cinfo, 90, TRUE);
   if (o.full_chroma)
-    for (int i = 0; i < cinfo.num_components; ++i) cinfo.comp_info[i].h_samp_factor = cinfo.comp_info[i].v_samp_factor = 1;
+    for (int i = 0; i < cinfo.num_components; ++i)
+      cinfo.comp_info[i].h_samp_factor = cinfo.comp_info[i].v_samp_factor = 1;
   if (o.progressive) jpeg_simple_progression(&cinfo);
   jpeg_start_compress(&cinfo, TRUE);
   while (cinfo.next_scanline < cinfo.image_height) {
@@ -120,7 +120,6 @@ void expect_reads_as_oiio(const std::string& path) {
       EXPECT_EQ(diff, 0u) << "channels [" << cb << ", " << ce << ")";
     }
 }
-
 
 }  // namespace
 

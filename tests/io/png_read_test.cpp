@@ -24,7 +24,6 @@ using namespace dofkit::test;
 
 namespace {
 
-
 void put32(std::string& s, std::uint32_t v) {
   for (int k = 3; k >= 0; --k) s.push_back(static_cast<char>((v >> (8 * k)) & 0xff));
 }
@@ -33,7 +32,8 @@ void add_chunk(std::string& png, const std::string& type, const std::string& dat
   put32(png, static_cast<std::uint32_t>(data.size()));
   const std::string td = type + data;
   png += td;
-  put32(png, static_cast<std::uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(td.data()), static_cast<uInt>(td.size()))));
+  put32(png,
+        static_cast<std::uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(td.data()), static_cast<uInt>(td.size()))));
 }
 
 // A PNG built by hand: IHDR (w, h, depth, colour type, interlace), the `extra` chunks, one
@@ -63,7 +63,6 @@ void write_file(const std::string& path, const std::string& bytes) {
   f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
 }
 
-
 // Codes that make every row filter win somewhere: flat rows (None / Up), horizontal ramps
 // (Sub), vertical ramps (Up), smooth 2-D ramps (Average / Paeth), noise.
 std::vector<float> coded_samples(int w, int h, int c, int bits, int seed) {
@@ -75,11 +74,21 @@ std::vector<float> coded_samples(int w, int h, int c, int bits, int seed) {
       for (int k = 0; k < c; ++k) {
         long code;
         switch ((y / 4) % 5) {
-          case 0: code = 40 * (k + 1); break;
-          case 1: code = 3 * x + 7 * k; break;
-          case 2: code = 5 * y + 11 * k; break;
-          case 3: code = (x * x + 3 * y * y) / 40 + 13 * k; break;
-          default: code = static_cast<long>(rng() % (max + 1)); break;
+          case 0:
+            code = 40 * (k + 1);
+            break;
+          case 1:
+            code = 3 * x + 7 * k;
+            break;
+          case 2:
+            code = 5 * y + 11 * k;
+            break;
+          case 3:
+            code = (x * x + 3 * y * y) / 40 + 13 * k;
+            break;
+          default:
+            code = static_cast<long>(rng() % (max + 1));
+            break;
         }
         if (bits == 16 && (y / 4) % 5 != 4) code *= 97;
         v[(static_cast<std::size_t>(y) * w + x) * c + k] = static_cast<float>(code % (max + 1)) / max;
@@ -138,7 +147,8 @@ TEST(PngRead, EqualsOpenImageIOBitForBit) {
             OIIO::ImageSpec spec(sz.w, sz.h, c, bits == 8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16);
             if (c == 2 || c == 4) spec.attribute("oiio:UnassociatedAlpha", 1);
             auto out = OIIO::ImageOutput::create(path);
-            ASSERT_TRUE(out && out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, v.data()) && out->close());
+            ASSERT_TRUE(out && out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, v.data()) &&
+                        out->close());
           }
           const auto r = io::png::Reader::open(path);
           ASSERT_TRUE(r);
@@ -188,14 +198,16 @@ TEST(PngRead, EveryCodeConvertsAsOpenImageIO) {
     ASSERT_TRUE(r->read(0, 1, mine.data()));
     auto in = open_oiio(path);
     ASSERT_TRUE(in && in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, theirs.data()));
-    for (std::size_t i = 0; i < mine.size(); ++i) ASSERT_EQ(bits_of(mine[i]), bits_of(theirs[i])) << bits << " bits, code " << i;
+    for (std::size_t i = 0; i < mine.size(); ++i)
+      ASSERT_EQ(bits_of(mine[i]), bits_of(theirs[i])) << bits << " bits, code " << i;
   }
 }
 
 // The files this reader leaves to OpenImageIO.
 TEST(PngRead, LeavesOtherFilesToOpenImageIO) {
   ScratchDir dir;
-  const std::string rgb_rows = std::string(1, '\0') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
+  const std::string rgb_rows =
+      std::string(1, '\0') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
   const std::string ok = make_png(2, 2, 8, 2, 0, rgb_rows);
   write_file(dir / "ok.png", ok);
   EXPECT_TRUE(io::png::Reader::open(dir / "ok.png")) << "the control file must be taken";
@@ -218,7 +230,8 @@ TEST(PngRead, LeavesOtherFilesToOpenImageIO) {
   refused("not_png.png", "GIF89a....");
   EXPECT_FALSE(io::png::Reader::open(dir / "missing.png"));
   // Ancillary chunks that change nothing are fine (text, gamma, sRGB).
-  write_file(dir / "text.png", make_png(2, 2, 8, 2, 0, rgb_rows, {{"tEXt", std::string("k\0v", 3)}, {"gAMA", std::string(4, '\1')}}));
+  write_file(dir / "text.png",
+             make_png(2, 2, 8, 2, 0, rgb_rows, {{"tEXt", std::string("k\0v", 3)}, {"gAMA", std::string(4, '\1')}}));
   EXPECT_TRUE(io::png::Reader::open(dir / "text.png"));
 }
 
@@ -226,7 +239,8 @@ TEST(PngRead, LeavesOtherFilesToOpenImageIO) {
 // names the file, and libpng is never asked (it would print its own "libpng error" line).
 TEST(PngRead, BrokenFilesAreRefusedWithTheirReason) {
   ScratchDir dir;
-  const std::string rgb_rows = std::string(1, '\0') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
+  const std::string rgb_rows =
+      std::string(1, '\0') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
   const std::string ok = make_png(2, 2, 8, 2, 0, rgb_rows);
   const auto ihdr_with = [&](std::size_t at, char v) {  // `at` within IHDR's 13 data bytes
     std::string b = ok, data = ok.substr(8 + 8, 13);
@@ -244,7 +258,8 @@ TEST(PngRead, BrokenFilesAreRefusedWithTheirReason) {
   std::string first_text_crc = first_text;
   first_text_crc[8 + 8 + 3 + 3] ^= 1;  // that tEXt chunk's CRC: still not IHDR first
   const std::string short_rows = std::string(1, '\0') + std::string(6, '\x40');  // one row of two
-  const std::string bad_filter = std::string(1, '\x07') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
+  const std::string bad_filter =
+      std::string(1, '\x07') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
   struct Case {
     const char* name;
     std::string bytes;
@@ -309,7 +324,8 @@ TEST(PngRead, BrokenFilesAreRefusedWithTheirReason) {
 // when it meets the checksum with the rows, warns when it meets it after the last row).
 TEST(PngRead, WhatLibpngToleratesIsStillRead) {
   ScratchDir dir;
-  const std::string rgb_rows = std::string(1, '\0') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
+  const std::string rgb_rows =
+      std::string(1, '\0') + std::string(6, '\x40') + std::string(1, '\0') + std::string(6, '\x80');
   const std::string ok = make_png(2, 2, 8, 2, 0, rgb_rows);
   write_file(dir / "ok.png", ok);
   const Image want = io::read_color(dir / "ok.png");
@@ -347,8 +363,9 @@ TEST(PngRead, WhatLibpngToleratesIsStillRead) {
   // A wrong Adler-32 (the stream's last 4 bytes, just before IDAT's CRC): rebuild IDAT with it.
   {
     const std::size_t idat_at = 8 + 25;
-    const std::uint32_t n = (static_cast<unsigned char>(ok[idat_at]) << 24) | (static_cast<unsigned char>(ok[idat_at + 1]) << 16) |
-                            (static_cast<unsigned char>(ok[idat_at + 2]) << 8) | static_cast<unsigned char>(ok[idat_at + 3]);
+    const std::uint32_t n =
+        (static_cast<unsigned char>(ok[idat_at]) << 24) | (static_cast<unsigned char>(ok[idat_at + 1]) << 16) |
+        (static_cast<unsigned char>(ok[idat_at + 2]) << 8) | static_cast<unsigned char>(ok[idat_at + 3]);
     std::string stream = ok.substr(idat_at + 8, n);
     stream.back() ^= 1;
     std::string b = ok.substr(0, idat_at);

@@ -208,8 +208,8 @@ TEST(PngDirect, WriteImageUsesItAndErrorsNameTheFile) {
   EXPECT_EQ(ch.data.count("tEXt"), 0u);
   EXPECT_EQ(ch.types[1], "gAMA");
   const std::string m = bad_input_message([&] {
-    io::png::write(dir / "no/such/dir/x.png", "shown.png", io::png::Layout{9, 5, 4, 8}, std::vector<float>(180).data(), 6,
-                   true);
+    io::png::write(dir / "no/such/dir/x.png", "shown.png", io::png::Layout{9, 5, 4, 8}, std::vector<float>(180).data(),
+                   6, true);
   });
   EXPECT_NE(m.find("shown.png"), std::string::npos) << m;
   // A row longer than 1 GiB (2^27 RGBA 16-bit pixels) is refused before any pixel is read

@@ -75,7 +75,8 @@ TEST(RoundTrip, ExrHalfRgba) {
   EXPECT_EQ(in->spec().format, OIIO::TypeDesc::HALF);
   const Image back = io::read_color(dir / "a.exr");
   for (std::size_t i = 0; i < img.data().size(); ++i)
-    EXPECT_NEAR(back.data()[i], img.data()[i], 1e-3 * std::max(1.0f, std::abs(img.data()[i])));  // half: 11-bit mantissa
+    EXPECT_NEAR(back.data()[i], img.data()[i],
+                1e-3 * std::max(1.0f, std::abs(img.data()[i])));  // half: 11-bit mantissa
 }
 
 TEST(RoundTrip, ExrRgbWithoutAlphaReadsOpaque) {
@@ -331,17 +332,15 @@ TEST(RoundTrip, ExrLayoutsPassTheHeaderCheck) {
   struct Layout {
     const char* name;
     const char* compression;
-    int tile;       // 0 = scanline
+    int tile;  // 0 = scanline
     bool mip;
-    int x0, y0;     // data window origin
+    int x0, y0;  // data window origin
     int parts;
   };
   const Layout layouts[] = {
-      {"none", "none", 0, false, 0, 0, 1},   {"zip", "zip", 0, false, 0, 0, 1},
-      {"piz", "piz", 0, false, 0, 0, 1},     {"dwab", "dwab", 0, false, 0, 0, 1},
-      {"b44", "b44", 0, false, 0, 0, 1},     {"tiled", "zip", 16, false, 0, 0, 1},
-      {"mip", "zip", 16, true, 0, 0, 1},     {"offset", "zip", 0, false, -7, 5, 1},
-      {"parts", "zip", 0, false, 0, 0, 2},
+      {"none", "none", 0, false, 0, 0, 1}, {"zip", "zip", 0, false, 0, 0, 1},     {"piz", "piz", 0, false, 0, 0, 1},
+      {"dwab", "dwab", 0, false, 0, 0, 1}, {"b44", "b44", 0, false, 0, 0, 1},     {"tiled", "zip", 16, false, 0, 0, 1},
+      {"mip", "zip", 16, true, 0, 0, 1},   {"offset", "zip", 0, false, -7, 5, 1}, {"parts", "zip", 0, false, 0, 0, 2},
   };
   for (const Layout& l : layouts) {
     SCOPED_TRACE(l.name);
@@ -391,7 +390,8 @@ TEST(RoundTrip, ExrLayoutsPassTheHeaderCheck) {
     ASSERT_EQ(back.width(), 53);
     ASSERT_EQ(back.height(), 29);
     double m = 0;
-    for (std::size_t i = 0; i < img.data().size(); ++i) m = std::max(m, std::abs(double(img.data()[i]) - back.data()[i]));
+    for (std::size_t i = 0; i < img.data().size(); ++i)
+      m = std::max(m, std::abs(double(img.data()[i]) - back.data()[i]));
     EXPECT_LT(m, l.name == std::string("dwab") || l.name == std::string("b44") ? 0.05 : 2e-3);
   }
 }
@@ -424,9 +424,14 @@ TEST(RoundTrip, MostCompressibleFilesPassThePayloadBound) {
   };
   const Case cases[] = {
       // measured: 899, 903, 1.0, 60, 62, 296 (one row per chunk: the chunk heads dominate), 927, 1231
-      {"p8.png", png(8), 850},          {"p16.png", png(16), 850},          {"none.exr", exr("none", 32), 0.9},
-      {"rle.exr", exr("rle", 16), 55},  {"rle32.exr", exr("rle", 32), 55},  {"zips.exr", exr("zips", 16), 250},
-      {"zip.exr", exr("zip", 32), 850}, {"pxr24.exr", exr("pxr24", 32), 1100},
+      {"p8.png", png(8), 850},
+      {"p16.png", png(16), 850},
+      {"none.exr", exr("none", 32), 0.9},
+      {"rle.exr", exr("rle", 16), 55},
+      {"rle32.exr", exr("rle", 32), 55},
+      {"zips.exr", exr("zips", 16), 250},
+      {"zip.exr", exr("zip", 32), 850},
+      {"pxr24.exr", exr("pxr24", 32), 1100},
   };
   const auto check = [&](const std::string& path, double raw, double min_ratio) {
     const double ratio = raw / static_cast<double>(std::filesystem::file_size(path));
@@ -510,7 +515,8 @@ TEST(RoundTrip, TiffLayoutsPassTheHeaderCheck) {
     Image back;
     ASSERT_NO_THROW(back = io::read_color(path));
     double m = 0;
-    for (std::size_t i = 0; i < img.data().size(); ++i) m = std::max(m, std::abs(double(img.data()[i]) - back.data()[i]));
+    for (std::size_t i = 0; i < img.data().size(); ++i)
+      m = std::max(m, std::abs(double(img.data()[i]) - back.data()[i]));
     EXPECT_LT(m, 1e-6);
   }
 }

@@ -58,7 +58,8 @@ TEST(Srgb8, EqualsQuantisedEncodeOnASweepOfAllFloatsInZeroOne) {
     const float v = float_of(b);
     const std::uint8_t c = io::srgb8_code(v);
     codes_seen[c] = 1;
-    if (c != reference(v) && ++mismatches <= 5) ADD_FAILURE() << "v = " << v << ": " << int(c) << " vs " << reference(v);
+    if (c != reference(v) && ++mismatches <= 5)
+      ADD_FAILURE() << "v = " << v << ": " << int(c) << " vs " << reference(v);
   }
   EXPECT_EQ(mismatches, 0);
   int distinct = 0;

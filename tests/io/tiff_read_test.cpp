@@ -54,8 +54,14 @@ std::vector<unsigned char> samples(const Make& m, int seed) {
   std::vector<unsigned char> v(n);
   if (m.bits == 32 && m.fmt == SAMPLEFORMAT_IEEEFP) {
     std::uniform_real_distribution<float> u(-0.5f, 4.0f);
-    const float special[] = {0.0f, -0.0f, 1.0f, 1e30f, -1e-3f, std::numeric_limits<float>::infinity(),
-                             -std::numeric_limits<float>::infinity(), std::numeric_limits<float>::quiet_NaN(),
+    const float special[] = {0.0f,
+                             -0.0f,
+                             1.0f,
+                             1e30f,
+                             -1e-3f,
+                             std::numeric_limits<float>::infinity(),
+                             -std::numeric_limits<float>::infinity(),
+                             std::numeric_limits<float>::quiet_NaN(),
                              std::numeric_limits<float>::denorm_min()};
     for (std::size_t i = 0; i < n / 4; ++i) {
       const float f = i % 17 < 9 ? special[i % 17] : u(rng);
@@ -106,7 +112,8 @@ void make_tiff(const std::string& path, const Make& m, const std::vector<unsigne
       std::memcpy(dst, row + b, (static_cast<std::size_t>(nx) * m.spp * m.bits + 7) / 8);
       return;
     }
-    for (int x = 0; x < nx; ++x) std::memcpy(dst + x * bps, row + (static_cast<std::size_t>(x0 + x) * m.spp + p) * bps, bps);
+    for (int x = 0; x < nx; ++x)
+      std::memcpy(dst + x * bps, row + (static_cast<std::size_t>(x0 + x) * m.spp + p) * bps, bps);
   };
   if (m.tile_w) {
     const int across = (m.w + m.tile_w - 1) / m.tile_w, down = (m.h + m.tile_h - 1) / m.tile_h;
@@ -117,7 +124,8 @@ void make_tiff(const std::string& path, const Make& m, const std::vector<unsigne
         for (int tx = 0; tx < across; ++tx) {
           std::fill(buf.begin(), buf.end(), 0);
           const int x0 = tx * m.tile_w, nx = std::min(m.tile_w, m.w - x0);
-          for (int y = 0; y < m.tile_h && ty * m.tile_h + y < m.h; ++y) pixels(p, ty * m.tile_h + y, x0, nx, &buf[y * tile_row]);
+          for (int y = 0; y < m.tile_h && ty * m.tile_h + y < m.h; ++y)
+            pixels(p, ty * m.tile_h + y, x0, nx, &buf[y * tile_row]);
           const std::uint32_t index = TIFFComputeTile(t, x0, ty * m.tile_h, 0, static_cast<std::uint16_t>(p));
           ASSERT_GE(TIFFWriteEncodedTile(t, index, buf.data(), static_cast<tmsize_t>(buf.size())), 0) << path;
         }
@@ -151,7 +159,7 @@ struct Kind {
   std::uint16_t photometric;
   int extra;
 };
-const Kind kKinds[] = {{"Y", 1, PHOTOMETRIC_MINISBLACK, -1},       {"YA_assoc", 2, PHOTOMETRIC_MINISBLACK, 1},
+const Kind kKinds[] = {{"Y", 1, PHOTOMETRIC_MINISBLACK, -1},          {"YA_assoc", 2, PHOTOMETRIC_MINISBLACK, 1},
                        {"YA_straight", 2, PHOTOMETRIC_MINISBLACK, 2}, {"RGB", 3, PHOTOMETRIC_RGB, -1},
                        {"RGBA_assoc", 4, PHOTOMETRIC_RGB, 1},         {"RGBA_straight", 4, PHOTOMETRIC_RGB, 2}};
 
@@ -306,9 +314,8 @@ TEST(TiffRead, ReadColorAndDepthEqualTheOpenImageIOPath) {
 TEST(TiffRead, UndecodableDataIsRefusedWithLibtiffsReasonOnOneLine) {
   ScratchDir dir;
   // Deflate names its codec; LZW names the file, which the message then leaves out.
-  for (const auto& [compression, reason] :
-       std::vector<std::pair<std::uint16_t, std::string>>{{COMPRESSION_ADOBE_DEFLATE, "(ZIPDecode: "},
-                                                           {COMPRESSION_LZW, "(Using code not yet in table)"}}) {
+  for (const auto& [compression, reason] : std::vector<std::pair<std::uint16_t, std::string>>{
+           {COMPRESSION_ADOBE_DEFLATE, "(ZIPDecode: "}, {COMPRESSION_LZW, "(Using code not yet in table)"}}) {
     SCOPED_TRACE(reason);
     Make m;
     m.compression = compression;
@@ -360,8 +367,10 @@ TEST(TiffRead, SubsampledYCbCrPassesTheHeaderWalksPayloadBound) {
   TIFFSetField(t, TIFFTAG_YCBCRSUBSAMPLING, 2, 2);
   TIFFSetField(t, TIFFTAG_ROWSPERSTRIP, 8u);
   std::vector<unsigned char> blocks(16 * 6);
-  for (std::size_t i = 0; i < blocks.size(); ++i) blocks[i] = i % 6 < 4 ? static_cast<unsigned char>(40 + 10 * i % 150) : 128;
-  ASSERT_EQ(TIFFWriteRawStrip(t, 0, blocks.data(), static_cast<tmsize_t>(blocks.size())), static_cast<tmsize_t>(blocks.size()));
+  for (std::size_t i = 0; i < blocks.size(); ++i)
+    blocks[i] = i % 6 < 4 ? static_cast<unsigned char>(40 + 10 * i % 150) : 128;
+  ASSERT_EQ(TIFFWriteRawStrip(t, 0, blocks.data(), static_cast<tmsize_t>(blocks.size())),
+            static_cast<tmsize_t>(blocks.size()));
   TIFFClose(t);
   EXPECT_FALSE(io::tiff::Reader::open(path));
   Image img;

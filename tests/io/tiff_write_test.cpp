@@ -76,7 +76,8 @@ Tiff parse(const std::string& path) {
   const Tag& cnt = t.tags.at(279);
   EXPECT_EQ(off.count, cnt.count);
   for (std::uint32_t i = 0; i < off.count; ++i) {
-    const std::uint32_t o = le(off.value, 4 * i, 4), n = cnt.type == 3 ? le(cnt.value, 2 * i, 2) : le(cnt.value, 4 * i, 4);
+    const std::uint32_t o = le(off.value, 4 * i, 4),
+                        n = cnt.type == 3 ? le(cnt.value, 2 * i, 2) : le(cnt.value, 4 * i, 4);
     t.strips.push_back(b.substr(o, n));
     EXPECT_EQ(t.strips.back().size(), n) << "strip " << i << " runs past the file";
   }
@@ -188,7 +189,8 @@ TEST(TiffDirect, EqualsOpenImageIOsFileTagForTagAndLibtiffsStripForStrip) {
           }
           EXPECT_EQ(d.tags.size(), o.tags.size());
           EXPECT_EQ(d.exif.size(), o.exif.size());
-          for (const auto& [tag, t] : o.exif) EXPECT_TRUE(d.exif.count(tag) && d.exif.at(tag) == t) << "EXIF tag " << tag;
+          for (const auto& [tag, t] : o.exif)
+            EXPECT_TRUE(d.exif.count(tag) && d.exif.at(tag) == t) << "EXIF tag " << tag;
           ASSERT_EQ(d.strips.size(), o.strips.size());
           if (same_rule) {
             // The same predicted samples as OpenImageIO's strips, deflated as libtiff deflates
@@ -231,7 +233,8 @@ TEST(TiffDirect, WriteImageUsesItAndErrorsNameTheFile) {
   io::write_image(dir / "two.tif", two, opt);  // OpenImageIO's
   EXPECT_EQ(read_floats(dir / "two.tif").size(), 6u * 5u * 2u);
   const std::string m = bad_input_message([&] {
-    io::tiff::write(dir / "no/such/dir/x.tif", "shown.tif", io::tiff::Layout{9, 5, 4, 8, true}, std::vector<float>(180).data());
+    io::tiff::write(dir / "no/such/dir/x.tif", "shown.tif", io::tiff::Layout{9, 5, 4, 8, true},
+                    std::vector<float>(180).data());
   });
   EXPECT_NE(m.find("shown.tif"), std::string::npos) << m;
   EXPECT_FALSE(io::tiff::writes(2, 8));

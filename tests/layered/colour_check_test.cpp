@@ -41,7 +41,8 @@ Frame frame(int w, int h) {
     for (int x = 0; x < w; ++x) {
       const int i = x + 3 * y;
       const float a = i % 7 == 0 ? 0.0f : (i % 5 == 0 ? 0.5f : 1.0f);
-      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = a * (0.1f + 0.8f * std::fabs(std::sin(0.31f * x * (c + 1) + 0.17f * y)));
+      for (int c = 0; c < 3; ++c)
+        f.color.at(x, y, c) = a * (0.1f + 0.8f * std::fabs(std::sin(0.31f * x * (c + 1) + 0.17f * y)));
       f.color.at(x, y, 3) = a;
       const int k = (x * 5 + y * 3) % 4;
       f.depth.at(x, y) = k == 0 ? 0.4f : k == 1 ? 2.0f : k == 2 ? 30.0f : kInf;
@@ -78,10 +79,14 @@ bool method_flags(const Frame& f, const RenderSettings& s) {
 // A bad value for plane ch, varied with the position: NaN, ±inf, out of range, subnormal.
 float bad_value(int x, int y, int ch) {
   switch ((x + 2 * y + ch) % 4) {
-    case 0: return kNaN;
-    case 1: return ch == 3 ? 2.0f : -kInf;
-    case 2: return ch == 3 ? -0.25f : 2e18f;
-    default: return 1e-40f;  // subnormal
+    case 0:
+      return kNaN;
+    case 1:
+      return ch == 3 ? 2.0f : -kInf;
+    case 2:
+      return ch == 3 ? -0.25f : 2e18f;
+    default:
+      return 1e-40f;  // subnormal
   }
 }
 

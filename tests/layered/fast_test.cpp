@@ -31,10 +31,14 @@ Frame test_frame(int w, int h, int fragments, unsigned seed) {
     for (int x = 0; x < w; ++x) {
       const float s = (x + 0.5f) / w, t = (y + 0.5f) / h;
       float z;
-      if (s > 0.1f && s < 0.25f) z = 1.2f;
-      else if (std::hypot(s - 0.6f, t - 0.5f) < 0.2f) z = 4.0f;
-      else if (t > 0.6f) z = 1.5f / std::max(0.05f, (t - 0.55f) * 2.5f);
-      else z = t < 0.15f ? kInf : 8.0f + 50.0f * (0.6f - t);
+      if (s > 0.1f && s < 0.25f)
+        z = 1.2f;
+      else if (std::hypot(s - 0.6f, t - 0.5f) < 0.2f)
+        z = 4.0f;
+      else if (t > 0.6f)
+        z = 1.5f / std::max(0.05f, (t - 0.55f) * 2.5f);
+      else
+        z = t < 0.15f ? kInf : 8.0f + 50.0f * (0.6f - t);
       f.depth.at(x, y) = z;
       for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = u(rng);
       if (u(rng) < 0.01f) f.color.at(x, y, 0) = 30.0f;
@@ -190,9 +194,9 @@ TEST(LayeredFast, BitIdenticalWithHoleRunsPerBlock) {
         RenderSettings rs = settings("fast", 1, k_px);
         rs.params["psf"] = "gaussian";
         rs.params["fill"] = fill;
-        expect_same(hole_stripe_frame(w, h), rs,
-                    std::to_string(w) + "x" + std::to_string(h) + " hole stripes fill " + fill + " K " +
-                        std::to_string(k_px));
+        expect_same(
+            hole_stripe_frame(w, h), rs,
+            std::to_string(w) + "x" + std::to_string(h) + " hole stripes fill " + fill + " K " + std::to_string(k_px));
         ++cases;
       }
   EXPECT_EQ(detail::layered::fused_render_count() - fused_before, 2u * cases);

@@ -240,8 +240,14 @@ TEST(LayeredInpaint, PushPullExtrapolatesTheLayer) {
   std::vector<std::uint8_t> hole(layer.plane_size(), 0);
   for (int y = 0; y < 16; ++y)
     for (int x = 0; x < 32; ++x) {
-      if (x >= 12 && x < 20) { hole[y * 32 + x] = 1; continue; }
-      if (x < 12) { layer.at(x, y, 0) = 0.5f; layer.at(x, y, 3) = 1.0f; }  // content on the left only
+      if (x >= 12 && x < 20) {
+        hole[y * 32 + x] = 1;
+        continue;
+      }
+      if (x < 12) {
+        layer.at(x, y, 0) = 0.5f;
+        layer.at(x, y, 3) = 1.0f;
+      }  // content on the left only
     }
   Image filled = layer;
   detail::layered::push_pull_fill(filled, hole, false);
@@ -249,14 +255,14 @@ TEST(LayeredInpaint, PushPullExtrapolatesTheLayer) {
   EXPECT_GT(a, 0.2f);
   EXPECT_LT(a, 0.8f);
   EXPECT_NEAR(filled.at(16, 8, 0) / a, 0.5f, 1e-4);  // colour is the layer's own
-  EXPECT_EQ(filled.at(3, 3, 0), 0.5f);              // known pixels untouched
+  EXPECT_EQ(filled.at(3, 3, 0), 0.5f);               // known pixels untouched
   // under: what the layer holds at a hole pixel (a hidden fragment) stays in front of the fill.
   Image held = layer;
   held.at(16, 8, 2) = 0.3f;
   held.at(16, 8, 3) = 0.6f;
   detail::layered::push_pull_fill(held, hole, false, true);
   EXPECT_NEAR(held.at(16, 8, 3), 0.6f + 0.4f * a, 1e-5);
-  EXPECT_NEAR(held.at(16, 8, 2), 0.3f, 1e-6);                  // the fill has no blue
+  EXPECT_NEAR(held.at(16, 8, 2), 0.3f, 1e-6);  // the fill has no blue
   EXPECT_NEAR(held.at(16, 8, 0), 0.4f * filled.at(16, 8, 0), 1e-5);
   Image opaque = layer;
   detail::layered::push_pull_fill(opaque, hole, true);

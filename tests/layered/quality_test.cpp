@@ -57,10 +57,11 @@ const Measured& measure(const std::string& name) {
   m.disc_multi = score(s, s.pinhole, "layered", "disc");
   m.multi_default = score(s, s.pinhole, "layered");
   m.reference = score(s, single, "reference");
-  std::printf("%s: gaussian single %.2f dB (edge %.2f), multi %.2f (edge %.2f); disc single %.2f (edge %.2f), "
-              "multi %.2f (edge %.2f); reference %.2f (edge %.2f)\n",
-              name.c_str(), m.single.psnr, m.single.edge, m.multi.psnr, m.multi.edge, m.disc_single.psnr,
-              m.disc_single.edge, m.disc_multi.psnr, m.disc_multi.edge, m.reference.psnr, m.reference.edge);
+  std::printf(
+      "%s: gaussian single %.2f dB (edge %.2f), multi %.2f (edge %.2f); disc single %.2f (edge %.2f), "
+      "multi %.2f (edge %.2f); reference %.2f (edge %.2f)\n",
+      name.c_str(), m.single.psnr, m.single.edge, m.multi.psnr, m.multi.edge, m.disc_single.psnr, m.disc_single.edge,
+      m.disc_multi.psnr, m.disc_multi.edge, m.reference.psnr, m.reference.edge);
   return cache[name] = m;
 }
 

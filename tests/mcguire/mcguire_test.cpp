@@ -111,7 +111,8 @@ TEST(Mcguire, NoBackgroundBleedOverSharpForeground) {
     const RenderResult r = render(f, settings(v));
     for (int c = 0; c < 4; ++c)
       for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w / 2; ++x) ASSERT_EQ(r.image.at(x, y, c), f.color.at(x, y, c)) << v << " " << x << "," << y;
+        for (int x = 0; x < w / 2; ++x)
+          ASSERT_EQ(r.image.at(x, y, c), f.color.at(x, y, c)) << v << " " << x << "," << y;
     // …and the background really is blurred.
     double diff = 0;
     for (int y = 0; y < h; ++y)
@@ -205,11 +206,11 @@ TEST(Mcguire, G3dPassesMatchPlain) {
       {101, 59, 3, 16, 12},
       {123, 70, 4, 20, 20, false},
       {65, 41, 1, 12, 12, true, 0.0f},
-      {7, 5, 2, 9, 6},             // wo = 3, ho = 2: fewer outputs than lanes
-      {3, 2, 4, 5, 4},             // narrower than the reduction: one output, taps all clamped
-      {33, 31, 1, 40, 30},         // R_max beyond the frame on every side
-      {90, 50, 2, 16, 0},          // no near field
-      {90, 50, 2, 30, 2},          // near box much narrower than R_max
+      {7, 5, 2, 9, 6},      // wo = 3, ho = 2: fewer outputs than lanes
+      {3, 2, 4, 5, 4},      // narrower than the reduction: one output, taps all clamped
+      {33, 31, 1, 40, 30},  // R_max beyond the frame on every side
+      {90, 50, 2, 16, 0},   // no near field
+      {90, 50, 2, 30, 2},   // near box much narrower than R_max
       {131, 77, 2, 16, 12, true, 0.0f, 5, 3},
       {140, 48, 4, 24, 20, true, 0.5f, 6, 6, true},
   };
@@ -302,47 +303,49 @@ TEST(Mcguire, NearBufferAlphaFollowsCoverageCurve) {
 TEST(Mcguire, GuardBandPixelsNeverReachTheOutput) {
   const int w = 120, h = 80, g = 9;
   for (bool with_near : {false, true}) {
-  Frame f = mixed_frame(w, h);
-  if (!with_near)
-    for (float& z : f.depth.data()) z = std::max(z, 4.0f);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      if (x < g || y < g || x >= w - g || y >= h - g) {
-        f.color.at(x, y, 0) = 50.0f;  // a value far outside the inner image's range
-        f.depth.at(x, y) = 4.0f;     // in focus
-      }
-  Frame inner;
-  inner.color = Image(w - 2 * g, h - 2 * g, 4);
-  inner.depth = Image(w - 2 * g, h - 2 * g, 1);
-  for (int y = 0; y < h - 2 * g; ++y)
-    for (int x = 0; x < w - 2 * g; ++x) {
-      for (int c = 0; c < 4; ++c) inner.color.at(x, y, c) = f.color.at(x + g, y + g, c);
-      inner.depth.at(x, y) = f.depth.at(x + g, y + g);
-    }
-  for (const char* v : kVariants) {
-    RenderSettings s = settings(v);
-    s.params["guard_band_px"] = std::to_string(g);
-    for (const char* taps : {"on", "off"}) {
-      if (with_near && std::string(taps) == "on") continue;
-      s.params["guard_band_taps"] = taps;
-      const RenderResult r = render(f, s);
-      for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-          const bool ring = x < g || y < g || x >= w - g || y >= h - g;
-          for (int c = 0; c < 4; ++c) {
-            if (ring) ASSERT_EQ(r.image.at(x, y, c), 0.0f) << v << taps;
-            else ASSERT_LT(r.image.at(x, y, c), 1.001f) << v << " taps " << taps << " at " << x << "," << y;
-          }
+    Frame f = mixed_frame(w, h);
+    if (!with_near)
+      for (float& z : f.depth.data()) z = std::max(z, 4.0f);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if (x < g || y < g || x >= w - g || y >= h - g) {
+          f.color.at(x, y, 0) = 50.0f;  // a value far outside the inner image's range
+          f.depth.at(x, y) = 4.0f;      // in focus
         }
-      if (std::string(taps) == "off") {
-        RenderSettings s0 = settings(v);
-        const RenderResult r0 = render(inner, s0);
-        for (int y = 0; y < h - 2 * g; ++y)
-          for (int x = 0; x < w - 2 * g; ++x)
-            for (int c = 0; c < 4; ++c) ASSERT_EQ(r.image.at(x + g, y + g, c), r0.image.at(x, y, c)) << v;
+    Frame inner;
+    inner.color = Image(w - 2 * g, h - 2 * g, 4);
+    inner.depth = Image(w - 2 * g, h - 2 * g, 1);
+    for (int y = 0; y < h - 2 * g; ++y)
+      for (int x = 0; x < w - 2 * g; ++x) {
+        for (int c = 0; c < 4; ++c) inner.color.at(x, y, c) = f.color.at(x + g, y + g, c);
+        inner.depth.at(x, y) = f.depth.at(x + g, y + g);
+      }
+    for (const char* v : kVariants) {
+      RenderSettings s = settings(v);
+      s.params["guard_band_px"] = std::to_string(g);
+      for (const char* taps : {"on", "off"}) {
+        if (with_near && std::string(taps) == "on") continue;
+        s.params["guard_band_taps"] = taps;
+        const RenderResult r = render(f, s);
+        for (int y = 0; y < h; ++y)
+          for (int x = 0; x < w; ++x) {
+            const bool ring = x < g || y < g || x >= w - g || y >= h - g;
+            for (int c = 0; c < 4; ++c) {
+              if (ring)
+                ASSERT_EQ(r.image.at(x, y, c), 0.0f) << v << taps;
+              else
+                ASSERT_LT(r.image.at(x, y, c), 1.001f) << v << " taps " << taps << " at " << x << "," << y;
+            }
+          }
+        if (std::string(taps) == "off") {
+          RenderSettings s0 = settings(v);
+          const RenderResult r0 = render(inner, s0);
+          for (int y = 0; y < h - 2 * g; ++y)
+            for (int x = 0; x < w - 2 * g; ++x)
+              for (int c = 0; c < 4; ++c) ASSERT_EQ(r.image.at(x + g, y + g, c), r0.image.at(x, y, c)) << v;
+        }
       }
     }
-  }
   }
 }
 
@@ -395,7 +398,7 @@ TEST(Mcguire, FastPathMatchesPlain) {
     const char* variant;
     std::map<std::string, std::string> extra;
     int w, h;
-    bool near_mix = false;  // near_mix_frame instead of mixed_frame
+    bool near_mix = false;   // near_mix_frame instead of mixed_frame
     bool near_band = false;  // near_band_frame
   };
   const std::vector<Case> cases = {
@@ -463,8 +466,10 @@ TEST(Mcguire, FastPathMatchesPlain) {
       EXPECT_LE(worst, 1e-4) << cs.variant << " " << cs.w << "x" << cs.h << " case " << (&cs - cases.data())
                              << " threads " << threads;
       // The fast path's chunking does not depend on the thread count: identical bits.
-      if (threads == 1) fast_one_thread = b.image.data();
-      else EXPECT_EQ(fast_one_thread, b.image.data()) << "case " << (&cs - cases.data());
+      if (threads == 1)
+        fast_one_thread = b.image.data();
+      else
+        EXPECT_EQ(fast_one_thread, b.image.data()) << "case " << (&cs - cases.data());
     }
   }
 }
@@ -564,7 +569,12 @@ TEST(Mcguire, RowKernelsMatchScalarLoops) {
       std::vector<std::int32_t> reach(pad);
       for (int i = 0; i < pad; ++i) {
         const float u = rnd();
-        nearness[i] = pattern == 0 ? 0.0f : pattern == 1 ? 1.0f : u < 0.4f ? 0.0f : u < 0.8f ? 1.0f : pattern == 3 ? rnd() : 1.0f;
+        nearness[i] = pattern == 0   ? 0.0f
+                      : pattern == 1 ? 1.0f
+                      : u < 0.4f     ? 0.0f
+                      : u < 0.8f     ? 1.0f
+                      : pattern == 3 ? rnd()
+                                     : 1.0f;
         reach[i] = static_cast<std::int32_t>(rnd() * 60);
       }
       mg::ScanBlockJob scan;

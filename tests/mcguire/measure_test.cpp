@@ -35,7 +35,8 @@ bool load(const std::string& path, Image& img, int w, int h, int c) {
 }
 void save(const std::string& path, const Image& img) {
   std::ofstream out(path, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(img.data().data()), static_cast<std::streamsize>(img.data().size() * sizeof(float)));
+  out.write(reinterpret_cast<const char*>(img.data().data()),
+            static_cast<std::streamsize>(img.data().size() * sizeof(float)));
 }
 
 std::vector<std::string> split(const std::string& s, char sep) {

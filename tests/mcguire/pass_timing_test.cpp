@@ -70,8 +70,8 @@ double cpu_ms() {
 /// Prints an FNV-1a checksum of the output's bits (changes that should keep the arithmetic
 /// can be checked for bit-identical output between builds) and each pass's median and
 /// minimum time, wall (t) and process CPU (cpu).
-void report(const Image& out, std::vector<double>* t, std::vector<double>* cpu, std::initializer_list<const char*> names,
-            const char* note) {
+void report(const Image& out, std::vector<double>* t, std::vector<double>* cpu,
+            std::initializer_list<const char*> names, const char* note) {
   std::uint64_t fnv = 1469598103934665603ull;
   for (float v : out.data()) {
     std::uint32_t b;
@@ -166,11 +166,15 @@ TEST(McguirePassTiming, DISABLED_G3d1080p) {
       mark(0);
       mg::pack_coc(fr.color, coc, src, k, packed);
       mark(1);
-      if (plain) mg::blur_horizontal_plain(packed, k, 0, W / 2, tb, tn);
-      else mg::blur_horizontal(packed, k, 0, W / 2, tb, tn);
+      if (plain)
+        mg::blur_horizontal_plain(packed, k, 0, W / 2, tb, tn);
+      else
+        mg::blur_horizontal(packed, k, 0, W / 2, tb, tn);
       mark(2);
-      if (plain) mg::blur_vertical_plain(tb, tn, k, 0, H / 2, blur, near);
-      else mg::blur_vertical(tb, tn, k, 0, H / 2, blur, near);
+      if (plain)
+        mg::blur_vertical_plain(tb, tn, k, 0, H / 2, blur, near);
+      else
+        mg::blur_vertical(tb, tn, k, 0, H / 2, blur, near);
       mark(3);
       mg::composite_fast(fr.color, coc, src, 0, 0, blur, near, k, src, out, ws);
       mark(4);

@@ -67,8 +67,8 @@ TEST(McguireQuality, FloorsOnOccluderAndFence) {
 
 // Near-field silhouettes are soft: in the band around near-field silhouettes the result is
 // closer to the ground truth than the same blur with hard near edges (near_field=off: the
-// Gillham-style composite the technique improved on, same radii and buffers). The band: pixels of the depth-edge band within the largest near radius of a
-// near-field pixel (r > 1 px).
+// Gillham-style composite the technique improved on, same radii and buffers). The band: pixels of the depth-edge band
+// within the largest near radius of a near-field pixel (r > 1 px).
 TEST(McguireQuality, NearEdgesSofterThanHardEdgedBlur) {
   for (const char* name : {"occluder", "fence"}) {
     const scene::SceneRender& s = scene_320(name);
@@ -85,7 +85,8 @@ TEST(McguireQuality, NearEdgesSofterThanHardEdgedBlur) {
         bool near = false;
         for (int dy = -reach; dy <= reach && !near; ++dy)
           for (int dx = -reach; dx <= reach; ++dx)
-            if (dx * dx + dy * dy <= reach * reach && coc.at(std::clamp(x + dx, 0, w - 1), std::clamp(y + dy, 0, h - 1)) > 1.0f) {
+            if (dx * dx + dy * dy <= reach * reach &&
+                coc.at(std::clamp(x + dx, 0, w - 1), std::clamp(y + dy, 0, h - 1)) > 1.0f) {
               near = true;
               break;
             }

@@ -46,8 +46,7 @@ Image perturb(const Image& a, unsigned seed, float amount) {
   for (int c = 0; c < 3; ++c)
     for (int y = 10; y < 30; ++y)
       for (int x = 12; x < 40; ++x)
-        b.at(x, y, c) = 0.25f * (a.at(x - 1, y, c) + a.at(x + 1, y, c) + a.at(x, y - 1, c) +
-                                 a.at(x, y + 1, c));
+        b.at(x, y, c) = 0.25f * (a.at(x - 1, y, c) + a.at(x + 1, y, c) + a.at(x, y - 1, c) + a.at(x, y + 1, c));
   return b;
 }
 
@@ -103,8 +102,14 @@ TEST(Metrics, SizeMismatchIsBadInput) {
 TEST(Metrics, ResultsDoNotDependOnThreadCount) {
   const Image a = pattern(150, 97, 3, 0.1f), b = perturb(a, 4, 0.05f);
   double s1 = 0, s2 = 0, p1 = 0, p2 = 0;
-  core::with_threads(1, [&] { s1 = metrics::ssim(a, b); p1 = metrics::psnr(a, b); });
-  core::with_threads(2, [&] { s2 = metrics::ssim(a, b); p2 = metrics::psnr(a, b); });
+  core::with_threads(1, [&] {
+    s1 = metrics::ssim(a, b);
+    p1 = metrics::psnr(a, b);
+  });
+  core::with_threads(2, [&] {
+    s2 = metrics::ssim(a, b);
+    p2 = metrics::psnr(a, b);
+  });
   EXPECT_EQ(s1, s2);
   EXPECT_EQ(p1, p2);
 }
@@ -118,8 +123,7 @@ TEST(EdgeBand, SingleVerticalStepGivesBandOfHalfWidth12) {
     for (int x = 0; x < w; ++x) z.at(x, y) = x < 40 ? 2.0f : 3.0f;
   const Image m = metrics::edge_band(z);
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      EXPECT_EQ(m.at(x, y), (x >= 27 && x <= 52) ? 1.0f : 0.0f) << x << "," << y;
+    for (int x = 0; x < w; ++x) EXPECT_EQ(m.at(x, y), (x >= 27 && x <= 52) ? 1.0f : 0.0f) << x << "," << y;
 }
 
 TEST(EdgeBand, SmallJumpsAndInfinityPairsAreNoEdges) {
@@ -132,8 +136,7 @@ TEST(EdgeBand, SmallJumpsAndInfinityPairsAreNoEdges) {
   // The border between finite (row 19) and +inf (row 20) is a jump; nothing else is.
   const Image m = metrics::edge_band(z, 3);
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      EXPECT_EQ(m.at(x, y), (y >= 16 && y <= 23) ? 1.0f : 0.0f) << x << "," << y;
+    for (int x = 0; x < w; ++x) EXPECT_EQ(m.at(x, y), (y >= 16 && y <= 23) ? 1.0f : 0.0f) << x << "," << y;
 }
 
 TEST(EdgeBand, IsotropicDiscAroundAnIsolatedPixel) {
@@ -180,8 +183,9 @@ std::string find_python_with_skimage(std::string& why) {
     const std::string cmd = std::string(py) + " -c \"import skimage.metrics, numpy\" >/dev/null 2>&1";
     if (std::system(cmd.c_str()) == 0) return py;
   }
-  why = "neither python3 nor /usr/bin/python3 can import skimage.metrics and numpy "
-        "(install python3-skimage: scripts/deps)";
+  why =
+      "neither python3 nor /usr/bin/python3 can import skimage.metrics and numpy "
+      "(install python3-skimage: scripts/deps)";
   return "";
 }
 
@@ -223,7 +227,11 @@ TEST(Metrics, MatchesScikitImage) {
          "p = peak_signal_noise_ratio(a, b, data_range=1.0)\n"
          "print('%.12f %.12f' % (s, p))\n";
   }
-  struct Case { int w, h; float noise; unsigned seed; };
+  struct Case {
+    int w, h;
+    float noise;
+    unsigned seed;
+  };
   // Odd sizes and a size barely above the window exercise the reflected border and crop.
   for (const Case& k : {Case{64, 48, 0.05f, 7}, Case{37, 23, 0.2f, 8}, Case{12, 11, 0.1f, 9}}) {
     const Image a = pattern(k.w, k.h, k.seed, k.noise);
@@ -231,8 +239,8 @@ TEST(Metrics, MatchesScikitImage) {
     write_raw(dir / "a.raw", a);
     write_raw(dir / "b.raw", b);
     const std::string cmd = py + " " + script.string() + " " + (dir / "a.raw").string() + " " +
-                            (dir / "b.raw").string() + " " + std::to_string(k.w) + " " +
-                            std::to_string(k.h) + " > " + (dir / "out.txt").string();
+                            (dir / "b.raw").string() + " " + std::to_string(k.w) + " " + std::to_string(k.h) + " > " +
+                            (dir / "out.txt").string();
     ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
     std::ifstream out(dir / "out.txt");
     double s_ref = 0, p_ref = 0;
@@ -241,7 +249,6 @@ TEST(Metrics, MatchesScikitImage) {
     EXPECT_NEAR(s, s_ref, 1e-4) << k.w << "x" << k.h;
     EXPECT_NEAR(p, p_ref, 1e-4) << k.w << "x" << k.h;
     EXPECT_LT(s, 0.999);  // the pair really differs
-    std::printf("%dx%d: SSIM %.9f (skimage %.9f), PSNR %.6f dB (skimage %.6f)\n", k.w, k.h, s,
-                s_ref, p, p_ref);
+    std::printf("%dx%d: SSIM %.9f (skimage %.9f), PSNR %.6f dB (skimage %.6f)\n", k.w, k.h, s, s_ref, p, p_ref);
   }
 }

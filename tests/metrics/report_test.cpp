@@ -58,8 +58,7 @@ TEST(Report, HeatMapRampIsMonotonic) {
   EXPECT_EQ(h.at(0, 0, 0) + h.at(0, 0, 1) + h.at(0, 0, 2), 0.0f);
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(h.at(10, 0, c), 1.0f, 1e-5);
   for (int x = 1; x <= 10; ++x)
-    EXPECT_GT(h.at(x, 0, 0) + h.at(x, 0, 1) + h.at(x, 0, 2),
-              h.at(x - 1, 0, 0) + h.at(x - 1, 0, 1) + h.at(x - 1, 0, 2));
+    EXPECT_GT(h.at(x, 0, 0) + h.at(x, 0, 1) + h.at(x, 0, 2), h.at(x - 1, 0, 0) + h.at(x - 1, 0, 1) + h.at(x - 1, 0, 2));
 }
 
 TEST(Report, MeansAndMarkdown) {
@@ -89,8 +88,7 @@ TEST(Report, ContactSheetHoldsEveryTile) {
   const Image s = metrics::contact_sheet("head", cells, 2, 1);
   int red_px = 0;
   for (int y = 0; y < s.height(); ++y)
-    for (int x = 0; x < s.width(); ++x)
-      red_px += s.at(x, y, 0) == 1.0f && s.at(x, y, 1) == 0.0f;
+    for (int x = 0; x < s.width(); ++x) red_px += s.at(x, y, 0) == 1.0f && s.at(x, y, 1) == 0.0f;
   EXPECT_EQ(red_px, 6 * 20 * 12);
 }
 
@@ -118,9 +116,8 @@ TEST(CompareCommand, JsonOutput) {
   zopt.channel_name = "Z";
   io::write_image((dir / "z.exr").string(), z, zopt);
   const std::string out = (dir / "out.json").string();
-  const std::string cmd = exe.string() + " compare " + (dir / "a.exr").string() + " " +
-                          (dir / "b.exr").string() + " --depth " + (dir / "z.exr").string() +
-                          " --json > " + out;
+  const std::string cmd = exe.string() + " compare " + (dir / "a.exr").string() + " " + (dir / "b.exr").string() +
+                          " --depth " + (dir / "z.exr").string() + " --json > " + out;
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   std::ifstream in(out);
   const nlohmann::json j = nlohmann::json::parse(in);
@@ -133,8 +130,10 @@ TEST(CompareCommand, JsonOutput) {
   EXPECT_EQ(j["width"], w);
 
   // Identical images: PSNR "inf", SSIM 1. A size mismatch: exit code 3 naming both files.
-  ASSERT_EQ(std::system((exe.string() + " compare " + (dir / "a.exr").string() + " " +
-                         (dir / "a.exr").string() + " --json > " + out).c_str()), 0);
+  ASSERT_EQ(std::system((exe.string() + " compare " + (dir / "a.exr").string() + " " + (dir / "a.exr").string() +
+                         " --json > " + out)
+                            .c_str()),
+            0);
   std::ifstream in2(out);
   const nlohmann::json j2 = nlohmann::json::parse(in2);
   EXPECT_EQ(j2["psnr_db"], "inf");
@@ -142,8 +141,9 @@ TEST(CompareCommand, JsonOutput) {
   EXPECT_TRUE(j2["edge_psnr_db"].is_null());
   io::write_image((dir / "small.exr").string(), Image(40, 32, 4, 0.5f), f32);
   const std::string err = (dir / "err.txt").string();
-  const int rc = std::system((exe.string() + " compare " + (dir / "a.exr").string() + " " +
-                              (dir / "small.exr").string() + " 2> " + err).c_str());
+  const int rc = std::system(
+      (exe.string() + " compare " + (dir / "a.exr").string() + " " + (dir / "small.exr").string() + " 2> " + err)
+          .c_str());
   EXPECT_EQ(WEXITSTATUS(rc), 3);
   std::ifstream e(err);
   std::stringstream msg;
@@ -183,7 +183,8 @@ TEST(QualityCommand, WritesTablesAndSheet) {
   // A bad method name is a usage error (exit 2) and writes nothing.
   const fs::path bad = fs::path(DOFKIT_BINARY_DIR) / "test_quality_cli_bad";
   fs::remove_all(bad);
-  const int rc = std::system((exe.string() + " quality --methods nosuch --out " + bad.string() + " 2>/dev/null").c_str());
+  const int rc =
+      std::system((exe.string() + " quality --methods nosuch --out " + bad.string() + " 2>/dev/null").c_str());
   EXPECT_EQ(WEXITSTATUS(rc), 2);
   EXPECT_FALSE(fs::exists(bad));
 }

@@ -30,7 +30,8 @@ Frame make_frame(int w, int h, float z, float r = 0.5f, float g = 0.5f, float b 
 void texture(Frame& f) {
   for (int y = 0; y < f.height(); ++y)
     for (int x = 0; x < f.width(); ++x)
-      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 0.1f + 0.8f * std::fabs(std::sin(0.37f * x * (c + 1) + 0.23f * y));
+      for (int c = 0; c < 3; ++c)
+        f.color.at(x, y, c) = 0.1f + 0.8f * std::fabs(std::sin(0.37f * x * (c + 1) + 0.23f * y));
 }
 
 RenderSettings settings(double focus, double k, const char* method = "reference") {
@@ -189,7 +190,8 @@ TEST(Reference, SimdLoopMatchesPlainLoopWhenDiscsExceedTheImage) {
     Frame f = make_frame(w, h, 1.0f);
     texture(f);
     for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) f.depth.at(x, y) = ((x / 3 + y / 4) % 3 == 0) ? 0.35f : (x + y) % 7 == 0 ? 40.0f : 2.0f;
+      for (int x = 0; x < w; ++x)
+        f.depth.at(x, y) = ((x / 3 + y / 4) % 3 == 0) ? 0.35f : (x + y) % 7 == 0 ? 40.0f : 2.0f;
     f.depth.at(w / 2, h / 2) = std::numeric_limits<float>::infinity();
     const Image coc = compute_coc(f.depth, CameraModel{BlurAtInfinity{2.0, 6.0}});
     detail::DiscScatterOptions a, b;

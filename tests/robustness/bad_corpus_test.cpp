@@ -57,8 +57,8 @@ TEST(BadCorpus, ManifestIsComplete) {
   for (const auto& e : fs::directory_iterator(kBad)) {
     const std::string name = e.path().filename().string();
     if (name == "manifest.tsv" || name == "make_bad_corpus.py") continue;
-    const bool used = std::any_of(cases.begin(), cases.end(),
-                                  [&](const Case& c) { return c.file == name || c.depth == name; });
+    const bool used =
+        std::any_of(cases.begin(), cases.end(), [&](const Case& c) { return c.file == name || c.depth == name; });
     EXPECT_TRUE(used) << name << " is not in manifest.tsv";
   }
 }
@@ -96,7 +96,8 @@ TEST(BadCorpus, EachFileGivesItsErrorClassAndMessage) {
     } else if (!threw) {
       wrong.push_back("no error (expected " + c.kind + ")");
     } else {
-      if (kind_name(kind) != c.kind) wrong.push_back(std::string("error kind ") + kind_name(kind) + ", expected " + c.kind);
+      if (kind_name(kind) != c.kind)
+        wrong.push_back(std::string("error kind ") + kind_name(kind) + ", expected " + c.kind);
       if (message.find(c.substring) == std::string::npos) wrong.push_back("message lacks '" + c.substring + "'");
       // The file at fault is named: the depth file for a frame with one, else the file read.
       const std::string& named = depth.empty() ? c.file : c.depth;

@@ -31,7 +31,11 @@ struct ColourCase {
 
 // Each case poisons a checkerboard of pixels (and the (0,0) pixel, so 1x1 is hit too).
 std::vector<ColourCase> colour_cases() {
-  auto set_rgb = [](float v) { return [v](Image& c, int x, int y) { for (int k = 0; k < 3; ++k) c.at(x, y, k) = v; }; };
+  auto set_rgb = [](float v) {
+    return [v](Image& c, int x, int y) {
+      for (int k = 0; k < 3; ++k) c.at(x, y, k) = v;
+    };
+  };
   auto set_a = [](float v) { return [v](Image& c, int x, int y) { c.at(x, y, 3) = v; }; };
   return {
       {"nan_rgb", set_rgb(kNaN)},
@@ -48,7 +52,8 @@ std::vector<ColourCase> colour_cases() {
       {"alpha_above_one", set_a(7.0f)},
       {"zero_alpha_coloured", set_a(0.0f)},
       {"denormal_alpha", set_a(kDenorm)},
-      {"everything", [](Image& c, int x, int y) {
+      {"everything",
+       [](Image& c, int x, int y) {
          const float v[] = {kNaN, kInf, -kInf, kFltMax, kDenorm, -1.0f};
          for (int k = 0; k < 4; ++k) c.at(x, y, k) = v[(x + 2 * y + k) % 6];
        }},
@@ -80,7 +85,8 @@ TEST_P(Hostile, NonFiniteAndExtremeColourIsSanitised) {
     if (a.rendered && b.rendered) {
       ASSERT_EQ(a.result.image.data().size(), b.result.image.data().size());
       EXPECT_EQ(std::memcmp(a.result.image.data().data(), b.result.image.data().data(),
-                            a.result.image.data().size() * sizeof(float)), 0)
+                            a.result.image.data().size() * sizeof(float)),
+                0)
           << cc.name << ": render of hostile colour differs from render of its sanitised copy";
     }
   }
@@ -215,8 +221,9 @@ TEST_P(Hostile, InvalidCamerasAreUsageErrors) {
 // factor, odd sizes, with the largest radius the clamp allows (the absolute cap is
 // max(W/4, 8) px, so a 1x1 image still gets an 8 px disc).
 TEST_P(Hostile, DegenerateSizes) {
-  const std::vector<std::pair<int, int>> sizes = {{1, 1}, {1, 2}, {2, 1}, {1, 7}, {7, 1},  {2, 3},  {3, 2},  {5, 5},
-                                                  {1, 64}, {64, 1}, {17, 3}, {3, 17}, {7, 7}, {15, 9}, {31, 2}, {2, 31}};
+  const std::vector<std::pair<int, int>> sizes = {{1, 1}, {1, 2},  {2, 1},  {1, 7},  {7, 1},  {2, 3},
+                                                  {3, 2}, {5, 5},  {1, 64}, {64, 1}, {17, 3}, {3, 17},
+                                                  {7, 7}, {15, 9}, {31, 2}, {2, 31}};
   for (auto [w, h] : sizes) {
     RenderSettings s = default_settings(GetParam());
     s.camera.model = BlurAtInfinity{2.0, 1e6};  // every radius at the clamp
@@ -244,7 +251,9 @@ TEST_P(Hostile, RendererReusedAcrossSizes) {
       const RenderResult& r = renderer.render(f);
       ASSERT_TRUE(fresh.rendered) << "one-shot render refused what the Renderer accepted: " << fresh.message;
       ASSERT_EQ(r.image.data().size(), fresh.result.image.data().size());
-      EXPECT_EQ(std::memcmp(r.image.data().data(), fresh.result.image.data().data(), r.image.data().size() * sizeof(float)), 0)
+      EXPECT_EQ(
+          std::memcmp(r.image.data().data(), fresh.result.image.data().data(), r.image.data().size() * sizeof(float)),
+          0)
           << "reused Renderer output differs from a fresh render";
     } catch (const Error& e) {
       EXPECT_TRUE(fresh.error) << "Renderer threw but one-shot render did not: " << e.what();
@@ -267,7 +276,8 @@ TEST_P(Hostile, RendererSetCameraBetweenFrames) {
     ASSERT_TRUE(fresh.rendered) << fresh.message;
     const RenderResult& r = renderer.render(f);
     ASSERT_EQ(r.image.data().size(), fresh.result.image.data().size());
-    EXPECT_EQ(std::memcmp(r.image.data().data(), fresh.result.image.data().data(), r.image.data().size() * sizeof(float)), 0)
+    EXPECT_EQ(
+        std::memcmp(r.image.data().data(), fresh.result.image.data().data(), r.image.data().size() * sizeof(float)), 0)
         << "focus " << focus;
   }
   CameraModel bad;
@@ -347,8 +357,8 @@ TEST(Sanitize, LayerDepthMustBeValid) {
 }
 
 // A Renderer refuses a frame with invalid depth anywhere (the count covers every row of
-// every worker's share, the first bad pixel is named, with validate_frame's message, colour that would need sanitising does not mask it), and a
-// renderer whose frame was refused renders the next valid frame exactly like a fresh one.
+// every worker's share, the first bad pixel is named, with validate_frame's message, colour that would need sanitising
+// does not mask it), and a renderer whose frame was refused renders the next valid frame exactly like a fresh one.
 TEST(Sanitize, RendererDepthScanCountsEveryRowAndRecovers) {
   const Frame good = textured_frame(64, 100);
   Frame bad = good;
@@ -386,7 +396,8 @@ TEST(Sanitize, RendererDepthScanCountsEveryRowAndRecovers) {
     ASSERT_EQ(again.data().size(), fresh.image.data().size());
     EXPECT_EQ(std::memcmp(again.data().data(), fresh.image.data().data(), again.data().size() * sizeof(float)), 0);
     EXPECT_EQ(std::memcmp(renderer.render(good).coc.data().data(), fresh.coc.data().data(),
-                          fresh.coc.data().size() * sizeof(float)), 0);
+                          fresh.coc.data().size() * sizeof(float)),
+              0);
   }
 }
 
@@ -411,28 +422,28 @@ TEST(Sanitize, MethodsThatCheckColourThemselvesSeeEverySample) {
       configs.push_back({plain, {{13, 9}}});
     }
     for (auto& [s, sizes] : configs)
-    for (auto [w, h] : sizes) {
-      s.threads = 2;
-      Renderer renderer(s), reference(s);
-      const Frame good = textured_frame(w, h);
-      int checked = 0;
-      for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-          for (int ch = 0; ch < 4; ++ch) {
-            Frame bad = good;
-            bad.color.at(x, y, ch) = (x + y) % 2 ? kNaN : (ch == 3 ? 2.0f : kInf);
-            Frame clean = bad;
-            detail::sanitize_color(bad.color, clean.color);
-            const Image& got = renderer.render(bad).image;
-            const Image& want = reference.render(clean).image;
-            ASSERT_EQ(got.data().size(), want.data().size());
-            ASSERT_EQ(std::memcmp(got.data().data(), want.data().data(), got.data().size() * sizeof(float)), 0)
-                << w << "x" << h << " bad sample at (" << x << ", " << y << ") plane " << ch
-                << (s.params.count("impl") ? " impl=plain" : "");
-            ++checked;
-          }
-      EXPECT_EQ(checked, 4 * w * h);
-    }
+      for (auto [w, h] : sizes) {
+        s.threads = 2;
+        Renderer renderer(s), reference(s);
+        const Frame good = textured_frame(w, h);
+        int checked = 0;
+        for (int y = 0; y < h; ++y)
+          for (int x = 0; x < w; ++x)
+            for (int ch = 0; ch < 4; ++ch) {
+              Frame bad = good;
+              bad.color.at(x, y, ch) = (x + y) % 2 ? kNaN : (ch == 3 ? 2.0f : kInf);
+              Frame clean = bad;
+              detail::sanitize_color(bad.color, clean.color);
+              const Image& got = renderer.render(bad).image;
+              const Image& want = reference.render(clean).image;
+              ASSERT_EQ(got.data().size(), want.data().size());
+              ASSERT_EQ(std::memcmp(got.data().data(), want.data().data(), got.data().size() * sizeof(float)), 0)
+                  << w << "x" << h << " bad sample at (" << x << ", " << y << ") plane " << ch
+                  << (s.params.count("impl") ? " impl=plain" : "");
+              ++checked;
+            }
+        EXPECT_EQ(checked, 4 * w * h);
+      }
     for (const DebugViewInfo& view : m->debug_views) {
       RenderSettings d = default_settings(m->name);
       d.debug_view = view.name;

@@ -35,7 +35,8 @@ inline Frame textured_frame(int w, int h) {
   f.depth = Image(w, h, 1);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 0.1f + 0.8f * std::fabs(std::sin(0.37f * x * (c + 1) + 0.23f * y));
+      for (int c = 0; c < 3; ++c)
+        f.color.at(x, y, c) = 0.1f + 0.8f * std::fabs(std::sin(0.37f * x * (c + 1) + 0.23f * y));
       const int k = (x * 7 + y * 3) % 5;
       f.depth.at(x, y) = k == 0 ? 0.3f : k == 1 ? 2.0f : k == 2 ? 6.0f : k == 3 ? 40.0f : kInf;
     }
@@ -120,7 +121,8 @@ inline std::vector<std::string> contract_problems(const Frame& f, const Outcome&
       << ") channel " << bad / plane;
     p.push_back(s.str());
   }
-  if (!o.result.coc.same_size(img) || first_non_finite(o.result.coc) >= 0) p.push_back("CoC map wrong size or non-finite");
+  if (!o.result.coc.same_size(img) || first_non_finite(o.result.coc) >= 0)
+    p.push_back("CoC map wrong size or non-finite");
   return p;
 }
 
@@ -131,12 +133,13 @@ inline void expect_finite_or_clear_error(const Frame& f, const RenderSettings& s
   const auto problems = contract_problems(f, o, must_render);
   if (const char* bug = known_bug(s.method, label)) {
     std::cout << "[ TODO ] " << where << ": " << bug << " -- "
-              << (problems.empty() ? "passes in this case (remove the entry once every case passes)" : "still " + problems[0]) << "\n";
+              << (problems.empty() ? "passes in this case (remove the entry once every case passes)"
+                                   : "still " + problems[0])
+              << "\n";
     return;
   }
   for (const auto& p : problems) ADD_FAILURE() << where << ": " << p;
-  if (o.error && problems.empty())
-    std::cout << "[ note ] " << where << ": refused: " << o.message << "\n";
+  if (o.error && problems.empty()) std::cout << "[ note ] " << where << ": refused: " << o.message << "\n";
 }
 
 }  // namespace dofkit::robust

@@ -75,7 +75,7 @@ TEST(SafeOutputChild, Run) {
     ::setrlimit(RLIMIT_FSIZE, &lim);
     try {
       io::write_image(dir + "/out.exr", noise(128, 128));  // ~256 KB
-      ::_exit(10);  // unexpectedly succeeded
+      ::_exit(10);                                         // unexpectedly succeeded
     } catch (const Error& e) {
       std::fprintf(stderr, "child: %s\n", e.what());
       ::_exit(e.kind() == ErrorKind::bad_input ? 20 : 21);
@@ -128,7 +128,8 @@ TEST(SafeOutput, OutputSetCommitsNothingWhenOneWriteFails) {
     io::OutputSet set;
     set.add(dir / "a.exr", [&](const std::string& t) { io::encode_image(t, dir / "a.exr", noise(8, 8)); });
     Image five(4, 4, 5, 0.5f);  // not encodable as PNG
-    EXPECT_THROW(set.add(dir / "b.png", [&](const std::string& t) { io::encode_image(t, dir / "b.png", five); }), Error);
+    EXPECT_THROW(set.add(dir / "b.png", [&](const std::string& t) { io::encode_image(t, dir / "b.png", five); }),
+                 Error);
   }
   EXPECT_EQ(get(dir / "a.exr"), "old a");
   EXPECT_EQ(get(dir / "b.png"), "old b");

@@ -84,7 +84,8 @@ double bilinear(const Image& img, double x, double y) {
     yi = std::clamp(yi, 0, img.height() - 1);
     return static_cast<double>(img.at(xi, yi, 0));
   };
-  return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) + fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+  return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) +
+         fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
 }
 
 // Is the 3-D point x on the surface of p (within tol metres)? Written independently of the
@@ -144,8 +145,10 @@ TEST(ThinLens, PointImagesToDiscOfTheCocRadius) {
     const Image hdr = render_custom(point_scene(z, s_px, w, 100), small(w, h, focus, k, 512), true).ground_truth;
     const double got_plain = measured_disc_radius(plain, s_px), got_hdr = measured_disc_radius(hdr, s_px);
     const double ratio = energy(hdr) / 100 / (energy(plain) / 1.5);
-    std::printf("z = %5.2f m: expected r = %6.3f px, measured %6.3f (plain) %6.3f (emitter regions) px, "
-                "energy ratio %.4f\n", z, r, got_plain, got_hdr, ratio);
+    std::printf(
+        "z = %5.2f m: expected r = %6.3f px, measured %6.3f (plain) %6.3f (emitter regions) px, "
+        "energy ratio %.4f\n",
+        z, r, got_plain, got_hdr, ratio);
     EXPECT_NEAR(got_plain, r, 0.5) << "z = " << z;
     EXPECT_NEAR(got_hdr, r, 0.5) << "z = " << z;
     EXPECT_NEAR(ratio, 1.0, 0.01) << "z = " << z;  // measured within 0.42 %
@@ -242,7 +245,8 @@ TEST(ThinLens, InFocusPlaneIsSharp) {
   for (int c = 0; c < 3; ++c)
     for (int y = 0; y < 90; ++y)
       for (int x = 0; x < 160; ++x)
-        worst = std::max(worst, static_cast<double>(std::abs(r.ground_truth.at(x, y, c) - r.pinhole.color.at(x, y, c))));
+        worst =
+            std::max(worst, static_cast<double>(std::abs(r.ground_truth.at(x, y, c) - r.pinhole.color.at(x, y, c))));
   EXPECT_LT(worst, 1e-5);
 }
 
@@ -272,7 +276,8 @@ TEST(ThinLens, InFocusRegionOfOccluderMatchesPinhole) {
       if (!clear) continue;
       ++checked;
       for (int c = 0; c < 3; ++c)
-        worst = std::max(worst, static_cast<double>(std::abs(r.ground_truth.at(x, y, c) - r.pinhole.color.at(x, y, c))));
+        worst =
+            std::max(worst, static_cast<double>(std::abs(r.ground_truth.at(x, y, c) - r.pinhole.color.at(x, y, c))));
     }
   EXPECT_GT(checked, 300);
   EXPECT_LT(worst, 1e-5);

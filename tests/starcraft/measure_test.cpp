@@ -144,8 +144,7 @@ TEST(StarcraftMeasure, DISABLED_DocPictures) {
   {
     const Image wts = render(sr.pinhole, s).debug;  // source, small, medium, large
     Image rgb(wts.width(), wts.height(), 4, 1.0f);
-    for (int c = 0; c < 3; ++c)
-      std::copy(wts.plane(c + 1), wts.plane(c + 1) + wts.plane_size(), rgb.plane(c));
+    for (int c = 0; c < 3; ++c) std::copy(wts.plane(c + 1), wts.plane(c + 1) + wts.plane_size(), rgb.plane(c));
     save(dir, "occluder_weights", rgb, true);  // R small, G medium, B large, black = source
   }
   s.debug_view = "blurred_depth";

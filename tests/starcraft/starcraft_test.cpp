@@ -147,7 +147,7 @@ TEST(Starcraft, BlurryForegroundBleedsOverSharpBackground) {
   Frame f = textured_frame(160, 96, 4.0f);
   for (int y = 30; y < 66; ++y)
     for (int x = 50; x < 110; ++x) {
-      f.depth.at(x, y) = 1.0f;  // r = 12 (4/1 − 1) = 36 px → level 1
+      f.depth.at(x, y) = 1.0f;                                 // r = 12 (4/1 − 1) = 36 px → level 1
       for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 0.0f;  // black square
     }
   RenderSettings s = settings_for(4.0, 12.0);
@@ -260,7 +260,10 @@ TEST(StarcraftFinal, RowFormMatchesThePlainPass) {
   Frame f = textured_frame(151, 93, 10.0f);
   for (int y = 0; y < 93; ++y)
     for (int x = 0; x < 151; ++x)
-      f.depth.at(x, y) = x < 40 ? 0.8f : x < 80 ? 3.0f + 0.01f * y : x < 120 ? 12.0f : std::numeric_limits<float>::infinity();
+      f.depth.at(x, y) = x < 40    ? 0.8f
+                         : x < 80  ? 3.0f + 0.01f * y
+                         : x < 120 ? 12.0f
+                                   : std::numeric_limits<float>::infinity();
   RenderSettings s = settings_for(3.0, 9.0);
   const RenderResult fast = render(f, s);
   s.debug_view = "used_coc";  // a debug output routes the final pass through the plain form
@@ -275,7 +278,10 @@ TEST(StarcraftFast, MatchesThePlainImplementation) {
   Frame f = textured_frame(203, 117, 10.0f);
   for (int y = 0; y < 117; ++y)
     for (int x = 0; x < 203; ++x) {
-      f.depth.at(x, y) = x < 50 ? 0.8f : x < 100 ? 3.0f + 0.01f * y : x < 150 ? 12.0f : std::numeric_limits<float>::infinity();
+      f.depth.at(x, y) = x < 50    ? 0.8f
+                         : x < 100 ? 3.0f + 0.01f * y
+                         : x < 150 ? 12.0f
+                                   : std::numeric_limits<float>::infinity();
       if ((x * 7 + y * 13) % 97 == 0)  // sparse highlights up to 50
         for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 50.0f;
     }
@@ -303,8 +309,9 @@ TEST(StarcraftFast, MatchesPlainAtOddAndTinySizesForAnyThreadCount) {
     Frame f = textured_frame(w, h, 10.0f);
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x)
-        f.depth.at(x, y) = (x + y) % 5 == 0 ? 0.8f : (x * 3 + y) % 7 == 0 ? std::numeric_limits<float>::infinity()
-                                                                           : 3.0f + 0.5f * x;
+        f.depth.at(x, y) = (x + y) % 5 == 0       ? 0.8f
+                           : (x * 3 + y) % 7 == 0 ? std::numeric_limits<float>::infinity()
+                                                  : 3.0f + 0.5f * x;
     for (const char* keep : {"off", "on"}) {
       RenderSettings s = settings_for(3.0, 12.0);
       s.params = {{"keep_own_blur", keep}};
@@ -329,7 +336,10 @@ TEST(StarcraftFast, StreamedMediumEqualsTheSeparatePassesOpaqueOrNot) {
   Frame f = textured_frame(203, 117, 10.0f);
   for (int y = 0; y < 117; ++y)
     for (int x = 0; x < 203; ++x)
-      f.depth.at(x, y) = x < 50 ? 0.8f : x < 100 ? 3.0f + 0.01f * y : x < 150 ? 12.0f : std::numeric_limits<float>::infinity();
+      f.depth.at(x, y) = x < 50    ? 0.8f
+                         : x < 100 ? 3.0f + 0.01f * y
+                         : x < 150 ? 12.0f
+                                   : std::numeric_limits<float>::infinity();
   // translucent = 1: one pixel inside the frame (a full 4×4 block of the large level's
   // SIMD reduction, which also finds whether every alpha is 1); 2: one in the partial block
   // at the bottom-right corner (its scalar reduction).
@@ -370,11 +380,11 @@ TEST(StarcraftFast, DepthTestDecidesAsThePlainPass) {
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const float v = (y + 0.5f) / h;
-      f.depth.at(x, y) = x >= 20 && x < 40 ? 1.2f                                       // near bar
-                         : v < 0.15f       ? std::numeric_limits<float>::infinity()     // sky
-                         : v < 0.45f       ? 8.0f + 20.0f * (0.45f - v)                 // far wall
-                                           : 1.5f / ((v - 0.4f) * 2.6f);                // ground
-      if ((x * 7 + y * 13) % 61 == 0)  // sparse HDR highlights
+      f.depth.at(x, y) = x >= 20 && x < 40 ? 1.2f                                    // near bar
+                         : v < 0.15f       ? std::numeric_limits<float>::infinity()  // sky
+                         : v < 0.45f       ? 8.0f + 20.0f * (0.45f - v)              // far wall
+                                           : 1.5f / ((v - 0.4f) * 2.6f);                   // ground
+      if ((x * 7 + y * 13) % 61 == 0)                                                // sparse HDR highlights
         for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = 40.0f;
     }
   // C4 itself: the fast blurred 1/z equals the plain one, bit for bit.
@@ -417,12 +427,14 @@ TEST(StarcraftFast, SmallMediumWeightMatchesThePlainPass) {
     float highlight;
     const char *fraction, *boxes;
   };
-  for (const Case& k : {Case{24, 61, 40.0f, "0.2", "3"}, Case{24, 7, 40.0f, "0.05", "3"}, Case{16, 7, 40.0f, "0.1", "3"},
-                        Case{24, 7, 1.0f, "0.1", "3"}, Case{24, 61, 40.0f, "0.1", "2"}}) {
+  for (const Case& k :
+       {Case{24, 61, 40.0f, "0.2", "3"}, Case{24, 7, 40.0f, "0.05", "3"}, Case{16, 7, 40.0f, "0.1", "3"},
+        Case{24, 7, 1.0f, "0.1", "3"}, Case{24, 61, 40.0f, "0.1", "2"}}) {
     Frame f = textured_frame(w, h, 0.8f);
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
-        if (std::abs(2 * x + 1 - w) < k.hole && std::abs(2 * y + 1 - h) < k.hole) f.depth.at(x, y) = 4.0f;
+        if (std::abs(2 * x + 1 - w) < k.hole && std::abs(2 * y + 1 - h) < k.hole)
+          f.depth.at(x, y) = 4.0f;
         else if ((x * 7 + y * 13) % k.period == 0)
           for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = k.highlight;
       }

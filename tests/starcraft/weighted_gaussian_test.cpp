@@ -79,7 +79,8 @@ std::vector<float> fused(const Planes& p, float sigma, int threads) {
   std::vector<float> out(3 * n), wt(n);
   const float* src[3] = {p.src[0].data(), p.src[1].data(), p.src[2].data()};
   float* dst[3] = {out.data(), out.data() + n, out.data() + 2 * n};
-  core::with_threads(threads, [&] { core::weighted_gaussian(src, 3, p.c.data(), p.w, p.h, sigma, 3, kTiny, dst, wt.data()); });
+  core::with_threads(threads,
+                     [&] { core::weighted_gaussian(src, 3, p.c.data(), p.w, p.h, sigma, 3, kTiny, dst, wt.data()); });
   return out;
 }
 
@@ -119,29 +120,29 @@ TEST(WeightedGaussian, StreamedRowsEqualThePlaneFormForAnyBanding) {
     ~GroupReset() { core::set_weighted_gaussian_group(0); }
   } reset;
   for (int group : {0, 4, 32})
-  for (const auto& size : {std::pair{1, 1}, {6, 1}, {5, 3}, {17, 33}, {50, 119}, {203, 117}, {1000, 150}}) {
-    const int w = size.first, h = size.second;  // not a structured binding: the lambda below captures w
-    const Planes p = make_planes(w, h);
-    const std::size_t n = static_cast<std::size_t>(w) * h;
-    for (float sigma : {0.0f, 0.7f, 3.3f, 9.0f, 40.0f}) {
-      core::set_weighted_gaussian_group(0);
-      const std::vector<float> ref = fused(p, sigma, 1);
-      core::set_weighted_gaussian_group(group);
-      for (const std::vector<int>& cuts : {std::vector<int>{0, h}, std::vector<int>{0, 1, 33, 64, h},
-                                           std::vector<int>{0, h / 3, h / 2 + 1, h - 1, h}}) {
-        std::vector<float> out(3 * n, -1.0f);
-        const float* src[3] = {p.src[0].data(), p.src[1].data(), p.src[2].data()};
-        for (std::size_t b = 0; b + 1 < cuts.size(); ++b)
-          core::weighted_gaussian_rows(src, 3, p.c.data(), w, h, sigma, 3, kTiny, cuts[b], cuts[b + 1],
-                                       [&](int y, const float* const* rows) {
-                                         for (int k = 0; k < 3; ++k)
-                                           std::copy(rows[k], rows[k] + w, out.data() + k * n + std::size_t(y) * w);
-                                       });
-        EXPECT_EQ(out, ref) << w << "x" << h << " sigma " << sigma << " bands " << cuts.size() - 1 << " group "
-                            << group;
+    for (const auto& size : {std::pair{1, 1}, {6, 1}, {5, 3}, {17, 33}, {50, 119}, {203, 117}, {1000, 150}}) {
+      const int w = size.first, h = size.second;  // not a structured binding: the lambda below captures w
+      const Planes p = make_planes(w, h);
+      const std::size_t n = static_cast<std::size_t>(w) * h;
+      for (float sigma : {0.0f, 0.7f, 3.3f, 9.0f, 40.0f}) {
+        core::set_weighted_gaussian_group(0);
+        const std::vector<float> ref = fused(p, sigma, 1);
+        core::set_weighted_gaussian_group(group);
+        for (const std::vector<int>& cuts : {std::vector<int>{0, h}, std::vector<int>{0, 1, 33, 64, h},
+                                             std::vector<int>{0, h / 3, h / 2 + 1, h - 1, h}}) {
+          std::vector<float> out(3 * n, -1.0f);
+          const float* src[3] = {p.src[0].data(), p.src[1].data(), p.src[2].data()};
+          for (std::size_t b = 0; b + 1 < cuts.size(); ++b)
+            core::weighted_gaussian_rows(src, 3, p.c.data(), w, h, sigma, 3, kTiny, cuts[b], cuts[b + 1],
+                                         [&](int y, const float* const* rows) {
+                                           for (int k = 0; k < 3; ++k)
+                                             std::copy(rows[k], rows[k] + w, out.data() + k * n + std::size_t(y) * w);
+                                         });
+          EXPECT_EQ(out, ref) << w << "x" << h << " sigma " << sigma << " bands " << cuts.size() - 1 << " group "
+                              << group;
+        }
       }
     }
-  }
 }
 
 TEST(WeightedGaussian, StreamedRowsBeforeTheDivisionEqualThePlaneSums) {
@@ -164,8 +165,7 @@ TEST(WeightedGaussian, StreamedRowsBeforeTheDivisionEqualThePlaneSums) {
             core::weighted_gaussian_rows(
                 src, 3, p.c.data(), w, h, sigma, passes, kTiny, cuts[b], cuts[b + 1],
                 [&](int y, const float* const* rows) {
-                  for (int k = 0; k < 4; ++k)
-                    std::copy(rows[k], rows[k] + w, out.data() + k * n + std::size_t(y) * w);
+                  for (int k = 0; k < 4; ++k) std::copy(rows[k], rows[k] + w, out.data() + k * n + std::size_t(y) * w);
                 },
                 false);
           EXPECT_EQ(out, ref) << w << "x" << h << " passes " << passes << " sigma " << sigma;
@@ -205,8 +205,8 @@ TEST(WeightedGaussian, PointFormEqualsThePlainCascade) {
             for (int k = 0; k < 4; ++k) {
               const double e = std::fabs(at[k] - sums[k][i]) / std::max(1e-30, double(mags[k][i]));
               worst = std::max(worst, e);
-              ASSERT_LE(e, 1e-6) << w << "x" << h << " passes " << passes << " sigma " << sigma << " at " << x
-                                 << "," << y << " plane " << k << ": " << at[k] << " vs " << sums[k][i];
+              ASSERT_LE(e, 1e-6) << w << "x" << h << " passes " << passes << " sigma " << sigma << " at " << x << ","
+                                 << y << " plane " << k << ": " << at[k] << " vs " << sums[k][i];
             }
           }
       }
@@ -233,11 +233,12 @@ TEST(WeightedGaussian, OneBoxPassEqualsTheSeparateSteps) {
       std::vector<float> plane(4 * n), rows(4 * n, -1.0f);
       float* dst[3] = {plane.data(), plane.data() + n, plane.data() + 2 * n};
       core::weighted_gaussian(src, 3, p.c.data(), w, h, sigma, 1, kTiny, dst, plane.data() + 3 * n, false);
-      core::weighted_gaussian_rows(src, 3, p.c.data(), w, h, sigma, 1, kTiny, 0, h,
-                                   [&](int y, const float* const* r) {
-                                     for (int k = 0; k < 4; ++k)
-                                       std::copy(r[k], r[k] + w, rows.data() + k * n + std::size_t(y) * w);
-                                   }, false);
+      core::weighted_gaussian_rows(
+          src, 3, p.c.data(), w, h, sigma, 1, kTiny, 0, h,
+          [&](int y, const float* const* r) {
+            for (int k = 0; k < 4; ++k) std::copy(r[k], r[k] + w, rows.data() + k * n + std::size_t(y) * w);
+          },
+          false);
       EXPECT_EQ(plane, sep) << w << "x" << h << " sigma " << sigma;
       EXPECT_EQ(rows, sep) << w << "x" << h << " sigma " << sigma;
       std::vector<float> norm(3 * n), wt(n);

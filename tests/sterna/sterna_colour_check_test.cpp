@@ -3,8 +3,8 @@
 // samples inside its downsample (fast_prepare.cpp: 8-texel vector quads, then a scalar tail
 // that repeats the edge column on odd widths; the last row pair repeats the edge row on odd
 // heights; near_upsample=bicubic and per_pixel_scale take it too); every other path
-// (impl=plain, strength 0, debug views) scans the frame first. Whatever the path, a frame with one bad sample must render exactly like its
-// sanitised copy. tests/robustness checks colour plane 1 and alpha on three sizes with the
+// (impl=plain, strength 0, debug views) scans the frame first. Whatever the path, a frame with one bad sample must
+// render exactly like its sanitised copy. tests/robustness checks colour plane 1 and alpha on three sizes with the
 // default settings; this test covers every plane, every path, and sizes whose vector part
 // meets an odd last column and an odd last row.
 #include <gtest/gtest.h>
@@ -40,7 +40,8 @@ Frame frame(int w, int h) {
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const float a = 0.5f + 0.5f * std::fabs(std::cos(0.3f * x + 0.7f * y));
-      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = a * (0.1f + 0.8f * std::fabs(std::sin(0.37f * x * (c + 1) + 0.23f * y)));
+      for (int c = 0; c < 3; ++c)
+        f.color.at(x, y, c) = a * (0.1f + 0.8f * std::fabs(std::sin(0.37f * x * (c + 1) + 0.23f * y)));
       f.color.at(x, y, 3) = a;
       const int k = (x * 7 + y * 3) % 4;
       f.depth.at(x, y) = k == 0 ? 0.5f : k == 1 ? 2.0f : k == 2 ? 8.0f : kInf;
@@ -139,12 +140,38 @@ TEST(SternaColourCheck, FastPathFlagsExactlyTheSamplesTheSanitiserRejects) {
   const float kMin = std::numeric_limits<float>::min(), kDen = std::numeric_limits<float>::denorm_min();
   const float kMax = detail::kMaxColorValue;
   const float neg_nan = std::bit_cast<float>(std::uint32_t{0xffc00000u});
-  const std::vector<float> colour = {0.0f,  -0.0f, kMin,  -kMin, kMax, -kMax, 0.5f, kDen, -kDen, kMin / 2,
-                                     std::nextafter(kMin, 0.0f), std::nextafter(kMax, kInf),
-                                     -std::nextafter(kMax, kInf), kInf, -kInf, kNaN, neg_nan};
-  const std::vector<float> alpha = {0.0f, -0.0f, kMin, 1.0f, 0.5f, kDen, -kDen, -kMin, -0.5f,
-                                    std::nextafter(kMin, 0.0f), std::nextafter(1.0f, 2.0f), kInf, -kInf,
-                                    kNaN, neg_nan};
+  const std::vector<float> colour = {0.0f,
+                                     -0.0f,
+                                     kMin,
+                                     -kMin,
+                                     kMax,
+                                     -kMax,
+                                     0.5f,
+                                     kDen,
+                                     -kDen,
+                                     kMin / 2,
+                                     std::nextafter(kMin, 0.0f),
+                                     std::nextafter(kMax, kInf),
+                                     -std::nextafter(kMax, kInf),
+                                     kInf,
+                                     -kInf,
+                                     kNaN,
+                                     neg_nan};
+  const std::vector<float> alpha = {0.0f,
+                                    -0.0f,
+                                    kMin,
+                                    1.0f,
+                                    0.5f,
+                                    kDen,
+                                    -kDen,
+                                    -kMin,
+                                    -0.5f,
+                                    std::nextafter(kMin, 0.0f),
+                                    std::nextafter(1.0f, 2.0f),
+                                    kInf,
+                                    -kInf,
+                                    kNaN,
+                                    neg_nan};
   const Frame good = frame(37, 7);
   for (const auto& p : std::vector<std::map<std::string, std::string>>{{}, {{"firefly", "karis"}}}) {
     const RenderSettings s = settings(p);
@@ -176,7 +203,6 @@ TEST(SternaColourCheck, FastDownsampleFindsEveryBadSample) {
 }
 
 TEST(SternaColourCheck, EveryOtherPathFindsEveryBadSample) {
-  for (const auto& p : std::vector<std::map<std::string, std::string>>{{{"impl", "plain"}},
-                                                                       {{"strength", "0"}}})
+  for (const auto& p : std::vector<std::map<std::string, std::string>>{{{"impl", "plain"}}, {{"strength", "0"}}})
     expect_every_bad_sample_found(p, 19, 5);
 }

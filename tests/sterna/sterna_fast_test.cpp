@@ -52,8 +52,8 @@ Frame test_frame(int w, int h) {
       f.color.at(x, y, 3) = a;
       float z = 2.0f;
       if (x > w / 2) z = (y < h / 3) ? kInf : 3.0f + 10.0f * y / h;  // far, ramp
-      if (x < w / 4 && y > h / 3) z = 0.6f + 0.8f * x / w;            // near
-      if (x > w / 2 && x < w / 2 + w / 8 && y > h / 2) z = 2.0f;      // in focus inside far
+      if (x < w / 4 && y > h / 3) z = 0.6f + 0.8f * x / w;           // near
+      if (x > w / 2 && x < w / 2 + w / 8 && y > h / 2) z = 2.0f;     // in focus inside far
       f.depth.at(x, y) = z;
     }
   for (int k = 0; k < 5; ++k) {
@@ -64,8 +64,8 @@ Frame test_frame(int w, int h) {
 }
 
 struct Diff {
-  double worst = 0;     // max |fast − plain| / max(1, |plain|)
-  long long differ = 0; // samples that are not bit-identical
+  double worst = 0;      // max |fast − plain| / max(1, |plain|)
+  long long differ = 0;  // samples that are not bit-identical
 };
 
 Diff compare(const Image& a, const Image& b) {
@@ -161,7 +161,8 @@ TEST(SternaFast, EqualsPlainOnOpaqueFrames) {
   // near shortcut only. Both must still equal plain within the bound.
   for (float alpha : {1.0f, 0.5f}) {
     const Frame f = constant_alpha_frame(alpha);
-    for (const auto& p : std::vector<std::map<std::string, std::string>>{{}, {{"firefly", "karis"}}, {{"strength", "0.1"}}})
+    for (const auto& p :
+         std::vector<std::map<std::string, std::string>>{{}, {{"firefly", "karis"}}, {{"strength", "0.1"}}})
       expect_fast_equals_plain(f, blur_at_infinity(2.0, 9.0, p),
                                "alpha=" + std::to_string(alpha) + (p.empty() ? "" : " " + p.begin()->first));
   }
@@ -209,9 +210,12 @@ TEST(SternaFast, EqualsPlainWithTheBenchFramesKernelScale) {
   // 64-texel chunks: the rings and the hexagon are symmetric about the horizontal axis (fold
   // form there), the rotated pentagon is not (strip forms).
   const Frame f = test_frame(401, 233);
-  for (const auto& p : std::vector<std::map<std::string, std::string>>{
-           {}, {{"bokeh", "polygon"}, {"blades", "6"}}, {{"bokeh", "polygon"}, {"blades", "5"}, {"rotation_deg", "10"}}})
-    expect_fast_equals_plain(f, blur_at_infinity(2.0, 29.0, p), p.empty() ? "K=29" : "K=29 " + p.at("blades") + " blades");
+  for (const auto& p :
+       std::vector<std::map<std::string, std::string>>{{},
+                                                       {{"bokeh", "polygon"}, {"blades", "6"}},
+                                                       {{"bokeh", "polygon"}, {"blades", "5"}, {"rotation_deg", "10"}}})
+    expect_fast_equals_plain(f, blur_at_infinity(2.0, 29.0, p),
+                             p.empty() ? "K=29" : "K=29 " + p.at("blades") + " blades");
 }
 
 TEST(SternaFast, EqualsPlainForTheNativeNearFarBlendModel) {
@@ -227,7 +231,8 @@ TEST(SternaFast, EqualsPlainForTheNativeNearFarBlendModel) {
 TEST(SternaFast, EqualsPlainOnTinyAndEvenFrames) {
   // (bicubic: the 4 × 4 near footprint is clamped at every border of these frames;
   // per_pixel_scale: the per-texel far gather and the similar-radius far fill.)
-  for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {2, 1}, {3, 2}, {5, 7}, {17, 9}, {64, 32}, {130, 66}})
+  for (const auto& [w, h] :
+       std::vector<std::pair<int, int>>{{1, 1}, {2, 1}, {3, 2}, {5, 7}, {17, 9}, {64, 32}, {130, 66}})
     for (const auto& p : std::vector<std::map<std::string, std::string>>{
              {}, {{"near_upsample", "bicubic"}}, {{"per_pixel_scale", "on"}}})
       expect_fast_equals_plain(test_frame(w, h), blur_at_infinity(2.0, 6.0, p),
@@ -275,9 +280,9 @@ TEST(SternaFast, RepeatedFramesOfChangingSizeReuseTheWorkspaceCorrectly) {
 }
 
 // Profiling harness (not run in CI): the `dofkit bench` frame at 1920x1080 rendered repeatedly
-// by one Renderer (steady state), 1 thread unless DOFKIT_THREADS is set, DOFKIT_FRAMES frames (10), DOFKIT_SIZE=WxH (1920x1080),
-// DOFKIT_STERNA_IMPL=plain|fast, DOFKIT_STERNA_SET=k=v,k=v; prints the CPU time
-// per frame. Use with perf: perf record build/test_sterna
+// by one Renderer (steady state), 1 thread unless DOFKIT_THREADS is set, DOFKIT_FRAMES frames (10), DOFKIT_SIZE=WxH
+// (1920x1080), DOFKIT_STERNA_IMPL=plain|fast, DOFKIT_STERNA_SET=k=v,k=v; prints the CPU time per frame. Use with perf:
+// perf record build/test_sterna
 // --gtest_also_run_disabled_tests --gtest_filter=SternaFast.DISABLED_ProfileBenchFrame
 TEST(SternaFast, DISABLED_ProfileBenchFrame) {
   const char* size = std::getenv("DOFKIT_SIZE");  // WxH, default 1920x1080

@@ -52,8 +52,8 @@ Frame mixed_frame(int w, int h) {
       f.color.at(x, y, 1) = 1.0f - t;
       f.color.at(x, y, 2) = ((x / 7 + y / 5) % 2) ? 4.0f : 0.1f;  // HDR checker
       float z = 2.0f;
-      if (x > w / 2) z = kInf;                       // far
-      if (x < w / 4 && y > h / 3) z = 0.8f;          // near
+      if (x > w / 2) z = kInf;               // far
+      if (x < w / 4 && y > h / 3) z = 0.8f;  // near
       f.depth.at(x, y) = z;
     }
   return f;
@@ -150,9 +150,13 @@ TEST(Sterna, ConstantImageStaysConstant) {
       f.color.at(x, y, 1) = 2.5f;
       f.color.at(x, y, 2) = 0.7f;
     }
-  for (const auto& p : std::vector<std::map<std::string, std::string>>{
-           {}, {{"near_upsample", "bicubic"}}, {{"per_pixel_scale", "on"}}, {{"firefly", "karis"}},
-           {{"bokeh", "polygon"}, {"blades", "7"}, {"anamorphic", "0.6"}}, {{"strength", "0.1"}}}) {
+  for (const auto& p :
+       std::vector<std::map<std::string, std::string>>{{},
+                                                       {{"near_upsample", "bicubic"}},
+                                                       {{"per_pixel_scale", "on"}},
+                                                       {{"firefly", "karis"}},
+                                                       {{"bokeh", "polygon"}, {"blades", "7"}, {"anamorphic", "0.6"}},
+                                                       {{"strength", "0.1"}}}) {
     const RenderResult r = render(f, settings(2.0, 8.0, p));
     const float want[4] = {0.3f, 2.5f, 0.7f, 1.0f};
     float worst = 0;
@@ -199,15 +203,16 @@ TEST(Sterna, KarisWeightingReducesTheEnergyOfAnIsolatedFirefly) {
   const RenderResult on = render(f, settings(2.0, 10.0, {{"firefly", "karis"}}));
   const double base = 0.1 * 3 * 96 * 96;
   const double e_off = energy(off.image) - base, e_on = energy(on.image) - base;
-  EXPECT_GT(e_off, 1000.0);          // the firefly spreads (and the max fill brightens it)
-  EXPECT_LT(e_on, 0.01 * e_off);     // 1/(1+luma) weighting all but removes it
+  EXPECT_GT(e_off, 1000.0);       // the firefly spreads (and the max fill brightens it)
+  EXPECT_LT(e_on, 0.01 * e_off);  // 1/(1+luma) weighting all but removes it
   EXPECT_GT(e_on, 0.0);
 }
 
 TEST(Sterna, SameOutputForOneAndTwoThreads) {
   const Frame f = mixed_frame(150, 101);
   for (const auto& p : std::vector<std::map<std::string, std::string>>{
-           {}, {{"per_pixel_scale", "on"}, {"firefly", "karis"}, {"near_upsample", "bicubic"}},
+           {},
+           {{"per_pixel_scale", "on"}, {"firefly", "karis"}, {"near_upsample", "bicubic"}},
            {{"bokeh", "polygon"}, {"blades", "5"}, {"rotation_deg", "12"}}}) {
     RenderSettings s1 = settings(2.0, 9.0, p), s2 = s1;
     s2.threads = 2;
@@ -328,9 +333,9 @@ TEST(Sterna, PolygonalHighlightHasTheRightCornersAtTheRightRotation) {
   for (const auto& [n, rot] : std::vector<std::pair<int, double>>{{5, 0.0}, {6, 20.0}, {7, -10.0}, {9, 5.0}}) {
     Frame f = make_frame(160, 160, 0.0f, 0.0f, 0.0f, kInf);
     for (int c = 0; c < 3; ++c) f.color.at(80, 80, c) = 50.0f;
-    const RenderResult r = render(f, settings(2.0, 28.0,
-                                              {{"bokeh", "polygon"}, {"blades", std::to_string(n)},
-                                               {"rotation_deg", std::to_string(rot)}}));
+    const RenderResult r = render(
+        f, settings(2.0, 28.0,
+                    {{"bokeh", "polygon"}, {"blades", std::to_string(n)}, {"rotation_deg", std::to_string(rot)}}));
     double cx, cy;
     const std::vector<double> rho = blob_radius(r.image, cx, cy);
     EXPECT_NEAR(cx, 80.5, 1.0);

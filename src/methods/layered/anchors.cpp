@@ -31,7 +31,10 @@ LayerPlan plan_layers(double near_px, double far_px, int max_layers, double c, d
     // Remove a layer from the side whose per-step σ would grow least.
     const double sf = nf > 1 ? scale_if(near_px, nf - 1) : std::numeric_limits<double>::infinity();
     const double sb = nb > 1 ? scale_if(far_px, nb - 1) : std::numeric_limits<double>::infinity();
-    if (sf < sb) --nf; else --nb;
+    if (sf < sb)
+      --nf;
+    else
+      --nb;
   }
   LayerPlan p;
   p.count = nf + nb + 1;

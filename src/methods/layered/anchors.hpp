@@ -26,13 +26,13 @@ struct LayerPlan {
   /// Width of the matte's ramp as a fraction of the gap between two anchors (see weight):
   /// 1 = S&W's ramp over the whole gap, 0 = each fragment wholly in its nearest anchor's layer.
   double band = 1.0;
-  int count = 1;            ///< K
-  int focus = 0;            ///< k_focus
-  double scale_front = 0;   ///< s for the near side (px per step unit)
-  double scale_back = 0;    ///< s for the far side
-  std::vector<double> anchor;      ///< a_k, signed CoC radius px, strictly decreasing, a_focus = 0
-  std::vector<double> step_sigma;  ///< σ_k, px, applied after compositing layer k (0 at focus)
-  std::vector<double> total_sigma; ///< σ̂_k, px: the blur layer k ends up with
+  int count = 1;                    ///< K
+  int focus = 0;                    ///< k_focus
+  double scale_front = 0;           ///< s for the near side (px per step unit)
+  double scale_back = 0;            ///< s for the far side
+  std::vector<double> anchor;       ///< a_k, signed CoC radius px, strictly decreasing, a_focus = 0
+  std::vector<double> step_sigma;   ///< σ_k, px, applied after compositing layer k (0 at focus)
+  std::vector<double> total_sigma;  ///< σ̂_k, px: the blur layer k ends up with
 
   /// Matte ω_k(r) of a fragment with signed CoC r in layer k (see matting.hpp).
   float weight(int k, float r) const;
@@ -48,6 +48,5 @@ struct LayerPlan {
 /// `unit_sigma_px` is the step unit before scaling (S4: 1 px); smaller gives more, finer layers.
 LayerPlan plan_layers(double near_px, double far_px, int max_layers, double sigma_per_radius = 0.5,
                       double unit_sigma_px = 1.0);
-
 
 }  // namespace dofkit::detail::layered

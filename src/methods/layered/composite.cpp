@@ -12,22 +12,25 @@ namespace dofkit::detail::layered {
 void over(const Image& front, const Image& back, Image& dst) {
   const int w = front.width(), h = front.height();
   if (&dst != &front && &dst != &back) dst.resize(w, h, 4);
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const float* fa = front.row(3, y);
-      float t[4096];
-      for (int x0 = 0; x0 < w; x0 += 4096) {
-        const int n = std::min(4096, w - x0);
-        for (int i = 0; i < n; ++i) t[i] = 1.0f - fa[x0 + i];
-        for (int c = 0; c < 4; ++c) {
-          const float* f = front.row(c, y) + x0;
-          const float* b = back.row(c, y) + x0;
-          float* d = dst.row(c, y) + x0;
-          for (int i = 0; i < n; ++i) d[i] = f[i] + t[i] * b[i];
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          const float* fa = front.row(3, y);
+          float t[4096];
+          for (int x0 = 0; x0 < w; x0 += 4096) {
+            const int n = std::min(4096, w - x0);
+            for (int i = 0; i < n; ++i) t[i] = 1.0f - fa[x0 + i];
+            for (int c = 0; c < 4; ++c) {
+              const float* f = front.row(c, y) + x0;
+              const float* b = back.row(c, y) + x0;
+              float* d = dst.row(c, y) + x0;
+              for (int i = 0; i < n; ++i) d[i] = f[i] + t[i] * b[i];
+            }
+          }
         }
-      }
-    }
-  }, 4);
+      },
+      4);
 }
 
 // Half resolution (algorithms.md §5.7 [our choice]): 2×2 box down (per-axis variance
@@ -43,33 +46,39 @@ void reduce_and_blur(const Image& img, int f, double sigma, Image& low) {
   const int lw = (w + f - 1) / f, lh = (h + f - 1) / f;
   low.resize(lw, lh, nc);
   if (f == 2) {
-    core::parallel_for(lh, [&](int y0, int y1) {
-      for (int c = 0; c < nc; ++c)
-        for (int y = y0; y < y1; ++y) {
-          const float* a = img.row(c, 2 * y);
-          const float* b = img.row(c, std::min(2 * y + 1, h - 1));
-          float* d = low.row(c, y);
-          for (int x = 0; x < lw; ++x) {
-            const int x1 = std::min(2 * x + 1, w - 1);
-            d[x] = 0.25f * (a[2 * x] + a[x1] + b[2 * x] + b[x1]);
-          }
-        }
-    }, 4);
-  } else {
-    core::parallel_for(lh, [&](int y0, int y1) {
-      for (int c = 0; c < nc; ++c)
-        for (int y = y0; y < y1; ++y) {
-          float* d = low.row(c, y);
-          for (int x = 0; x < lw; ++x) {
-            float s = 0.0f;
-            for (int dy = 0; dy < 4; ++dy) {
-              const float* r = img.row(c, std::min(4 * y + dy, h - 1));
-              for (int dx = 0; dx < 4; ++dx) s += r[std::min(4 * x + dx, w - 1)];
+    core::parallel_for(
+        lh,
+        [&](int y0, int y1) {
+          for (int c = 0; c < nc; ++c)
+            for (int y = y0; y < y1; ++y) {
+              const float* a = img.row(c, 2 * y);
+              const float* b = img.row(c, std::min(2 * y + 1, h - 1));
+              float* d = low.row(c, y);
+              for (int x = 0; x < lw; ++x) {
+                const int x1 = std::min(2 * x + 1, w - 1);
+                d[x] = 0.25f * (a[2 * x] + a[x1] + b[2 * x] + b[x1]);
+              }
             }
-            d[x] = 0.0625f * s;
-          }
-        }
-    }, 2);
+        },
+        4);
+  } else {
+    core::parallel_for(
+        lh,
+        [&](int y0, int y1) {
+          for (int c = 0; c < nc; ++c)
+            for (int y = y0; y < y1; ++y) {
+              float* d = low.row(c, y);
+              for (int x = 0; x < lw; ++x) {
+                float s = 0.0f;
+                for (int dy = 0; dy < 4; ++dy) {
+                  const float* r = img.row(c, std::min(4 * y + dy, h - 1));
+                  for (int dx = 0; dx < 4; ++dx) s += r[std::min(4 * x + dx, w - 1)];
+                }
+                d[x] = 0.0625f * s;
+              }
+            }
+        },
+        2);
   }
   const double var = f == 2 ? (sigma * sigma - 0.25 - 2.0 / 3.0) / 4.0 : (sigma * sigma - 1.25 - 8.0 / 3.0) / 16.0;
   if (var > 0) core::gaussian_blur(low, static_cast<float>(std::sqrt(var)));
@@ -103,18 +112,21 @@ void blur_reduced(Image& img, int f, double sigma) {
   std::vector<int> xa(w), xb(w);
   std::vector<float> tx(w);
   for (int x = 0; x < w; ++x) core::bilinear_footprint((x + 0.5f) * scale, lw, xa[x], xb[x], tx[x]);
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int c = 0; c < img.channels(); ++c) {
-      const float* p = low.plane(c);
-      for (int y = y0; y < y1; ++y) {
-        int ya, yb;
-        float ty;
-        core::bilinear_footprint((y + 0.5f) * scale, lh, ya, yb, ty);
-        upsample_row(p + static_cast<std::size_t>(ya) * lw, p + static_cast<std::size_t>(yb) * lw, ty, xa.data(),
-                     xb.data(), tx.data(), w, img.row(c, y));
-      }
-    }
-  }, 4);
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int c = 0; c < img.channels(); ++c) {
+          const float* p = low.plane(c);
+          for (int y = y0; y < y1; ++y) {
+            int ya, yb;
+            float ty;
+            core::bilinear_footprint((y + 0.5f) * scale, lh, ya, yb, ty);
+            upsample_row(p + static_cast<std::size_t>(ya) * lw, p + static_cast<std::size_t>(yb) * lw, ty, xa.data(),
+                         xb.data(), tx.data(), w, img.row(c, y));
+          }
+        }
+      },
+      4);
 }
 
 }  // namespace
@@ -134,13 +146,21 @@ void Accumulator::flush() {
 
 void Accumulator::composite_front(const Image& layer) {
   flush();
-  if (!has_) { img_ = layer; has_ = true; return; }
+  if (!has_) {
+    img_ = layer;
+    has_ = true;
+    return;
+  }
   over(layer, img_, img_);
 }
 
 void Accumulator::composite_back(const Image& layer) {
   flush();
-  if (!has_) { img_ = layer; has_ = true; return; }
+  if (!has_) {
+    img_ = layer;
+    has_ = true;
+    return;
+  }
   over(img_, layer, img_);
 }
 

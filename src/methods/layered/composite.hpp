@@ -21,14 +21,17 @@ class Accumulator {
  public:
   /// half_res: blurs of σ >= 4 px run at half resolution (same variance, a quarter the work);
   /// with quarter_res as well, those of σ >= 8 px at quarter resolution (a sixteenth).
-  explicit Accumulator(bool half_res = true, bool quarter_res = false) : half_res_(half_res), quarter_res_(quarter_res) {}
+  explicit Accumulator(bool half_res = true, bool quarter_res = false)
+      : half_res_(half_res), quarter_res_(quarter_res) {}
   bool has_content() const { return has_; }
   /// img = layer over img (layer in front); first call takes the layer as is.
   void composite_front(const Image& layer);
   /// img = img over layer (the accumulator is in front: the near-field recursion).
   void composite_back(const Image& layer);
   /// Records a blur of σ px to be applied before the next composite or read.
-  void blur(double sigma) { if (has_) pending_var_ += sigma * sigma; }
+  void blur(double sigma) {
+    if (has_) pending_var_ += sigma * sigma;
+  }
   /// Applies any pending blur and returns the image.
   const Image& resolved();
   double pending_sigma() const;

@@ -26,12 +26,12 @@ struct DiscKernel {
   };
   struct Row {
     int dy;
-    int span;               ///< full-weight taps dx ∈ [−span, span]; −1: none
-    std::vector<Tap> rim;   ///< partial-coverage taps of this row
+    int span;              ///< full-weight taps dx ∈ [−span, span]; −1: none
+    std::vector<Tap> rim;  ///< partial-coverage taps of this row
   };
   double radius = 0;
-  int extent = 0;           ///< largest |dx| or |dy| with a non-zero tap
-  double full_weight = 1;   ///< weight of one full-coverage tap (1 / Σcov)
+  int extent = 0;          ///< largest |dx| or |dy| with a non-zero tap
+  double full_weight = 1;  ///< weight of one full-coverage tap (1 / Σcov)
   std::vector<Row> rows;
 };
 

@@ -80,11 +80,10 @@ LAYERED_SIMD void lerp_rows4(const float* __restrict top, const float* __restric
   }
 }
 
-
 // matting.cpp for one fragment per pixel from the per-pixel codes (see FusedLayer).
 // Columns [lo, hi) of the block (the caller's span; the rest of o is left alone).
-LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* __restrict w0,
-                            const float* const* in, int k, int lo, int hi, float (*o)[256]) {
+LAYERED_SIMD void matte_row(const std::uint16_t* __restrict code, const float* __restrict w0, const float* const* in,
+                            int k, int lo, int hi, float (*o)[256]) {
   // w_k: w0 where j0 = k; 1 where j0 + 1 = k with the second-layer bit, i.e. where the low
   // six bits are (k − 1) | 32 (no code has those for k = 0); 0 elsewhere. Compared in 16 bits
   // and w0 loaded unconditionally, so it vectorises without masked loads.
@@ -127,8 +126,8 @@ LAYERED_SIMD void hole_row(const std::uint16_t* __restrict code, int k, int lo, 
 
 // inpaint.cpp's level-0 fill (confidence 0: v = 0·v + 1·up) and final rules at hole pixels,
 // columns [lo, n) of the block (the rest of o is left alone).
-LAYERED_SIMD void fill_row(const std::uint8_t* __restrict hb, float (*up)[256], bool opaque, bool under, int lo,
-                           int n, float (*o)[256]) {
+LAYERED_SIMD void fill_row(const std::uint8_t* __restrict hb, float (*up)[256], bool opaque, bool under, int lo, int n,
+                           float (*o)[256]) {
   const float wt = 0.0f;
   if (!opaque && !under) {  // the common case: the fill replaces the hole pixel
     for (int c = 0; c < 4; ++c) {
@@ -404,8 +403,8 @@ LAYERED_SIMD void one_minus(const float* __restrict a, int n, float* __restrict 
 // The code pass (render_gaussian_fused) for 16 pixels whose codes are all known: if every
 // pixel is transparent (!(a > 0)) or has CoC bits `bits`, writes the codes (`cd` and weight
 // wv, or the no-layer code and 0) and returns true; otherwise writes nothing.
-LAYERED_SIMD bool code_run16(const float* __restrict a, const float* __restrict r, std::uint32_t bits,
-                             std::uint16_t cd, float wv, std::uint16_t* __restrict code, float* __restrict w0) {
+LAYERED_SIMD bool code_run16(const float* __restrict a, const float* __restrict r, std::uint32_t bits, std::uint16_t cd,
+                             float wv, std::uint16_t* __restrict code, float* __restrict w0) {
   int bad = 0;
   for (int j = 0; j < 16; ++j) {
     std::uint32_t b;
@@ -504,8 +503,10 @@ inline void up_h(const float* src, int cw, int x0, int n, float* dst, bool exact
   const int i_end = std::min((x1 >> 1), cw - 1);  // pairs with 2i + 1 < x1 and i + 1 <= cw − 1
   int i = x >> 1;
   if (i < i_end) {
-    if (exact) up_pairs_exact_simd(src, i, i_end, dst + (x - x0));
-    else kern::up_pairs(src, i, i_end, dst + (x - x0));
+    if (exact)
+      up_pairs_exact_simd(src, i, i_end, dst + (x - x0));
+    else
+      kern::up_pairs(src, i, i_end, dst + (x - x0));
     i = i_end;
   }
   for (x = 2 * i; x < x1; ++x) dst[x - x0] = one(x);
@@ -534,8 +535,10 @@ inline void up_h4(const float* src, int cw, int x0, int n, float* dst, bool exac
   const int i_end = std::min(x1 >> 2, cw - 1);  // quads with 4i + 3 < x1 and i + 1 <= cw − 1
   int i = x >> 2;
   if (i < i_end) {
-    if (exact) up_quads_exact_simd(src, i, i_end, dst + (x - x0));
-    else kern::up_quads(src, i, i_end, dst + (x - x0));
+    if (exact)
+      up_quads_exact_simd(src, i, i_end, dst + (x - x0));
+    else
+      kern::up_quads(src, i, i_end, dst + (x - x0));
     i = i_end;
   }
   for (x = std::max(x, 4 * i); x < x1; ++x) dst[x - x0] = one(x);
@@ -636,8 +639,10 @@ struct HCache {
     const bool exact = zm && zm->code(cy, x0) == 2;
     for (int c = 0; c < 4; ++c) {
       const float* src = img->row(c, cy);
-      if (factor == 4) up_h4(src, cw, x0, n, v[i][c], exact);
-      else up_h(src, cw, x0, n, v[i][c], exact);
+      if (factor == 4)
+        up_h4(src, cw, x0, n, v[i][c], exact);
+      else
+        up_h(src, cw, x0, n, v[i][c], exact);
       // The same columns of the coarse row this block's next band up-samples in this row's
       // place (a band of 4 fine rows advances 4 / factor coarse rows): the band's other
       // blocks run in between, which is long, and these 256–512-byte runs of a plane are too
@@ -653,8 +658,8 @@ struct HCache {
   void rows(int y, int n, const float* const*& a, const float* const*& b, float& ty) {
     int ya, yb;
     core::bilinear_footprint((y + 0.5f) * (factor == 4 ? 0.25f : 0.5f), img->height(), ya, yb, ty);
-    float (*ra)[kBlock] = row(ya, n);
-    float (*rb)[kBlock] = row(yb, n);
+    float(*ra)[kBlock] = row(ya, n);
+    float(*rb)[kBlock] = row(yb, n);
     for (int c = 0; c < 4; ++c) {
       pa[c] = ra[c];
       pb[c] = rb[c];
@@ -672,8 +677,8 @@ struct HCache {
     int ya, yb;
     float ty;
     core::bilinear_footprint((y + 0.5f) * (factor == 4 ? 0.25f : 0.5f), img->height(), ya, yb, ty);
-    float (*a)[kBlock] = row(ya, n);
-    float (*b)[kBlock] = row(yb, n);
+    float(*a)[kBlock] = row(ya, n);
+    float(*b)[kBlock] = row(yb, n);
     kern::lerp_rows4(a[0], b[0], ty, lo, hi, plus_zero, dst[0]);
   }
 };
@@ -691,8 +696,12 @@ struct Matte {
   bool first, last;
   double a_prev, a_k, a_next, band;
   Matte(const LayerPlan& p, int k)
-      : first(k == 0), last(k == p.count - 1), a_prev(k > 0 ? p.anchor[k - 1] : 0.0), a_k(p.anchor[k]),
-        a_next(k + 1 < p.count ? p.anchor[k + 1] : 0.0), band(p.band) {}
+      : first(k == 0),
+        last(k == p.count - 1),
+        a_prev(k > 0 ? p.anchor[k - 1] : 0.0),
+        a_k(p.anchor[k]),
+        a_next(k + 1 < p.count ? p.anchor[k + 1] : 0.0),
+        band(p.band) {}
   float operator()(float r) const {
     if (!first && r > a_k) {
       const double u = (r - a_k) / (a_prev - a_k);
@@ -709,8 +718,7 @@ struct Matte {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
-MatteStats matte_layer_fast(const Fragments& frags, const LayerPlan& plan, int k, Image& layer,
-                            std::uint8_t* hole) {
+MatteStats matte_layer_fast(const Fragments& frags, const LayerPlan& plan, int k, Image& layer, std::uint8_t* hole) {
   const int w = frags.width(), h = frags.height();
   layer.resize(w, h, 4);
   const int nf = static_cast<int>(frags.color.size());
@@ -718,62 +726,65 @@ MatteStats matte_layer_fast(const Fragments& frags, const LayerPlan& plan, int k
   const Matte matte(plan, k);
   // OR-reductions: the result does not depend on the order.
   std::atomic<bool> any_full{false}, any_hole{false};
-  core::parallel_for(h, [&](int y0, int y1) {
-    bool full = false, holes = false;
-    for (int y = y0; y < y1; ++y) {
-      float* out[4];
-      for (int c = 0; c < 4; ++c) out[c] = layer.row(c, y);
-      std::uint8_t* hr = hole ? hole + static_cast<std::size_t>(y) * w : nullptr;
-      if (nf == 1) {
-        // One fragment per pixel (RGB-D input): acc = 0 + (1 − 0)·w_k·I, as below.
-        const float* in[4];
-        for (int c = 0; c < 4; ++c) in[c] = frags.color[0]->row(c, y);
-        const float* rr = frags.coc[0]->row(0, y);
-        for (int x = 0; x < w; ++x) {
-          const float a = in[3][x];
-          float wk = 0.0f;
-          std::uint8_t hv = 0;
-          if (a > 0) {
-            const float r = rr[x];
-            wk = matte(r);
-            hv = r > near_limit;
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        bool full = false, holes = false;
+        for (int y = y0; y < y1; ++y) {
+          float* out[4];
+          for (int c = 0; c < 4; ++c) out[c] = layer.row(c, y);
+          std::uint8_t* hr = hole ? hole + static_cast<std::size_t>(y) * w : nullptr;
+          if (nf == 1) {
+            // One fragment per pixel (RGB-D input): acc = 0 + (1 − 0)·w_k·I, as below.
+            const float* in[4];
+            for (int c = 0; c < 4; ++c) in[c] = frags.color[0]->row(c, y);
+            const float* rr = frags.coc[0]->row(0, y);
+            for (int x = 0; x < w; ++x) {
+              const float a = in[3][x];
+              float wk = 0.0f;
+              std::uint8_t hv = 0;
+              if (a > 0) {
+                const float r = rr[x];
+                wk = matte(r);
+                hv = r > near_limit;
+              }
+              const float t = (1.0f - 0.0f) * wk;
+              for (int c = 0; c < 4; ++c) out[c][x] = wk > 0 ? 0.0f + t * in[c][x] : 0.0f;
+              full |= out[3][x] > 0;
+              if (hr) {
+                hr[x] = hv;
+                holes |= hv != 0;
+              }
+            }
+            continue;
           }
-          const float t = (1.0f - 0.0f) * wk;
-          for (int c = 0; c < 4; ++c) out[c][x] = wk > 0 ? 0.0f + t * in[c][x] : 0.0f;
-          full |= out[3][x] > 0;
-          if (hr) {
-            hr[x] = hv;
-            holes |= hv != 0;
+          for (int x = 0; x < w; ++x) {
+            float acc[4] = {0, 0, 0, 0};
+            std::uint8_t hv = 0;
+            for (int f = 0; f < nf; ++f) {
+              const Image& col = *frags.color[f];
+              const float a = col.row(3, y)[x];
+              if (!(a > 0)) continue;
+              const float r = frags.coc[f]->row(0, y)[x];
+              const float wk = matte(r);
+              if (wk > 0) {
+                const float t = (1.0f - acc[3]) * wk;
+                for (int c = 0; c < 4; ++c) acc[c] += t * col.row(c, y)[x];
+              }
+              if (f == 0 && r > near_limit) hv = 1;
+            }
+            for (int c = 0; c < 4; ++c) out[c][x] = acc[c];
+            full |= acc[3] > 0;
+            if (hr) {
+              hr[x] = hv;
+              holes |= hv != 0;
+            }
           }
         }
-        continue;
-      }
-      for (int x = 0; x < w; ++x) {
-        float acc[4] = {0, 0, 0, 0};
-        std::uint8_t hv = 0;
-        for (int f = 0; f < nf; ++f) {
-          const Image& col = *frags.color[f];
-          const float a = col.row(3, y)[x];
-          if (!(a > 0)) continue;
-          const float r = frags.coc[f]->row(0, y)[x];
-          const float wk = matte(r);
-          if (wk > 0) {
-            const float t = (1.0f - acc[3]) * wk;
-            for (int c = 0; c < 4; ++c) acc[c] += t * col.row(c, y)[x];
-          }
-          if (f == 0 && r > near_limit) hv = 1;
-        }
-        for (int c = 0; c < 4; ++c) out[c][x] = acc[c];
-        full |= acc[3] > 0;
-        if (hr) {
-          hr[x] = hv;
-          holes |= hv != 0;
-        }
-      }
-    }
-    if (full) any_full.store(true, std::memory_order_relaxed);
-    if (holes) any_hole.store(true, std::memory_order_relaxed);
-  }, 4);
+        if (full) any_full.store(true, std::memory_order_relaxed);
+        if (holes) any_hole.store(true, std::memory_order_relaxed);
+      },
+      4);
   MatteStats s;
   s.empty = !any_full.load();
   s.holes = any_hole.load();
@@ -786,7 +797,7 @@ namespace {
 // The push-pull pyramid above level 0 (levels 1 … L, down to 1×1), from the workspace.
 struct Pyramid {
   std::vector<Image*> val{nullptr}, wgt{nullptr};  // index 0 unused (level 0 = the layer)
-  int levels = 1;                                    // including level 0
+  int levels = 1;                                  // including level 0
 };
 Pyramid make_pyramid(Workspace& ws, int w, int h, const std::string& prefix = "layered.pp") {
   Pyramid p;
@@ -830,8 +841,7 @@ void pull_upper_row(const Image& fine, const Image& fwt, Image& cv, Image& cwt, 
       }
       if (kern::all_one(wa, 2 * m) && kern::all_one(wb, 2 * m)) {
         bool zero = true;
-        for (int k = 0; k < 4 && zero; ++k)
-          zero = !kern::any_bits(f0[k], 2 * m) && !kern::any_bits(f1[k], 2 * m);
+        for (int k = 0; k < 4 && zero; ++k) zero = !kern::any_bits(f0[k], 2 * m) && !kern::any_bits(f1[k], 2 * m);
         if (zero) {
           // Four children of confidence 1 and value +0 (a region where the layer is known
           // to be empty): Σ w v = +0 + 1·(+0) + … = +0, Σ w = 4, so value +0 / 4 = +0 and
@@ -847,7 +857,8 @@ void pull_upper_row(const Image& fine, const Image& fwt, Image& cv, Image& cwt, 
     x = full;
   }
   for (; x < cw; ++x)  // the rest, one pixel at a time
-    pull_pixel(fine, [&](int fx, int fy) { return fwt.row(0, fy)[fx]; }, x, y, cv, cwt);
+    pull_pixel(
+        fine, [&](int fx, int fy) { return fwt.row(0, fy)[fx]; }, x, y, cv, cwt);
 }
 
 // Pull of levels `first` … L (first >= 2) from the level below, then the push from the top
@@ -860,9 +871,12 @@ void pull_push_upper(const Pyramid& p, int first = 2) {
     const Image& fwt = *p.wgt[l - 1];
     Image& cv = *p.val[l];
     Image& cwt = *p.wgt[l];
-    core::parallel_for(cv.height(), [&](int y0, int y1) {
-      for (int y = y0; y < y1; ++y) pull_upper_row(fine, fwt, cv, cwt, y);
-    }, 8);
+    core::parallel_for(
+        cv.height(),
+        [&](int y0, int y1) {
+          for (int y = y0; y < y1; ++y) pull_upper_row(fine, fwt, cv, cwt, y);
+        },
+        8);
   }
   for (int l = p.levels - 2; l >= 1; --l) {
     Image& fv = *p.val[l];
@@ -870,26 +884,29 @@ void pull_push_upper(const Pyramid& p, int first = 2) {
     const Image& cv = *p.val[l + 1];
     const int fw = fv.width(), fh = fv.height();
     const int nb = (fw + kBlock - 1) / kBlock;
-    core::parallel_for(fh, [&](int y0, int y1) {
-      // One cache of horizontally up-sampled coarse rows per column block (up_block's values):
-      // a coarse row serves four fine rows, and is up-sampled once per task instead of four
-      // times. Default-initialised buffers (only the keys are set).
-      std::unique_ptr<HCache[]> cache(new HCache[nb]);
-      for (int y = y0; y < y1; ++y) {
-        const float* wr = fwt.row(0, y);
-        for (int x0 = 0; x0 < fw; x0 += kBlock) {
-          const int n = std::min(kBlock, fw - x0);
-          if (!kern::any_below_one(wr + x0, n)) continue;
-          HCache& hc = cache[x0 / kBlock];
-          if (hc.img != &cv) hc.reset(&cv, 2, x0);
-          const float* const* top;
-          const float* const* bot;
-          float ty;
-          hc.rows(y, n, top, bot, ty);  // the vertical lerp of up_block, inside the push
-          push_rows4_simd(wr + x0, top[0], bot[0], ty, n, fv.row(0, y) + x0, fv.plane_size());
-        }
-      }
-    }, 8);
+    core::parallel_for(
+        fh,
+        [&](int y0, int y1) {
+          // One cache of horizontally up-sampled coarse rows per column block (up_block's values):
+          // a coarse row serves four fine rows, and is up-sampled once per task instead of four
+          // times. Default-initialised buffers (only the keys are set).
+          std::unique_ptr<HCache[]> cache(new HCache[nb]);
+          for (int y = y0; y < y1; ++y) {
+            const float* wr = fwt.row(0, y);
+            for (int x0 = 0; x0 < fw; x0 += kBlock) {
+              const int n = std::min(kBlock, fw - x0);
+              if (!kern::any_below_one(wr + x0, n)) continue;
+              HCache& hc = cache[x0 / kBlock];
+              if (hc.img != &cv) hc.reset(&cv, 2, x0);
+              const float* const* top;
+              const float* const* bot;
+              float ty;
+              hc.rows(y, n, top, bot, ty);  // the vertical lerp of up_block, inside the push
+              push_rows4_simd(wr + x0, top[0], bot[0], ty, n, fv.row(0, y) + x0, fv.plane_size());
+            }
+          }
+        },
+        8);
   }
 }
 
@@ -924,33 +941,37 @@ void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bo
     }
     return;
   }
-  pull_level(layer, [&](int fx, int fy) { return hole[static_cast<std::size_t>(fy) * w + fx] ? 0.0f : 1.0f; },
-             *pyr.val[1], *pyr.wgt[1]);
+  pull_level(
+      layer, [&](int fx, int fy) { return hole[static_cast<std::size_t>(fy) * w + fx] ? 0.0f : 1.0f; }, *pyr.val[1],
+      *pyr.wgt[1]);
   pull_push_upper(pyr);
   // Level 0: the hole pixels (confidence 0) take the up-sampled level 1, then the opaque /
   // under rules of inpaint.cpp, written straight into the layer.
   const Image& cv = *pyr.val[1];
   const int cw = cv.width(), ch = cv.height();
-  core::parallel_for(h, [&](int y0, int y1) {
-    float up[4][kBlock];
-    for (int y = y0; y < y1; ++y) {
-      const std::uint8_t* hr = hole + static_cast<std::size_t>(y) * w;
-      for (int x0 = 0; x0 < w; x0 += kBlock) {
-        const int n = std::min(kBlock, w - x0);
-        if (!kern::any_byte(hr + x0, n)) continue;
-        for (int k = 0; k < 4; ++k) up_block(cv.plane(k), cw, ch, y, x0, n, up[k]);
-        float* d[4];
-        for (int k = 0; k < 4; ++k) d[k] = layer.row(k, y) + x0;
-        for (int j = 0; j < n; ++j) {
-          if (!hr[x0 + j]) continue;
-          const float wt = 0.0f;
-          float v[4];
-          for (int k = 0; k < 4; ++k) v[k] = wt * d[k][j] + (1.0f - wt) * up[k][j];
-          finish(d, j, v);
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        float up[4][kBlock];
+        for (int y = y0; y < y1; ++y) {
+          const std::uint8_t* hr = hole + static_cast<std::size_t>(y) * w;
+          for (int x0 = 0; x0 < w; x0 += kBlock) {
+            const int n = std::min(kBlock, w - x0);
+            if (!kern::any_byte(hr + x0, n)) continue;
+            for (int k = 0; k < 4; ++k) up_block(cv.plane(k), cw, ch, y, x0, n, up[k]);
+            float* d[4];
+            for (int k = 0; k < 4; ++k) d[k] = layer.row(k, y) + x0;
+            for (int j = 0; j < n; ++j) {
+              if (!hr[x0 + j]) continue;
+              const float wt = 0.0f;
+              float v[4];
+              for (int k = 0; k < 4; ++k) v[k] = wt * d[k][j] + (1.0f - wt) * up[k][j];
+              finish(d, j, v);
+            }
+          }
         }
-      }
-    }
-  }, 4);
+      },
+      4);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -970,25 +991,28 @@ ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz) {
   // Code 2 (tiny) only where the exact multiplies pay (core::exact_tiny_multiplies); elsewhere
   // such blocks are 1 and take the float kernels: the same bits.
   const bool exact = core::exact_tiny_multiplies();
-  core::parallel_for(img.height(), [&](int y0, int y1) {
-    std::uint64_t tiny_blocks = 0;
-    for (int y = y0; y < y1; ++y)
-      for (int b = 0; b < nb; ++b) {
-        const int x0 = b * kBlock, n = std::min(kBlock, fw - x0);
-        const int lo = std::max(0, x0 / factor - 1), hi = std::min(cw - 1, (x0 + n - 1) / factor + 1);
-        bool any = false;
-        for (int c = 0; c < 4 && !any; ++c) {
-          const float* r = img.row(c, y);
-          // A dense accumulator is settled by its first sample; a sparse one needs the scan.
-          any = kern::any_bits(r + lo, 1) || kern::any_bits(r + lo, hi - lo + 1);
-        }
-        bool tiny = false;
-        for (int c = 0; c < 4 && any && exact && !tiny; ++c) tiny = kern::any_tiny(img.row(c, y) + lo, hi - lo + 1);
-        nz[static_cast<std::size_t>(y) * nb + b] = tiny ? 2 : (any ? 1 : 0);
-        tiny_blocks += tiny ? 1 : 0;
-      }
-    if (tiny_blocks) g_tiny_blocks.fetch_add(tiny_blocks, std::memory_order_relaxed);
-  }, 8);
+  core::parallel_for(
+      img.height(),
+      [&](int y0, int y1) {
+        std::uint64_t tiny_blocks = 0;
+        for (int y = y0; y < y1; ++y)
+          for (int b = 0; b < nb; ++b) {
+            const int x0 = b * kBlock, n = std::min(kBlock, fw - x0);
+            const int lo = std::max(0, x0 / factor - 1), hi = std::min(cw - 1, (x0 + n - 1) / factor + 1);
+            bool any = false;
+            for (int c = 0; c < 4 && !any; ++c) {
+              const float* r = img.row(c, y);
+              // A dense accumulator is settled by its first sample; a sparse one needs the scan.
+              any = kern::any_bits(r + lo, 1) || kern::any_bits(r + lo, hi - lo + 1);
+            }
+            bool tiny = false;
+            for (int c = 0; c < 4 && any && exact && !tiny; ++c) tiny = kern::any_tiny(img.row(c, y) + lo, hi - lo + 1);
+            nz[static_cast<std::size_t>(y) * nb + b] = tiny ? 2 : (any ? 1 : 0);
+            tiny_blocks += tiny ? 1 : 0;
+          }
+        if (tiny_blocks) g_tiny_blocks.fetch_add(tiny_blocks, std::memory_order_relaxed);
+      },
+      8);
   return z;
 }
 
@@ -1076,13 +1100,16 @@ const Image& FastAccumulator::resolved() {
     Image& img = *full_;
     const Image& half = *half_;
     const int w = img.width(), h = img.height();
-    core::parallel_for(h, [&](int y0, int y1) {
-      for (int c = 0; c < 4; ++c)
-        for (int y = y0; y < y1; ++y)
-          for (int x0 = 0; x0 < w; x0 += kBlock)
-            up_block(half.plane(c), half.width(), half.height(), y, x0, std::min(kBlock, w - x0), img.row(c, y) + x0,
-                     factor_);
-    }, 4);
+    core::parallel_for(
+        h,
+        [&](int y0, int y1) {
+          for (int c = 0; c < 4; ++c)
+            for (int y = y0; y < y1; ++y)
+              for (int x0 = 0; x0 < w; x0 += kBlock)
+                up_block(half.plane(c), half.width(), half.height(), y, x0, std::min(kBlock, w - x0),
+                         img.row(c, y) + x0, factor_);
+        },
+        4);
     lazy_up_ = false;
   }
   return *full_;
@@ -1097,32 +1124,38 @@ void FastAccumulator::combine(Image& layer, bool layer_in_front) {
     return;
   }
   if (!lazy_up_) {
-    if (layer_in_front) over(layer, *full_, *full_); else over(*full_, layer, *full_);
+    if (layer_in_front)
+      over(layer, *full_, *full_);
+    else
+      over(*full_, layer, *full_);
     return;
   }
   // composite.cpp's over() with the accumulator's up-sampled rows read from the half image.
   Image& img = *full_;
   const AccRows acc(*this);
   const int w = img.width(), h = img.height();
-  core::parallel_for(h, [&](int y0, int y1) {
-    float buf[4][kBlock];
-    float t[kBlock];
-    for (int y = y0; y < y1; ++y)
-      for (int x0 = 0; x0 < w; x0 += kBlock) {
-        const int n = std::min(kBlock, w - x0);
-        const float* a[4];
-        acc.get(y, x0, n, buf, a);
-        const float* l[4];
-        for (int c = 0; c < 4; ++c) l[c] = layer.row(c, y) + x0;
-        const float* const* f = layer_in_front ? l : a;
-        const float* const* b = layer_in_front ? a : l;
-        for (int i = 0; i < n; ++i) t[i] = 1.0f - f[3][i];
-        float out[4][kBlock];
-        for (int c = 0; c < 4; ++c)
-          for (int i = 0; i < n; ++i) out[c][i] = f[c][i] + t[i] * b[c][i];
-        for (int c = 0; c < 4; ++c) std::copy(out[c], out[c] + n, img.row(c, y) + x0);
-      }
-  }, 4);
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        float buf[4][kBlock];
+        float t[kBlock];
+        for (int y = y0; y < y1; ++y)
+          for (int x0 = 0; x0 < w; x0 += kBlock) {
+            const int n = std::min(kBlock, w - x0);
+            const float* a[4];
+            acc.get(y, x0, n, buf, a);
+            const float* l[4];
+            for (int c = 0; c < 4; ++c) l[c] = layer.row(c, y) + x0;
+            const float* const* f = layer_in_front ? l : a;
+            const float* const* b = layer_in_front ? a : l;
+            for (int i = 0; i < n; ++i) t[i] = 1.0f - f[3][i];
+            float out[4][kBlock];
+            for (int c = 0; c < 4; ++c)
+              for (int i = 0; i < n; ++i) out[c][i] = f[c][i] + t[i] * b[c][i];
+            for (int c = 0; c < 4; ++c) std::copy(out[c], out[c] + n, img.row(c, y) + x0);
+          }
+      },
+      4);
   lazy_up_ = false;
 }
 
@@ -1134,35 +1167,40 @@ void final_composite(FastAccumulator& front, const Image* focus, FastAccumulator
   back.settle();
   out.resize(w, h, 4);
   const AccRows F(front), B(back);
-  core::parallel_for(h, [&](int y0, int y1) {
-    float fb[4][kBlock], bb[4][kBlock];
-    float cur[4][kBlock];
-    for (int y = y0; y < y1; ++y)
-      for (int x0 = 0; x0 < w; x0 += kBlock) {
-        const int n = std::min(kBlock, w - x0);
-        for (int c = 0; c < 4; ++c) {
-          if (focus) std::copy(focus->row(c, y) + x0, focus->row(c, y) + x0 + n, cur[c]);
-          else std::fill(cur[c], cur[c] + n, 0.0f);
-        }
-        if (B.present()) {  // out = out over B
-          const float* b[4];
-          B.get(y, x0, n, bb, b);
-          float t[kBlock];
-          for (int i = 0; i < n; ++i) t[i] = 1.0f - cur[3][i];
-          for (int c = 0; c < 4; ++c)
-            for (int i = 0; i < n; ++i) cur[c][i] = cur[c][i] + t[i] * b[c][i];
-        }
-        if (F.present()) {  // out = F over out
-          const float* f[4];
-          F.get(y, x0, n, fb, f);
-          float t[kBlock];
-          for (int i = 0; i < n; ++i) t[i] = 1.0f - f[3][i];
-          for (int c = 0; c < 4; ++c)
-            for (int i = 0; i < n; ++i) cur[c][i] = f[c][i] + t[i] * cur[c][i];
-        }
-        for (int c = 0; c < 4; ++c) std::copy(cur[c], cur[c] + n, out.row(c, y) + x0);
-      }
-  }, 4);
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        float fb[4][kBlock], bb[4][kBlock];
+        float cur[4][kBlock];
+        for (int y = y0; y < y1; ++y)
+          for (int x0 = 0; x0 < w; x0 += kBlock) {
+            const int n = std::min(kBlock, w - x0);
+            for (int c = 0; c < 4; ++c) {
+              if (focus)
+                std::copy(focus->row(c, y) + x0, focus->row(c, y) + x0 + n, cur[c]);
+              else
+                std::fill(cur[c], cur[c] + n, 0.0f);
+            }
+            if (B.present()) {  // out = out over B
+              const float* b[4];
+              B.get(y, x0, n, bb, b);
+              float t[kBlock];
+              for (int i = 0; i < n; ++i) t[i] = 1.0f - cur[3][i];
+              for (int c = 0; c < 4; ++c)
+                for (int i = 0; i < n; ++i) cur[c][i] = cur[c][i] + t[i] * b[c][i];
+            }
+            if (F.present()) {  // out = F over out
+              const float* f[4];
+              F.get(y, x0, n, fb, f);
+              float t[kBlock];
+              for (int i = 0; i < n; ++i) t[i] = 1.0f - f[3][i];
+              for (int c = 0; c < 4; ++c)
+                for (int i = 0; i < n; ++i) cur[c][i] = f[c][i] + t[i] * cur[c][i];
+            }
+            for (int c = 0; c < 4; ++c) std::copy(cur[c], cur[c] + n, out.row(c, y) + x0);
+          }
+      },
+      4);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1176,11 +1214,11 @@ constexpr unsigned kNoLayer = 31;
 // stored: the matte of matting.cpp and, at hole pixels, the push-pull fill of inpaint.cpp.
 struct FusedLayer {
   const Image* color = nullptr;
-  const float* w0 = nullptr;             // matte in the pixel's first layer j0
-  const std::uint16_t* code = nullptr;   // j0 | (second layer j0 + 1 at weight 1) << 5 | hk << 6
+  const float* w0 = nullptr;            // matte in the pixel's first layer j0
+  const std::uint16_t* code = nullptr;  // j0 | (second layer j0 + 1 at weight 1) << 5 | hk << 6
   int w = 0, h = 0, k = 0;
-  bool fill = false;                     // fill the holes (k >= hk)
-  const Image* l1 = nullptr;             // pushed pyramid level 1 (null: 1×1 image, fill = self)
+  bool fill = false;          // fill the holes (k >= hk)
+  const Image* l1 = nullptr;  // pushed pyramid level 1 (null: 1×1 image, fill = self)
   bool opaque = false, under = false;
   // Per row block of kBlock pixels (row y, block x0 / kBlock): the layers any pixel has a
   // non-zero matte in, and the smallest / largest hk (hole from layer hk on) in the block.
@@ -1313,8 +1351,10 @@ struct FusedLayer {
       cache->get(y, n, a0, a1, up);  // the fill reads up only at [a0, a1)
     } else {
       for (int c = 0; c < 4; ++c) {
-        if (l1) up_block(l1->plane(c), l1->width(), l1->height(), y, x0, n, up[c]);
-        else std::copy(o[c], o[c] + n, up[c]);  // 1×1: the fill is the pixel itself
+        if (l1)
+          up_block(l1->plane(c), l1->width(), l1->height(), y, x0, n, up[c]);
+        else
+          std::copy(o[c], o[c] + n, up[c]);  // 1×1: the fill is the pixel itself
       }
     }
     if (l1) {
@@ -1422,18 +1462,21 @@ void pull_row(const FusedLayer& L, int yc, Image& cv, Image& cwt, float (*r)[4][
 // in cache (pull_upper_row; the values do not depend on when a row is pulled).
 void pull_from_layer(const FusedLayer& L, Image& cv, Image& cwt, Image* cv2, Image* cwt2) {
   const int rows = cv2 ? cv2->height() : cv.height();
-  core::parallel_for(rows, [&](int y0, int y1) {
-    float r[2][4][kBlock];
-    std::uint8_t hb[2][kBlock];
-    for (int y = y0; y < y1; ++y) {
-      if (!cv2) {
-        pull_row(L, y, cv, cwt, r, hb);
-        continue;
-      }
-      for (int yc = 2 * y; yc < std::min(2 * y + 2, cv.height()); ++yc) pull_row(L, yc, cv, cwt, r, hb, true);
-      pull_upper_row(cv, cwt, *cv2, *cwt2, y);
-    }
-  }, cv2 ? 2 : 4);
+  core::parallel_for(
+      rows,
+      [&](int y0, int y1) {
+        float r[2][4][kBlock];
+        std::uint8_t hb[2][kBlock];
+        for (int y = y0; y < y1; ++y) {
+          if (!cv2) {
+            pull_row(L, y, cv, cwt, r, hb);
+            continue;
+          }
+          for (int yc = 2 * y; yc < std::min(2 * y + 2, cv.height()); ++yc) pull_row(L, yc, cv, cwt, r, hb, true);
+          pull_upper_row(cv, cwt, *cv2, *cwt2, y);
+        }
+      },
+      cv2 ? 2 : 4);
 }
 
 // The pull of the next layer's pyramid levels 1 and (if cv2 is non-null) 2, done in the same
@@ -1538,8 +1581,7 @@ void fused_row(const FusedLayer& L, int y, int x0, int n, HCache& fill_cache, in
   r.aty = 0.0f;
   r.am = am;
   if (am == 2) {
-    if (acc_cache->img != acc || acc_cache->x0 != x0)
-      acc_cache->reset(acc, factor, x0, azm);
+    if (acc_cache->img != acc || acc_cache->x0 != x0) acc_cache->reset(acc, factor, x0, azm);
     acc_cache->rows(y, n, at, ab, r.aty);
   }
   // Rows of the HCaches or kZeroRows: channel ch at + ch·kRowStride, as crow_row_simd reads them.
@@ -1563,8 +1605,8 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     float pr[2][4][kBlock];
     std::uint8_t phb[2][kBlock];
     float qacc[4 * (kBlock / 4)];  // lerp_quads_acc_simd's partial 4×4 sums
-    HCache* acc;   // nbc caches of A's rows, one per column block
-    HCache* fill;  // nbc caches of the fill's pyramid level
+    HCache* acc;                   // nbc caches of A's rows, one per column block
+    HCache* fill;                  // nbc caches of the fill's pyramid level
   };
   // Per column block, caches of the horizontally up-sampled coarse rows of A and of the
   // fill's pyramid level: kept across the bands of a task, so a coarse row shared by
@@ -1575,13 +1617,13 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
     return cl == FusedLayer::kEmptyKnown || (cl == FusedLayer::kEmptyHole && !L.fill);
   };
   // A row of a block where layer k is not known empty, in one kernel (fused_row).
-  auto crow_fused = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s, bool azero) {
+  auto crow_fused = [&](int y, int x0, int n, float(*c)[kBlock], Scratch& s, bool azero) {
     const int am = !A.present() ? 0 : (azero ? 1 : 2);
     fused_row(L, y, x0, n, s.fill[x0 / kBlock], am, &s.acc[x0 / kBlock], A.half, A.factor, layer_in_front, c, A.zm);
   };
   // azero: A's rows here are known to be +0 (ZeroMap): they are taken as rows of +0 instead
   // of being up-sampled (the same values, see ZeroMap).
-  auto crow = [&](int y, int x0, int n, float (*c)[kBlock], Scratch& s, bool azero) {
+  auto crow = [&](int y, int x0, int n, float(*c)[kBlock], Scratch& s, bool azero) {
     if (empty(y, x0)) {
       // L = 0 here: 0 over A = A and A over 0 = A (exactly, up to the sign of a zero).
       if (!A.present() || azero) {
@@ -1614,144 +1656,150 @@ void composite_pass(const FusedLayer& L, const AccRows& A, bool layer_in_front, 
   // 2b + 1 from the same input rows.
   const int bands = (h + 3) / 4;
   const int hh = (h + 1) / 2;
-  core::parallel_for(bands, [&](int b0, int b1) {
-    // Default-initialised (new T, not make_unique): only the caches set their keys; the
-    // buffers are written before they are read; zeroing ~60 KB per band task cost ~36 M
-    // instructions per 1080p render.
-    std::unique_ptr<Scratch> sp(new Scratch);
-    Scratch& s = *sp;
-    std::unique_ptr<HCache[]> caches(new HCache[2 * nbc]);
-    s.acc = caches.get();
-    s.fill = caches.get() + nbc;
-    // Counted per task and added once (an atomic add per block bounced the counter's cache
-    // line between the two cores).
-    std::uint64_t task_zero_blocks = 0;
-    for (int b = b0; b < b1; ++b) {
-      int ys[4], src[4];
-      for (int dy = 0; dy < 4; ++dy) ys[dy] = std::min(4 * b + dy, h - 1);
-      for (int x0 = 0; x0 < w; x0 += kBlock) {
-        const int n = std::min(kBlock, w - x0);
-        const bool azero = A.present() && A.zero(ys[0], ys[3], x0);
-        if ((!A.present() || azero) && empty(ys[0], x0) && empty(ys[1], x0) && empty(ys[2], x0) && empty(ys[3], x0)) {
-          // An empty layer over (or under) +0: the composite is +0, and so are its 2×2 and
-          // 4×4 box means (0.25 · (+0 + … + +0) = +0).
-          ++task_zero_blocks;
-          float* d[4];
-          if (dst_full) {
-            for (int dy = 0; dy < 4 && 4 * b + dy < h; ++dy) {
-              for (int ch = 0; ch < 4; ++ch) d[ch] = dst_full->row(ch, 4 * b + dy) + x0;
-              kern::fill_rows(d, 4, n, 0.0f);
-            }
-          } else if (dst_quarter) {
-            for (int ch = 0; ch < 4; ++ch) d[ch] = dst_quarter->row(ch, b) + x0 / 4;
-            kern::fill_rows(d, 4, (x0 + n + 3) / 4 - x0 / 4, 0.0f);
-          } else {
-            for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
-              for (int ch = 0; ch < 4; ++ch) d[ch] = dst_half->row(ch, yh) + x0 / 2;
-              kern::fill_rows(d, 4, (x0 + n + 1) / 2 - x0 / 2, 0.0f);
-            }
-          }
-          continue;
-        }
-        if (A.half && !azero && !dst_full && n % (dst_quarter ? 4 : 2) == 0 && empty(ys[0], x0) &&
-            empty(ys[1], x0) && empty(ys[2], x0) && empty(ys[3], x0)) {
-          // An empty layer over a reduced accumulator that is not +0 here (a quarter of the
-          // band blocks on the bench frame): every row is A's up-sampling (crow's A.get, the
-          // vertical lerp of the cached rows), and the 2×2 / 4×4 box reads it straight from
-          // the lerps in the same kernel (lerp_quads_acc_simd / lerp_pairs_box_simd: the same
-          // lerps and the same sums in the same order as lerp_rows4 then down_quads_simd /
-          // down_pairs), instead of storing the four rows first. With n a multiple of the box
-          // width there is no clamped last output (the general path below takes the rest).
-          HCache& ac = s.acc[x0 / kBlock];
-          if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0, A.zm);
-          const bool exact = A.tiny(ys[0], ys[3], x0);
-          if (dst_quarter) {
-            const int m = n / 4;
-            for (int dy = 0; dy < 4; ++dy) {  // rows in order: the sums' order (see lerp_quads_acc_simd)
-              const float* const* top;
-              const float* const* bot;
-              float ty;
-              ac.rows(ys[dy], n, top, bot, ty);
-              lerp_quads_acc_simd(top[0], bot[0], ty, m, dy == 0, s.qacc, exact);
-            }
-            for (int ch = 0; ch < 4; ++ch) {
-              float* d = dst_quarter->row(ch, b) + x0 / 4;
-              const float* q = s.qacc + (kBlock / 4) * ch;
-              for (int x = 0; x < m; ++x) d[x] = 0.0625f * q[x];
-            }
-          } else {
-            for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
-              const int da = 2 * (yh - 2 * b);  // rows 2yh and min(2yh + 1, h − 1) of the band
-              const float* const* ta;
-              const float* const* ba;
-              const float* const* tb;
-              const float* const* bb;
-              float tya, tyb;
-              // The second row's cache lookup may replace an entry, not the first row's
-              // (HCache::row: rows asked in increasing order; the pointers are read before).
-              ac.rows(ys[da], n, ta, ba, tya);
-              const float* a0 = ta[0];
-              const float* a1 = ba[0];
-              ac.rows(ys[da + 1], n, tb, bb, tyb);
+  core::parallel_for(
+      bands,
+      [&](int b0, int b1) {
+        // Default-initialised (new T, not make_unique): only the caches set their keys; the
+        // buffers are written before they are read; zeroing ~60 KB per band task cost ~36 M
+        // instructions per 1080p render.
+        std::unique_ptr<Scratch> sp(new Scratch);
+        Scratch& s = *sp;
+        std::unique_ptr<HCache[]> caches(new HCache[2 * nbc]);
+        s.acc = caches.get();
+        s.fill = caches.get() + nbc;
+        // Counted per task and added once (an atomic add per block bounced the counter's cache
+        // line between the two cores).
+        std::uint64_t task_zero_blocks = 0;
+        for (int b = b0; b < b1; ++b) {
+          int ys[4], src[4];
+          for (int dy = 0; dy < 4; ++dy) ys[dy] = std::min(4 * b + dy, h - 1);
+          for (int x0 = 0; x0 < w; x0 += kBlock) {
+            const int n = std::min(kBlock, w - x0);
+            const bool azero = A.present() && A.zero(ys[0], ys[3], x0);
+            if ((!A.present() || azero) && empty(ys[0], x0) && empty(ys[1], x0) && empty(ys[2], x0) &&
+                empty(ys[3], x0)) {
+              // An empty layer over (or under) +0: the composite is +0, and so are its 2×2 and
+              // 4×4 box means (0.25 · (+0 + … + +0) = +0).
+              ++task_zero_blocks;
               float* d[4];
-              for (int ch = 0; ch < 4; ++ch) d[ch] = dst_half->row(ch, yh) + x0 / 2;
-              lerp_pairs_box_simd(a0, a1, tya, tb[0], bb[0], tyb, n / 2, d, exact);
+              if (dst_full) {
+                for (int dy = 0; dy < 4 && 4 * b + dy < h; ++dy) {
+                  for (int ch = 0; ch < 4; ++ch) d[ch] = dst_full->row(ch, 4 * b + dy) + x0;
+                  kern::fill_rows(d, 4, n, 0.0f);
+                }
+              } else if (dst_quarter) {
+                for (int ch = 0; ch < 4; ++ch) d[ch] = dst_quarter->row(ch, b) + x0 / 4;
+                kern::fill_rows(d, 4, (x0 + n + 3) / 4 - x0 / 4, 0.0f);
+              } else {
+                for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
+                  for (int ch = 0; ch < 4; ++ch) d[ch] = dst_half->row(ch, yh) + x0 / 2;
+                  kern::fill_rows(d, 4, (x0 + n + 1) / 2 - x0 / 2, 0.0f);
+                }
+              }
+              continue;
             }
-          }
-          continue;
-        }
-        for (int dy = 0; dy < 4; ++dy) {
-          src[dy] = dy;
-          if (dy > 0 && ys[dy] == ys[dy - 1]) src[dy] = src[dy - 1];
-          else crow(ys[dy], x0, n, s.rows[dy], s, azero);
-        }
-        if (dst_full) {
-          for (int dy = 0; dy < 4 && 4 * b + dy < h; ++dy)
-            for (int ch = 0; ch < 4; ++ch)
-              std::copy(s.rows[dy][ch], s.rows[dy][ch] + n, dst_full->row(ch, 4 * b + dy) + x0);
-        } else if (dst_quarter) {
-          Image& q = *dst_quarter;
-          const int m = n / 4;  // quads inside the block (x0 is a multiple of 4)
-          for (int ch = 0; ch < 4; ++ch) {
-            const float* r[4];
-            for (int dy = 0; dy < 4; ++dy) r[dy] = s.rows[src[dy]][ch];
-            float* d = q.row(ch, b);
-            down_quads_simd(r[0], r[1], r[2], r[3], m, d + x0 / 4);
-            for (int xq = x0 / 4 + m; xq < (x0 + n + 3) / 4; ++xq) {
-              float sum = 0.0f;
-              for (int dy = 0; dy < 4; ++dy)
-                for (int dx = 0; dx < 4; ++dx) sum += r[dy][std::min(4 * xq + dx, w - 1) - x0];
-              d[xq] = 0.0625f * sum;
+            if (A.half && !azero && !dst_full && n % (dst_quarter ? 4 : 2) == 0 && empty(ys[0], x0) &&
+                empty(ys[1], x0) && empty(ys[2], x0) && empty(ys[3], x0)) {
+              // An empty layer over a reduced accumulator that is not +0 here (a quarter of the
+              // band blocks on the bench frame): every row is A's up-sampling (crow's A.get, the
+              // vertical lerp of the cached rows), and the 2×2 / 4×4 box reads it straight from
+              // the lerps in the same kernel (lerp_quads_acc_simd / lerp_pairs_box_simd: the same
+              // lerps and the same sums in the same order as lerp_rows4 then down_quads_simd /
+              // down_pairs), instead of storing the four rows first. With n a multiple of the box
+              // width there is no clamped last output (the general path below takes the rest).
+              HCache& ac = s.acc[x0 / kBlock];
+              if (ac.img != A.half || ac.x0 != x0) ac.reset(A.half, A.factor, x0, A.zm);
+              const bool exact = A.tiny(ys[0], ys[3], x0);
+              if (dst_quarter) {
+                const int m = n / 4;
+                for (int dy = 0; dy < 4; ++dy) {  // rows in order: the sums' order (see lerp_quads_acc_simd)
+                  const float* const* top;
+                  const float* const* bot;
+                  float ty;
+                  ac.rows(ys[dy], n, top, bot, ty);
+                  lerp_quads_acc_simd(top[0], bot[0], ty, m, dy == 0, s.qacc, exact);
+                }
+                for (int ch = 0; ch < 4; ++ch) {
+                  float* d = dst_quarter->row(ch, b) + x0 / 4;
+                  const float* q = s.qacc + (kBlock / 4) * ch;
+                  for (int x = 0; x < m; ++x) d[x] = 0.0625f * q[x];
+                }
+              } else {
+                for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
+                  const int da = 2 * (yh - 2 * b);  // rows 2yh and min(2yh + 1, h − 1) of the band
+                  const float* const* ta;
+                  const float* const* ba;
+                  const float* const* tb;
+                  const float* const* bb;
+                  float tya, tyb;
+                  // The second row's cache lookup may replace an entry, not the first row's
+                  // (HCache::row: rows asked in increasing order; the pointers are read before).
+                  ac.rows(ys[da], n, ta, ba, tya);
+                  const float* a0 = ta[0];
+                  const float* a1 = ba[0];
+                  ac.rows(ys[da + 1], n, tb, bb, tyb);
+                  float* d[4];
+                  for (int ch = 0; ch < 4; ++ch) d[ch] = dst_half->row(ch, yh) + x0 / 2;
+                  lerp_pairs_box_simd(a0, a1, tya, tb[0], bb[0], tyb, n / 2, d, exact);
+                }
+              }
+              continue;
             }
-          }
-        } else {
-          Image& half = *dst_half;
-          for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
-            const int da = 2 * (yh - 2 * b);  // rows 2yh and min(2yh + 1, h − 1) of the band
-            for (int ch = 0; ch < 4; ++ch) {
-              const float* pa = s.rows[src[da]][ch];
-              const float* pb = s.rows[src[da + 1]][ch];
-              float* d = half.row(ch, yh);
-              const int m = n / 2;  // pairs inside the block (x0 is even)
-              kern::down_pairs(pa, pb, m, d + x0 / 2);
-              for (int xh = x0 / 2 + m; xh < (x0 + n + 1) / 2; ++xh) {
-                const int xa = 2 * xh - x0, xb = std::min(2 * xh + 1, w - 1) - x0;
-                d[xh] = 0.25f * (pa[xa] + pa[xb] + pb[xa] + pb[xb]);
+            for (int dy = 0; dy < 4; ++dy) {
+              src[dy] = dy;
+              if (dy > 0 && ys[dy] == ys[dy - 1])
+                src[dy] = src[dy - 1];
+              else
+                crow(ys[dy], x0, n, s.rows[dy], s, azero);
+            }
+            if (dst_full) {
+              for (int dy = 0; dy < 4 && 4 * b + dy < h; ++dy)
+                for (int ch = 0; ch < 4; ++ch)
+                  std::copy(s.rows[dy][ch], s.rows[dy][ch] + n, dst_full->row(ch, 4 * b + dy) + x0);
+            } else if (dst_quarter) {
+              Image& q = *dst_quarter;
+              const int m = n / 4;  // quads inside the block (x0 is a multiple of 4)
+              for (int ch = 0; ch < 4; ++ch) {
+                const float* r[4];
+                for (int dy = 0; dy < 4; ++dy) r[dy] = s.rows[src[dy]][ch];
+                float* d = q.row(ch, b);
+                down_quads_simd(r[0], r[1], r[2], r[3], m, d + x0 / 4);
+                for (int xq = x0 / 4 + m; xq < (x0 + n + 3) / 4; ++xq) {
+                  float sum = 0.0f;
+                  for (int dy = 0; dy < 4; ++dy)
+                    for (int dx = 0; dx < 4; ++dx) sum += r[dy][std::min(4 * xq + dx, w - 1) - x0];
+                  d[xq] = 0.0625f * sum;
+                }
+              }
+            } else {
+              Image& half = *dst_half;
+              for (int yh = 2 * b; yh < std::min(2 * b + 2, hh); ++yh) {
+                const int da = 2 * (yh - 2 * b);  // rows 2yh and min(2yh + 1, h − 1) of the band
+                for (int ch = 0; ch < 4; ++ch) {
+                  const float* pa = s.rows[src[da]][ch];
+                  const float* pb = s.rows[src[da + 1]][ch];
+                  float* d = half.row(ch, yh);
+                  const int m = n / 2;  // pairs inside the block (x0 is even)
+                  kern::down_pairs(pa, pb, m, d + x0 / 2);
+                  for (int xh = x0 / 2 + m; xh < (x0 + n + 1) / 2; ++xh) {
+                    const int xa = 2 * xh - x0, xb = std::min(2 * xh + 1, w - 1) - x0;
+                    d[xh] = 0.25f * (pa[xa] + pa[xb] + pb[xa] + pb[xb]);
+                  }
+                }
               }
             }
           }
+          if (next.L) {
+            for (int yc = 2 * b; yc < std::min(2 * b + 2, hh); ++yc)
+              pull_row(*next.L, yc, *next.cv, *next.cwt, s.pr, s.phb, next.cv2 != nullptr);
+            // Level 2's row b reads level 1's rows 2b, 2b + 1: those just written (level 2 has
+            // (hh + 1) / 2 = bands rows).
+            if (next.cv2) pull_upper_row(*next.cv, *next.cwt, *next.cv2, *next.cwt2, b);
+          }
         }
-      }
-      if (next.L) {
-        for (int yc = 2 * b; yc < std::min(2 * b + 2, hh); ++yc)
-          pull_row(*next.L, yc, *next.cv, *next.cwt, s.pr, s.phb, next.cv2 != nullptr);
-        // Level 2's row b reads level 1's rows 2b, 2b + 1: those just written (level 2 has
-        // (hh + 1) / 2 = bands rows).
-        if (next.cv2) pull_upper_row(*next.cv, *next.cwt, *next.cv2, *next.cwt2, b);
-      }
-    }
-    if (task_zero_blocks) zero_blocks.fetch_add(task_zero_blocks, std::memory_order_relaxed);
-  }, 1);
+        if (task_zero_blocks) zero_blocks.fetch_add(task_zero_blocks, std::memory_order_relaxed);
+      },
+      1);
 }
 
 }  // namespace
@@ -1803,85 +1851,88 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   std::atomic<std::uint32_t> nonempty{0}, holes{0};
   std::atomic<bool> bail{false};
   std::optional<core::PassScope> code_pass(std::in_place, "code pass");
-  core::parallel_for(h, [&](int y0, int y1) {
-    std::uint32_t ne = 0, ho = 0;
-    bool bad = false;
-    double anchor[16];
-    for (int k = 0; k < K; ++k) anchor[k] = plan.anchor[k];
-    bool have = false;
-    std::uint32_t last_bits = 0;
-    unsigned j0 = kNoLayer, hk = 0;
-    float wv = 0.0f;
-    bool second = false;
-    for (int y = y0; y < y1; ++y) {
-      const float* al = color.row(3, y);
-      const float* rr = coc.row(0, y);
-      const std::size_t base = static_cast<std::size_t>(y) * w;
-      for (int x = 0; x < w; ++x) {
-        // Runs of 16 pixels that change nothing (each transparent or of the last CoC) are
-        // written by one vectorised kernel with the codes the loop below would write.
-        while (have && x + 16 <= w &&
-               kern::code_run16(al + x, rr + x, last_bits,
-                                static_cast<std::uint16_t>(j0 | (second ? 32u : 0u) | (hk << 6)), wv,
-                                code + base + x, w0 + base + x))
-          x += 16;
-        if (x >= w) break;
-        const float a = al[x];
-        if (!(a > 0)) {
-          code[base + x] = static_cast<std::uint16_t>(kNoLayer | (31u << 6));
-          w0[base + x] = 0.0f;
-          continue;
-        }
-        const float r = rr[x];
-        const std::uint32_t rbits = std::bit_cast<std::uint32_t>(r);
-        if (!have || rbits != last_bits) {  // the codes depend on r only: reuse along flat runs
-          have = true;
-          last_bits = rbits;
-          int j = 0;
-          while (j < K && !(anchor[j] <= r)) ++j;
-          j0 = kNoLayer;
-          wv = 0.0f;
-          second = false;
-          for (int k = std::max(j - 1, 0); k <= std::min(j, K - 1); ++k) {
-            const float wk = mattes[k](r);
-            if (!(wk > 0)) continue;
-            if (j0 == kNoLayer) {
-              j0 = static_cast<unsigned>(k);
-              wv = wk;
-            } else if (k == static_cast<int>(j0) + 1 && wk == 1.0f && !second) {
-              second = true;
-            } else {
-              bad = true;
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        std::uint32_t ne = 0, ho = 0;
+        bool bad = false;
+        double anchor[16];
+        for (int k = 0; k < K; ++k) anchor[k] = plan.anchor[k];
+        bool have = false;
+        std::uint32_t last_bits = 0;
+        unsigned j0 = kNoLayer, hk = 0;
+        float wv = 0.0f;
+        bool second = false;
+        for (int y = y0; y < y1; ++y) {
+          const float* al = color.row(3, y);
+          const float* rr = coc.row(0, y);
+          const std::size_t base = static_cast<std::size_t>(y) * w;
+          for (int x = 0; x < w; ++x) {
+            // Runs of 16 pixels that change nothing (each transparent or of the last CoC) are
+            // written by one vectorised kernel with the codes the loop below would write.
+            while (have && x + 16 <= w &&
+                   kern::code_run16(al + x, rr + x, last_bits,
+                                    static_cast<std::uint16_t>(j0 | (second ? 32u : 0u) | (hk << 6)), wv,
+                                    code + base + x, w0 + base + x))
+              x += 16;
+            if (x >= w) break;
+            const float a = al[x];
+            if (!(a > 0)) {
+              code[base + x] = static_cast<std::uint16_t>(kNoLayer | (31u << 6));
+              w0[base + x] = 0.0f;
+              continue;
             }
+            const float r = rr[x];
+            const std::uint32_t rbits = std::bit_cast<std::uint32_t>(r);
+            if (!have || rbits != last_bits) {  // the codes depend on r only: reuse along flat runs
+              have = true;
+              last_bits = rbits;
+              int j = 0;
+              while (j < K && !(anchor[j] <= r)) ++j;
+              j0 = kNoLayer;
+              wv = 0.0f;
+              second = false;
+              for (int k = std::max(j - 1, 0); k <= std::min(j, K - 1); ++k) {
+                const float wk = mattes[k](r);
+                if (!(wk > 0)) continue;
+                if (j0 == kNoLayer) {
+                  j0 = static_cast<unsigned>(k);
+                  wv = wk;
+                } else if (k == static_cast<int>(j0) + 1 && wk == 1.0f && !second) {
+                  second = true;
+                } else {
+                  bad = true;
+                }
+              }
+              hk = static_cast<unsigned>(K);
+              if (do_fill) {
+                // Only near_limit(j), near_limit(j + 1) can lie on either side of r: for k <= j − 1
+                // near_limit(k) >= a_k > r, for k >= j + 2 near_limit(k) <= a_{k−1} < a_j <= r.
+                const bool hj = j < K && r > nl[j];
+                const bool hj1 = j + 1 < K && r > nl[j + 1];
+                if (hj && !hj1 && j + 1 < K) bad = true;
+                hk = static_cast<unsigned>(std::min(K, hj ? j : (hj1 ? j + 1 : j + 2)));
+                ho |= ((1u << K) - 1u) & ~((1u << hk) - 1u);
+              }
+            }
+            code[base + x] = static_cast<std::uint16_t>(j0 | (second ? 32u : 0u) | (hk << 6));
+            w0[base + x] = wv;
           }
-          hk = static_cast<unsigned>(K);
-          if (do_fill) {
-            // Only near_limit(j), near_limit(j + 1) can lie on either side of r: for k <= j − 1
-            // near_limit(k) >= a_k > r, for k >= j + 2 near_limit(k) <= a_{k−1} < a_j <= r.
-            const bool hj = j < K && r > nl[j];
-            const bool hj1 = j + 1 < K && r > nl[j + 1];
-            if (hj && !hj1 && j + 1 < K) bad = true;
-            hk = static_cast<unsigned>(std::min(K, hj ? j : (hj1 ? j + 1 : j + 2)));
-            ho |= ((1u << K) - 1u) & ~((1u << hk) - 1u);
+          // Block summaries of the row and the non-empty layers (from the codes just written).
+          for (int b = 0; b < nb; ++b) {
+            const int x0 = b * kBlock, n = std::min(w, x0 + kBlock) - x0;
+            const std::size_t i = static_cast<std::size_t>(y) * nb + b;
+            std::uint32_t cm[kBlock / 16], chk[kBlock / 16];
+            kern::code_summary(code + base + x0, w0 + base + x0, al + x0, n, &bpres[i], &bhk[i], &ne, cm, chk);
+            block_spans(cm, n, bspan + 16 * i);
+            hole_spans(chk, n, bhk[i], bhole + 16 * i);
           }
         }
-        code[base + x] = static_cast<std::uint16_t>(j0 | (second ? 32u : 0u) | (hk << 6));
-        w0[base + x] = wv;
-      }
-      // Block summaries of the row and the non-empty layers (from the codes just written).
-      for (int b = 0; b < nb; ++b) {
-        const int x0 = b * kBlock, n = std::min(w, x0 + kBlock) - x0;
-        const std::size_t i = static_cast<std::size_t>(y) * nb + b;
-        std::uint32_t cm[kBlock / 16], chk[kBlock / 16];
-        kern::code_summary(code + base + x0, w0 + base + x0, al + x0, n, &bpres[i], &bhk[i], &ne, cm, chk);
-        block_spans(cm, n, bspan + 16 * i);
-        hole_spans(chk, n, bhk[i], bhole + 16 * i);
-      }
-    }
-    if (ne) nonempty.fetch_or(ne, std::memory_order_relaxed);
-    if (ho) holes.fetch_or(ho, std::memory_order_relaxed);
-    if (bad) bail.store(true, std::memory_order_relaxed);
-  }, 4);
+        if (ne) nonempty.fetch_or(ne, std::memory_order_relaxed);
+        if (ho) holes.fetch_or(ho, std::memory_order_relaxed);
+        if (bad) bail.store(true, std::memory_order_relaxed);
+      },
+      4);
   code_pass.reset();
   if (bail.load()) return false;
   const std::uint32_t ne = nonempty.load(), ho = holes.load();
@@ -2054,59 +2105,66 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   };
   // Caches per column block, kept across the bands of a task (as in composite_pass).
   const int nbf = (w + kBlock - 1) / kBlock;
-  core::parallel_for((h + 3) / 4, [&](int b0, int b1) {
-    std::unique_ptr<FinalScratch> sp(new FinalScratch);  // default-initialised, as above
-    std::unique_ptr<HCache[]> caches(new HCache[3 * nbf]);
-    auto& fb = sp->fb;
-    auto& bb = sp->bb;
-    auto& cur = sp->cur;
-    for (int b = b0; b < b1; ++b)
-      for (int x0 = 0; x0 < w; x0 += kBlock)
-        for (int y = 4 * b; y < std::min(h, 4 * b + 4); ++y) {
-          const int n = std::min(kBlock, w - x0);
-          if (Lf && (!Lf->fill || Lf->l1)) fused_row(*Lf, y, x0, n, caches[x0 / kBlock], 0, nullptr, nullptr, 2, true, cur);
-          else if (Lf) Lf->get(y, x0, n, cur, &caches[x0 / kBlock]);
-          else
-            for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
-          float* o[4];
-          for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
-          if (!BR.full && !FR.full) {
-            // cur over B, then F over that, with their up-sampling's vertical lerp in the same
-            // kernel (final_row_simd; rows of +0 where a zero map says so).
-            FinalRow fr;
-            fr.c = cur[0];  // cur, the caches' rows and kZeroRows: channels kRowStride apart
-            auto side = [&](const AccRows& R, HCache& cache, int& mode, const float*& top, const float*& bot, float& ty) {
-              ty = 0.0f;
-              mode = R.present() ? 1 : 0;
-              const float* const* a = kZeroRows;
-              const float* const* b = kZeroRows;
-              if (R.present() && !R.zero(y, y, x0)) {
-                if (cache.img != R.half || cache.x0 != x0)
-                  cache.reset(R.half, R.factor, x0, R.zm);
-                cache.rows(y, n, a, b, ty);
-                mode = 2;
-              }
-              top = a[0];
-              bot = b[0];
-            };
-            side(BR, caches[nbf + x0 / kBlock], fr.bm, fr.bt, fr.bb, fr.bty);
-            side(FR, caches[2 * nbf + x0 / kBlock], fr.fm, fr.ft, fr.fb, fr.fty);
-            fr.exact = (fr.bm == 2 && BR.tiny(y, y, x0)) || (fr.fm == 2 && FR.tiny(y, y, x0));
-            final_row_simd(fr, n, o);
-            continue;
-          }
-          // cur over B, then F over that (rows of +0 where a zero map says so).
-          const float* back[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
-          const float* front[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
-          if (BR.present() && !BR.zero(y, y, x0)) BR.get(y, x0, n, bb, back, &caches[nbf + x0 / kBlock]);
-          if (FR.present() && !FR.zero(y, y, x0)) FR.get(y, x0, n, fb, front, &caches[2 * nbf + x0 / kBlock]);
-          float t[kBlock], u[kBlock];
-          kern::one_minus(cur[3], n, t);
-          if (FR.present()) kern::one_minus(front[3], n, u);
-          for (int c = 0; c < 4; ++c)
-            kern::final_channel(cur[c], t, BR.present() ? back[c] : nullptr, u, FR.present() ? front[c] : nullptr, n, o[c]);
-        }
-  }, 1);
+  core::parallel_for((h + 3) / 4,
+                     [&](int b0, int b1) {
+                       std::unique_ptr<FinalScratch> sp(new FinalScratch);  // default-initialised, as above
+                       std::unique_ptr<HCache[]> caches(new HCache[3 * nbf]);
+                       auto& fb = sp->fb;
+                       auto& bb = sp->bb;
+                       auto& cur = sp->cur;
+                       for (int b = b0; b < b1; ++b)
+                         for (int x0 = 0; x0 < w; x0 += kBlock)
+                           for (int y = 4 * b; y < std::min(h, 4 * b + 4); ++y) {
+                             const int n = std::min(kBlock, w - x0);
+                             if (Lf && (!Lf->fill || Lf->l1))
+                               fused_row(*Lf, y, x0, n, caches[x0 / kBlock], 0, nullptr, nullptr, 2, true, cur);
+                             else if (Lf)
+                               Lf->get(y, x0, n, cur, &caches[x0 / kBlock]);
+                             else
+                               for (int c = 0; c < 4; ++c) std::fill(cur[c], cur[c] + n, 0.0f);
+                             float* o[4];
+                             for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
+                             if (!BR.full && !FR.full) {
+                               // cur over B, then F over that, with their up-sampling's vertical lerp in the same
+                               // kernel (final_row_simd; rows of +0 where a zero map says so).
+                               FinalRow fr;
+                               fr.c = cur[0];  // cur, the caches' rows and kZeroRows: channels kRowStride apart
+                               auto side = [&](const AccRows& R, HCache& cache, int& mode, const float*& top,
+                                               const float*& bot, float& ty) {
+                                 ty = 0.0f;
+                                 mode = R.present() ? 1 : 0;
+                                 const float* const* a = kZeroRows;
+                                 const float* const* b = kZeroRows;
+                                 if (R.present() && !R.zero(y, y, x0)) {
+                                   if (cache.img != R.half || cache.x0 != x0) cache.reset(R.half, R.factor, x0, R.zm);
+                                   cache.rows(y, n, a, b, ty);
+                                   mode = 2;
+                                 }
+                                 top = a[0];
+                                 bot = b[0];
+                               };
+                               side(BR, caches[nbf + x0 / kBlock], fr.bm, fr.bt, fr.bb, fr.bty);
+                               side(FR, caches[2 * nbf + x0 / kBlock], fr.fm, fr.ft, fr.fb, fr.fty);
+                               fr.exact = (fr.bm == 2 && BR.tiny(y, y, x0)) || (fr.fm == 2 && FR.tiny(y, y, x0));
+                               final_row_simd(fr, n, o);
+                               continue;
+                             }
+                             // cur over B, then F over that (rows of +0 where a zero map says so).
+                             const float* back[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
+                             const float* front[4] = {kZeroRow, kZeroRow, kZeroRow, kZeroRow};
+                             if (BR.present() && !BR.zero(y, y, x0))
+                               BR.get(y, x0, n, bb, back, &caches[nbf + x0 / kBlock]);
+                             if (FR.present() && !FR.zero(y, y, x0))
+                               FR.get(y, x0, n, fb, front, &caches[2 * nbf + x0 / kBlock]);
+                             float t[kBlock], u[kBlock];
+                             kern::one_minus(cur[3], n, t);
+                             if (FR.present()) kern::one_minus(front[3], n, u);
+                             for (int c = 0; c < 4; ++c)
+                               kern::final_channel(cur[c], t, BR.present() ? back[c] : nullptr, u,
+                                                   FR.present() ? front[c] : nullptr, n, o[c]);
+                           }
+                     },
+                     1);
   g_fused_renders.fetch_add(1);
   return true;
 }

@@ -23,8 +23,7 @@
 namespace dofkit::detail::layered {
 
 /// matte_layer with the same result; `hole` points to width·height bytes (or is null).
-MatteStats matte_layer_fast(const Fragments& frags, const LayerPlan& plan, int k, Image& layer,
-                            std::uint8_t* hole);
+MatteStats matte_layer_fast(const Fragments& frags, const LayerPlan& plan, int k, Image& layer, std::uint8_t* hole);
 
 /// push_pull_fill with the same result; the pyramid levels come from `ws` (keys "layered.pp*").
 void push_pull_fill_fast(Image& layer, const std::uint8_t* hole, bool opaque, bool under, Workspace& ws);
@@ -41,7 +40,9 @@ class FastAccumulator {
   void composite_front(Image& layer);
   /// acc = acc over layer.
   void composite_back(Image& layer);
-  void blur(double sigma) { if (has_) pending_var_ += sigma * sigma; }
+  void blur(double sigma) {
+    if (has_) pending_var_ += sigma * sigma;
+  }
   /// Applies the pending blur; afterwards the content is either full() or, if
   /// half_pending(), the bilinear 2× (or 4×, factor()) up-sampling of half().
   void settle();

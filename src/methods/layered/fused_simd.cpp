@@ -73,10 +73,12 @@ HWY_INLINE void CrowVec(const CrowScalars& r, const CrowPtrs& p, std::size_t j) 
   const auto zero = hn::Zero(df), one = hn::Set(df, 1.0f);
   auto m0 = zero, m1 = zero, m2 = zero, m3 = zero;
   decltype(hn::Zero(di)) cd;
-  if constexpr (M || H) cd = hn::BitCast(di, hn::PromoteTo(hn::RebindToUnsigned<decltype(di)>(), hn::LoadU(dh, p.code + j)));
+  if constexpr (M || H)
+    cd = hn::BitCast(di, hn::PromoteTo(hn::RebindToUnsigned<decltype(di)>(), hn::LoadU(dh, p.code + j)));
   if constexpr (M) {  // matting.cpp: 0 + (1 − 0)·w_k·I, w_k = w0 (j0 = k), 1 (second layer k), else 0
     const int k1 = r.k >= 1 ? ((r.k - 1) | 32) : 0xffff;
-    const auto second = hn::IfThenElseZero(hn::RebindMask(df, hn::Eq(hn::And(cd, hn::Set(di, 63)), hn::Set(di, k1))), one);
+    const auto second =
+        hn::IfThenElseZero(hn::RebindMask(df, hn::Eq(hn::And(cd, hn::Set(di, 63)), hn::Set(di, k1))), one);
     const auto wk = hn::IfThenElse(hn::RebindMask(df, hn::Eq(hn::And(cd, hn::Set(di, 31)), hn::Set(di, r.k))),
                                    hn::LoadU(df, p.w0 + j), second);
     m0 = hn::Add(zero, hn::Mul(wk, hn::LoadU(df, p.in[0] + j)));
@@ -96,7 +98,8 @@ HWY_INLINE void CrowVec(const CrowScalars& r, const CrowPtrs& p, std::size_t j) 
     auto v2 = hn::Add(hn::Mul(zero, m2), lerp(2));
     auto v3 = hn::Add(hn::Mul(zero, m3), lerp(3));
     if constexpr (FG) {
-      const auto norm = hn::And(hn::Gt(v3, hn::Set(df, 1e-6f)), r.opaque ? hn::FirstN(df, hn::Lanes(df)) : hn::FirstN(df, 0));
+      const auto norm =
+          hn::And(hn::Gt(v3, hn::Set(df, 1e-6f)), r.opaque ? hn::FirstN(df, hn::Lanes(df)) : hn::FirstN(df, 0));
       const auto a = v3;
       v0 = hn::IfThenElse(norm, hn::Div(v0, a), v0);
       v1 = hn::IfThenElse(norm, hn::Div(v1, a), v1);
@@ -199,13 +202,18 @@ HWY_INLINE void CrowLoop(const CrowRow& row, int s, int e, float (*c)[256]) {
 
 template <bool M, bool H, bool FG>
 HWY_INLINE void CrowSeg(const CrowRow& r, int s, int e, float (*c)[256]) {
-  if (r.am == 0) CrowLoop<M, H, FG, 0, true>(r, s, e, c);
+  if (r.am == 0)
+    CrowLoop<M, H, FG, 0, true>(r, s, e, c);
   else if (r.am == 1) {
-    if (r.front) CrowLoop<M, H, FG, 1, true>(r, s, e, c);
-    else CrowLoop<M, H, FG, 1, false>(r, s, e, c);
+    if (r.front)
+      CrowLoop<M, H, FG, 1, true>(r, s, e, c);
+    else
+      CrowLoop<M, H, FG, 1, false>(r, s, e, c);
   } else {
-    if (r.front) CrowLoop<M, H, FG, 2, true>(r, s, e, c);
-    else CrowLoop<M, H, FG, 2, false>(r, s, e, c);
+    if (r.front)
+      CrowLoop<M, H, FG, 2, true>(r, s, e, c);
+    else
+      CrowLoop<M, H, FG, 2, false>(r, s, e, c);
   }
 }
 
@@ -231,13 +239,17 @@ void CrowRowImpl(const CrowRow& r, int n, int lo, int hi, int a0, int a1, float 
     if (e <= s) return;
     const bool m = s >= lo && s < hi, h = s >= a0 && s < a1;
     if (m && h) {
-      if (fg) CrowSeg<true, true, true>(r, s, e, c);
-      else CrowSeg<true, true, false>(r, s, e, c);
+      if (fg)
+        CrowSeg<true, true, true>(r, s, e, c);
+      else
+        CrowSeg<true, true, false>(r, s, e, c);
     } else if (m) {
       CrowSeg<true, false, false>(r, s, e, c);
     } else if (h) {
-      if (fg) CrowSeg<false, true, true>(r, s, e, c);
-      else CrowSeg<false, true, false>(r, s, e, c);
+      if (fg)
+        CrowSeg<false, true, true>(r, s, e, c);
+      else
+        CrowSeg<false, true, false>(r, s, e, c);
     } else {
       CrowSeg<false, false, false>(r, s, e, c);
     }
@@ -248,7 +260,6 @@ void CrowRowImpl(const CrowRow& r, int n, int lo, int hi, int a0, int a1, float 
   seg(q2, q3);
   seg(q3, n);
 }
-
 
 // The pull's child at fine column j of row `row` (scalar form of PullChunk): *nz = 1 unless
 // a hole, z = its matte, +0 at a hole.
@@ -278,13 +289,15 @@ void PullPairsImpl(const PullRows& r, int m, int p0, int p1, float* const* cv, f
   auto fine = [&](int row, int x, hn::Vec<decltype(dh)>* ze, hn::Vec<decltype(dh)>* zo, hn::Vec<decltype(dh)>& ne,
                   hn::Vec<decltype(dh)>& no, bool values) {
     const std::size_t j = static_cast<std::size_t>(2 * x);
-    const auto cd = hn::BitCast(di, hn::PromoteTo(hn::RebindToUnsigned<decltype(di)>(), hn::LoadU(du, r.code[row] + j)));
+    const auto cd =
+        hn::BitCast(di, hn::PromoteTo(hn::RebindToUnsigned<decltype(di)>(), hn::LoadU(du, r.code[row] + j)));
     const auto hole = hn::RebindMask(df, hn::Gt(hn::Set(di, r.k + 1), hn::ShiftRight<6>(cd)));  // k >= hk
     const auto nz = hn::IfThenZeroElse(hole, one);
     ne = hn::LowerHalf(dh, hn::ConcatEven(df, nz, nz));
     no = hn::LowerHalf(dh, hn::ConcatOdd(df, nz, nz));
     if (!values) return;
-    const auto second = hn::IfThenElseZero(hn::RebindMask(df, hn::Eq(hn::And(cd, hn::Set(di, 63)), hn::Set(di, k1))), one);
+    const auto second =
+        hn::IfThenElseZero(hn::RebindMask(df, hn::Eq(hn::And(cd, hn::Set(di, 63)), hn::Set(di, k1))), one);
     const auto wk = hn::IfThenElse(hn::RebindMask(df, hn::Eq(hn::And(cd, hn::Set(di, 31)), hn::Set(di, r.k))),
                                    hn::LoadU(df, r.w0[row] + j), second);
     for (int c = 0; c < 4; ++c) {
@@ -346,7 +359,6 @@ void PullPairsImpl(const PullRows& r, int m, int p0, int p1, float* const* cv, f
   }
 }
 
-
 // One column of FinalRowImpl (T = float) or a vector of them (T = a Highway vector); the
 // loads, arithmetic and stores come from the ops object. The row groups' channels lie
 // kRowStride floats apart; bty, fty are FinalRow's, copied into locals (see CrowScalars).
@@ -387,11 +399,23 @@ template <bool kExact>
 struct VecOps {
   hn::ScalableTag<float> d;
   auto load(const float* p) const { return hn::LoadU(d, p); }
-  template <class V> void store(V v, float* p) const { hn::StoreU(v, d, p); }
+  template <class V>
+  void store(V v, float* p) const {
+    hn::StoreU(v, d, p);
+  }
   auto set(float v) const { return hn::Set(d, v); }
-  template <class V> V add(V a, V b) const { return hn::Add(a, b); }
-  template <class V> V sub(V a, V b) const { return hn::Sub(a, b); }
-  template <class V> V mul(V a, V b) const { return MulX<kExact>(d, a, b); }
+  template <class V>
+  V add(V a, V b) const {
+    return hn::Add(a, b);
+  }
+  template <class V>
+  V sub(V a, V b) const {
+    return hn::Sub(a, b);
+  }
+  template <class V>
+  V mul(V a, V b) const {
+    return MulX<kExact>(d, a, b);
+  }
 };
 
 template <int BM, int FM, bool kExact>
@@ -410,23 +434,42 @@ HWY_INLINE void FinalLoop(const FinalRow& row, int n, float* const* out_rows) {
 template <bool kExact>
 HWY_INLINE void FinalRowT(const FinalRow& r, int n, float* const* out) {
   switch (3 * r.bm + r.fm) {
-    case 0: FinalLoop<0, 0, kExact>(r, n, out); break;
-    case 1: FinalLoop<0, 1, kExact>(r, n, out); break;
-    case 2: FinalLoop<0, 2, kExact>(r, n, out); break;
-    case 3: FinalLoop<1, 0, kExact>(r, n, out); break;
-    case 4: FinalLoop<1, 1, kExact>(r, n, out); break;
-    case 5: FinalLoop<1, 2, kExact>(r, n, out); break;
-    case 6: FinalLoop<2, 0, kExact>(r, n, out); break;
-    case 7: FinalLoop<2, 1, kExact>(r, n, out); break;
-    default: FinalLoop<2, 2, kExact>(r, n, out); break;
+    case 0:
+      FinalLoop<0, 0, kExact>(r, n, out);
+      break;
+    case 1:
+      FinalLoop<0, 1, kExact>(r, n, out);
+      break;
+    case 2:
+      FinalLoop<0, 2, kExact>(r, n, out);
+      break;
+    case 3:
+      FinalLoop<1, 0, kExact>(r, n, out);
+      break;
+    case 4:
+      FinalLoop<1, 1, kExact>(r, n, out);
+      break;
+    case 5:
+      FinalLoop<1, 2, kExact>(r, n, out);
+      break;
+    case 6:
+      FinalLoop<2, 0, kExact>(r, n, out);
+      break;
+    case 7:
+      FinalLoop<2, 1, kExact>(r, n, out);
+      break;
+    default:
+      FinalLoop<2, 2, kExact>(r, n, out);
+      break;
   }
 }
 
 void FinalRowImpl(const FinalRow& r, int n, float* const* out) {
-  if (r.exact) FinalRowT<true>(r, n, out);
-  else FinalRowT<false>(r, n, out);
+  if (r.exact)
+    FinalRowT<true>(r, n, out);
+  else
+    FinalRowT<false>(r, n, out);
 }
-
 
 void DownQuadsImpl(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d) {
   int x = 0;
@@ -504,8 +547,10 @@ HWY_INLINE void LerpQuadsAccT(const float* top, const float* bot, float ty, int 
 }
 
 void LerpQuadsAccImpl(const float* top, const float* bot, float ty, int m, bool first, bool exact, float* acc) {
-  if (exact) LerpQuadsAccT<true>(top, bot, ty, m, first, acc);
-  else LerpQuadsAccT<false>(top, bot, ty, m, first, acc);
+  if (exact)
+    LerpQuadsAccT<true>(top, bot, ty, m, first, acc);
+  else
+    LerpQuadsAccT<false>(top, bot, ty, m, first, acc);
 }
 
 template <bool kExact>
@@ -544,8 +589,10 @@ HWY_INLINE void LerpPairsBoxT(const float* ta, const float* ba, float tya, const
 
 void LerpPairsBoxImpl(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
                       bool exact, float* const* d) {
-  if (exact) LerpPairsBoxT<true>(ta, ba, tya, tb, bb, tyb, m, d);
-  else LerpPairsBoxT<false>(ta, ba, tya, tb, bb, tyb, m, d);
+  if (exact)
+    LerpPairsBoxT<true>(ta, ba, tya, tb, bb, tyb, m, d);
+  else
+    LerpPairsBoxT<false>(ta, ba, tya, tb, bb, tyb, m, d);
 }
 
 // fast.cpp's kern::up_pairs / kern::up_quads (the same expressions in the same order) with
@@ -665,8 +712,8 @@ void lerp_quads_acc_simd(const float* top, const float* bot, float ty, int m, bo
   HWY_DYNAMIC_DISPATCH(LerpQuadsAccImpl)(top, bot, ty, m, first, exact, acc);
 }
 
-void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
-                         float* const* d, bool exact) {
+void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb,
+                         int m, float* const* d, bool exact) {
   HWY_DYNAMIC_DISPATCH(LerpPairsBoxImpl)(ta, ba, tya, tb, bb, tyb, m, exact, d);
 }
 

@@ -83,8 +83,8 @@ void lerp_quads_acc_simd(const float* top, const float* bot, float ty, int m, bo
 
 /// composite.cpp's 2×2 box of two fine rows given as such lerps (rows a: ta, ba, tya; b: tb,
 /// bb, tyb): d[ch][x] = 0.25 · (a[2x] + a[2x + 1] + b[2x] + b[2x + 1]) for x in [0, m).
-void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb, int m,
-                         float* const* d, bool exact = false);
+void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const float* tb, const float* bb, float tyb,
+                         int m, float* const* d, bool exact = false);
 
 /// composite.cpp's 4×4 box for the outputs [0, m) (all 16 taps in range): d[x] = 0.0625 ·
 /// (0 + r0[4x] + r0[4x + 1] + … + r3[4x + 3]), summed in that order.

@@ -26,7 +26,8 @@ void push_pull_fill(Image& layer, const std::vector<std::uint8_t>& hole, bool op
     const int fw = f.value.width(), fh = f.value.height();
     const int cw = (fw + 1) / 2, ch = (fh + 1) / 2;
     Level c{Image(cw, ch, 4, 0.0f), Image(cw, ch, 1, 0.0f)};
-    pull_level(f.value, [&](int fx, int fy) { return f.weight.at(fx, fy); }, c.value, c.weight);
+    pull_level(
+        f.value, [&](int fx, int fy) { return f.weight.at(fx, fy); }, c.value, c.weight);
     pyr.push_back(std::move(c));
   }
   // Push: from coarse to fine, v_l ← w_l v_l + (1 − w_l) · upsample(v_{l+1}).

@@ -46,10 +46,13 @@ inline void pull_pixel(const Image& fine, const WeightOf& weight_of, int x, int 
 /// pull_pixel for every pixel of the coarse level (cv, cwt already sized).
 template <class WeightOf>
 void pull_level(const Image& fine, const WeightOf& weight_of, Image& cv, Image& cwt) {
-  core::parallel_for(cv.height(), [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y)
-      for (int x = 0; x < cv.width(); ++x) pull_pixel(fine, weight_of, x, y, cv, cwt);
-  }, 8);
+  core::parallel_for(
+      cv.height(),
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y)
+          for (int x = 0; x < cv.width(); ++x) pull_pixel(fine, weight_of, x, y, cv, cwt);
+      },
+      8);
 }
 
 }  // namespace dofkit::detail::layered

@@ -86,10 +86,13 @@ void render_layered(const MethodContext& ctx, Image& out) {
       const Image& z = frame.layer_depth[i];
       Image& r = owned_coc[i];
       r.resize(z.width(), z.height(), 1);
-      core::parallel_for(z.height(), [&](int y0, int y1) {
-        for (int y = y0; y < y1; ++y)
-          for (int x = 0; x < z.width(); ++x) r.row(0, y)[x] = ctx.coc_of(z.row(0, y)[x]);
-      }, 8);
+      core::parallel_for(
+          z.height(),
+          [&](int y0, int y1) {
+            for (int y = y0; y < y1; ++y)
+              for (int x = 0; x < z.width(); ++x) r.row(0, y)[x] = ctx.coc_of(z.row(0, y)[x]);
+          },
+          8);
     }
     for (std::size_t i = 0; i < frame.layer_color.size(); ++i) {
       frags.color.push_back(&frame.layer_color[i]);
@@ -134,21 +137,22 @@ void render_layered(const MethodContext& ctx, Image& out) {
   Image& focus_layer = fast ? ctx.workspace.image("layered.focus", w, h, 4) : plain_focus;
   // The fast hole mask: w·h bytes in a workspace float plane.
   std::uint8_t* fast_hole =
-      fast && do_fill ? reinterpret_cast<std::uint8_t*>(
-                            ctx.workspace.image("layered.hole", static_cast<int>((plane_bytes(w, h) + 3) / 4), 1, 1).plane(0))
-                      : nullptr;
+      fast && do_fill
+          ? reinterpret_cast<std::uint8_t*>(
+                ctx.workspace.image("layered.hole", static_cast<int>((plane_bytes(w, h) + 3) / 4), 1, 1).plane(0))
+          : nullptr;
   auto offer_layer = [&](int k, const Image& img) {
     const std::string m = "layer_" + std::to_string(k) + "_matted";
     const std::string b = "layer_" + std::to_string(k) + "_blurred";
     ctx.debug.offer(m.c_str(), img);
     ctx.debug.offer(b.c_str(), std::function<Image()>([&] {
-      Image copy = img;
-      if (disc)
-        disc_blur(copy, std::fabs(plan.anchor[k]));
-      else
-        core::gaussian_blur(copy, static_cast<float>(plan.total_sigma[k]));
-      return copy;
-    }));
+                      Image copy = img;
+                      if (disc)
+                        disc_blur(copy, std::fabs(plan.anchor[k]));
+                      else
+                        core::gaussian_blur(copy, static_cast<float>(plan.total_sigma[k]));
+                      return copy;
+                    }));
   };
   // Mattes layer k into `dst` and fills its disocclusions; returns false if it is empty.
   auto make_layer = [&](int k, Image& dst, bool opaque_fill) {
@@ -230,7 +234,10 @@ void render_layered(const MethodContext& ctx, Image& out) {
   offer_rest(back, front);
 
   // I = F over L_focus over B (S4 Eq. 2.7).
-  if (focus_full) out = focus_layer; else out = Image(w, h, 4, 0.0f);
+  if (focus_full)
+    out = focus_layer;
+  else
+    out = Image(w, h, 4, 0.0f);
   if (back.has_content()) {
     const Image& b = back.resolved();
     ctx.debug.offer("back", b);
@@ -248,16 +255,33 @@ void render_layered(const MethodContext& ctx, Image& out) {
 const MethodDef& layered_method() {
   static const MethodDef def{
       "layered",
-      "Schedl & Wimmer layered DoF: depth layers blurred recursively and composited; partial occlusion from deep/multi-layer input",
+      "Schedl & Wimmer layered DoF: depth layers blurred recursively and composited; partial occlusion from "
+      "deep/multi-layer input",
       {{"layers", "9", "maximum number of depth layers K (3-16); fewer are used when the CoC range needs fewer"},
-       {"sigma_per_radius", "0.6", "Gaussian sigma per px of CoC radius (0.1-2); S4 d_pix = 4 sigma gives 0.5, 0.6 measured best against the ground truth"},
-       {"step_px", "1", "unit of the per-step sigma sigma_k = unit * |k - k_focus| before fitting the scene's CoC range, px (0.1-8); smaller = more, finer layers"},
-       {"half_res", "on", "blur steps of sigma >= 4 px at half resolution (same variance, about 4x less blur work): on/off"},
-       {"quarter_res", "on", "with half_res, blur steps of sigma >= 8 px at quarter resolution (same variance, 4x less blur work again): on/off"},
-       {"fill", "auto", "inpaint disoccluded layer pixels by push-pull: auto (single-layer input only), on, off, under (the fill goes behind what the layer holds there: hidden fragments of multi-layer input stay in front)"},
-       {"psf", "auto", "layer blur: auto (disc for multi-layer input, gaussian for one RGB-D frame), gaussian (S&W's recursive Gaussians, O(1) per pixel) or disc (each layer blurred once by the anti-aliased disc of its anchor CoC radius and composited with over, O(R) per pixel)"},
-       {"impl", "fast", "fast (fused passes, workspace buffers; same arithmetic) or plain (the straightforward form, the test oracle)"},
-       {"matte_band", "1 (gaussian) / 0.25 (disc)", "width of the matte ramp between two anchors as a fraction of the gap (0-1): 1 = S&W (u in the nearer layer over 1 in the farther, blur interpolated), 0 = each fragment wholly in its nearest anchor's layer (counted once)"}},
+       {"sigma_per_radius", "0.6",
+        "Gaussian sigma per px of CoC radius (0.1-2); S4 d_pix = 4 sigma gives 0.5, 0.6 measured best against the "
+        "ground truth"},
+       {"step_px", "1",
+        "unit of the per-step sigma sigma_k = unit * |k - k_focus| before fitting the scene's CoC range, px (0.1-8); "
+        "smaller = more, finer layers"},
+       {"half_res", "on",
+        "blur steps of sigma >= 4 px at half resolution (same variance, about 4x less blur work): on/off"},
+       {"quarter_res", "on",
+        "with half_res, blur steps of sigma >= 8 px at quarter resolution (same variance, 4x less blur work again): "
+        "on/off"},
+       {"fill", "auto",
+        "inpaint disoccluded layer pixels by push-pull: auto (single-layer input only), on, off, under (the fill goes "
+        "behind what the layer holds there: hidden fragments of multi-layer input stay in front)"},
+       {"psf", "auto",
+        "layer blur: auto (disc for multi-layer input, gaussian for one RGB-D frame), gaussian (S&W's recursive "
+        "Gaussians, O(1) per pixel) or disc (each layer blurred once by the anti-aliased disc of its anchor CoC radius "
+        "and composited with over, O(R) per pixel)"},
+       {"impl", "fast",
+        "fast (fused passes, workspace buffers; same arithmetic) or plain (the straightforward form, the test oracle)"},
+       {"matte_band", "1 (gaussian) / 0.25 (disc)",
+        "width of the matte ramp between two anchors as a fraction of the gap (0-1): 1 = S&W (u in the nearer layer "
+        "over 1 in the farther, blur interpolated), 0 = each fragment wholly in its nearest anchor's layer (counted "
+        "once)"}},
       debug_views(),
       render_layered,
       /*checks_colour=*/true};

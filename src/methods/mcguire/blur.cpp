@@ -61,21 +61,24 @@ std::vector<float>& g3d_scratch() {
 void g3d_horizontal(const Image& packed, const Constants& k, int ox, int wo, Image& t_blur, Image& t_near) {
   std::vector<float> tab;
   const G3dParams p = g3d_params(k, tab);
-  core::parallel_for(packed.height(), [&](int y0, int y1) {
-    std::vector<float>& scratch = g3d_scratch();
-    for (int y = y0; y < y1; ++y) {
-      G3dRowJob job;
-      for (int c = 0; c < 5; ++c) {
-        job.src[c] = packed.row(c, y);
-        job.t_blur[c] = t_blur.row(c, y);
-        job.t_near[c] = t_near.row(c, y);
-      }
-      job.W = packed.width();
-      job.ox = ox;
-      job.wo = wo;
-      g3d_horizontal_row(p, job, scratch);
-    }
-  }, 4);
+  core::parallel_for(
+      packed.height(),
+      [&](int y0, int y1) {
+        std::vector<float>& scratch = g3d_scratch();
+        for (int y = y0; y < y1; ++y) {
+          G3dRowJob job;
+          for (int c = 0; c < 5; ++c) {
+            job.src[c] = packed.row(c, y);
+            job.t_blur[c] = t_blur.row(c, y);
+            job.t_near[c] = t_near.row(c, y);
+          }
+          job.W = packed.width();
+          job.ox = ox;
+          job.wo = wo;
+          g3d_horizontal_row(p, job, scratch);
+        }
+      },
+      4);
 }
 
 }  // namespace
@@ -85,36 +88,39 @@ void blur_horizontal_plain(const Image& packed, const Constants& k, int ox, int 
   const float rmax = static_cast<float>(R);
   t_blur.resize(wo, H, 5);
   t_near.resize(wo, H, 5);
-  core::parallel_for(H, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const float* col[4] = {packed.row(0, y), packed.row(1, y), packed.row(2, y), packed.row(3, y)};
-      const float* s = packed.row(4, y);
-      for (int i = 0; i < wo; ++i) {
-        const int a = ox + k.f * i;
-        const float r_a = s[a] * rmax;
-        const float nearness = saturate(4.0f * r_a);
-        float blur[4] = {0, 0, 0, 0}, blur_w = 0;
-        float near[5] = {0, 0, 0, 0, 0}, near_w = 0;
-        for (int d = -R; d <= R; ++d) {
-          const int b = std::clamp(a + d, 0, W - 1);
-          const float r_b = s[b] * rmax;
-          const float wn = far_weight(k, static_cast<float>(d), r_a, r_b);
-          const float w = wn + (1.0f - wn) * nearness;  // lerp(wn, 1, nearness_A)
-          for (int c = 0; c < 4; ++c) blur[c] += w * col[c][b];
-          blur_w += w;
-          const float alpha = near_alpha_horizontal(k, static_cast<float>(d), r_b);
-          const float v = near_box(k, static_cast<float>(d));
-          for (int c = 0; c < 4; ++c) near[c] += v * alpha * col[c][b];
-          near[4] += v * alpha;
-          near_w += v;
+  core::parallel_for(
+      H,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          const float* col[4] = {packed.row(0, y), packed.row(1, y), packed.row(2, y), packed.row(3, y)};
+          const float* s = packed.row(4, y);
+          for (int i = 0; i < wo; ++i) {
+            const int a = ox + k.f * i;
+            const float r_a = s[a] * rmax;
+            const float nearness = saturate(4.0f * r_a);
+            float blur[4] = {0, 0, 0, 0}, blur_w = 0;
+            float near[5] = {0, 0, 0, 0, 0}, near_w = 0;
+            for (int d = -R; d <= R; ++d) {
+              const int b = std::clamp(a + d, 0, W - 1);
+              const float r_b = s[b] * rmax;
+              const float wn = far_weight(k, static_cast<float>(d), r_a, r_b);
+              const float w = wn + (1.0f - wn) * nearness;  // lerp(wn, 1, nearness_A)
+              for (int c = 0; c < 4; ++c) blur[c] += w * col[c][b];
+              blur_w += w;
+              const float alpha = near_alpha_horizontal(k, static_cast<float>(d), r_b);
+              const float v = near_box(k, static_cast<float>(d));
+              for (int c = 0; c < 4; ++c) near[c] += v * alpha * col[c][b];
+              near[4] += v * alpha;
+              near_w += v;
+            }
+            for (int c = 0; c < 4; ++c) t_blur.row(c, y)[i] = blur[c] / blur_w;
+            t_blur.row(4, y)[i] = s[a];
+            const float inv = 1.0f / std::max(near_w, 1e-5f);
+            for (int c = 0; c < 5; ++c) t_near.row(c, y)[i] = near[c] * inv;
+          }
         }
-        for (int c = 0; c < 4; ++c) t_blur.row(c, y)[i] = blur[c] / blur_w;
-        t_blur.row(4, y)[i] = s[a];
-        const float inv = 1.0f / std::max(near_w, 1e-5f);
-        for (int c = 0; c < 5; ++c) t_near.row(c, y)[i] = near[c] * inv;
-      }
-    }
-  }, 4);
+      },
+      4);
 }
 
 void blur_vertical_plain(const Image& t_blur, const Image& t_near, const Constants& k, int oy, int ho, Image& blur,
@@ -123,34 +129,37 @@ void blur_vertical_plain(const Image& t_blur, const Image& t_near, const Constan
   const float rmax = static_cast<float>(R);
   blur.resize(W, ho, 4);
   near.resize(W, ho, 5);
-  core::parallel_for(ho, [&](int j0, int j1) {
-    for (int j = j0; j < j1; ++j) {
-      const int a = oy + k.f * j;
-      for (int i = 0; i < W; ++i) {
-        const float r_a = t_blur.at(i, a, 4) * rmax;
-        const float nearness = saturate(4.0f * r_a);
-        float acc[4] = {0, 0, 0, 0}, acc_w = 0;
-        float nacc[5] = {0, 0, 0, 0, 0}, nacc_w = 0;
-        for (int d = -R; d <= R; ++d) {
-          const int b = std::clamp(a + d, 0, H - 1);
-          const float r_b = t_blur.at(i, b, 4) * rmax;
-          const float wn = far_weight(k, static_cast<float>(d), r_a, r_b);
-          const float w = wn + (1.0f - wn) * nearness;
-          for (int c = 0; c < 4; ++c) acc[c] += w * t_blur.at(i, b, c);
-          acc_w += w;
-          const float v = near_box(k, static_cast<float>(d));
-          for (int c = 0; c < 5; ++c) nacc[c] += v * t_near.at(i, b, c);
-          nacc_w += v;
+  core::parallel_for(
+      ho,
+      [&](int j0, int j1) {
+        for (int j = j0; j < j1; ++j) {
+          const int a = oy + k.f * j;
+          for (int i = 0; i < W; ++i) {
+            const float r_a = t_blur.at(i, a, 4) * rmax;
+            const float nearness = saturate(4.0f * r_a);
+            float acc[4] = {0, 0, 0, 0}, acc_w = 0;
+            float nacc[5] = {0, 0, 0, 0, 0}, nacc_w = 0;
+            for (int d = -R; d <= R; ++d) {
+              const int b = std::clamp(a + d, 0, H - 1);
+              const float r_b = t_blur.at(i, b, 4) * rmax;
+              const float wn = far_weight(k, static_cast<float>(d), r_a, r_b);
+              const float w = wn + (1.0f - wn) * nearness;
+              for (int c = 0; c < 4; ++c) acc[c] += w * t_blur.at(i, b, c);
+              acc_w += w;
+              const float v = near_box(k, static_cast<float>(d));
+              for (int c = 0; c < 5; ++c) nacc[c] += v * t_near.at(i, b, c);
+              nacc_w += v;
+            }
+            for (int c = 0; c < 4; ++c) blur.at(i, j, c) = acc[c] / acc_w;
+            const float inv = 1.0f / std::max(nacc_w, 1e-5f);
+            float n[5];
+            for (int c = 0; c < 5; ++c) n[c] = nacc[c] * inv;
+            if (k.variant == Variant::g3d) g3d_coverage_curve(k, n);
+            for (int c = 0; c < 5; ++c) near.at(i, j, c) = n[c];
+          }
         }
-        for (int c = 0; c < 4; ++c) blur.at(i, j, c) = acc[c] / acc_w;
-        const float inv = 1.0f / std::max(nacc_w, 1e-5f);
-        float n[5];
-        for (int c = 0; c < 5; ++c) n[c] = nacc[c] * inv;
-        if (k.variant == Variant::g3d) g3d_coverage_curve(k, n);
-        for (int c = 0; c < 5; ++c) near.at(i, j, c) = n[c];
-      }
-    }
-  }, 2);
+      },
+      2);
 }
 
 // Fast P2. g3d: the SIMD kernel of g3d_simd.cpp (g3d.hpp explains it; equal to the plain pass
@@ -172,55 +181,60 @@ void blur_horizontal(const Image& packed, const Constants& k, int ox, int wo, Im
   const float reach_c = k.variant == Variant::book ? 0.5f : 0.8f;
   const float near_inv = near_box_inverse_norm(k);
   constexpr int kTile = 8;
-  core::parallel_for(H, [&](int y0, int y1) {
-    const int P = W + 2 * R;
-    std::vector<float> col[4], rb(P);
-    for (auto& c : col) c.resize(P);
-    for (int y = y0; y < y1; ++y) {
-      for (int x = 0; x < P; ++x) {
-        const int src = std::clamp(x - R, 0, W - 1);
-        for (int c = 0; c < 4; ++c) col[c][x] = packed.row(c, y)[src];
-        rb[x] = packed.row(4, y)[src] * rmax;
-      }
-      for (int i0 = 0; i0 < wo; i0 += kTile) {
-        const int i1 = std::min(wo, i0 + kTile);
-        // Tap window of the tile in padded coordinates: [ox + f·i0, ox + f·(i1−1) + 2R].
-        float far_max = 0, near_max = 0;
-        for (int x = ox + f * i0; x <= ox + f * (i1 - 1) + 2 * R; ++x) {
-          if (in_near(rb[x])) near_max = std::max(near_max, rb[x]);
-          else far_max = std::max(far_max, std::fabs(rb[x]));
-        }
-        const int far_reach = static_cast<int>(1.2f * (0.001f + reach_c * far_max)) + 1;
-        const int near_reach = std::min(static_cast<int>(near_max), static_cast<int>(std::ceil(k.r_near)));
-        const int tile_bound = std::min(R, std::max(far_reach, near_reach));
-        for (int i = i0; i < i1; ++i) {
-          const int a = ox + f * i + R;
-          const float r_a = rb[a];
-          const float nearness = saturate(4.0f * r_a);
-          const int L = nearness > 0 ? R : tile_bound;
-          float blur[4] = {0, 0, 0, 0}, blur_w = 0;
-          float near[5] = {0, 0, 0, 0, 0};
-          for (int d = -L; d <= L; ++d) {
-            const int b = a + d;
-            const float r_b = rb[b];
-            const float wn = far_weight(k, static_cast<float>(d), r_a, r_b);
-            const float w = wn + (1.0f - wn) * nearness;
-            for (int c = 0; c < 4; ++c) blur[c] += w * col[c][b];
-            blur_w += w;
-            const float v = near_box(k, static_cast<float>(d));
-            if (v != 0.0f) {
-              const float va = v * near_alpha_horizontal(k, static_cast<float>(d), r_b);
-              for (int c = 0; c < 4; ++c) near[c] += va * col[c][b];
-              near[4] += va;
+  core::parallel_for(
+      H,
+      [&](int y0, int y1) {
+        const int P = W + 2 * R;
+        std::vector<float> col[4], rb(P);
+        for (auto& c : col) c.resize(P);
+        for (int y = y0; y < y1; ++y) {
+          for (int x = 0; x < P; ++x) {
+            const int src = std::clamp(x - R, 0, W - 1);
+            for (int c = 0; c < 4; ++c) col[c][x] = packed.row(c, y)[src];
+            rb[x] = packed.row(4, y)[src] * rmax;
+          }
+          for (int i0 = 0; i0 < wo; i0 += kTile) {
+            const int i1 = std::min(wo, i0 + kTile);
+            // Tap window of the tile in padded coordinates: [ox + f·i0, ox + f·(i1−1) + 2R].
+            float far_max = 0, near_max = 0;
+            for (int x = ox + f * i0; x <= ox + f * (i1 - 1) + 2 * R; ++x) {
+              if (in_near(rb[x]))
+                near_max = std::max(near_max, rb[x]);
+              else
+                far_max = std::max(far_max, std::fabs(rb[x]));
+            }
+            const int far_reach = static_cast<int>(1.2f * (0.001f + reach_c * far_max)) + 1;
+            const int near_reach = std::min(static_cast<int>(near_max), static_cast<int>(std::ceil(k.r_near)));
+            const int tile_bound = std::min(R, std::max(far_reach, near_reach));
+            for (int i = i0; i < i1; ++i) {
+              const int a = ox + f * i + R;
+              const float r_a = rb[a];
+              const float nearness = saturate(4.0f * r_a);
+              const int L = nearness > 0 ? R : tile_bound;
+              float blur[4] = {0, 0, 0, 0}, blur_w = 0;
+              float near[5] = {0, 0, 0, 0, 0};
+              for (int d = -L; d <= L; ++d) {
+                const int b = a + d;
+                const float r_b = rb[b];
+                const float wn = far_weight(k, static_cast<float>(d), r_a, r_b);
+                const float w = wn + (1.0f - wn) * nearness;
+                for (int c = 0; c < 4; ++c) blur[c] += w * col[c][b];
+                blur_w += w;
+                const float v = near_box(k, static_cast<float>(d));
+                if (v != 0.0f) {
+                  const float va = v * near_alpha_horizontal(k, static_cast<float>(d), r_b);
+                  for (int c = 0; c < 4; ++c) near[c] += va * col[c][b];
+                  near[4] += va;
+                }
+              }
+              for (int c = 0; c < 4; ++c) t_blur.row(c, y)[i] = blur[c] / blur_w;
+              t_blur.row(4, y)[i] = packed.row(4, y)[a - R];
+              for (int c = 0; c < 5; ++c) t_near.row(c, y)[i] = near[c] * near_inv;
             }
           }
-          for (int c = 0; c < 4; ++c) t_blur.row(c, y)[i] = blur[c] / blur_w;
-          t_blur.row(4, y)[i] = packed.row(4, y)[a - R];
-          for (int c = 0; c < 5; ++c) t_near.row(c, y)[i] = near[c] * near_inv;
         }
-      }
-    }
-  }, 4);
+      },
+      4);
 }
 
 // Fast P3. g3d: the SIMD kernel of g3d_simd.cpp. book/demo (tests only, as above): the same
@@ -243,52 +257,55 @@ void blur_vertical(const Image& t_blur, const Image& t_near, const Constants& k,
     core::parallel_for(nj * nx, [&](int t0, int t1) {
       for (int t = t0; t < t1; ++t) {
         const int j0 = (t / nx) * kRows, x0 = (t % nx) * kCols;
-        g3d_vertical_block(p, t_blur, t_near, oy, j0, std::min(ho, j0 + kRows), x0, std::min(W, x0 + kCols), blur,
-                           near, g3d_scratch());
+        g3d_vertical_block(p, t_blur, t_near, oy, j0, std::min(ho, j0 + kRows), x0, std::min(W, x0 + kCols), blur, near,
+                           g3d_scratch());
       }
     });
     return;
   }
   const float near_inv = near_box_inverse_norm(k);
-  core::parallel_for(ho, [&](int j0, int j1) {
-    std::vector<float> r_a(W), nearness(W), acc(5 * W), nacc(5 * W);
-    for (int j = j0; j < j1; ++j) {
-      const int a = oy + k.f * j;
-      const float* sa = t_blur.row(4, a);
-      for (int i = 0; i < W; ++i) {
-        r_a[i] = sa[i] * rmax;
-        nearness[i] = saturate(4.0f * r_a[i]);
-      }
-      std::fill(acc.begin(), acc.end(), 0.0f);
-      std::fill(nacc.begin(), nacc.end(), 0.0f);
-      for (int d = -R; d <= R; ++d) {
-        const int b = std::clamp(a + d, 0, H - 1);
-        const float* sb = t_blur.row(4, b);
-        const float* cb[4] = {t_blur.row(0, b), t_blur.row(1, b), t_blur.row(2, b), t_blur.row(3, b)};
-        const float fd = static_cast<float>(d);
-        for (int i = 0; i < W; ++i) {
-          const float wn = far_weight(k, fd, r_a[i], sb[i] * rmax);
-          const float w = wn + (1.0f - wn) * nearness[i];
-          for (int c = 0; c < 4; ++c) acc[c * W + i] += w * cb[c][i];
-          acc[4 * W + i] += w;
-        }
-        const float v = near_box(k, fd);
-        if (v != 0.0f)
-          for (int c = 0; c < 5; ++c) {
-            const float* nb = t_near.row(c, b);
-            float* na = nacc.data() + c * W;
-            for (int i = 0; i < W; ++i) na[i] += v * nb[i];
+  core::parallel_for(
+      ho,
+      [&](int j0, int j1) {
+        std::vector<float> r_a(W), nearness(W), acc(5 * W), nacc(5 * W);
+        for (int j = j0; j < j1; ++j) {
+          const int a = oy + k.f * j;
+          const float* sa = t_blur.row(4, a);
+          for (int i = 0; i < W; ++i) {
+            r_a[i] = sa[i] * rmax;
+            nearness[i] = saturate(4.0f * r_a[i]);
           }
-      }
-      for (int i = 0; i < W; ++i) {
-        for (int c = 0; c < 4; ++c) blur.at(i, j, c) = acc[c * W + i] / acc[4 * W + i];
-        float n[5];
-        for (int c = 0; c < 5; ++c) n[c] = nacc[c * W + i] * near_inv;
-        if (k.variant == Variant::g3d) g3d_coverage_curve(k, n);
-        for (int c = 0; c < 5; ++c) near.at(i, j, c) = n[c];
-      }
-    }
-  }, 2);
+          std::fill(acc.begin(), acc.end(), 0.0f);
+          std::fill(nacc.begin(), nacc.end(), 0.0f);
+          for (int d = -R; d <= R; ++d) {
+            const int b = std::clamp(a + d, 0, H - 1);
+            const float* sb = t_blur.row(4, b);
+            const float* cb[4] = {t_blur.row(0, b), t_blur.row(1, b), t_blur.row(2, b), t_blur.row(3, b)};
+            const float fd = static_cast<float>(d);
+            for (int i = 0; i < W; ++i) {
+              const float wn = far_weight(k, fd, r_a[i], sb[i] * rmax);
+              const float w = wn + (1.0f - wn) * nearness[i];
+              for (int c = 0; c < 4; ++c) acc[c * W + i] += w * cb[c][i];
+              acc[4 * W + i] += w;
+            }
+            const float v = near_box(k, fd);
+            if (v != 0.0f)
+              for (int c = 0; c < 5; ++c) {
+                const float* nb = t_near.row(c, b);
+                float* na = nacc.data() + c * W;
+                for (int i = 0; i < W; ++i) na[i] += v * nb[i];
+              }
+          }
+          for (int i = 0; i < W; ++i) {
+            for (int c = 0; c < 4; ++c) blur.at(i, j, c) = acc[c * W + i] / acc[4 * W + i];
+            float n[5];
+            for (int c = 0; c < 5; ++c) n[c] = nacc[c * W + i] * near_inv;
+            if (k.variant == Variant::g3d) g3d_coverage_curve(k, n);
+            for (int c = 0; c < 5; ++c) near.at(i, j, c) = n[c];
+          }
+        }
+      },
+      2);
 }
 
 }  // namespace dofkit::detail::mcguire

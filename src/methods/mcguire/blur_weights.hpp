@@ -15,8 +15,13 @@ inline bool in_near(float r) { return r > 0.25f; }
 
 /// book: an 11-tap normalised Gaussian (σ ≈ 3.3 taps) sampled at 6 distances, plus 0 for
 /// "outside the radius". demo: a flatter, disc-like profile.
-constexpr float kGaussianTable[7] = {0.13425804976814f, 0.12815541114232f, 0.11143948794984f, 0.08822292796029f,
-                                     0.06352050813141f, 0.04153263993208f, 0.0f};
+constexpr float kGaussianTable[7] = {0.13425804976814f,
+                                     0.12815541114232f,
+                                     0.11143948794984f,
+                                     0.08822292796029f,
+                                     0.06352050813141f,
+                                     0.04153263993208f,
+                                     0.0f};
 constexpr float kDiscTable[7] = {1.00f, 1.00f, 0.90f, 0.75f, 0.60f, 0.50f, 0.00f};
 
 /// Far/focus weight of tap B (offset d px, radius r_b) for a centre of radius r_a, before

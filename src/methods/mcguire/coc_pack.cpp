@@ -20,16 +20,18 @@ namespace dofkit::detail::mcguire {
 void pack_coc(const Image& colour, const Image& coc, const Rect& src, const Constants& k, Image& packed) {
   packed.resize(src.w, src.h, kPacked);
   const float inv_rmax = k.r_max > 0 ? 1.0f / static_cast<float>(k.r_max) : 0.0f;
-  core::parallel_for(src.h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      for (int c = 0; c < 4; ++c)
-        std::copy_n(colour.row(c, src.y + y) + src.x, src.w, packed.row(c, y));
-      const float* r = coc.row(0, src.y + y) + src.x;
-      float* s = packed.row(4, y);
-      for (int x = 0; x < src.w; ++x)
-        s[x] = std::fabs(r[x]) <= k.focus_px ? 0.0f : std::clamp(r[x] * inv_rmax, -1.0f, 1.0f);
-    }
-  }, 8);
+  core::parallel_for(
+      src.h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          for (int c = 0; c < 4; ++c) std::copy_n(colour.row(c, src.y + y) + src.x, src.w, packed.row(c, y));
+          const float* r = coc.row(0, src.y + y) + src.x;
+          float* s = packed.row(4, y);
+          for (int x = 0; x < src.w; ++x)
+            s[x] = std::fabs(r[x]) <= k.focus_px ? 0.0f : std::clamp(r[x] * inv_rmax, -1.0f, 1.0f);
+        }
+      },
+      8);
 }
 
 }  // namespace dofkit::detail::mcguire

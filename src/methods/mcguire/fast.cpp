@@ -75,8 +75,8 @@ constexpr int kBlock = 32;  // outputs per tap-bound block
 /// are indexed by output from the row's start. frac: some output in [i0, i1) has a
 /// fractional nearness (else the near centres' outputs are left for the caller's box
 /// sums). Shared by the horizontal and vertical passes.
-void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_stride, std::ptrdiff_t aux_stride,
-                        int L, const float* r_a, const float* nearness, bool frac, const float* table, bool occlusion,
+void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_stride, std::ptrdiff_t aux_stride, int L,
+                        const float* r_a, const float* nearness, bool frac, const float* table, bool occlusion,
                         Image& dst, int row, int i0, int i1) {
   // taps[R + d] is tap δ = d for output 0 (R = (taps.size() − 1) / 2); output i0 reads i0 on.
   GatherJob job;
@@ -100,7 +100,8 @@ void far_gather_outputs(const std::vector<GatherTap>& taps, std::ptrdiff_t col_s
 bool fast_supported(const Constants& k) { return k.variant != Variant::g3d; }
 
 void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src, const Constants& k, int ox, int wo,
-                          Image& t_blur, Image& t_near, Workspace& /*ws*/, std::atomic<bool>* colour_dirty, int* near_span) {
+                          Image& t_blur, Image& t_near, Workspace& /*ws*/, std::atomic<bool>* colour_dirty,
+                          int* near_span) {
   const int W = src.w, H = src.h, R = k.r_max, f = k.f;
   const float rmax = static_cast<float>(R);
   t_blur.resize(wo, H, 5);
@@ -111,7 +112,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   float table[16];
   load_table(k, table);
 
-  const int P = W + 2 * R;          // padded row: x = source + R, clamped at the edges
+  const int P = W + 2 * R;           // padded row: x = source + R, clamped at the edges
   const int ng = prep_groups(P, f);  // f-pixel groups x = f·m … f·m + f − 1 the set-up writes
   const int M = ng + 64;             // phase array length (+ the set-up's last vector)
   // Scratch of a chunk (one per thread, below), in floats (each block rounded up to 16
@@ -126,12 +127,13 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
   const std::size_t PST = 2 * static_cast<std::size_t>(P) + 4;
   const std::size_t n_double =
       4 * PST + 5 * static_cast<std::size_t>(wo + 2) +
-      std::max(5 * static_cast<std::size_t>(P + 1), 10 * static_cast<std::size_t>(wo + R + 3)) + 5 * static_cast<std::size_t>(wo);
+      std::max(5 * static_cast<std::size_t>(P + 1), 10 * static_cast<std::size_t>(wo + R + 3)) +
+      5 * static_cast<std::size_t>(wo);
   const std::size_t per_chunk = n_float + 2 * n_double + 32;
   const int nchunk = std::min(H, 64);
   const float inv_rmax = R > 0 ? 1.0f / rmax : 0.0f;
   const std::size_t plane = static_cast<std::size_t>(f) * M;
-  const int cx0 = ox + R;             // padded x of output 0's centre
+  const int cx0 = ox + R;                 // padded x of output 0's centre
   const int p0 = cx0 % f, mc0 = cx0 / f;  // its phase and group: output i is group mc0 + i
 
   core::parallel_for(nchunk, [&](int c0, int c1) {
@@ -144,20 +146,21 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
     thread_local std::vector<float> scratch;
     if (scratch.size() < per_chunk) scratch.resize(per_chunk);
     for (int chunk = c0; chunk < c1; ++chunk) {
-      float* base = reinterpret_cast<float*>((reinterpret_cast<std::uintptr_t>(scratch.data()) + 63) &
-                                             ~std::uintptr_t(63));
+      float* base =
+          reinterpret_cast<float*>((reinterpret_cast<std::uintptr_t>(scratch.data()) + 63) & ~std::uintptr_t(63));
       float* ph = base;  // phase planes: q·(f·M) + p·M + m
       float* rc = base + n_ph;
       float* sc = rc + n_m;
       float* nc = sc + n_m;
       int* greach = reinterpret_cast<int*>(nc + n_m);
-      int* lvl_n = greach + n_m;  // per box half-width h <= hbox: source count, first and
+      int* lvl_n = greach + n_m;    // per box half-width h <= hbox: source count, first and
       int* lvl_lo = lvl_n + n_lvl;  // last padded x
       int* lvl_hi = lvl_lo + n_lvl;
       double* prefix = reinterpret_cast<double*>(lvl_hi + n_lvl);  // 4 × PST
       double* bins = prefix + 4 * PST;                             // 5 × (wo+2)
       double* lsum = bins + 5 * static_cast<std::size_t>(wo + 2);  // 5 × (P+1)
-      double* acc = lsum + std::max(5 * static_cast<std::size_t>(P + 1), 10 * static_cast<std::size_t>(wo + R + 3));  // 5 × wo
+      double* acc =
+          lsum + std::max(5 * static_cast<std::size_t>(P + 1), 10 * static_cast<std::size_t>(wo + R + 3));  // 5 × wo
       const float* const r_a = rc + mc0;  // per output: centre r_B and nearness
       const float* const nearness = nc + mc0;
       const int32_t* const nh = reinterpret_cast<const int32_t*>(ph + 8 * plane);  // near h, α by phase
@@ -197,8 +200,7 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
       }
 
       for (int y = chunk_begin(H, nchunk, chunk); y < chunk_begin(H, nchunk, chunk + 1); ++y) {
-        for (int c = 0; c < 5; ++c)
-          prep.src[c] = (c < 4 ? colour.row(c, src.y + y) : coc.row(0, src.y + y)) + src.x;
+        for (int c = 0; c < 5; ++c) prep.src[c] = (c < 4 ? colour.row(c, src.y + y) : coc.row(0, src.y + y)) + src.x;
         // render()'s colour check is made by the set-up on the colour it loads.
         prep.check_colour = colour_dirty != nullptr;
         prep.dirty = false;
@@ -362,7 +364,8 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         // is never −0), so both ways give the same bits.
         const bool direct = !any_scatter && n_level == 1 && (f == 2 || f == 4);
         if (acc_hi >= acc_lo && !direct)
-          for (int c = 0; c < 5; ++c) std::fill_n(acc + c * static_cast<std::size_t>(wo) + acc_lo, acc_hi - acc_lo + 1, 0.0);
+          for (int c = 0; c < 5; ++c)
+            std::fill_n(acc + c * static_cast<std::size_t>(wo) + acc_lo, acc_hi - acc_lo + 1, 0.0);
         for (int h = 0; h <= hbox; ++h) {
           if (lvl_n[h] >= 0) continue;
           const int ext = lvl_hi[h] - lvl_lo[h] + 1;
@@ -426,7 +429,8 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
           for (int i = ilo; i <= ihi; ++i) {
             const int xi = cx0 + f * i;
             const int b = std::max(lo, xi - h) - lo, e = std::min(hi, xi + h) - lo + 1;
-            for (int c = 0; c < 5; ++c) acc[c * static_cast<std::size_t>(wo) + i] += lsum[c * ls + e] - lsum[c * ls + b];
+            for (int c = 0; c < 5; ++c)
+              acc[c * static_cast<std::size_t>(wo) + i] += lsum[c * ls + e] - lsum[c * ls + b];
           }
         }
         if (any_scatter) std::fill_n(bins, 5 * st, 0.0);
@@ -457,10 +461,18 @@ void blur_horizontal_fast(const Image& colour, const Image& coc, const Rect& src
         };
         if (any_scatter) {
           switch (f) {
-            case 1: scatter(std::integral_constant<int, 1>{}); break;
-            case 2: scatter(std::integral_constant<int, 2>{}); break;
-            case 3: scatter(std::integral_constant<int, 3>{}); break;
-            default: scatter(std::integral_constant<int, 4>{}); break;
+            case 1:
+              scatter(std::integral_constant<int, 1>{});
+              break;
+            case 2:
+              scatter(std::integral_constant<int, 2>{});
+              break;
+            case 3:
+              scatter(std::integral_constant<int, 3>{});
+              break;
+            default:
+              scatter(std::integral_constant<int, 4>{});
+              break;
           }
         }
         {
@@ -517,21 +529,24 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
   // (Rows padded to whole vectors: max_rows_simd reads a vector of blocks from each.)
   const int nblk_pad = (nblk + 15) & ~15;
   Image& reach = ws.image("mcguire.fast.v_reach", nblk_pad, H, 1);
-  core::parallel_for(H, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      AuxRowJob job;
-      job.s = t_blur.row(4, y);
-      job.w = W;
-      job.block = kBlock;
-      job.rmax = rmax;
-      job.dc = k.variant == Variant::book ? 0.5f : 0.8f;
-      job.inv = aux.row(0, y);
-      job.den = aux.row(1, y);
-      job.absr = aux.row(2, y);
-      job.blk_reach = reach.row(0, y);
-      aux_row_simd(job);
-    }
-  }, 16);
+  core::parallel_for(
+      H,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          AuxRowJob job;
+          job.s = t_blur.row(4, y);
+          job.w = W;
+          job.block = kBlock;
+          job.rmax = rmax;
+          job.dc = k.variant == Variant::book ? 0.5f : 0.8f;
+          job.inv = aux.row(0, y);
+          job.den = aux.row(1, y);
+          job.absr = aux.row(2, y);
+          job.blk_reach = reach.row(0, y);
+          aux_row_simd(job);
+        }
+      },
+      16);
 
   // Output rows in fixed chunks; each chunk keeps double sliding row sums of t_blur (radius R,
   // for near centres) and of t_near (radius hbox).
@@ -548,7 +563,8 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
       float* fbase = scratch.row(0, chunk);
       float* r_a = fbase;
       float* nearness = r_a + W + 64;
-      double* sum_b = reinterpret_cast<double*>(reinterpret_cast<std::uintptr_t>(nearness + W + 66) & ~std::uintptr_t(7));
+      double* sum_b =
+          reinterpret_cast<double*>(reinterpret_cast<std::uintptr_t>(nearness + W + 66) & ~std::uintptr_t(7));
       double* sum_n = sum_b + 4 * static_cast<std::size_t>(W);
       const int j0 = chunk_begin(ho, nchunk, chunk), j1 = chunk_begin(ho, nchunk, chunk + 1);
       // Columns [box_c0, box_c1] hold every near centre of the chunk's output rows: the
@@ -631,8 +647,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
         }
         // Per column block, the largest reach over the window's rows a − R … a + R (clamped
         // rows repeat the edge rows, which does not change a maximum).
-        max_rows_simd(blk_reach.data(), reach.row(0, 0), nblk_pad, std::max(0, a - R),
-                      std::min(H - 1, a + R), nblk);
+        max_rows_simd(blk_reach.data(), reach.row(0, 0), nblk_pad, std::max(0, a - R), std::min(H - 1, a + R), nblk);
         for (int i0 = 0; i0 < W; i0 += kBlock) {
           const int i1 = std::min(W, i0 + kBlock), blk = i0 / kBlock;
           ScanBlockJob scan;

@@ -29,7 +29,7 @@ void blur_vertical_fast(const Image& t_blur, const Image& t_near, const Constant
 /// P4 as composite() (every variant), row-organised and vectorisable; no weights output.
 /// Reads the sharp colour and s from colour/CoC like blur_horizontal_fast (packed pixel
 /// (x, y) = source pixel (src.x + x, src.y + y)).
-void composite_fast(const Image& colour, const Image& coc, const Rect& src, int ox, int oy, const Image& blur, const Image& near, const Constants& k,
-                    const Rect& inner, Image& out, Workspace& ws);
+void composite_fast(const Image& colour, const Image& coc, const Rect& src, int ox, int oy, const Image& blur,
+                    const Image& near, const Constants& k, const Rect& inner, Image& out, Workspace& ws);
 
 }  // namespace dofkit::detail::mcguire

@@ -48,8 +48,8 @@ void h_interp(const Image& blur, const Image& near, int row, int w, const int* i
 
 }  // namespace
 
-void composite_fast(const Image& colour, const Image& coc, const Rect& src, int ox, int oy, const Image& blur, const Image& near, const Constants& k,
-                    const Rect& inner, Image& out, Workspace& ws) {
+void composite_fast(const Image& colour, const Image& coc, const Rect& src, int ox, int oy, const Image& blur,
+                    const Image& near, const Constants& k, const Rect& inner, Image& out, Workspace& ws) {
   const int w = inner.w, h = inner.h;
   Image& taps = ws.image("mcguire.fast.c_taps", std::max(w, h), 6, 1);
   int* tx0 = reinterpret_cast<int*>(taps.row(0, 0));

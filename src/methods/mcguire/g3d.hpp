@@ -29,15 +29,15 @@ constexpr float kG3dExp2Min = -100.0f;
 
 /// Constants shared by both passes (derived from mcguire::Constants by blur.cpp).
 struct G3dParams {
-  int R = 0;                    ///< tap half-width R_max, px
-  int f = 1;                    ///< reduction factor (output spacing), px
-  float rmax = 0;               ///< R_max as float: r = s·rmax, px
-  bool occlusion = true;        ///< far occlusion test: w ·= saturate(max(r_B − r_A + 1, (0.01 − r_A)/(0.01 + |r_B|)))
-  float inv_near = 0;           ///< 1 / R_near, 1/px (near coverage α = saturate(r_B / R_near)²)
-  float near_inv = 0;           ///< 1 / Σ_δ near_box(δ), the near sums' normaliser
+  int R = 0;              ///< tap half-width R_max, px
+  int f = 1;              ///< reduction factor (output spacing), px
+  float rmax = 0;         ///< R_max as float: r = s·rmax, px
+  bool occlusion = true;  ///< far occlusion test: w ·= saturate(max(r_B − r_A + 1, (0.01 − r_A)/(0.01 + |r_B|)))
+  float inv_near = 0;     ///< 1 / R_near, 1/px (near coverage α = saturate(r_B / R_near)²)
+  float near_inv = 0;     ///< 1 / Σ_δ near_box(δ), the near sums' normaliser
   const float* near_tab = nullptr;  ///< near_box(δ) at index δ + R (2R + 1 values); null = no near field
   const float* d2_tab = nullptr;    ///< δ² at index δ + R (2R + 1 values)
-  float fov_rad = 0.7f;         ///< g3d coverage curve parameter, radians
+  float fov_rad = 0.7f;             ///< g3d coverage curve parameter, radians
 };
 
 /// P2 for one row. src: the packed row's 5 planes (W floats each); output i is centred on

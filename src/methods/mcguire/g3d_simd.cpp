@@ -124,13 +124,17 @@ HWY_INLINE void FarDispatch(D d, const G3dParams& p, const float* base, const in
   const auto n = hn::Min(hn::Max(hn::Mul(hn::Set(d, 4.0f), ra), zero), one);  // nearness = saturate(4 r_A)
   const int R = p.R;
   if (hn::AllTrue(d, hn::Eq(n, zero))) {
-    if (p.occlusion) FarSum<0, true>(d, R, p.d2_tab, ra, n, base, off, ps, out);
-    else FarSum<0, false>(d, R, p.d2_tab, ra, n, base, off, ps, out);
+    if (p.occlusion)
+      FarSum<0, true>(d, R, p.d2_tab, ra, n, base, off, ps, out);
+    else
+      FarSum<0, false>(d, R, p.d2_tab, ra, n, base, off, ps, out);
   } else if (hn::AllTrue(d, hn::Eq(n, one))) {
     FarSum<2, false>(d, R, p.d2_tab, ra, n, base, off, ps, out);
   } else {
-    if (p.occlusion) FarSum<1, true>(d, R, p.d2_tab, ra, n, base, off, ps, out);
-    else FarSum<1, false>(d, R, p.d2_tab, ra, n, base, off, ps, out);
+    if (p.occlusion)
+      FarSum<1, true>(d, R, p.d2_tab, ra, n, base, off, ps, out);
+    else
+      FarSum<1, false>(d, R, p.d2_tab, ra, n, base, off, ps, out);
   }
 }
 
@@ -328,14 +332,14 @@ void VerticalBlock(const G3dParams& p, const Image& tb, const Image& tn, int oy,
         hn::StoreU(r, dd, e + kR * ps + x);
         hn::StoreU(ib, dd, e + kIb * ps + x);
         if (p.near_tab) {
-          for (int c = 0; c < 4; ++c)
-            hn::StoreU(hn::LoadU(dd, tn.row(c, b) + x0 + x), dd, e + (kNear + c) * ps + x);
+          for (int c = 0; c < 4; ++c) hn::StoreU(hn::LoadU(dd, tn.row(c, b) + x0 + x), dd, e + (kNear + c) * ps + x);
           const auto na = hn::LoadU(dd, tn.row(4, b) + x0 + x);
           hn::StoreU(na, dd, e + kAlpha * ps + x);
           any_alpha |= !hn::AllTrue(dd, hn::Eq(na, hn::Zero(dd)));
         }
       };
-      if (sw == S) fill(d, 0);
+      if (sw == S)
+        fill(d, 0);
       else
         for (int x = 0; x < sw; ++x) fill(d1, x);
     }

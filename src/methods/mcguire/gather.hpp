@@ -28,10 +28,10 @@ struct GatherTap {
 };
 
 struct GatherJob {
-  int n = 0;                        ///< outputs (n >= 1)
+  int n = 0;  ///< outputs (n >= 1)
   int ntaps = 0;
   const GatherTap* taps = nullptr;
-  int tap_offset = 0;               ///< added to every tap pointer (the first output's index)
+  int tap_offset = 0;  ///< added to every tap pointer (the first output's index)
   std::ptrdiff_t col_stride = 0, aux_stride = 0;
   const float* r_a = nullptr;       ///< centre radius px, n values
   const float* nearness = nullptr;  ///< saturate(4 r_A), n values
@@ -40,7 +40,7 @@ struct GatherJob {
   /// false: every nearness is 0 or 1, and the outputs with nearness 1 are not used (the
   /// caller writes them from its box sums), so w = wn is summed for every lane.
   bool frac = true;
-  float* out[4] = {};               ///< blur = Σ w·col / Σ w, n values per channel
+  float* out[4] = {};  ///< blur = Σ w·col / Σ w, n values per channel
 };
 
 /// out[c][o] = Σ_t w_t,o·col_t[c][o] / Σ_t w_t,o with w = wn + (1 − wn)·nearness_o and
@@ -55,7 +55,7 @@ void far_gather_simd(const GatherJob& job);
 struct CompositeRowJob {
   const float* top = nullptr;
   const float* bot = nullptr;
-  float wy = 0;                ///< vertical bilinear weight of bot
+  float wy = 0;  ///< vertical bilinear weight of bot
   int w = 0;
   const float* col[4] = {};    ///< sharp premultiplied RGBA
   const float* coc = nullptr;  ///< signed CoC px; s = clamp(r / R_max, −1, 1), 0 where |r| <= focus_px (pack_coc)
@@ -106,7 +106,7 @@ struct PrepRowJob {
   bool check_colour = false;
   bool dirty = false;
   int W = 0, R = 0, f = 1;
-  int M = 0;                 ///< phase length (>= ⌈P/f⌉ + 2 rounded up to whole vectors)
+  int M = 0;  ///< phase length (>= ⌈P/f⌉ + 2 rounded up to whole vectors)
   float* ph = nullptr;
   int p0 = 0;
   float* rc = nullptr;

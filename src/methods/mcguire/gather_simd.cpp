@@ -155,11 +155,15 @@ void FarGatherT(const GatherJob& job) {
 
 void FarGather(const GatherJob& job) {
   if (job.occlusion) {
-    if (job.frac) FarGatherT<true, true>(job);
-    else FarGatherT<true, false>(job);
+    if (job.frac)
+      FarGatherT<true, true>(job);
+    else
+      FarGatherT<true, false>(job);
   } else {
-    if (job.frac) FarGatherT<false, true>(job);
-    else FarGatherT<false, false>(job);
+    if (job.frac)
+      FarGatherT<false, true>(job);
+    else
+      FarGatherT<false, false>(job);
   }
 }
 
@@ -212,8 +216,10 @@ void CompositeRow(const CompositeRowJob& job) {
     for (int c = 0; c < 4; ++c) {
       if (job.g3d) v[c] = hn::Max(v[c], zero);
       const auto o = hn::Add(hn::Mul(v[c], keep), nn[c]);
-      if constexpr (decltype(stream)::value) hn::Stream(o, df, job.out[c] + x);
-      else hn::StoreU(o, df, job.out[c] + x);
+      if constexpr (decltype(stream)::value)
+        hn::Stream(o, df, job.out[c] + x);
+      else
+        hn::StoreU(o, df, job.out[c] + x);
     }
   };
   using NoStream = std::false_type;
@@ -387,7 +393,8 @@ void PrepRowF(PrepRowJob& job, int m0, int m1) {
           // sample_is_sanitary: ±0, or a normal number of magnitude <= kMaxColorValue
           // (colour) / in [FLT_MIN, 1] (alpha); NaN fails every comparison.
           const auto x = c < 3 ? hn::Abs(v[p]) : v[p];
-          const auto ok = hn::Or(hn::Eq(v[p], zero), hn::And(hn::Ge(x, min_normal), hn::Le(x, c < 3 ? max_colour : one)));
+          const auto ok =
+              hn::Or(hn::Eq(v[p], zero), hn::And(hn::Ge(x, min_normal), hn::Le(x, c < 3 ? max_colour : one)));
           bad = hn::Or(bad, hn::Not(ok));
         }
     }
@@ -415,7 +422,8 @@ void PrepRowF(PrepRowJob& job, int m0, int m1) {
       // Statistics over the groups [m0, m1) with x = F·m' + p < P.
       const int valid = std::min((P - p + F - 1) / F, m1) - m;
       const auto pos = hn::Gt(rb, zero);
-      const auto in_range = valid >= lanes ? pos : hn::And(pos, hn::FirstN(df, static_cast<std::size_t>(std::max(valid, 0))));
+      const auto in_range =
+          valid >= lanes ? pos : hn::And(pos, hn::FirstN(df, static_cast<std::size_t>(std::max(valid, 0))));
       if (hn::AllFalse(df, in_range) && !job.near) continue;
       any = any || !hn::AllFalse(df, in_range);
       if (!job.near) continue;
@@ -450,10 +458,18 @@ void PrepRowF(PrepRowJob& job, int m0, int m1) {
 
 void PrepRow(PrepRowJob& job, int m0, int m1) {
   switch (job.f) {
-    case 1: PrepRowF<1>(job, m0, m1); break;
-    case 2: PrepRowF<2>(job, m0, m1); break;
-    case 3: PrepRowF<3>(job, m0, m1); break;
-    default: PrepRowF<4>(job, m0, m1); break;
+    case 1:
+      PrepRowF<1>(job, m0, m1);
+      break;
+    case 2:
+      PrepRowF<2>(job, m0, m1);
+      break;
+    case 3:
+      PrepRowF<3>(job, m0, m1);
+      break;
+    default:
+      PrepRowF<4>(job, m0, m1);
+      break;
   }
 }
 
@@ -606,8 +622,10 @@ void LevelBlocksF(const LevelBlocksJob& job) {
 }
 
 void LevelBlocks(const LevelBlocksJob& job) {
-  if (job.f == 4) LevelBlocksF<4>(job);
-  else LevelBlocksF<2>(job);
+  if (job.f == 4)
+    LevelBlocksF<4>(job);
+  else
+    LevelBlocksF<2>(job);
 }
 
 void ScanBlock(ScanBlockJob& job) {

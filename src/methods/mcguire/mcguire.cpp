@@ -88,8 +88,8 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
   const int W = colour.width(), H = colour.height();
   const int g_req = ctx.params.get_int("guard_band_px", 0, 0, 1 << 20);
   if (2 * g_req >= std::min(W, H))
-    throw_usage("--set guard_band_px=" + std::to_string(g_req) + ": leaves no inner image in a " +
-                std::to_string(W) + "x" + std::to_string(H) + " frame (method mcguire)");
+    throw_usage("--set guard_band_px=" + std::to_string(g_req) + ": leaves no inner image in a " + std::to_string(W) +
+                "x" + std::to_string(H) + " frame (method mcguire)");
   const bool taps_req = ctx.params.get_bool("guard_band_taps", true);
   // Region whose pixels the passes read: whole image, or the inner rect if the guard band
   // must not be read at all.
@@ -235,7 +235,8 @@ const MethodDef& mcguire_method() {
            "far taps count only if not meaningfully farther than the centre (on/off)"},
           {"far_rescale", "on (demo, g3d), off (book)",
            "Sept-2013 fix: far |s| reaches 1 at the largest far radius instead of at R_max (on/off)"},
-          {"double_coc", "on (demo), off (book)", "composite doubles s, clamp(2s, -1, 1), as some 2013 ports do (on/off; book/demo)"},
+          {"double_coc", "on (demo), off (book)",
+           "composite doubles s, clamp(2s, -1, 1), as some 2013 ports do (on/off; book/demo)"},
           {"near_alpha", "code", "near coverage curve: code = saturate(4 r/R_near)^4, book = min(1, r/R_near)^4"},
           {"focus_px", "0.5", "pixels with |CoC| <= this many px are exactly sharp (>= 0)"},
           {"lowres_offset_fix", "on",

@@ -19,18 +19,18 @@ enum class Variant { book, demo, g3d };
 /// Everything the passes need, fixed for one frame. Radii are in full-resolution image pixels.
 struct Constants {
   Variant variant = Variant::demo;
-  int f = 4;                    ///< reduction factor per axis (1..4)
-  int r_max = 0;                ///< R_max: tap half-width and CoC normaliser, px (integer)
-  float r_near = 0;             ///< R_near: fixed near-field blur radius, px (0 = no near field)
-  float inv_near = 1e4f;        ///< 1 / max(R_near, 1e-4)
-  float far_rescale = 1;        ///< multiplies negative s in the composite (1 = off)
-  float coverage_boost = 1.5f;  ///< near alpha gain (book/demo)
-  bool far_occlusion = false;   ///< far taps must not be meaningfully farther than the centre
-  bool double_coc = false;      ///< composite: s = clamp(2 s, -1, 1) before the near boost
-  bool near_alpha_code = true;  ///< near alpha saturate(4 r/R_near)^4 (code) vs min(1, r/R_near)^4 (book prose)
-  bool lowres_offset_fix = true;///< sample low-res buffers where their point-decimated texels really are
-  float focus_px = 0.5f;        ///< |r| <= focus_px packs as exactly sharp (s = 0)
-  float g3d_fov_rad = 0.7f;     ///< g3d coverage curve parameter (G3D passes the camera FOV)
+  int f = 4;                      ///< reduction factor per axis (1..4)
+  int r_max = 0;                  ///< R_max: tap half-width and CoC normaliser, px (integer)
+  float r_near = 0;               ///< R_near: fixed near-field blur radius, px (0 = no near field)
+  float inv_near = 1e4f;          ///< 1 / max(R_near, 1e-4)
+  float far_rescale = 1;          ///< multiplies negative s in the composite (1 = off)
+  float coverage_boost = 1.5f;    ///< near alpha gain (book/demo)
+  bool far_occlusion = false;     ///< far taps must not be meaningfully farther than the centre
+  bool double_coc = false;        ///< composite: s = clamp(2 s, -1, 1) before the near boost
+  bool near_alpha_code = true;    ///< near alpha saturate(4 r/R_near)^4 (code) vs min(1, r/R_near)^4 (book prose)
+  bool lowres_offset_fix = true;  ///< sample low-res buffers where their point-decimated texels really are
+  float focus_px = 0.5f;          ///< |r| <= focus_px packs as exactly sharp (s = 0)
+  float g3d_fov_rad = 0.7f;       ///< g3d coverage curve parameter (G3D passes the camera FOV)
 };
 
 /// Axis-aligned pixel rectangle.

@@ -143,10 +143,18 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
       }
     const float min_inv_z = *std::min_element(inv_z.begin(), inv_z.begin() + static_cast<std::ptrdiff_t>(n));
     HiddenJob hj;
-    hj.w = w; hj.h = h; hj.rho = rho.data(); hj.sharp = sharpness.data(); hj.inv_z = inv_z.data();
+    hj.w = w;
+    hj.h = h;
+    hj.rho = rho.data();
+    hj.sharp = sharpness.data();
+    hj.inv_z = inv_z.data();
     for (int c = 0; c < 4; ++c) hj.colour[c] = colour.plane(c);
-    hj.ox = ox.data(); hj.oy = oy.data(); hj.samples = static_cast<int>(ox.size());
-    hj.keep = 1.0f - soft; hj.min_inv_z = min_inv_z; hj.hidden = hidden.data();
+    hj.ox = ox.data();
+    hj.oy = oy.data();
+    hj.samples = static_cast<int>(ox.size());
+    hj.keep = 1.0f - soft;
+    hj.min_inv_z = min_inv_z;
+    hj.hidden = hidden.data();
     core::parallel_for(h, [&](int y0, int y1) {
       if (opt.simd) {
         hidden_rows_simd(hj, y0, y1);
@@ -157,9 +165,9 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
           const std::size_t p = static_cast<std::size_t>(y) * w + x;
           float* hp = &hidden[p * 4];
           hp[3] = -1.0f;
-          if (sharpness[p] <= 0.0f) continue;  // sharp receivers are opaque
+          if (sharpness[p] <= 0.0f) continue;            // sharp receivers are opaque
           const float limit = inv_z[p] * (1.0f - soft);  // "clearly behind": inverse depth below this
-          if (!(limit > min_inv_z)) continue;  // nothing in the image lies behind (e.g. the sky)
+          if (!(limit > min_inv_z)) continue;            // nothing in the image lies behind (e.g. the sky)
           float sum[4] = {0, 0, 0, 0};
           int count = 0;
           for (std::size_t k = 0; k < ox.size(); ++k) {
@@ -188,14 +196,27 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
       const int y0 = b * kBand, y1 = std::min(h, y0 + kBand);
       std::fill(acc.begin(), acc.end(), 0.0f);
       BandJob job;
-      job.w = w; job.h = h; job.y0 = y0; job.y1 = y1; job.reach = reach; job.depth_order = opt.depth_order;
+      job.w = w;
+      job.h = h;
+      job.y0 = y0;
+      job.y1 = y1;
+      job.reach = reach;
+      job.depth_order = opt.depth_order;
       job.softness = soft;
-      job.rho = rho.data(); job.sharp = sharpness.data(); job.inv_z = inv_z.data(); job.isu = isu.data();
+      job.rho = rho.data();
+      job.sharp = sharpness.data();
+      job.inv_z = inv_z.data();
+      job.isu = isu.data();
       job.wscale = wscale.data();
-      job.ext = ext.data(); job.block_ext = block_ext.data();
-      job.dist = dist.data(); job.dist_half = dist_half; job.dist_stride = dist_stride;
+      job.ext = ext.data();
+      job.block_ext = block_ext.data();
+      job.dist = dist.data();
+      job.dist_half = dist_half;
+      job.dist_stride = dist_stride;
       for (int c = 0; c < 4; ++c) job.colour[c] = colour.plane(c);
-      job.acc = acc.data(); job.band = kBand; job.stride = stride;
+      job.acc = acc.data();
+      job.band = kBand;
+      job.stride = stride;
       if (opt.simd)
         scatter_band_simd(job);
       else
@@ -215,7 +236,8 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
             const float missing = (hid && hid[px * 4 + 3] >= 0.0f) ? std::max(0.0f, 1.0f - fw[px] - bw[px]) : 0.0f;
             if (bw[px] + missing > 0) {
               const float fs = fw[px] > 1.0f ? 1.0f / fw[px] : 1.0f;
-              const float back = missing > 0 ? (bc[px] + missing * hid[px * 4 + ch]) / (bw[px] + missing) : bc[px] / bw[px];
+              const float back =
+                  missing > 0 ? (bc[px] + missing * hid[px * 4 + ch]) / (bw[px] + missing) : bc[px] / bw[px];
               v = fc[px] * fs + (1.0f - std::min(fw[px], 1.0f)) * back;
             } else if (fw[px] > 0) {
               v = fc[px] / fw[px];

@@ -18,8 +18,7 @@ struct DiscScatterOptions {
 };
 
 /// colour: RGBA premultiplied; depth: z; coc: signed px. Writes RGBA into `out`.
-void disc_scatter(const Image& colour, const Image& depth, const Image& coc, const DiscScatterOptions& opt,
-                  Image& out);
+void disc_scatter(const Image& colour, const Image& depth, const Image& coc, const DiscScatterOptions& opt, Image& out);
 
 /// Weight-sum of a disc of radius r (px) sampled at pixel centres with the coverage
 /// saturate(r − d + 0.5): the energy normaliser (exact, not π r²).

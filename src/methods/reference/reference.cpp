@@ -10,7 +10,8 @@ const MethodDef& reference_method() {
   static const MethodDef def{
       "reference",
       "exact single-layer scatter: every pixel spreads its disc of confusion, composited in depth order",
-      {{"depth_softness", "0.05", "relative inverse-depth difference over which a source becomes 'in front' (0.001-1)"}},
+      {{"depth_softness", "0.05",
+        "relative inverse-depth difference over which a source becomes 'in front' (0.001-1)"}},
       {},
       [](const MethodContext& ctx, Image& out) {
         DiscScatterOptions opt;

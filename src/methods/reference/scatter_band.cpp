@@ -43,8 +43,9 @@ void ScatterBandT(const BandJob& job) {
   constexpr int kNever = 1 << 29;  // an empty span: lo = kNever, hi = −kNever
   const hn::RebindToSigned<decltype(d)> di;
   HWY_ALIGN float s_lim[S] = {}, s_ws[S] = {}, s_uq[S] = {}, s_isq[S] = {}, s_c0[S] = {}, s_c1[S] = {}, s_c2[S] = {},
-                 s_c3[S] = {};
-  HWY_ALIGN int32_t s_qx[S] = {}, s_ext[S] = {}, s_off[S] = {}, s_lo[S] = {}, s_hi[S] = {}, s_ilo[S] = {}, s_ihi[S] = {};
+                  s_c3[S] = {};
+  HWY_ALIGN int32_t s_qx[S] = {}, s_ext[S] = {}, s_off[S] = {}, s_lo[S] = {}, s_hi[S] = {}, s_ilo[S] = {},
+                    s_ihi[S] = {};
   static_assert(S <= 64, "source bits are kept in 64-bit masks");
   const auto mask_bits = [](auto tag, auto mask) {
     std::uint8_t bytes[8] = {};
@@ -121,7 +122,8 @@ void ScatterBandT(const BandJob& job) {
         const float* trow = job.dist + static_cast<std::size_t>(ady) * job.dist_stride;
         const std::size_t prow = static_cast<std::size_t>(py) * w;
         float* a[10];
-        for (int k = 0; k < 10; ++k) a[k] = job.acc + (static_cast<std::size_t>(k) * job.band + (py - job.y0)) * job.stride;
+        for (int k = 0; k < 10; ++k)
+          a[k] = job.acc + (static_cast<std::size_t>(k) * job.band + (py - job.y0)) * job.stride;
         // Lanes outside a source's disc get cov = 0; lanes past the row end land in the
         // accumulators' padding, so no lane needs masking.
         for (int px = lo; px <= hi; px += lanes) {
@@ -155,10 +157,12 @@ void ScatterBandT(const BandJob& job) {
           std::uint64_t act = 0, inside = 0, all_b = 0, all_f = 0, no_behind = 0, no_front = 0;
           const auto vpx = hn::Set(di, px), vpxe = hn::Set(di, pxe);
           for (int i = 0; i < n; i += lanes) {
-            const auto reach = hn::And(hn::Not(hn::Lt(hn::Load(di, s_hi + i), vpx)), hn::Not(hn::Gt(hn::Load(di, s_lo + i), vpxe)));
+            const auto reach =
+                hn::And(hn::Not(hn::Lt(hn::Load(di, s_hi + i), vpx)), hn::Not(hn::Gt(hn::Load(di, s_lo + i), vpxe)));
             act |= mask_bits(di, reach) << i;
             inside |= mask_bits(di, hn::And(hn::Not(hn::Gt(hn::Load(di, s_ilo + i), vpx)),
-                                            hn::Not(hn::Lt(hn::Load(di, s_ihi + i), vpxe)))) << i;
+                                            hn::Not(hn::Lt(hn::Load(di, s_ihi + i), vpxe))))
+                      << i;
             if (kDepthOrder) {
               const auto uq = hn::Load(d, s_uq + i);
               const auto le_min = hn::Le(uq, hn::Set(d, up_min)), ge_max = hn::Ge(uq, hn::Set(d, up_max));
@@ -354,7 +358,8 @@ void scatter_band_plain(const BandJob& job) {
         const int px0 = std::max(0, qx - hw), px1 = std::min(w - 1, qx + hw);
         const std::size_t prow = static_cast<std::size_t>(py) * w;
         float* a[10];
-        for (int k = 0; k < 10; ++k) a[k] = job.acc + (static_cast<std::size_t>(k) * job.band + (py - job.y0)) * job.stride;
+        for (int k = 0; k < 10; ++k)
+          a[k] = job.acc + (static_cast<std::size_t>(k) * job.band + (py - job.y0)) * job.stride;
         for (int px = px0; px <= px1; ++px) {
           const float dx = static_cast<float>(px - qx);
           const float cov = std::min(std::max(rq - std::sqrt(dx * dx + dy * dy) + 0.5f, 0.0f), 1.0f);

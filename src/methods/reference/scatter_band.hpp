@@ -10,9 +10,9 @@ namespace dofkit::detail {
 constexpr int kSourceBlock = 16;
 
 struct BandJob {
-  int w = 0, h = 0;      // image size
-  int y0 = 0, y1 = 0;    // receiver rows [y0, y1)
-  int reach = 0;         // largest disc extent (px)
+  int w = 0, h = 0;    // image size
+  int y0 = 0, y1 = 0;  // receiver rows [y0, y1)
+  int reach = 0;       // largest disc extent (px)
   bool depth_order = true;
   float softness = 0.05f;  // relative inverse-depth softness (isu = 1/(softness·inv_z))
   // Per pixel (row-major, padded by at least 16 floats at the end so vector loads may run past
@@ -44,16 +44,16 @@ struct BandJob {
 /// scalar loop there is its oracle; same arithmetic per receiver, so the same result).
 struct HiddenJob {
   int w = 0, h = 0;
-  const float* rho = nullptr;    // per pixel, padded like BandJob's
+  const float* rho = nullptr;  // per pixel, padded like BandJob's
   const float* sharp = nullptr;
   const float* inv_z = nullptr;
   const float* colour[4] = {};
-  const float* ox = nullptr;     // unit-disc sample offsets
+  const float* ox = nullptr;  // unit-disc sample offsets
   const float* oy = nullptr;
   int samples = 0;
-  float keep = 0.95f;            // 1 − softness: "clearly behind" is inv_z below inv_z_p·keep
-  float min_inv_z = 0.0f;        // smallest inverse depth in the image
-  float* hidden = nullptr;       // out: 4 floats per pixel, alpha −1 = no estimate (rest 0)
+  float keep = 0.95f;       // 1 − softness: "clearly behind" is inv_z below inv_z_p·keep
+  float min_inv_z = 0.0f;   // smallest inverse depth in the image
+  float* hidden = nullptr;  // out: 4 floats per pixel, alpha −1 = no estimate (rest 0)
 };
 void hidden_rows_simd(const HiddenJob& job, int y0, int y1);
 

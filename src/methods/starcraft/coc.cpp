@@ -25,11 +25,16 @@ double characteristic_radius(const MethodContext& ctx) {
   const double r = std::visit(
       [&](const auto& m) -> double {
         using T = std::decay_t<decltype(m)>;
-        if constexpr (std::is_same_v<T, ThinLens>) return thin_lens_k_px(m, w);
-        else if constexpr (std::is_same_v<T, BlurAtInfinity>) return m.blur_at_infinity_px * scale;
-        else if constexpr (std::is_same_v<T, FourPlane>) return std::max(m.near_radius_px, m.far_radius_px) * scale;
-        else if constexpr (std::is_same_v<T, StarCraft>) return m.max_radius_px * scale;
-        else return m.max_radius_px * scale;  // NearFarBlend
+        if constexpr (std::is_same_v<T, ThinLens>)
+          return thin_lens_k_px(m, w);
+        else if constexpr (std::is_same_v<T, BlurAtInfinity>)
+          return m.blur_at_infinity_px * scale;
+        else if constexpr (std::is_same_v<T, FourPlane>)
+          return std::max(m.near_radius_px, m.far_radius_px) * scale;
+        else if constexpr (std::is_same_v<T, StarCraft>)
+          return m.max_radius_px * scale;
+        else
+          return m.max_radius_px * scale;  // NearFarBlend
       },
       ctx.camera.model);
   return std::min(r, ctx.coc_of.max_coc_px());
@@ -58,32 +63,34 @@ void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& lev
   const int w = ctx.frame.width(), h = ctx.frame.height();
   level.resize(w, h, 1);
   const StarCraft* sc = std::get_if<StarCraft>(&ctx.camera.model);
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      float* c = level.row(0, y);
-      if (sc) {
-        const float* z = ctx.frame.depth.row(0, y);
-        const double range = sc->no_focus_range_m - sc->full_focus_range_m;
-        for (int x = 0; x < w; ++x) {
-          const double d = std::fabs(static_cast<double>(z[x]) - sc->focus_distance_m);
-          // |z − F| = +inf for the sky: the limit of the formula is 1 when α > 0.
-          const double t = std::isinf(d) ? (sc->amount > 0 ? 1.0 : 0.0)
-                                         : sc->amount * std::max(0.0, d - sc->full_focus_range_m) / range;
-          c[x] = static_cast<float>(std::clamp(t, 0.0, 1.0));
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          float* c = level.row(0, y);
+          if (sc) {
+            const float* z = ctx.frame.depth.row(0, y);
+            const double range = sc->no_focus_range_m - sc->full_focus_range_m;
+            for (int x = 0; x < w; ++x) {
+              const double d = std::fabs(static_cast<double>(z[x]) - sc->focus_distance_m);
+              // |z − F| = +inf for the sky: the limit of the formula is 1 when α > 0.
+              const double t = std::isinf(d) ? (sc->amount > 0 ? 1.0 : 0.0)
+                                             : sc->amount * std::max(0.0, d - sc->full_focus_range_m) / range;
+              c[x] = static_cast<float>(std::clamp(t, 0.0, 1.0));
+            }
+          } else {
+            const float* r = ctx.coc.row(0, y);
+            if (plain) {
+              for (int x = 0; x < w; ++x) c[x] = g.level_of_radius(r[x]);
+            } else {
+              int x = levels_row_simd(r, c, 0, w, g.r_small * g.r_small - 0.25f, g.r_medium * g.r_medium - 0.25f,
+                                      g.r_large * g.r_large - 0.25f);
+              for (; x < w; ++x) c[x] = g.level_of_radius(r[x]);
+            }
+          }
         }
-      } else {
-        const float* r = ctx.coc.row(0, y);
-        if (plain) {
-          for (int x = 0; x < w; ++x) c[x] = g.level_of_radius(r[x]);
-        } else {
-          int x = levels_row_simd(r, c, 0, w, g.r_small * g.r_small - 0.25f, g.r_medium * g.r_medium - 0.25f,
-                                  g.r_large * g.r_large - 0.25f);
-          for (; x < w; ++x) c[x] = g.level_of_radius(r[x]);
-        }
-      }
-    }
-  }, 16);
+      },
+      16);
 }
-
 
 }  // namespace dofkit::detail::starcraft

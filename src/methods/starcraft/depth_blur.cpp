@@ -38,8 +38,10 @@ void inverse_block_sums(const float* __restrict z, double* __restrict sum, int n
     for (int b = 0; b < 4; ++b)
       q[b] = one / __builtin_convertvector(*reinterpret_cast<const Vec4fu*>(z + 4 * (i + b)), Vec4d);
     // Transpose: t[k] lane b = q[b][k].
-    const Vec4d u0 = __builtin_shufflevector(q[0], q[1], 0, 4, 2, 6), u1 = __builtin_shufflevector(q[0], q[1], 1, 5, 3, 7);
-    const Vec4d u2 = __builtin_shufflevector(q[2], q[3], 0, 4, 2, 6), u3 = __builtin_shufflevector(q[2], q[3], 1, 5, 3, 7);
+    const Vec4d u0 = __builtin_shufflevector(q[0], q[1], 0, 4, 2, 6),
+                u1 = __builtin_shufflevector(q[0], q[1], 1, 5, 3, 7);
+    const Vec4d u2 = __builtin_shufflevector(q[2], q[3], 0, 4, 2, 6),
+                u3 = __builtin_shufflevector(q[2], q[3], 1, 5, 3, 7);
     const Vec4d t0 = __builtin_shufflevector(u0, u2, 0, 1, 4, 5), t2 = __builtin_shufflevector(u0, u2, 2, 3, 6, 7);
     const Vec4d t1 = __builtin_shufflevector(u1, u3, 0, 1, 4, 5), t3 = __builtin_shufflevector(u1, u3, 2, 3, 6, 7);
     Vec4d acc = *reinterpret_cast<const Vec4du*>(sum + i);
@@ -189,33 +191,38 @@ void depth_blur(const Image& depth, float sigma_total, Image& inv_depth, bool pl
   const int lw = down_size(w), lh = down_size(h);
   inv_depth.resize(lw, lh, 1);
   const int full = plain ? 0 : w / kDown;  // fast form: blocks with all 4 columns inside
-  core::parallel_for(lh, [&](int j0, int j1) {
-    thread_local std::vector<double> sum;
-    sum.resize(full);
-    for (int j = j0; j < j1; ++j) {
-      float* o = inv_depth.row(0, j);
-      const int ya = j * kDown, yb = std::min(h, (j + 1) * kDown);
-      // Fast form: the block sums in the plain form's order (row by row, left to right, see
-      // inverse_block_sums), so the sums are identical.
-      if (full > 0) {
-        std::fill(sum.begin(), sum.end(), 0.0);
-        for (int y = ya; y < yb; ++y) inverse_block_sums(depth.row(0, y), sum.data(), full);
-        for (int i = 0; i < full; ++i) o[i] = static_cast<float>(sum[i] / ((yb - ya) * kDown));
-      }
-      for (int i = full; i < lw; ++i) {
-        double s = 0;
-        int n = 0;
-        for (int y = ya; y < yb; ++y) {
-          const float* z = depth.row(0, y);
-          for (int x = i * kDown; x < std::min(w, (i + 1) * kDown); ++x, ++n) s += 1.0 / z[x];
+  core::parallel_for(
+      lh,
+      [&](int j0, int j1) {
+        thread_local std::vector<double> sum;
+        sum.resize(full);
+        for (int j = j0; j < j1; ++j) {
+          float* o = inv_depth.row(0, j);
+          const int ya = j * kDown, yb = std::min(h, (j + 1) * kDown);
+          // Fast form: the block sums in the plain form's order (row by row, left to right, see
+          // inverse_block_sums), so the sums are identical.
+          if (full > 0) {
+            std::fill(sum.begin(), sum.end(), 0.0);
+            for (int y = ya; y < yb; ++y) inverse_block_sums(depth.row(0, y), sum.data(), full);
+            for (int i = 0; i < full; ++i) o[i] = static_cast<float>(sum[i] / ((yb - ya) * kDown));
+          }
+          for (int i = full; i < lw; ++i) {
+            double s = 0;
+            int n = 0;
+            for (int y = ya; y < yb; ++y) {
+              const float* z = depth.row(0, y);
+              for (int x = i * kDown; x < std::min(w, (i + 1) * kDown); ++x, ++n) s += 1.0 / z[x];
+            }
+            o[i] = static_cast<float>(s / n);
+          }
         }
-        o[i] = static_cast<float>(s / n);
-      }
-    }
-  }, 4);
+      },
+      4);
   const float s = quarter_res_sigma(sigma_total);
-  if (plain) core::gaussian_blur_plane_plain(inv_depth.plane(0), lw, lh, s, s, 3);
-  else exact_gaussian(inv_depth.plane(0), lw, lh, s, 3);
+  if (plain)
+    core::gaussian_blur_plane_plain(inv_depth.plane(0), lw, lh, s, s, 3);
+  else
+    exact_gaussian(inv_depth.plane(0), lw, lh, s, 3);
 }
 
 float quarter_res_sigma(float sigma_total) {

@@ -42,7 +42,7 @@ Bilerp quarter_bilerp(int x, int y, int lw, int lh) {
   const int x0 = static_cast<int>(x0f), y0 = static_cast<int>(y0f);
   const std::size_t xa = clampi(x0, 0, lw - 1), xb = clampi(x0 + 1, 0, lw - 1);
   const std::size_t ya = clampi(y0, 0, lh - 1), yb = clampi(y0 + 1, 0, lh - 1);
-  return {ya * lw + xa, ya * lw + xb, yb * lw + xa, yb * lw + xb,
+  return {ya * lw + xa,        ya * lw + xb,  yb * lw + xa,  yb * lw + xb,
           (1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty};
 }
 
@@ -66,49 +66,52 @@ void final_pass_plain(const Image& color, const Image& depth, const Image& level
   constexpr float kTiny = 1e-6f;
   constexpr float kTieTolerance = 1e-5f;
 
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const float* cown = level.row(0, y);
-      const float* z = depth.row(0, y);
-      for (int x = 0; x < w; ++x) {
-        const Bilerp b = quarter_bilerp(x, y, lw, lh);
-        const float inv_own = 1.0f / z[x];
-        const float inv_blur = b.at(lz);
-        const float c_blur = b.at(lden);
-        float c = inv_blur <= inv_own * (1.0f + kTieTolerance) ? cown[x] : c_blur;
-        if (keep_own_blur) c = std::max(c, cown[x]);
-        const LevelWeights lwt = level_weights(c);
-        const float alpha = (16.0f / 17.0f) * lwt.small + lwt.medium + lwt.large;
-        if (dbg.used_level) dbg.used_level->row(0, y)[x] = c;
-        if (dbg.weights) {
-          dbg.weights->row(0, y)[x] = lwt.source;
-          dbg.weights->row(1, y)[x] = lwt.small;
-          dbg.weights->row(2, y)[x] = lwt.medium;
-          dbg.weights->row(3, y)[x] = lwt.large;
-        }
-        for (int ch = 0; ch < 4; ++ch) {
-          const float src = color.row(ch, y)[x];
-          if (alpha == 0.0f && !dbg.small) {  // in focus: the source, bit for bit
-            out.row(ch, y)[x] = src;
-            continue;
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          const float* cown = level.row(0, y);
+          const float* z = depth.row(0, y);
+          for (int x = 0; x < w; ++x) {
+            const Bilerp b = quarter_bilerp(x, y, lw, lh);
+            const float inv_own = 1.0f / z[x];
+            const float inv_blur = b.at(lz);
+            const float c_blur = b.at(lden);
+            float c = inv_blur <= inv_own * (1.0f + kTieTolerance) ? cown[x] : c_blur;
+            if (keep_own_blur) c = std::max(c, cown[x]);
+            const LevelWeights lwt = level_weights(c);
+            const float alpha = (16.0f / 17.0f) * lwt.small + lwt.medium + lwt.large;
+            if (dbg.used_level) dbg.used_level->row(0, y)[x] = c;
+            if (dbg.weights) {
+              dbg.weights->row(0, y)[x] = lwt.source;
+              dbg.weights->row(1, y)[x] = lwt.small;
+              dbg.weights->row(2, y)[x] = lwt.medium;
+              dbg.weights->row(3, y)[x] = lwt.large;
+            }
+            for (int ch = 0; ch < 4; ++ch) {
+              const float src = color.row(ch, y)[x];
+              if (alpha == 0.0f && !dbg.small) {  // in focus: the source, bit for bit
+                out.row(ch, y)[x] = src;
+                continue;
+              }
+              float small = 0;
+              for (const auto& t : kTapBlock) {
+                const int xa = clampi(x + t[0], 0, w - 1), xb = clampi(x + t[0] + 1, 0, w - 1);
+                const float* ra = color.row(ch, clampi(y + t[1], 0, h - 1));
+                const float* rb = color.row(ch, clampi(y + t[1] + 1, 0, h - 1));
+                small += ra[xa] + ra[xb] + rb[xa] + rb[xb];
+              }
+              small *= 1.0f / 17.0f;  // 4/17 per tap × mean of 4 pixels
+              const float med = medium.row(ch, y)[x];
+              const float lg = c_blur > kTiny ? b.at(lnum[ch]) / c_blur : med;
+              const float mixed = lwt.small * small + lwt.medium * med + lwt.large * lg;
+              out.row(ch, y)[x] = alpha == 0.0f ? src : mixed + (1.0f - alpha) * src;
+              if (dbg.small) dbg.small->row(ch, y)[x] = small + src / 17.0f;
+            }
           }
-          float small = 0;
-          for (const auto& t : kTapBlock) {
-            const int xa = clampi(x + t[0], 0, w - 1), xb = clampi(x + t[0] + 1, 0, w - 1);
-            const float* ra = color.row(ch, clampi(y + t[1], 0, h - 1));
-            const float* rb = color.row(ch, clampi(y + t[1] + 1, 0, h - 1));
-            small += ra[xa] + ra[xb] + rb[xa] + rb[xb];
-          }
-          small *= 1.0f / 17.0f;  // 4/17 per tap × mean of 4 pixels
-          const float med = medium.row(ch, y)[x];
-          const float lg = c_blur > kTiny ? b.at(lnum[ch]) / c_blur : med;
-          const float mixed = lwt.small * small + lwt.medium * med + lwt.large * lg;
-          out.row(ch, y)[x] = alpha == 0.0f ? src : mixed + (1.0f - alpha) * src;
-          if (dbg.small) dbg.small->row(ch, y)[x] = small + src / 17.0f;
         }
-      }
-    }
-  }, 8);
+      },
+      8);
 }
 
 // The same pass organised by rows for speed (the plain version above is its test oracle):
@@ -209,8 +212,10 @@ void exact_medium(const MediumExact& e, const float* wm, int y, RowScratch& sc, 
       for (int k = 0; k < 5; ++k) rows[k] = sc.exact.data() + static_cast<std::size_t>(k) * w;
       std::copy(med_wt, med_wt + w, rows[4]);
       for (int ch = 0; ch < 4; ++ch) {
-        if (med[ch] == med_wt) rows[ch] = rows[4];
-        else std::copy(med[ch], med[ch] + w, rows[ch]);
+        if (med[ch] == med_wt)
+          rows[ch] = rows[4];
+        else
+          std::copy(med[ch], med[ch] + w, rows[ch]);
         med[ch] = rows[ch];
       }
       med_wt = rows[4];
@@ -288,8 +293,15 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
   // medium's 1 — and the mix's alpha is a function of the weights alone, ((ws·small + wm·1) +
   // wl·1) + wsrc·1, or the source's 1 in focus. The weights pass writes it (alpha_out), and
   // channel 3 reads no source row, block sum or level row.
-  const WeightRow wr{level.row(0, y), depth.row(0, y), sc.hrow.data() + static_cast<std::size_t>(5) * w, cb,
-                     keep_own_blur, sc.ws.data(), sc.wm.data(), sc.wl.data(), sc.wsrc.data(),
+  const WeightRow wr{level.row(0, y),
+                     depth.row(0, y),
+                     sc.hrow.data() + static_cast<std::size_t>(5) * w,
+                     cb,
+                     keep_own_blur,
+                     sc.ws.data(),
+                     sc.wm.data(),
+                     sc.wl.data(),
+                     sc.wsrc.data(),
                      opaque ? out.row(3, y) : nullptr};
   bool any = false;
   // The alpha row (opaque frames) is written once and not read again: the vector part starts
@@ -307,8 +319,8 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
       std::copy(src, src + w, o);
       continue;
     }
-    MixRow mr{{}, {}, med[ch], med_wt, sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm, wr.wl,
-              wr.wsrc, src, o};
+    MixRow mr{{},    {},      med[ch], med_wt, sc.hrow.data() + static_cast<std::size_t>(ch) * w, cb, wr.ws, wr.wm,
+              wr.wl, wr.wsrc, src,     o};
     for (int k = 0; k < 5; ++k) mr.rows[k] = color.row(ch, clampi(y + k - 2, 0, h - 1));
     // Block sums of the row pairs starting at y − 2, y − 1, y + 1 and y (the pinwheel's taps
     // t0 … t3), each computed once per pass and reused by the next output rows.
@@ -338,9 +350,8 @@ void final_row(const Image& color, const Image& depth, const Image& level, const
 
 }  // namespace
 
-void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium,
-                const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
-                const FinalDebug& dbg) {
+void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium, const Image& large,
+                const Image& inv_depth, bool keep_own_blur, Image& out, const FinalDebug& dbg) {
   if (dbg.used_level || dbg.small || dbg.weights) {
     final_pass_plain(color, depth, level, medium, large, inv_depth, keep_own_blur, out, dbg);
     return;
@@ -348,13 +359,16 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
   const int w = color.width(), h = color.height();
   out.resize(w, h, 4);
   const std::uint64_t pass = new_final_pass_id();
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const float* med[4] = {medium.row(0, y), medium.row(1, y), medium.row(2, y), medium.row(3, y)};
-      final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass);
-    }
-    flush_streams();  // the mix's non-temporal stores are globally visible before the task ends
-  }, 8);
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          const float* med[4] = {medium.row(0, y), medium.row(1, y), medium.row(2, y), medium.row(3, y)};
+          final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass);
+        }
+        flush_streams();  // the mix's non-temporal stores are globally visible before the task ends
+      },
+      8);
 }
 
 std::uint64_t new_final_pass_id() {

@@ -71,8 +71,10 @@ int FinalWeights(const WeightRow& r, int x0, int x1, bool& any) {
     if (alpha_out) {
       const auto mixed = hn::Add(hn::Add(hn::Add(hn::Mul(ys, small_one), zs), ww), wsrc);
       const auto a = hn::IfThenElse(hn::Eq(wsrc, one), one, mixed);
-      if (stream) hn::Stream(a, d, alpha_out + x);
-      else hn::StoreU(a, d, alpha_out + x);
+      if (stream)
+        hn::Stream(a, d, alpha_out + x);
+      else
+        hn::StoreU(a, d, alpha_out + x);
     }
   }
   if (!hn::AllTrue(d, hn::Eq(alpha_max, zero))) any = true;
@@ -104,8 +106,10 @@ int FinalMix(const MixRow& r, int x0, int x1) {
   // without first reading each line into the cache.
   const bool stream = reinterpret_cast<std::uintptr_t>(out + x0) % (n * sizeof(float)) == 0;
   auto store = [&](auto v, int at) {
-    if (stream) hn::Stream(v, d, out + at);
-    else hn::StoreU(v, d, out + at);
+    if (stream)
+      hn::Stream(v, d, out + at);
+    else
+      hn::StoreU(v, d, out + at);
   };
   int x = x0;
   for (; x + n <= x1; x += n) {
@@ -134,10 +138,10 @@ int FinalMix(const MixRow& r, int x0, int x1) {
     const auto has_large = hn::Gt(cb, tiny);
     const auto q = hn::Div(hn::LoadU(d, num_row + x), hn::IfThenElse(has_large, cb, one));
     const auto lg = hn::IfThenElse(has_large, q, med);
-    const auto mixed = hn::Add(hn::Add(hn::Add(hn::Mul(hn::LoadU(d, ws_row + x), small),
-                                               hn::Mul(hn::LoadU(d, wm_row + x), med)),
-                                       hn::Mul(hn::LoadU(d, wl_row + x), lg)),
-                               hn::Mul(wsrc, s));
+    const auto mixed =
+        hn::Add(hn::Add(hn::Add(hn::Mul(hn::LoadU(d, ws_row + x), small), hn::Mul(hn::LoadU(d, wm_row + x), med)),
+                        hn::Mul(hn::LoadU(d, wl_row + x), lg)),
+                hn::Mul(wsrc, s));
     store(hn::IfThenElse(focus, s, mixed), x);
   }
   // (The caller orders the non-temporal stores, with flush_streams(), before its task ends:
@@ -204,9 +208,9 @@ int LevelsRow(const float* r, float* c, int x0, int x1, float vs, float vm, floa
     // exactly). The segment's operands are selected first, so one division per pixel gives
     // what computing all three and selecting gave, bit for bit.
     const auto in_s = hn::Le(v, vsv), in_m = hn::Le(v, vmv), in_l = hn::Le(v, vlv);
-    const auto num = hn::IfThenElse(in_s, hn::Mul(h, v),
-                                    hn::IfThenElse(in_m, hn::Mul(q, hn::Sub(v, vsv)),
-                                                   hn::IfThenElseZero(in_l, hn::Mul(q, hn::Sub(v, vmv)))));
+    const auto num = hn::IfThenElse(
+        in_s, hn::Mul(h, v),
+        hn::IfThenElse(in_m, hn::Mul(q, hn::Sub(v, vsv)), hn::IfThenElseZero(in_l, hn::Mul(q, hn::Sub(v, vmv)))));
     const auto den = hn::IfThenElse(in_s, vsv, hn::IfThenElse(in_m, ds, hn::IfThenElse(in_l, dl, one)));
     const auto base = hn::IfThenElseZero(hn::Not(in_s), hn::IfThenElse(in_m, h, hn::IfThenElse(in_l, k75, one)));
     hn::StoreU(hn::Add(base, hn::Div(num, den)), d, c + x);
@@ -224,8 +228,8 @@ int LevelsRow(const float* r, float* c, int x0, int x1, float vs, float vm, floa
 // the former loop, added in the same row order onto the same zero start, so the sums are the
 // same bit for bit.
 template <bool kCheck>
-int LargeReduceT(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1,
-                 bool& alpha_one, bool& sanitary) {
+int LargeReduceT(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1, bool& alpha_one,
+                 bool& sanitary) {
   constexpr int kChunk = 512;  // blocks per chunk (a multiple of every target's lane count)
   // The colour rows come from L3 (the first pass of the frame to read them) and their loads
   // took ~60 % of the kernel's samples: each of the 4 colour streams asks for its lines
@@ -269,13 +273,14 @@ int LargeReduceT(const float* const rows[4][5], bool reduce_max, float* const ou
           for (int l = 0; l < 4 * n; l += 16) hwy::Prefetch(sr[ch] + px + kAheadFloats + l);  // see kAheadFloats
           auto s0 = zero, s1 = zero, s2 = zero, s3 = zero;
           hn::LoadInterleaved4(d, sr[ch] + px, s0, s1, s2, s3);
-          hn::Store(hn::Add(hn::Load(d, acc[2 + ch] + b),
-                            hn::Add(hn::Add(hn::Mul(c0, s0), hn::Mul(c1, s1)), hn::Add(hn::Mul(c2, s2), hn::Mul(c3, s3)))),
+          hn::Store(hn::Add(hn::Load(d, acc[2 + ch] + b), hn::Add(hn::Add(hn::Mul(c0, s0), hn::Mul(c1, s1)),
+                                                                  hn::Add(hn::Mul(c2, s2), hn::Mul(c3, s3)))),
                     d, acc[2 + ch] + b);
-          hn::Store(hn::Add(hn::Load(d, acc[6 + ch] + b), hn::Add(hn::Add(s0, s1), hn::Add(s2, s3))), d, acc[6 + ch] + b);
+          hn::Store(hn::Add(hn::Load(d, acc[6 + ch] + b), hn::Add(hn::Add(s0, s1), hn::Add(s2, s3))), d,
+                    acc[6 + ch] + b);
           if (ch == 3)
-            opaque = hn::And(opaque, hn::And(hn::And(hn::Eq(s0, one), hn::Eq(s1, one)),
-                                             hn::And(hn::Eq(s2, one), hn::Eq(s3, one))));
+            opaque = hn::And(
+                opaque, hn::And(hn::And(hn::Eq(s0, one), hn::Eq(s1, one)), hn::And(hn::Eq(s2, one), hn::Eq(s3, one))));
           if (kCheck) {
             check(s0, ch == 3);
             check(s1, ch == 3);
@@ -304,8 +309,8 @@ int LargeReduceT(const float* const rows[4][5], bool reduce_max, float* const ou
   return i;
 }
 
-int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1,
-                bool& alpha_one, bool* sanitary) {
+int LargeReduce(const float* const rows[4][5], bool reduce_max, float* const out[5], int i0, int i1, bool& alpha_one,
+                bool* sanitary) {
   if (sanitary) return LargeReduceT<true>(rows, reduce_max, out, i0, i1, alpha_one, *sanitary);
   bool unused = true;
   return LargeReduceT<false>(rows, reduce_max, out, i0, i1, alpha_one, unused);

@@ -1,6 +1,6 @@
-// SIMD kernels of the final pass (final.cpp), the C1 levels (coc.cpp) and the large level's 4×4 reduction (large_blur.cpp), Highway with run-time dispatch (final_simd.cpp).
-// Each processes whole vectors from `x0` and returns the first column it did not process;
-// the caller finishes the row with the scalar form of the same arithmetic.
+// SIMD kernels of the final pass (final.cpp), the C1 levels (coc.cpp) and the large level's 4×4 reduction
+// (large_blur.cpp), Highway with run-time dispatch (final_simd.cpp). Each processes whole vectors from `x0` and returns
+// the first column it did not process; the caller finishes the row with the scalar form of the same arithmetic.
 #pragma once
 
 namespace dofkit::detail::starcraft {
@@ -26,11 +26,10 @@ struct WeightRow {
 int final_weights_simd(const WeightRow& r, int x0, int x1, bool& any);
 
 /// Mix of one channel of one row: the 17-tap small blur from the block sums of the five source
-/// rows rows[0..4] = y−2 … y+2 (x−2 … x+2 must be valid columns; rows are for the scalar form), the medium level, the large
-/// numerator `num` over the up-sampled blurred level `cb`, blended over `src`. With `mwt`
-/// set, `med` is the medium level's blurred c·colour and mwt its blurred weight c: the level
-/// is med / mwt where mwt > 1e-6, else the source (the division of the normalised
-/// convolution, made here only for the pixels that are mixed).
+/// rows rows[0..4] = y−2 … y+2 (x−2 … x+2 must be valid columns; rows are for the scalar form), the medium level, the
+/// large numerator `num` over the up-sampled blurred level `cb`, blended over `src`. With `mwt` set, `med` is the
+/// medium level's blurred c·colour and mwt its blurred weight c: the level is med / mwt where mwt > 1e-6, else the
+/// source (the division of the normalised convolution, made here only for the pixels that are mixed).
 struct MixRow {
   const float* rows[5];
   /// The 2×2 block sums (block_sums in final.cpp) of the source row pairs starting at y − 2,

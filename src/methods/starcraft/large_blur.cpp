@@ -20,8 +20,8 @@
 
 namespace dofkit::detail::starcraft {
 
-bool large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large,
-                bool plain, bool* alpha_is_one, bool check_colour) {
+bool large_blur(const Image& color, const Image& level, float sigma_total, bool reduce_max, Image& large, bool plain,
+                bool* alpha_is_one, bool check_colour) {
   const int w = color.width(), h = color.height();
   const int lw = down_size(w), lh = down_size(h);
   large.resize(lw, lh, 5);
@@ -61,24 +61,27 @@ bool large_blur(const Image& color, const Image& level, float sigma_total, bool 
     large.row(4, j)[i] = static_cast<float>(cb);
   };
   const int full_cols = w / kDown;  // blocks with all 4 columns inside the image
-  core::parallel_for(lh, [&](int j0, int j1) {
-    bool alpha_one = true, clean = true;
-    for (int j = j0; j < j1; ++j) {
-      int i = 0;
-      if (!plain && (j + 1) * kDown <= h) {
-        const float* rows[4][5];
-        for (int k = 0; k < 4; ++k) {
-          for (int ch = 0; ch < 4; ++ch) rows[k][ch] = color.row(ch, j * kDown + k);
-          rows[k][4] = level.row(0, j * kDown + k);
+  core::parallel_for(
+      lh,
+      [&](int j0, int j1) {
+        bool alpha_one = true, clean = true;
+        for (int j = j0; j < j1; ++j) {
+          int i = 0;
+          if (!plain && (j + 1) * kDown <= h) {
+            const float* rows[4][5];
+            for (int k = 0; k < 4; ++k) {
+              for (int ch = 0; ch < 4; ++ch) rows[k][ch] = color.row(ch, j * kDown + k);
+              rows[k][4] = level.row(0, j * kDown + k);
+            }
+            float* const out[5] = {large.row(0, j), large.row(1, j), large.row(2, j), large.row(3, j), large.row(4, j)};
+            i = large_reduce_simd(rows, reduce_max, out, 0, full_cols, alpha_one, check_colour ? &clean : nullptr);
+          }
+          for (; i < lw; ++i) block(i, j, alpha_one, clean);
         }
-        float* const out[5] = {large.row(0, j), large.row(1, j), large.row(2, j), large.row(3, j), large.row(4, j)};
-        i = large_reduce_simd(rows, reduce_max, out, 0, full_cols, alpha_one, check_colour ? &clean : nullptr);
-      }
-      for (; i < lw; ++i) block(i, j, alpha_one, clean);
-    }
-    if (!alpha_one) opaque.store(false, std::memory_order_relaxed);
-    if (!clean) sanitary.store(false, std::memory_order_relaxed);
-  }, 4);
+        if (!alpha_one) opaque.store(false, std::memory_order_relaxed);
+        if (!clean) sanitary.store(false, std::memory_order_relaxed);
+      },
+      4);
   if (alpha_is_one) *alpha_is_one = opaque.load();
   if (!sanitary.load()) return false;  // the caller renders again from sanitised colour
   const float s = quarter_res_sigma(sigma_total);

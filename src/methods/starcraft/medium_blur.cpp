@@ -46,52 +46,61 @@ void medium_blur(const Image& color, const Image& level, float sigma, int boxes,
       return m;
     };
     const MediumExact exact{src, 4, level.plane(0), w, h, sigma, boxes};
-    core::parallel_for(h, [&](int y0, int y1) {
-      for (int y = y0; y < y1; ++y) {
-        float* wt = weight.row(0, y);
-        const float* c = level.row(0, y);
-        for (int x = 0; large && x < w; ++x) {
-          // The final pass mixes the medium level in where its level is in (0.5, 1): its own
-          // level or the blurred one (<= cells_max up to rounding; 0.49 leaves room for it).
-          if (!(wt[x] < kExactMediumBelow) || !(c[x] > 0.5f || cells_max(x, y) > 0.49f)) continue;
-          double sums[5];
-          core::weighted_gaussian_at(exact.src, 4, exact.c, w, h, sigma, boxes, x, y, sums);
-          for (int ch = 0; ch < 4; ++ch) medium.row(ch, y)[x] = static_cast<float>(sums[ch]);
-          wt[x] = static_cast<float>(sums[4]);
-        }
-        // The division as the final mix makes it (medium_and_final): the same values.
-        for (int ch = 0; ch < 4; ++ch) {
-          const float* s = color.row(ch, y);
-          float* d = medium.row(ch, y);
-          for (int x = 0; x < w; ++x) d[x] = wt[x] > kTiny ? d[x] / wt[x] : s[x];
-        }
-      }
-    }, 16);
+    core::parallel_for(
+        h,
+        [&](int y0, int y1) {
+          for (int y = y0; y < y1; ++y) {
+            float* wt = weight.row(0, y);
+            const float* c = level.row(0, y);
+            for (int x = 0; large && x < w; ++x) {
+              // The final pass mixes the medium level in where its level is in (0.5, 1): its own
+              // level or the blurred one (<= cells_max up to rounding; 0.49 leaves room for it).
+              if (!(wt[x] < kExactMediumBelow) || !(c[x] > 0.5f || cells_max(x, y) > 0.49f)) continue;
+              double sums[5];
+              core::weighted_gaussian_at(exact.src, 4, exact.c, w, h, sigma, boxes, x, y, sums);
+              for (int ch = 0; ch < 4; ++ch) medium.row(ch, y)[x] = static_cast<float>(sums[ch]);
+              wt[x] = static_cast<float>(sums[4]);
+            }
+            // The division as the final mix makes it (medium_and_final): the same values.
+            for (int ch = 0; ch < 4; ++ch) {
+              const float* s = color.row(ch, y);
+              float* d = medium.row(ch, y);
+              for (int x = 0; x < w; ++x) d[x] = wt[x] > kTiny ? d[x] / wt[x] : s[x];
+            }
+          }
+        },
+        16);
     return;
   }
   std::copy(level.data().begin(), level.data().end(), weight.data().begin());
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const float* c = level.row(0, y);
-      for (int ch = 0; ch < 4; ++ch) {
-        const float* s = color.row(ch, y);
-        float* d = medium.row(ch, y);
-        for (int x = 0; x < w; ++x) d[x] = c[x] * s[x];
-      }
-    }
-  }, 16);
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          const float* c = level.row(0, y);
+          for (int ch = 0; ch < 4; ++ch) {
+            const float* s = color.row(ch, y);
+            float* d = medium.row(ch, y);
+            for (int x = 0; x < w; ++x) d[x] = c[x] * s[x];
+          }
+        }
+      },
+      16);
   for (int ch = 0; ch < 4; ++ch) core::gaussian_blur_plane_plain(medium.plane(ch), w, h, sigma, sigma, boxes);
   core::gaussian_blur_plane_plain(weight.plane(0), w, h, sigma, sigma, boxes);
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const float* wt = weight.row(0, y);
-      for (int ch = 0; ch < 4; ++ch) {
-        const float* s = color.row(ch, y);
-        float* d = medium.row(ch, y);
-        for (int x = 0; x < w; ++x) d[x] = wt[x] > kTiny ? d[x] / wt[x] : s[x];
-      }
-    }
-  }, 16);
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          const float* wt = weight.row(0, y);
+          for (int ch = 0; ch < 4; ++ch) {
+            const float* s = color.row(ch, y);
+            float* d = medium.row(ch, y);
+            for (int x = 0; x < w; ++x) d[x] = wt[x] > kTiny ? d[x] / wt[x] : s[x];
+          }
+        }
+      },
+      16);
 }
 
 void medium_and_final(const Image& color, const Image& depth, const Image& level, float sigma_medium, int boxes,
@@ -132,8 +141,7 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
           [&](int y, const float* const* rows) {
             const float* wt = rows[nplanes];
             const float* med[4] = {rows[0], rows[1], rows[2], nplanes == 4 ? rows[3] : wt};
-            final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass, wt, &exact,
-                           opaque);
+            final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass, wt, &exact, opaque);
           },
           false);
       flush_streams();  // the mix's non-temporal stores are globally visible before the task ends

@@ -52,8 +52,8 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
   bool clean;
   {
     core::PassScope pass("large level");
-    clean = large_blur(color, level, g.sigma_large, s.coc_reduce_max, large, s.plain, &opaque,
-                       ctx.colour_dirty != nullptr);
+    clean =
+        large_blur(color, level, g.sigma_large, s.coc_reduce_max, large, s.plain, &opaque, ctx.colour_dirty != nullptr);
   }
   if (!clean) {
     ctx.colour_dirty->store(true);
@@ -89,7 +89,8 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
                      !ctx.debug.wants("small") && !ctx.debug.wants("weights");
   if (fused) {
     core::PassScope pass("medium + final");
-    medium_and_final(color, ctx.frame.depth, level, g.sigma_medium, s.medium_boxes, opaque, large, inv_depth, s.keep_own_blur, out);
+    medium_and_final(color, ctx.frame.depth, level, g.sigma_medium, s.medium_boxes, opaque, large, inv_depth,
+                     s.keep_own_blur, out);
     return;
   }
   Image& medium = ctx.workspace.image("starcraft.medium", w, h, 4);
@@ -135,8 +136,7 @@ const MethodDef& starcraft_method() {
            "box passes per axis of the medium level's Gaussian (1-3; the variance is the same for any count): "
            "2 measured as good as 3 against the ground truth (mean PSNR 29.86 vs 29.85 dB, SSIM 0.902 vs 0.901 "
            "over the built-in scenes at 320x180) at two thirds of the medium level's blur cost; 1 is a plain box"},
-          {"depth_blur", "1",
-           "sigma of the depth blur of the ordering test relative to the CoC blur (0.1-4)"},
+          {"depth_blur", "1", "sigma of the depth blur of the ordering test relative to the CoC blur (0.1-4)"},
           {"keep_own_blur", "off",
            "on: a pixel is never sharper than its own CoC (max of own and blurred level); off: the chapter's "
            "rule (blurred level when the neighbourhood is in front)"},

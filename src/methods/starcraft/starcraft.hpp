@@ -45,8 +45,8 @@ struct LevelGeometry {
   /// 16/17 · mean(0.5, 2.5, 0.5, 2.5) = 24/17 px² (each bilinear tap at ±0.5 / ±1.5 spreads
   /// over two pixels), and a disc of radius R has R²/4 → R = 2·sqrt(24/17) ≈ 2.38 px.
   float r_small = 0;
-  float r_medium = 0;  ///< disc radius (px) the medium level stands for
-  float r_large = 0;   ///< disc radius (px) the large level stands for
+  float r_medium = 0;      ///< disc radius (px) the medium level stands for
+  float r_large = 0;       ///< disc radius (px) the large level stands for
   float sigma_medium = 0;  ///< Gaussian σ of the medium level, full-res px
   float sigma_large = 0;   ///< total Gaussian σ of the large level, full-res px (incl. resampling)
   float sigma_depth = 0;   ///< total Gaussian σ of the blurred depth, full-res px
@@ -72,14 +72,14 @@ inline float LevelGeometry::level_of_radius(float r) const {
 
 /// Tunable parameters (the --set keys; see starcraft.cpp for the documentation).
 struct Settings {
-  double large_radius_px = 0;    ///< 0 = auto (camera's characteristic radius)
-  double medium_fraction = 0.5;  ///< r_medium / r_large
-  double sigma_per_radius = 0.6; ///< Gaussian σ per disc radius (measured best 0.6-0.7)
-  double depth_blur = 1.0;       ///< σ of the depth blur relative to the CoC blur
-  int medium_boxes = 2;          ///< extended-box passes per axis of the medium level's Gaussian (1-3)
-  bool keep_own_blur = false;    ///< c = max(c_used, c_own): a pixel never gets sharper
-  bool coc_reduce_max = false;   ///< quarter-res level = block max (else block mean)
-  bool plain = false;            ///< impl=plain: the straightforward passes (test oracle)
+  double large_radius_px = 0;     ///< 0 = auto (camera's characteristic radius)
+  double medium_fraction = 0.5;   ///< r_medium / r_large
+  double sigma_per_radius = 0.6;  ///< Gaussian σ per disc radius (measured best 0.6-0.7)
+  double depth_blur = 1.0;        ///< σ of the depth blur relative to the CoC blur
+  int medium_boxes = 2;           ///< extended-box passes per axis of the medium level's Gaussian (1-3)
+  bool keep_own_blur = false;     ///< c = max(c_used, c_own): a pixel never gets sharper
+  bool coc_reduce_max = false;    ///< quarter-res level = block max (else block mean)
+  bool plain = false;             ///< impl=plain: the straightforward passes (test oracle)
 };
 
 LevelGeometry make_geometry(const MethodContext& ctx, const Settings& s);
@@ -176,9 +176,8 @@ struct FinalDebug {
 void final_pass_plain(const Image& color, const Image& depth, const Image& level, const Image& medium,
                       const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
                       const FinalDebug& dbg = {});
-void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium,
-                const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
-                const FinalDebug& dbg = {});
+void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium, const Image& large,
+                const Image& inv_depth, bool keep_own_blur, Image& out, const FinalDebug& dbg = {});
 
 /// One row y of final_pass with the medium level's row given as 4 plane pointers (w floats
 /// each); `out` must already have the frame's size. Same result as final_pass's row y.

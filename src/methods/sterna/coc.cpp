@@ -34,27 +34,30 @@ void compute_full_coc(const MethodContext& ctx, const Settings& s, FullCoc& out)
   const double fb = nfb ? nfb->far_begin_m : 0.0;
   const double fe = nfb ? nfb->far_end_m : 0.0;
   const float ramp = std::max(s.blend_radius_px - 0.5f, 1e-3f);
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      float* n = out.coc.row(0, y);
-      float* f = out.coc.row(1, y);
-      if (nfb) {
-        const float* z = ctx.frame.depth.row(0, y);
-        for (int x = 0; x < w; ++x) {
-          // z = +inf: the near ratio is −inf → 0 and the far ratio +inf → 1.
-          n[x] = saturate((z[x] - ne) / (nb - ne));
-          f[x] = std::isinf(z[x]) ? 1.0f : saturate((z[x] - fb) / (fe - fb));
-          if (n[x] > 0.0f && f[x] > 0.0f) f[x] = 0.0f;  // overlapping planes: near wins
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          float* n = out.coc.row(0, y);
+          float* f = out.coc.row(1, y);
+          if (nfb) {
+            const float* z = ctx.frame.depth.row(0, y);
+            for (int x = 0; x < w; ++x) {
+              // z = +inf: the near ratio is −inf → 0 and the far ratio +inf → 1.
+              n[x] = saturate((z[x] - ne) / (nb - ne));
+              f[x] = std::isinf(z[x]) ? 1.0f : saturate((z[x] - fb) / (fe - fb));
+              if (n[x] > 0.0f && f[x] > 0.0f) f[x] = 0.0f;  // overlapping planes: near wins
+            }
+          } else {
+            const float* r = ctx.coc.row(0, y);
+            for (int x = 0; x < w; ++x) {
+              n[x] = saturate((r[x] - 0.5f) / ramp);
+              f[x] = saturate((-r[x] - 0.5f) / ramp);
+            }
+          }
         }
-      } else {
-        const float* r = ctx.coc.row(0, y);
-        for (int x = 0; x < w; ++x) {
-          n[x] = saturate((r[x] - 0.5f) / ramp);
-          f[x] = saturate((-r[x] - 0.5f) / ramp);
-        }
-      }
-    }
-  }, 16);
+      },
+      16);
 }
 
 }  // namespace dofkit::detail::sterna

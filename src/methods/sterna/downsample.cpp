@@ -30,38 +30,41 @@ void downsample(const Image& color, const FullCoc& full, const Settings& s, Half
   h.color_far.resize(h.w, h.h, 4);
   h.coc.resize(h.w, h.h, 2);
   const bool karis = s.karis;
-  core::parallel_for(h.h, [&](int j0, int j1) {
-    for (int j = j0; j < j1; ++j) {
-      const int ys[2] = {2 * j, clampi(2 * j + 1, 0, H - 1)};
-      for (int i = 0; i < h.w; ++i) {
-        const int xs[2] = {2 * i, clampi(2 * i + 1, 0, W - 1)};
-        float c[4][4], far[4], wk[4];
-        for (int k = 0; k < 4; ++k) {
-          const int x = xs[k & 1], y = ys[k >> 1];
-          for (int ch = 0; ch < 4; ++ch) c[k][ch] = color.row(ch, y)[x];
-          far[k] = full.coc.row(1, y)[x];
-          wk[k] = karis ? 1.0f / (1.0f + std::max(0.0f, luma(c[k][0], c[k][1], c[k][2]))) : 1.0f;
+  core::parallel_for(
+      h.h,
+      [&](int j0, int j1) {
+        for (int j = j0; j < j1; ++j) {
+          const int ys[2] = {2 * j, clampi(2 * j + 1, 0, H - 1)};
+          for (int i = 0; i < h.w; ++i) {
+            const int xs[2] = {2 * i, clampi(2 * i + 1, 0, W - 1)};
+            float c[4][4], far[4], wk[4];
+            for (int k = 0; k < 4; ++k) {
+              const int x = xs[k & 1], y = ys[k >> 1];
+              for (int ch = 0; ch < 4; ++ch) c[k][ch] = color.row(ch, y)[x];
+              far[k] = full.coc.row(1, y)[x];
+              wk[k] = karis ? 1.0f / (1.0f + std::max(0.0f, luma(c[k][0], c[k][1], c[k][2]))) : 1.0f;
+            }
+            // Plain (or Karis) mean.
+            float wsum = 0.0f, acc[4] = {0, 0, 0, 0};
+            for (int k = 0; k < 4; ++k) {
+              wsum += wk[k];
+              for (int ch = 0; ch < 4; ++ch) acc[ch] += wk[k] * c[k][ch];
+            }
+            for (int ch = 0; ch < 4; ++ch) h.color.row(ch, j)[i] = acc[ch] / wsum;
+            // Far-bilateral mean, premultiplied by far(TL).
+            float bsum = 0.0f, bacc[4] = {0, 0, 0, 0};
+            for (int k = 0; k < 4; ++k) {
+              const float wb = (k == 0 ? 1000.0f : 1.0f / (std::abs(far[k] - far[0]) + 0.001f)) * wk[k];
+              bsum += wb;
+              for (int ch = 0; ch < 4; ++ch) bacc[ch] += wb * c[k][ch];
+            }
+            for (int ch = 0; ch < 4; ++ch) h.color_far.row(ch, j)[i] = bacc[ch] / bsum * far[0];
+            h.coc.row(0, j)[i] = full.coc.row(0, ys[0])[xs[0]];
+            h.coc.row(1, j)[i] = far[0];
+          }
         }
-        // Plain (or Karis) mean.
-        float wsum = 0.0f, acc[4] = {0, 0, 0, 0};
-        for (int k = 0; k < 4; ++k) {
-          wsum += wk[k];
-          for (int ch = 0; ch < 4; ++ch) acc[ch] += wk[k] * c[k][ch];
-        }
-        for (int ch = 0; ch < 4; ++ch) h.color.row(ch, j)[i] = acc[ch] / wsum;
-        // Far-bilateral mean, premultiplied by far(TL).
-        float bsum = 0.0f, bacc[4] = {0, 0, 0, 0};
-        for (int k = 0; k < 4; ++k) {
-          const float wb = (k == 0 ? 1000.0f : 1.0f / (std::abs(far[k] - far[0]) + 0.001f)) * wk[k];
-          bsum += wb;
-          for (int ch = 0; ch < 4; ++ch) bacc[ch] += wb * c[k][ch];
-        }
-        for (int ch = 0; ch < 4; ++ch) h.color_far.row(ch, j)[i] = bacc[ch] / bsum * far[0];
-        h.coc.row(0, j)[i] = full.coc.row(0, ys[0])[xs[0]];
-        h.coc.row(1, j)[i] = far[0];
-      }
-    }
-  }, 4);
+      },
+      4);
 }
 
 }  // namespace dofkit::detail::sterna

@@ -40,16 +40,16 @@ namespace dofkit::detail::sterna::fast {
 
 /// Workspace-backed buffers of one frame (w × h = half-res size).
 struct Buffers {
-  int W = 0, H = 0;  ///< full-res size
-  int w = 0, h = 0;  ///< half-res size
-  int pad = 0;       ///< border of the padded source planes (texels)
-  Image* near_src = nullptr;  ///< colour_h, 4 planes, (w + 2·pad) × (h + 2·pad), edge replicated
-  Image* far_src = nullptr;   ///< colourFar_h ×4 then far_h, 5 planes, padded like near_src
-  Image* near_h = nullptr;    ///< near(TL), 1 plane w × h
-  Image* tmp = nullptr;       ///< scratch of the dilation, 1 plane w × h
-  Image* near_blur = nullptr; ///< dilated near CoC, 1 plane w × h
-  Image* dof_near = nullptr;  ///< gathered near field, 4 planes w × h
-  Image* dof_far = nullptr;   ///< gathered far field, 4 planes w × h
+  int W = 0, H = 0;            ///< full-res size
+  int w = 0, h = 0;            ///< half-res size
+  int pad = 0;                 ///< border of the padded source planes (texels)
+  Image* near_src = nullptr;   ///< colour_h, 4 planes, (w + 2·pad) × (h + 2·pad), edge replicated
+  Image* far_src = nullptr;    ///< colourFar_h ×4 then far_h, 5 planes, padded like near_src
+  Image* near_h = nullptr;     ///< near(TL), 1 plane w × h
+  Image* tmp = nullptr;        ///< scratch of the dilation, 1 plane w × h
+  Image* near_blur = nullptr;  ///< dilated near CoC, 1 plane w × h
+  Image* dof_near = nullptr;   ///< gathered near field, 4 planes w × h
+  Image* dof_far = nullptr;    ///< gathered far field, 4 planes w × h
   int tiles_x = 0, tiles_y = 0;
   std::vector<std::uint8_t>* tiles = nullptr;  ///< bit 1 near, bit 2 far (as gather.cpp)
   /// Per half-res row, from the downsample: the least and largest colour_h alpha, and whether
@@ -60,9 +60,7 @@ struct Buffers {
   };
   std::vector<AlphaRow>* alpha_rows = nullptr;
 
-  const float* src_row(const Image& img, int c, int y) const {
-    return img.row(c, y + pad) + pad;
-  }
+  const float* src_row(const Image& img, int c, int y) const { return img.row(c, y + pad) + pad; }
   float* src_row(Image& img, int c, int y) const { return img.row(c, y + pad) + pad; }
   /// far_h (unpadded coordinates) — plane 4 of far_src.
   const float* far_h_row(int y) const { return src_row(*far_src, 4, y); }
@@ -82,12 +80,12 @@ struct BlendRow {
 /// P1+P2, padding. With ctx.colour_dirty set it also tests every colour sample against
 /// render()'s sanitation rules and returns false (buffers unfinished) if one fails.
 bool prepare(const MethodContext& ctx, const Settings& s, Buffers& b);
-void dilate(const Settings& s, Buffers& b);                             // P3–P6
-void gather(const Settings& s, Buffers& b);                             // tiles + P7
+void dilate(const Settings& s, Buffers& b);  // P3–P6
+void gather(const Settings& s, Buffers& b);  // tiles + P7
 /// P8 for half-res row y: the 3×3 max fill of the near and far fields, 4 rows of w each.
 void fill_rows(const Settings& s, const Buffers& b, int y, float* const* near_out, float* const* far_out);
 void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blend, const Buffers& b,
-               Image& out);                                             // P9
+               Image& out);  // P9
 
 /// The whole fast pipeline (buffers from ctx.workspace).
 void render(const MethodContext& ctx, const Settings& s, Image& out);

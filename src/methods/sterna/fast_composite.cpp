@@ -95,13 +95,13 @@ __attribute__((always_inline)) inline void taps4(const float* P, int m, int w, b
 struct Pair {
   const float* P[2][kPlanes];  // half-res rows j1 (b = 0) and j2 (b = 1) of every plane
   int w = 0;
-  int nrows = 0;               // full-res rows of this pair (1 at the top/bottom border)
-  const float* col[2][4];      // colour rows, from the chunk start
+  int nrows = 0;           // full-res rows of this pair (1 at the top/bottom border)
+  const float* col[2][4];  // colour rows, from the chunk start
   float* out[2][4];
-  const float* fq[2];          // far(q) rows, from the chunk start
-  float by[2][2];              // y-weights [row][b]
-  V8 wxy[2][2][2];             // bilinear weights [row][b][a] = x-weight a · y-weight b (composite.cpp
-                               // X.b[a] · Y.b[b]), lanes alternating even / odd x
+  const float* fq[2];  // far(q) rows, from the chunk start
+  float by[2][2];      // y-weights [row][b]
+  V8 wxy[2][2][2];     // bilinear weights [row][b][a] = x-weight a · y-weight b (composite.cpp
+                       // X.b[a] · Y.b[b]), lanes alternating even / odd x
   // near_upsample=bicubic: half-res rows i[0 … 3] (composite.cpp) of near_fill ×4 and
   // near_blur, and the cubic weights [row][b][a] = x-weight a · y-weight b (X.c[a] · Y.c[b]).
   const float* Q[4][5];
@@ -166,7 +166,7 @@ __attribute__((always_inline)) inline void group(const Pair& R, int xa, int i, i
   V8 nb[2] = {zero, zero}, tn[2];
   I8 near_on[2];
   if (R.near && kCubic) {  // 4 × 4 footprint
-    V8 nbk[4][4];  // [b][a]
+    V8 nbk[4][4];          // [b][a]
     I8 some = splat_i(0);
     for (int b = 0; b < 4; ++b) {
       taps4(R.Q[b][4], m, R.w, inner4, nbk[b]);
@@ -178,7 +178,7 @@ __attribute__((always_inline)) inline void group(const Pair& R, int xa, int i, i
         for (int r = 0; r < nr; ++r)
           for (int a = 0; a < 4; ++a) nb[r] += R.wc[r][b][a] * nbk[b][a];
   } else if (R.near) {  // 2 × 2
-    V8 nbk[2][2];  // [b][a]
+    V8 nbk[2][2];       // [b][a]
     I8 some = splat_i(0);
     for (int b = 0; b < 2; ++b) {
       taps(R.P[b][9], m, R.w, inner, nbk[b][0], nbk[b][1]);
@@ -219,8 +219,7 @@ __attribute__((always_inline)) inline void group(const Pair& R, int xa, int i, i
         for (int r = 0; r < nr; ++r)
           for (int a = 0; a < 2; ++a) acc[r] += wf[b][r][a] * t[a];
       }
-      for (int r = 0; r < nr; ++r)
-        res[r] = far_on[r] ? res[r] + (acc[r] / wsum[r] - res[r]) * tf[r] : res[r];
+      for (int r = 0; r < nr; ++r) res[r] = far_on[r] ? res[r] + (acc[r] / wsum[r] - res[r]) * tf[r] : res[r];
     }
     if (near_here) {
       V8 nf[2] = {zero, zero};
@@ -292,128 +291,132 @@ void composite(const MethodContext& ctx, const Settings& s, const BlendRow& blen
   const int W = b.W, H = b.H, w = b.w, h = b.h;
   const float cblend = s.composite_blend;
   const int pairs = H / 2 + 1;
-  core::parallel_for(pairs, [&](int p0, int p1) {
-    float* fqbuf = scratch(0, 2 * static_cast<std::size_t>(W)).data();
-    // P8 rows: slots of 8 filled planes (near ×4, far ×4), each holding one half-res row;
-    // pair p needs rows p − 1 and p (bicubic near: p − 2 … p + 1), so consecutive pairs
-    // compute one new row each. Slots start empty in every task (rows from another task or
-    // frame are never reused).
-    const bool cubic = s.bicubic_near;
-    const int nslots = cubic ? 4 : 2;
-    const std::size_t wpad = (static_cast<std::size_t>(w) + 15) / 16 * 16;
-    float* fillbuf = scratch(1, 32 * wpad).data();
-    int slot_row[4] = {-1, -1, -1, -1};
-    auto slot_plane = [&](int slot, int k) { return fillbuf + (static_cast<std::size_t>(slot) * 8 + k) * wpad; };
-    // slot[k] ← the slot holding rows[k] (n rows, possibly repeated at the borders); rows not
-    // held yet are filled into slots no row of the list holds.
-    auto fill_slots = [&](const int* rows, int n, int* slot) {
-      bool keep[4] = {};
-      for (int k = 0; k < n; ++k) {
-        slot[k] = -1;
-        for (int sl = 0; sl < nslots; ++sl)
-          if (slot_row[sl] == rows[k]) slot[k] = sl, keep[sl] = true;
-      }
-      for (int k = 0; k < n; ++k) {
-        for (int q = 0; q < k && slot[k] < 0; ++q)
-          if (rows[q] == rows[k]) slot[k] = slot[q];
-        if (slot[k] >= 0) continue;
-        int sl = 0;
-        while (keep[sl]) ++sl;  // (n ≤ nslots distinct rows: one is free)
-        float* near_out[4];
-        float* far_out[4];
-        for (int c = 0; c < 4; ++c) {
-          near_out[c] = slot_plane(sl, c);
-          far_out[c] = slot_plane(sl, 4 + c);
-        }
-        fill_rows(s, b, rows[k], near_out, far_out);
-        slot_row[sl] = rows[k];
-        keep[sl] = true;
-        slot[k] = sl;
-      }
-    };
-    for (int p = p0; p < p1; ++p) {
-      // Half-res rows: j = (p − 1, p) for the far field and the bilinear near field,
-      // jq = (p − 2 … p + 1) for the cubic near field (composite.cpp's i[0 … 3]), clamped.
-      const int jq[4] = {clampi(p - 2, 0, h - 1), clampi(p - 1, 0, h - 1), clampi(p, 0, h - 1),
-                         clampi(p + 1, 0, h - 1)};
-      const int* j = jq + 1;
-      int slots[4];
-      fill_slots(cubic ? jq : j, nslots, slots);
-      const int* slot = cubic ? slots + 1 : slots;
-      int ys[2], nrows = 0;
-      if (2 * p - 1 >= 0) ys[nrows++] = 2 * p - 1;
-      if (2 * p <= H - 1) ys[nrows++] = 2 * p;
-      for (int r = 0; r < nrows; ++r) blend(ys[r], nullptr, fqbuf + static_cast<std::size_t>(r) * W);
-      Pair R;
-      R.w = w;
-      R.nrows = nrows;
-      R.blend = cblend;
-      R.per_pixel = s.per_pixel_scale;
-      R.radius_per_far = 2.0f * kOuterRadius * s.kernel_scale;  // composite.cpp: full-res px at far = 1
-      for (int bb = 0; bb < 2; ++bb) {
-        for (int c = 0; c < 4; ++c) {
-          R.P[bb][c] = slot_plane(slot[bb], 4 + c);
-          R.P[bb][5 + c] = slot_plane(slot[bb], c);
-        }
-        R.P[bb][4] = b.far_h_row(j[bb]);
-        R.P[bb][9] = b.near_blur->row(0, j[bb]);
-      }
-      if (cubic)
-        for (int bb = 0; bb < 4; ++bb) {
-          for (int c = 0; c < 4; ++c) R.Q[bb][c] = slot_plane(slots[bb], c);
-          R.Q[bb][4] = b.near_blur->row(0, jq[bb]);
-        }
-      for (int r = 0; r < nrows; ++r) {
-        const float t = (ys[r] % 2 == 0) ? 0.75f : 0.25f;  // composite.cpp axis()
-        R.by[r][0] = 1.0f - t;
-        R.by[r][1] = t;
-        // x-weights (composite.cpp axis()): even x (¼, ¾), odd x (¾, ¼).
-        const V8 bx[2] = {V8{0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f},
-                          V8{0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f}};
-        for (int bb = 0; bb < 2; ++bb)
-          for (int a = 0; a < 2; ++a) R.wxy[r][bb][a] = bx[a] * splat(R.by[r][bb]);
-        if (cubic) {  // composite.cpp's X.c[a] · Y.c[b], lanes alternating even / odd x
-          const UpsampleAxis ye = upsample_axis(ys[r], h), xe = upsample_axis(0, w), xo = upsample_axis(1, w);
-          for (int a = 0; a < 4; ++a) {
-            const V8 cx = {xe.c[a], xo.c[a], xe.c[a], xo.c[a], xe.c[a], xo.c[a], xe.c[a], xo.c[a]};
-            for (int bb = 0; bb < 4; ++bb) R.wc[r][bb][a] = cx * splat(ye.c[bb]);
+  core::parallel_for(
+      pairs,
+      [&](int p0, int p1) {
+        float* fqbuf = scratch(0, 2 * static_cast<std::size_t>(W)).data();
+        // P8 rows: slots of 8 filled planes (near ×4, far ×4), each holding one half-res row;
+        // pair p needs rows p − 1 and p (bicubic near: p − 2 … p + 1), so consecutive pairs
+        // compute one new row each. Slots start empty in every task (rows from another task or
+        // frame are never reused).
+        const bool cubic = s.bicubic_near;
+        const int nslots = cubic ? 4 : 2;
+        const std::size_t wpad = (static_cast<std::size_t>(w) + 15) / 16 * 16;
+        float* fillbuf = scratch(1, 32 * wpad).data();
+        int slot_row[4] = {-1, -1, -1, -1};
+        auto slot_plane = [&](int slot, int k) { return fillbuf + (static_cast<std::size_t>(slot) * 8 + k) * wpad; };
+        // slot[k] ← the slot holding rows[k] (n rows, possibly repeated at the borders); rows not
+        // held yet are filled into slots no row of the list holds.
+        auto fill_slots = [&](const int* rows, int n, int* slot) {
+          bool keep[4] = {};
+          for (int k = 0; k < n; ++k) {
+            slot[k] = -1;
+            for (int sl = 0; sl < nslots; ++sl)
+              if (slot_row[sl] == rows[k]) slot[k] = sl, keep[sl] = true;
+          }
+          for (int k = 0; k < n; ++k) {
+            for (int q = 0; q < k && slot[k] < 0; ++q)
+              if (rows[q] == rows[k]) slot[k] = slot[q];
+            if (slot[k] >= 0) continue;
+            int sl = 0;
+            while (keep[sl]) ++sl;  // (n ≤ nslots distinct rows: one is free)
+            float* near_out[4];
+            float* far_out[4];
+            for (int c = 0; c < 4; ++c) {
+              near_out[c] = slot_plane(sl, c);
+              far_out[c] = slot_plane(sl, 4 + c);
+            }
+            fill_rows(s, b, rows[k], near_out, far_out);
+            slot_row[sl] = rows[k];
+            keep[sl] = true;
+            slot[k] = sl;
+          }
+        };
+        for (int p = p0; p < p1; ++p) {
+          // Half-res rows: j = (p − 1, p) for the far field and the bilinear near field,
+          // jq = (p − 2 … p + 1) for the cubic near field (composite.cpp's i[0 … 3]), clamped.
+          const int jq[4] = {clampi(p - 2, 0, h - 1), clampi(p - 1, 0, h - 1), clampi(p, 0, h - 1),
+                             clampi(p + 1, 0, h - 1)};
+          const int* j = jq + 1;
+          int slots[4];
+          fill_slots(cubic ? jq : j, nslots, slots);
+          const int* slot = cubic ? slots + 1 : slots;
+          int ys[2], nrows = 0;
+          if (2 * p - 1 >= 0) ys[nrows++] = 2 * p - 1;
+          if (2 * p <= H - 1) ys[nrows++] = 2 * p;
+          for (int r = 0; r < nrows; ++r) blend(ys[r], nullptr, fqbuf + static_cast<std::size_t>(r) * W);
+          Pair R;
+          R.w = w;
+          R.nrows = nrows;
+          R.blend = cblend;
+          R.per_pixel = s.per_pixel_scale;
+          R.radius_per_far = 2.0f * kOuterRadius * s.kernel_scale;  // composite.cpp: full-res px at far = 1
+          for (int bb = 0; bb < 2; ++bb) {
+            for (int c = 0; c < 4; ++c) {
+              R.P[bb][c] = slot_plane(slot[bb], 4 + c);
+              R.P[bb][5 + c] = slot_plane(slot[bb], c);
+            }
+            R.P[bb][4] = b.far_h_row(j[bb]);
+            R.P[bb][9] = b.near_blur->row(0, j[bb]);
+          }
+          if (cubic)
+            for (int bb = 0; bb < 4; ++bb) {
+              for (int c = 0; c < 4; ++c) R.Q[bb][c] = slot_plane(slots[bb], c);
+              R.Q[bb][4] = b.near_blur->row(0, jq[bb]);
+            }
+          for (int r = 0; r < nrows; ++r) {
+            const float t = (ys[r] % 2 == 0) ? 0.75f : 0.25f;  // composite.cpp axis()
+            R.by[r][0] = 1.0f - t;
+            R.by[r][1] = t;
+            // x-weights (composite.cpp axis()): even x (¼, ¾), odd x (¾, ¼).
+            const V8 bx[2] = {V8{0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f},
+                              V8{0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f}};
+            for (int bb = 0; bb < 2; ++bb)
+              for (int a = 0; a < 2; ++a) R.wxy[r][bb][a] = bx[a] * splat(R.by[r][bb]);
+            if (cubic) {  // composite.cpp's X.c[a] · Y.c[b], lanes alternating even / odd x
+              const UpsampleAxis ye = upsample_axis(ys[r], h), xe = upsample_axis(0, w), xo = upsample_axis(1, w);
+              for (int a = 0; a < 4; ++a) {
+                const V8 cx = {xe.c[a], xo.c[a], xe.c[a], xo.c[a], xe.c[a], xo.c[a], xe.c[a], xo.c[a]};
+                for (int bb = 0; bb < 4; ++bb) R.wc[r][bb][a] = cx * splat(ye.c[bb]);
+              }
+            }
+          }
+          for (int xa = 0; xa < W; xa += kChunk) {
+            const int n = std::min(kChunk, W - xa);
+            // The far part where some far(q) > 0 in the chunk, the near part where a near tile
+            // lies within one tile of it; neither → copy.
+            bool wfar = false, wnear = false;
+            for (int r = 0; r < nrows; ++r) {
+              const float* fq = fqbuf + static_cast<std::size_t>(r) * W + xa;
+              wfar = wfar || core::any_positive(fq, n);  // (vectorised: the scalar scan was ≈ 10 M Ir per frame)
+              const int ty = std::min(ys[r] / 2, h - 1) / kTile;
+              const int ta = std::max(0, std::min(xa / 2, w - 1) / kTile - 1);
+              const int tb = std::min(b.tiles_x - 1, std::min((xa + n - 1) / 2, w - 1) / kTile + 1);
+              for (int tj = std::max(ty - 1, 0); tj <= std::min(ty + 1, b.tiles_y - 1) && !wnear; ++tj)
+                for (int ti = ta; ti <= tb && !wnear; ++ti)
+                  wnear = ((*b.tiles)[static_cast<std::size_t>(tj) * b.tiles_x + ti] & 1) != 0;
+            }
+            R.far = wfar && cblend > 0.0f;
+            R.near = wnear && cblend > 0.0f;
+            if (!R.far && !R.near) {
+              for (int r = 0; r < nrows; ++r)
+                for (int c = 0; c < 4; ++c)
+                  std::memcpy(out.row(c, ys[r]) + xa, color.row(c, ys[r]) + xa,
+                              static_cast<std::size_t>(n) * sizeof(float));
+              continue;
+            }
+            for (int r = 0; r < nrows; ++r) {
+              for (int c = 0; c < 4; ++c) {
+                R.col[r][c] = color.row(c, ys[r]) + xa;
+                R.out[r][c] = out.row(c, ys[r]) + xa;
+              }
+              R.fq[r] = fqbuf + static_cast<std::size_t>(r) * W + xa;
+            }
+            composite_chunk(R, xa, n, cubic);
           }
         }
-      }
-      for (int xa = 0; xa < W; xa += kChunk) {
-        const int n = std::min(kChunk, W - xa);
-        // The far part where some far(q) > 0 in the chunk, the near part where a near tile
-        // lies within one tile of it; neither → copy.
-        bool wfar = false, wnear = false;
-        for (int r = 0; r < nrows; ++r) {
-          const float* fq = fqbuf + static_cast<std::size_t>(r) * W + xa;
-          wfar = wfar || core::any_positive(fq, n);  // (vectorised: the scalar scan was ≈ 10 M Ir per frame)
-          const int ty = std::min(ys[r] / 2, h - 1) / kTile;
-          const int ta = std::max(0, std::min(xa / 2, w - 1) / kTile - 1);
-          const int tb = std::min(b.tiles_x - 1, std::min((xa + n - 1) / 2, w - 1) / kTile + 1);
-          for (int tj = std::max(ty - 1, 0); tj <= std::min(ty + 1, b.tiles_y - 1) && !wnear; ++tj)
-            for (int ti = ta; ti <= tb && !wnear; ++ti)
-              wnear = ((*b.tiles)[static_cast<std::size_t>(tj) * b.tiles_x + ti] & 1) != 0;
-        }
-        R.far = wfar && cblend > 0.0f;
-        R.near = wnear && cblend > 0.0f;
-        if (!R.far && !R.near) {
-          for (int r = 0; r < nrows; ++r)
-            for (int c = 0; c < 4; ++c)
-              std::memcpy(out.row(c, ys[r]) + xa, color.row(c, ys[r]) + xa, static_cast<std::size_t>(n) * sizeof(float));
-          continue;
-        }
-        for (int r = 0; r < nrows; ++r) {
-          for (int c = 0; c < 4; ++c) {
-            R.col[r][c] = color.row(c, ys[r]) + xa;
-            R.out[r][c] = out.row(c, ys[r]) + xa;
-          }
-          R.fq[r] = fqbuf + static_cast<std::size_t>(r) * W + xa;
-        }
-        composite_chunk(R, xa, n, cubic);
-      }
-    }
-  }, 4);
+      },
+      4);
 }
 
 }  // namespace dofkit::detail::sterna::fast

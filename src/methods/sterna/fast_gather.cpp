@@ -44,7 +44,6 @@ constexpr std::uint8_t kNearBit = 1, kFarBit = 2;
 constexpr int kStripTiles = 4;  // tiles per column segment
 static_assert(kTile == 8, "one tile row is one 8-lane chunk");
 
-
 struct Tap {
   std::ptrdiff_t off;        // dy·pitch + dx, floats
   float w00, w10, w01, w11;  // bilinear weights (gather.cpp split())
@@ -247,9 +246,12 @@ void build_texel_kernel(const std::vector<std::pair<float, float>>& offsets, int
     const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(s) * pitch + dx;
     const float w0 = take_i ? static_cast<float>(texels[i].w) : 0.0f;
     const float w1 = take_j ? static_cast<float>(texels[j].w) : 0.0f;
-    if (w0 != 0.0f && w1 != 0.0f) k.both.push_back({off, w0, w1});
-    else if (w0 != 0.0f) k.only0.push_back({off, w0});
-    else if (w1 != 0.0f) k.only1.push_back({off, w1});
+    if (w0 != 0.0f && w1 != 0.0f)
+      k.both.push_back({off, w0, w1});
+    else if (w0 != 0.0f)
+      k.only0.push_back({off, w0});
+    else if (w1 != 0.0f)
+      k.only1.push_back({off, w1});
     i += take_i ? 1 : 0;
     j += take_j ? 1 : 0;
   }
@@ -270,17 +272,17 @@ void build_texel_kernel(const std::vector<std::pair<float, float>>& offsets, int
 // the column walks wait on every row's first line (a 4 kB stride defeats the hardware
 // prefetchers). 16-lane vectors: an AVX2 copy of it (8 lanes, 2 rows of 32 texels per pass)
 // ran 10 % slower than the separable form there (gather CPU 32.3 against 29.4 ms per 1080p
-// frame, same AVX-512 machine, AVX2 code), so the AVX2 copy keeps the strip forms. Same real-number sum as gather.cpp, rounded differently (each weight rounded
-// once from its double sum, one rounding per V add and per FMA), in the same order for every
-// row: pairs by (e, dx), then the single texels by (s, dx).
+// frame, same AVX-512 machine, AVX2 code), so the AVX2 copy keeps the strip forms. Same real-number sum as gather.cpp,
+// rounded differently (each weight rounded once from its double sum, one rounding per V add and per FMA), in the same
+// order for every row: pairs by (e, dx), then the single texels by (s, dx).
 struct FoldTerm {
   std::int32_t off;  // pairs: V-buffer offset e_index·vstride + dx − bx; single texels: s·pitch + dx
   float w;
 };
 struct FoldKernel {
-  bool ok = false;          // the fold form needs fewer operations than the texel form
-  std::vector<int> e;       // the distinct e ≥ 0 of the pairs, ascending
-  std::vector<int> e_of;    // per pair: its e
+  bool ok = false;        // the fold form needs fewer operations than the texel form
+  std::vector<int> e;     // the distinct e ≥ 0 of the pairs, ascending
+  std::vector<int> e_of;  // per pair: its e
   std::vector<FoldTerm> pairs, single;
   std::vector<int> e_slot;  // for e = 0 … max e: its index in `e`, or −1
   int bx = 0;               // first buffer column, relative to the chunk (a multiple of 16, ≤ dx_min)
@@ -301,9 +303,9 @@ void build_fold_kernel(const std::vector<std::pair<float, float>>& offsets, int 
   // Texel (dx, e ≥ 0) pairs with (dx, −e) where their float weights are equal; e = 0 pairs with
   // nothing. (Sorted by (dy, dx): binary search.)
   auto find = [&](int dy, int dx) -> const TexelSum* {
-    auto it = std::lower_bound(texels.begin(), texels.end(), std::make_pair(dy, dx), [](const TexelSum& t, std::pair<int, int> v) {
-      return t.dy != v.first ? t.dy < v.first : t.dx < v.second;
-    });
+    auto it = std::lower_bound(
+        texels.begin(), texels.end(), std::make_pair(dy, dx),
+        [](const TexelSum& t, std::pair<int, int> v) { return t.dy != v.first ? t.dy < v.first : t.dx < v.second; });
     return it != texels.end() && it->dy == dy && it->dx == dx ? &*it : nullptr;
   };
   struct P {
@@ -351,7 +353,7 @@ void build_fold_kernel(const std::vector<std::pair<float, float>>& offsets, int 
 // One tap for one output row from source rows (a0, b0) above and (a1, b1) below.
 template <bool kFma, class T>
 __attribute__((always_inline)) inline T tap_row0(T acc, T a0, T b0, T a1, T b1, T w00, T w10, T w01, T w11, T fx,
-                                                  T fy) {
+                                                 T fy) {
   if constexpr (kFma) {
     const T h0 = fnmadd<true>(fx, a0 - b0, a0), h1 = fnmadd<true>(fx, a1 - b1, a1);
     return acc + fmadd<true>(fy, h1 - h0, h0);
@@ -367,8 +369,7 @@ __attribute__((always_inline)) inline void tap_rows2(T& acc0, T& acc1, T a0, T b
                                                      const TapV& tp) {
   if constexpr (kFma) {
     const T fx = tp.fx, fy = tp.fy, gy = tp.gy;
-    const T h0 = fnmadd<true>(fx, a0 - b0, a0), h1 = fnmadd<true>(fx, a1 - b1, a1),
-            h2 = fnmadd<true>(fx, a2 - b2, a2);
+    const T h0 = fnmadd<true>(fx, a0 - b0, a0), h1 = fnmadd<true>(fx, a1 - b1, a1), h2 = fnmadd<true>(fx, a2 - b2, a2);
     acc0 = acc0 + fmadd<true>(fy, h1 - h0, h0);
     acc1 = fmadd<true>(gy, h1, fmadd<true>(fy, h2, acc1));
   } else {
@@ -414,7 +415,7 @@ __attribute__((always_inline)) inline void gather_seg2(const float* base, const 
       V8 a0 = load8(r0 + 8 * v), a1 = load8(r1 + 8 * v), d = load8(r1 + 8 * v + 1), a2 = load8(r2 + 8 * v);
 #if !defined(__clang__)  // (clang checks the constraint even where kPin is false)
       if constexpr (kPin && kFma) __asm__("" : "+x"(a0), "+x"(a1), "+x"(a2));  // a_k: sub and FMA
-      if constexpr (kPin && !kFma) __asm__("" : "+x"(a1), "+x"(d));           // row 1: both sums
+      if constexpr (kPin && !kFma) __asm__("" : "+x"(a1), "+x"(d));            // row 1: both sums
 #endif
       tap_rows2<kFma>(acc0[v], acc1[v], a0, load8(r0 + 8 * v + 1), a1, d, a2, load8(r2 + 8 * v + 1), tp);
     }
@@ -520,7 +521,8 @@ __attribute__((always_inline)) inline void texel_rows(const float* base, const J
     a0 = fmadd<true>(w, s0, a0), a1 = fmadd<true>(w, s1, a1), a2 = fmadd<true>(w, s2, a2), a3 = fmadd<true>(w, s3, a3);
     if constexpr (kTwo) {
       const V8 u = broadcast<true>(&t.w1);
-      b0 = fmadd<true>(u, s0, b0), b1 = fmadd<true>(u, s1, b1), b2 = fmadd<true>(u, s2, b2), b3 = fmadd<true>(u, s3, b3);
+      b0 = fmadd<true>(u, s0, b0), b1 = fmadd<true>(u, s1, b1), b2 = fmadd<true>(u, s2, b2),
+      b3 = fmadd<true>(u, s3, b3);
     }
   }
   add_texels<true>(base, job.only0, job.nonly0, a0, a1, a2, a3);
@@ -876,7 +878,8 @@ __attribute__((always_inline)) inline void fold_rows_body(const Job& job, int ty
           const float na = job.near_alpha[(y + r) & 1];
           int x = 0;
           for (; x + kL <= w; x += kL)
-            storev(out + x, loadv<VT>(nb + x) > zero ? (gathered ? loadv<VT>(g + x) * inv_taps : VT{} + na) : loadv<VT>(col + x));
+            storev(out + x, loadv<VT>(nb + x) > zero ? (gathered ? loadv<VT>(g + x) * inv_taps : VT{} + na)
+                                                     : loadv<VT>(col + x));
           for (; x < w; ++x) out[x] = nb[x] > 0.0f ? (gathered ? g[x] * job.inv_taps : na) : col[x];
         }
       }
@@ -908,7 +911,8 @@ __attribute__((always_inline)) inline void fold_rows_body(const Job& job, int ty
           const float* id = inv_den + r * stride;
           float* out = b.dof_far->row(c, y + r);
           int x = 0;
-          for (; x + kL <= w; x += kL) storev(out + x, loadv<VT>(fr + x) > zero ? loadv<VT>(g + x) * loadv<VT>(id + x) : zero);
+          for (; x + kL <= w; x += kL)
+            storev(out + x, loadv<VT>(fr + x) > zero ? loadv<VT>(g + x) * loadv<VT>(id + x) : zero);
           for (; x < w; ++x) out[x] = fr[x] > 0.0f ? g[x] * id[x] : 0.0f;
         }
       }
@@ -947,21 +951,23 @@ const Kernels& kernels() {
   return k;
 }
 #else
-#define STERNA_GATHER_COPY(suffix, attrs, pin, fma)                                                                 \
-  __attribute__((attrs, optimize("fp-contract=off"))) void gather_strip_##suffix(const Job& job, int tx0, int tx1,  \
-                                                                                 float* inv_den) {                  \
-    gather_strip_body<pin, fma>(job, tx0, tx1, inv_den);                                                            \
-  }                                                                                                                 \
-  __attribute__((attrs, optimize("fp-contract=off"))) float constant_near_##suffix(const Job& job, float v,         \
-                                                                                   int parity) {                    \
-    return constant_near_body<fma>(job, v, parity);                                                                 \
+#define STERNA_GATHER_COPY(suffix, attrs, pin, fma)                                                                \
+  __attribute__((attrs, optimize("fp-contract=off"))) void gather_strip_##suffix(const Job& job, int tx0, int tx1, \
+                                                                                 float* inv_den) {                 \
+    gather_strip_body<pin, fma>(job, tx0, tx1, inv_den);                                                           \
+  }                                                                                                                \
+  __attribute__((attrs, optimize("fp-contract=off"))) float constant_near_##suffix(const Job& job, float v,        \
+                                                                                   int parity) {                   \
+    return constant_near_body<fma>(job, v, parity);                                                                \
   }
 STERNA_GATHER_COPY(avx512, target("avx512f,fma"), true, true)
 STERNA_GATHER_COPY(avx2, target("avx2,fma"), true, true)
 STERNA_GATHER_COPY(base, used, false, false)  // (`used`: a no-op attribute, the macro wants one)
 #undef STERNA_GATHER_COPY
-__attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) void fold_rows_avx512(
-    const Job& job, int ty0, int ty1, float* vbuf, float* acc, float* inv_den, int stride) {
+__attribute__((target("avx512f,fma"), optimize("fp-contract=off"))) void fold_rows_avx512(const Job& job, int ty0,
+                                                                                          int ty1, float* vbuf,
+                                                                                          float* acc, float* inv_den,
+                                                                                          int stride) {
   fold_rows_body<V16, 4, 4>(job, ty0, ty1, vbuf, acc, inv_den, stride);
 }
 // The widest copy the CPU runs, at most core::simd_level_cap() (tests pin narrower ones).
@@ -1059,8 +1065,10 @@ __attribute__((target("avx2"), always_inline)) inline void gather_pairs(const fl
   // (The masked form with every lane on: the unmasked intrinsic's undefined source trips
   // GCC 12's -Wmaybe-uninitialized.)
   const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), zero = _mm256_setzero_pd();
-  const __m256 g0 = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero, base, idx_lo, all, 4));  // l0 r0 l1 r1 | l2 r2 l3 r3
-  const __m256 g1 = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero, base, idx_hi, all, 4));  // l4 r4 l5 r5 | l6 r6 l7 r7
+  const __m256 g0 =
+      _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero, base, idx_lo, all, 4));  // l0 r0 l1 r1 | l2 r2 l3 r3
+  const __m256 g1 =
+      _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero, base, idx_hi, all, 4));  // l4 r4 l5 r5 | l6 r6 l7 r7
   // l0 l1 l4 l5 | l2 l3 l6 l7, then the 64-bit lanes in the order 0, 2, 1, 3: l0 … l7
   left = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0x88)), 0xd8));
   right = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0xdd)), 0xd8));
@@ -1091,8 +1099,7 @@ __attribute__((target("avx2"))) int far_texels_avx2(const PerTexel& P, int y, in
       const __m256 x0 = _mm256_floor_ps(fx), y0 = _mm256_floor_ps(fy);
       const __m256 tx = _mm256_sub_ps(fx, x0), ty = _mm256_sub_ps(fy, y0);
       const __m256 ux = _mm256_sub_ps(one, tx), uy = _mm256_sub_ps(one, ty);
-      const __m256i idx =
-          _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(y0), pitch), _mm256_cvttps_epi32(x0));
+      const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(y0), pitch), _mm256_cvttps_epi32(x0));
       const __m128i idx_lo = _mm256_castsi256_si128(idx), idx_hi = _mm256_extracti128_si256(idx, 1);
       for (int c = 0; c < 5; ++c) {
         const float* r0 = P.origin[c];
@@ -1121,22 +1128,25 @@ void far_per_texel(const Settings& s, Buffers& b) {
   static const bool cpu_avx2 = __builtin_cpu_supports("avx2");
   const bool avx2 = cpu_avx2 && core::simd_level_cap() >= core::SimdLevel::avx2;
 #endif
-  core::parallel_for(h, [&](int y0, int y1) {
-    PerTexel P;
-    for (int c = 0; c < 5; ++c) P.origin[c] = b.src_row(*b.far_src, c, 0);
-    P.pitch = b.far_src->width();
-    P.ks = s.kernel_scale;
-    P.off = &s.offsets;
-    for (int y = y0; y < y1; ++y) {
-      P.fr = b.far_h_row(y);
-      for (int c = 0; c < 4; ++c) P.out[c] = b.dof_far->row(c, y);
-      int x = 0;
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        PerTexel P;
+        for (int c = 0; c < 5; ++c) P.origin[c] = b.src_row(*b.far_src, c, 0);
+        P.pitch = b.far_src->width();
+        P.ks = s.kernel_scale;
+        P.off = &s.offsets;
+        for (int y = y0; y < y1; ++y) {
+          P.fr = b.far_h_row(y);
+          for (int c = 0; c < 4; ++c) P.out[c] = b.dof_far->row(c, y);
+          int x = 0;
 #if !defined(__clang__)
-      if (avx2) x = far_texels_avx2(P, y, w);
+          if (avx2) x = far_texels_avx2(P, y, w);
 #endif
-      far_texels(P, y, x, w);
-    }
-  }, 4);
+          far_texels(P, y, x, w);
+        }
+      },
+      4);
 }
 
 }  // namespace
@@ -1176,7 +1186,8 @@ void gather(const Settings& s, Buffers& b) {
     const float ox = s.offsets[t].x * s.kernel_scale, oy = s.offsets[t].y * s.kernel_scale;
     scaled.emplace_back(ox, oy);
     const Tap tp = split(ox, oy, pitch);
-    taps[t] = {splat(tp.w00), splat(tp.w10), splat(tp.w01), splat(tp.w11), splat(tp.fx), splat(tp.fy), splat(1 - tp.fy), tp.off};
+    taps[t] = {splat(tp.w00), splat(tp.w10), splat(tp.w01),    splat(tp.w11),
+               splat(tp.fx),  splat(tp.fy),  splat(1 - tp.fy), tp.off};
     dx_min = std::min(dx_min, static_cast<int>(std::floor(ox)));
     dx_max = std::max(dx_max, static_cast<int>(std::floor(ox)) + 1);
     dy_max = std::max(dy_max, static_cast<int>(std::floor(oy)) + 1);

@@ -43,8 +43,8 @@ STERNA_SIMD void blend_from_coc(const float* __restrict r, float* __restrict nea
 }
 
 // The planes in double, as in coc.cpp (planes equal in float would give 0/0).
-STERNA_SIMD void blend_from_z(const float* __restrict z, float* __restrict near, float* __restrict far, int n, double nb,
-                              double ne, double fb, double fe) {
+STERNA_SIMD void blend_from_z(const float* __restrict z, float* __restrict near, float* __restrict far, int n,
+                              double nb, double ne, double fb, double fe) {
   for (int x = 0; x < n; ++x) {
     const float nv = saturate((z[x] - ne) / (nb - ne));
     const float fv = std::isinf(z[x]) ? 1.0f : saturate((z[x] - fb) / (fe - fb));
@@ -81,8 +81,7 @@ template <bool kKaris>
 inline void quad(const float (&c)[4][4], const float (&far)[4], float near_tl, const QuadOut& o, int i,
                  AlphaStats& st) {
   float wk[4];
-  for (int k = 0; k < 4; ++k)
-    wk[k] = kKaris ? 1.0f / (1.0f + std::max(0.0f, luma(c[k][0], c[k][1], c[k][2]))) : 1.0f;
+  for (int k = 0; k < 4; ++k) wk[k] = kKaris ? 1.0f / (1.0f + std::max(0.0f, luma(c[k][0], c[k][1], c[k][2]))) : 1.0f;
   float wsum = 0.0f, acc[4] = {0, 0, 0, 0};
   for (int k = 0; k < 4; ++k) {
     wsum += wk[k];
@@ -230,8 +229,8 @@ struct SampleCheck8 {
 // only accumulates: nothing the row computes or reads depends on it.
 template <bool kKaris, bool kCheck>
 STERNA_SIMD bool downsample_row(const float* const* r0, const float* const* r1, const float* __restrict f0,
-                                const float* __restrict f1, const float* __restrict n0, const QuadOut& o, int W,
-                                int w, AlphaStats& alpha) {
+                                const float* __restrict f1, const float* __restrict n0, const QuadOut& o, int W, int w,
+                                AlphaStats& alpha) {
   SampleCheck8 check;
   AlphaStats8 alpha8;
   int i = 0;
@@ -380,54 +379,60 @@ bool prepare(const MethodContext& ctx, const Settings& s, Buffers& b) {
   // flag, so the answer does not depend on the split.
   const bool check_colour = ctx.colour_dirty != nullptr;
   std::atomic<bool> sanitary{true};
-  core::parallel_for(h, [&](int j0, int j1) {
-    float* n0 = scratch(0, W).data();
-    float* f0 = scratch(1, W).data();
-    float* f1 = scratch(2, W).data();
-    bool clean = true;
-    for (int j = j0; j < j1; ++j) {
-      const int y0 = 2 * j, y1 = clampi(2 * j + 1, 0, H - 1);
-      blend(y0, n0, f0);
-      blend(y1, nullptr, f1);
-      const float* r0[4];
-      const float* r1[4];
-      QuadOut o;
-      for (int ch = 0; ch < 4; ++ch) {
-        r0[ch] = color.row(ch, y0);
-        r1[ch] = color.row(ch, y1);
-        o.col[ch] = b.src_row(*b.near_src, ch, j);
-        o.colf[ch] = b.src_row(*b.far_src, ch, j);
-      }
-      o.farh = b.src_row(*b.far_src, 4, j);
-      o.nearh = b.near_h->row(0, j);
-      AlphaStats alpha;
-      if (check_colour)
-        clean &= s.karis ? downsample_row<true, true>(r0, r1, f0, f1, n0, o, W, w, alpha)
-                         : downsample_row<false, true>(r0, r1, f0, f1, n0, o, W, w, alpha);
-      else if (s.karis)
-        downsample_row<true, false>(r0, r1, f0, f1, n0, o, W, w, alpha);
-      else
-        downsample_row<false, false>(r0, r1, f0, f1, n0, o, W, w, alpha);
-      (*b.alpha_rows)[j] = {alpha.lo, alpha.hi, alpha.far_differs};
-    }
-    if (!clean) sanitary.store(false, std::memory_order_relaxed);
-  }, 4);
+  core::parallel_for(
+      h,
+      [&](int j0, int j1) {
+        float* n0 = scratch(0, W).data();
+        float* f0 = scratch(1, W).data();
+        float* f1 = scratch(2, W).data();
+        bool clean = true;
+        for (int j = j0; j < j1; ++j) {
+          const int y0 = 2 * j, y1 = clampi(2 * j + 1, 0, H - 1);
+          blend(y0, n0, f0);
+          blend(y1, nullptr, f1);
+          const float* r0[4];
+          const float* r1[4];
+          QuadOut o;
+          for (int ch = 0; ch < 4; ++ch) {
+            r0[ch] = color.row(ch, y0);
+            r1[ch] = color.row(ch, y1);
+            o.col[ch] = b.src_row(*b.near_src, ch, j);
+            o.colf[ch] = b.src_row(*b.far_src, ch, j);
+          }
+          o.farh = b.src_row(*b.far_src, 4, j);
+          o.nearh = b.near_h->row(0, j);
+          AlphaStats alpha;
+          if (check_colour)
+            clean &= s.karis ? downsample_row<true, true>(r0, r1, f0, f1, n0, o, W, w, alpha)
+                             : downsample_row<false, true>(r0, r1, f0, f1, n0, o, W, w, alpha);
+          else if (s.karis)
+            downsample_row<true, false>(r0, r1, f0, f1, n0, o, W, w, alpha);
+          else
+            downsample_row<false, false>(r0, r1, f0, f1, n0, o, W, w, alpha);
+          (*b.alpha_rows)[j] = {alpha.lo, alpha.hi, alpha.far_differs};
+        }
+        if (!clean) sanitary.store(false, std::memory_order_relaxed);
+      },
+      4);
   if (!sanitary.load()) return false;  // the caller renders again from sanitised colour
   // Edge replication into the border (rows first read their finished interior row).
   const int pw = w + 2 * pad, ph = h + 2 * pad;
-  core::parallel_for(ph, [&](int p0, int p1) {
-    for (int py = p0; py < p1; ++py) {
-      const int y = clampi(py - pad, 0, h - 1);
-      for (Image* img : {b.near_src, b.far_src})
-        for (int c = 0; c < img->channels(); ++c) {
-          float* d = img->row(c, py);
-          const float* srow = img->row(c, y + pad);
-          if (py != y + pad) std::copy(srow + pad, srow + pad + w, d + pad);
-          std::fill(d, d + pad, srow[pad]);
-          std::fill(d + pad + w, d + pw, srow[pad + w - 1]);
+  core::parallel_for(
+      ph,
+      [&](int p0, int p1) {
+        for (int py = p0; py < p1; ++py) {
+          const int y = clampi(py - pad, 0, h - 1);
+          for (Image* img : {b.near_src, b.far_src})
+            for (int c = 0; c < img->channels(); ++c) {
+              float* d = img->row(c, py);
+              const float* srow = img->row(c, y + pad);
+              if (py != y + pad) std::copy(srow + pad, srow + pad + w, d + pad);
+              std::fill(d, d + pad, srow[pad]);
+              std::fill(d + pad + w, d + pw, srow[pad + w - 1]);
+            }
         }
-    }
-  }, 16);
+      },
+      16);
   return true;
 }
 
@@ -439,10 +444,13 @@ void dilate(const Settings& s, Buffers& b) {
     return;
   }
   // P3: max along x, per row.
-  core::parallel_for(h, [&](int y0, int y1) {
-    std::vector<float>& buf = scratch(3, 0);
-    for (int y = y0; y < y1; ++y) max_line_blocks(b.near_h->row(0, y), b.tmp->row(0, y), w, r, buf);
-  }, 8);
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        std::vector<float>& buf = scratch(3, 0);
+        for (int y = y0; y < y1; ++y) max_line_blocks(b.near_h->row(0, y), b.tmp->row(0, y), w, r, buf);
+      },
+      8);
   // P4: max along y. Padded row index p in [0, P) holds row p - r (zero outside the image);
   // each block of k rows gets its prefix maxima (pre) and suffix maxima (suf), and row y is
   // max(suf[y], pre[y + 2r]). The gather has not run yet, so the two field planes (4·h rows
@@ -470,27 +478,37 @@ void dilate(const Settings& s, Buffers& b) {
         for (int p = s0 + k - 2; p >= s0; --p) max_rows(row_of(suf, p), row_of(suf, p + 1), a_row(p), w);
       }
     });
-    core::parallel_for(h, [&](int y0, int y1) {
-      for (int y = y0; y < y1; ++y) max_rows(nb + static_cast<std::size_t>(y) * w, row_of(suf, y), row_of(pre, y + 2 * r), w);
-    }, 8);
+    core::parallel_for(
+        h,
+        [&](int y0, int y1) {
+          for (int y = y0; y < y1; ++y)
+            max_rows(nb + static_cast<std::size_t>(y) * w, row_of(suf, y), row_of(pre, y + 2 * r), w);
+        },
+        8);
   } else {
-    core::parallel_for(w, [&](int x0, int x1) {
-      std::vector<float>& buf = scratch(3, 0);
-      std::vector<float>& col = scratch(2, 2 * static_cast<std::size_t>(h));
-      for (int x = x0; x < x1; ++x) {
-        for (int y = 0; y < h; ++y) col[y] = b.tmp->row(0, y)[x];
-        max_line(col.data(), col.data() + h, h, r, buf);
-        for (int y = 0; y < h; ++y) nb[static_cast<std::size_t>(y) * w + x] = col[h + y];
-      }
-    }, 16);
+    core::parallel_for(
+        w,
+        [&](int x0, int x1) {
+          std::vector<float>& buf = scratch(3, 0);
+          std::vector<float>& col = scratch(2, 2 * static_cast<std::size_t>(h));
+          for (int x = x0; x < x1; ++x) {
+            for (int y = 0; y < h; ++y) col[y] = b.tmp->row(0, y)[x];
+            max_line(col.data(), col.data() + h, h, r, buf);
+            for (int y = 0; y < h; ++y) nb[static_cast<std::size_t>(y) * w + x] = col[h + y];
+          }
+        },
+        16);
   }
   // P5/P6: box mean over the same window, then flush the running-sum residue (as plain), row
   // by row in parallel (as one serial loop over the plane it took 0.24 ms of a 1080p frame on
   // either thread count).
   core::box_blur_plane(nb, nb, w, h, r, r);
-  core::parallel_for(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) flush_residue(nb + static_cast<std::size_t>(y) * w, w);
-  }, 16);
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) flush_residue(nb + static_cast<std::size_t>(y) * w, w);
+      },
+      16);
 }
 
 }  // namespace dofkit::detail::sterna::fast

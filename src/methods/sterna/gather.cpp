@@ -34,7 +34,7 @@ namespace {
 constexpr std::uint8_t kNearBit = 1, kFarBit = 2;
 
 struct Tap {
-  int dx, dy;              // integer part of the offset (texels)
+  int dx, dy;                // integer part of the offset (texels)
   float w00, w10, w01, w11;  // bilinear weights of (dx,dy), (dx+1,dy), (dx,dy+1), (dx+1,dy+1)
 };
 
@@ -58,18 +58,21 @@ void make_padded(const std::vector<const float*>& src, int w, int h, int pad, Pa
   out.pw = w + 2 * pad;
   out.ph = h + 2 * pad;
   out.planes.assign(src.size(), std::vector<float>(static_cast<std::size_t>(out.pw) * out.ph));
-  core::parallel_for(out.ph, [&](int y0, int y1) {
-    for (int py = y0; py < y1; ++py) {
-      const int y = clampi(py - pad, 0, h - 1);
-      for (std::size_t c = 0; c < src.size(); ++c) {
-        const float* s = src[c] + static_cast<std::size_t>(y) * w;
-        float* d = out.planes[c].data() + static_cast<std::size_t>(py) * out.pw;
-        for (int px = 0; px < pad; ++px) d[px] = s[0];
-        std::copy(s, s + w, d + pad);
-        for (int px = pad + w; px < out.pw; ++px) d[px] = s[w - 1];
-      }
-    }
-  }, 16);
+  core::parallel_for(
+      out.ph,
+      [&](int y0, int y1) {
+        for (int py = y0; py < y1; ++py) {
+          const int y = clampi(py - pad, 0, h - 1);
+          for (std::size_t c = 0; c < src.size(); ++c) {
+            const float* s = src[c] + static_cast<std::size_t>(y) * w;
+            float* d = out.planes[c].data() + static_cast<std::size_t>(py) * out.pw;
+            for (int px = 0; px < pad; ++px) d[px] = s[0];
+            std::copy(s, s + w, d + pad);
+            for (int px = pad + w; px < out.pw; ++px) d[px] = s[w - 1];
+          }
+        }
+      },
+      16);
 }
 
 // acc[x] += Σ bilinear tap of plane rows over x in [0, n).
@@ -117,8 +120,7 @@ void gather(const Settings& s, HalfRes& h) {
   const int pad = static_cast<int>(std::ceil(reach)) + 2;
   Padded near_src, far_src;
   make_padded({h.color.plane(0), h.color.plane(1), h.color.plane(2), h.color.plane(3)}, w, hh, pad, near_src);
-  make_padded({h.color_far.plane(0), h.color_far.plane(1), h.color_far.plane(2), h.color_far.plane(3),
-               h.coc.plane(1)},
+  make_padded({h.color_far.plane(0), h.color_far.plane(1), h.color_far.plane(2), h.color_far.plane(3), h.coc.plane(1)},
               w, hh, pad, far_src);
   std::vector<Tap> taps;
   for (const Offset& o : off) taps.push_back(split(o.x * ks, o.y * ks));
@@ -126,61 +128,67 @@ void gather(const Settings& s, HalfRes& h) {
 
   h.dof_near.resize(w, hh, 4);
   h.dof_far.resize(w, hh, 4);
-  core::parallel_for(hh, [&](int y0, int y1) {
-    std::vector<float> acc(static_cast<std::size_t>(9) * w);
-    for (int y = y0; y < y1; ++y) {
-      const std::uint8_t* tiles = h.tile_active.data() + static_cast<std::size_t>(y / kTile) * h.tiles_x;
-      const float* nb = h.near_blur.row(0, y);
-      const float* fr = h.coc.row(1, y);
-      // Early-out values everywhere first; active runs overwrite them.
-      for (int c = 0; c < 4; ++c) {
-        std::copy(h.color.row(c, y), h.color.row(c, y) + w, h.dof_near.row(c, y));
-        std::fill(h.dof_far.row(c, y), h.dof_far.row(c, y) + w, 0.0f);
-      }
-      for (int tx = 0; tx < h.tiles_x;) {
-        if (!tiles[tx]) { ++tx; continue; }
-        std::uint8_t bits = 0;
-        int te = tx;
-        while (te < h.tiles_x && tiles[te]) bits |= tiles[te++];
-        const int x0 = tx * kTile, x1 = std::min(w, te * kTile), n = x1 - x0;
-        tx = te;
-        if (bits & kNearBit) {
-          float* a = acc.data();
-          std::fill(a, a + 4 * n, 0.0f);
-          for (const Tap& t : taps)
-            for (int c = 0; c < 4; ++c) accumulate(a + c * n, near_src, c, y, x0, n, t);
-          for (int x = 0; x < n; ++x)
-            if (nb[x0 + x] > 0.0f)
-              for (int c = 0; c < 4; ++c) h.dof_near.row(c, y)[x0 + x] = a[c * n + x] * inv_taps;
-        }
-        if (!(bits & kFarBit)) continue;
-        if (!s.per_pixel_scale) {
-          float* a = acc.data() + 4 * w;
-          std::fill(a, a + 5 * n, 0.0f);
-          for (const Tap& t : taps)
-            for (int c = 0; c < 5; ++c) accumulate(a + c * n, far_src, c, y, x0, n, t);
-          for (int x = 0; x < n; ++x)
-            if (fr[x0 + x] > 0.0f) {
-              const float inv = 1.0f / a[4 * n + x];
-              for (int c = 0; c < 4; ++c) h.dof_far.row(c, y)[x0 + x] = a[c * n + x] * inv;
+  core::parallel_for(
+      hh,
+      [&](int y0, int y1) {
+        std::vector<float> acc(static_cast<std::size_t>(9) * w);
+        for (int y = y0; y < y1; ++y) {
+          const std::uint8_t* tiles = h.tile_active.data() + static_cast<std::size_t>(y / kTile) * h.tiles_x;
+          const float* nb = h.near_blur.row(0, y);
+          const float* fr = h.coc.row(1, y);
+          // Early-out values everywhere first; active runs overwrite them.
+          for (int c = 0; c < 4; ++c) {
+            std::copy(h.color.row(c, y), h.color.row(c, y) + w, h.dof_near.row(c, y));
+            std::fill(h.dof_far.row(c, y), h.dof_far.row(c, y) + w, 0.0f);
+          }
+          for (int tx = 0; tx < h.tiles_x;) {
+            if (!tiles[tx]) {
+              ++tx;
+              continue;
             }
-        } else {
-          for (int x = x0; x < x1; ++x) {
-            if (!(fr[x] > 0.0f)) continue;
-            const float sc = ks * fr[x];
-            const float cx = x + 0.5f, cy = y + 0.5f;
-            float num[4] = {0, 0, 0, 0}, den = 0.0f;
-            for (const Offset& o : off) {
-              const float px = cx + o.x * sc, py = cy + o.y * sc;
-              for (int c = 0; c < 4; ++c) num[c] += bilinear(far_src, c, px, py);
-              den += bilinear(far_src, 4, px, py);
+            std::uint8_t bits = 0;
+            int te = tx;
+            while (te < h.tiles_x && tiles[te]) bits |= tiles[te++];
+            const int x0 = tx * kTile, x1 = std::min(w, te * kTile), n = x1 - x0;
+            tx = te;
+            if (bits & kNearBit) {
+              float* a = acc.data();
+              std::fill(a, a + 4 * n, 0.0f);
+              for (const Tap& t : taps)
+                for (int c = 0; c < 4; ++c) accumulate(a + c * n, near_src, c, y, x0, n, t);
+              for (int x = 0; x < n; ++x)
+                if (nb[x0 + x] > 0.0f)
+                  for (int c = 0; c < 4; ++c) h.dof_near.row(c, y)[x0 + x] = a[c * n + x] * inv_taps;
             }
-            for (int c = 0; c < 4; ++c) h.dof_far.row(c, y)[x] = num[c] / den;
+            if (!(bits & kFarBit)) continue;
+            if (!s.per_pixel_scale) {
+              float* a = acc.data() + 4 * w;
+              std::fill(a, a + 5 * n, 0.0f);
+              for (const Tap& t : taps)
+                for (int c = 0; c < 5; ++c) accumulate(a + c * n, far_src, c, y, x0, n, t);
+              for (int x = 0; x < n; ++x)
+                if (fr[x0 + x] > 0.0f) {
+                  const float inv = 1.0f / a[4 * n + x];
+                  for (int c = 0; c < 4; ++c) h.dof_far.row(c, y)[x0 + x] = a[c * n + x] * inv;
+                }
+            } else {
+              for (int x = x0; x < x1; ++x) {
+                if (!(fr[x] > 0.0f)) continue;
+                const float sc = ks * fr[x];
+                const float cx = x + 0.5f, cy = y + 0.5f;
+                float num[4] = {0, 0, 0, 0}, den = 0.0f;
+                for (const Offset& o : off) {
+                  const float px = cx + o.x * sc, py = cy + o.y * sc;
+                  for (int c = 0; c < 4; ++c) num[c] += bilinear(far_src, c, px, py);
+                  den += bilinear(far_src, 4, px, py);
+                }
+                for (int c = 0; c < 4; ++c) h.dof_far.row(c, y)[x] = num[c] / den;
+              }
+            }
           }
         }
-      }
-    }
-  }, 4);
+      },
+      4);
 }
 
 }  // namespace dofkit::detail::sterna

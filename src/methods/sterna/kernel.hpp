@@ -11,10 +11,10 @@ struct Offset {
 
 /// Aperture shape of the gather kernel.
 struct BokehShape {
-  bool polygon = false;       ///< false: circle (Sterna's rings); true: regular n-gon (Sousa)
-  int blades = 6;             ///< n, 5..9 (polygon only)
-  double rotation_deg = 0;    ///< rotation of the n-gon, degrees, clockwise on screen (y down)
-  double anamorphic = 1.0;    ///< bokeh width / height, 0.5..2; area preserving
+  bool polygon = false;     ///< false: circle (Sterna's rings); true: regular n-gon (Sousa)
+  int blades = 6;           ///< n, 5..9 (polygon only)
+  double rotation_deg = 0;  ///< rotation of the n-gon, degrees, clockwise on screen (y down)
+  double anamorphic = 1.0;  ///< bokeh width / height, 0.5..2; area preserving
 };
 
 /// Number of rings, their spacing and the outer radius of the pattern (half-res px).

@@ -54,14 +54,20 @@ void dilate_near_coc(const Settings& s, HalfRes& h) {
     return;
   }
   // P3 max along x, P4 max along y.
-  core::parallel_for(hh, [&](int y0, int y1) {
-    std::vector<float> buf;
-    for (int y = y0; y < y1; ++y) max_line(near + static_cast<std::size_t>(y) * w, tmp.row(0, y), w, 1, r, buf);
-  }, 8);
-  core::parallel_for(w, [&](int x0, int x1) {
-    std::vector<float> buf;
-    for (int x = x0; x < x1; ++x) max_line(tmp.plane(0) + x, h.near_blur.plane(0) + x, hh, w, r, buf);
-  }, 16);
+  core::parallel_for(
+      hh,
+      [&](int y0, int y1) {
+        std::vector<float> buf;
+        for (int y = y0; y < y1; ++y) max_line(near + static_cast<std::size_t>(y) * w, tmp.row(0, y), w, 1, r, buf);
+      },
+      8);
+  core::parallel_for(
+      w,
+      [&](int x0, int x1) {
+        std::vector<float> buf;
+        for (int x = x0; x < x1; ++x) max_line(tmp.plane(0) + x, h.near_blur.plane(0) + x, hh, w, r, buf);
+      },
+      16);
   // P5/P6 box mean over the same window (clamp-to-edge).
   core::box_blur_plane(h.near_blur.plane(0), h.near_blur.plane(0), w, hh, r, r);
   // The running-sum box leaves rounding residue (~1e-8) where the window has just left a

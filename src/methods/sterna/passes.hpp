@@ -41,14 +41,14 @@ struct FullCoc {
 /// Everything at half resolution, w = ceil(W/2), h = ceil(H/2).
 struct HalfRes {
   int w = 0, h = 0;
-  Image color;       ///< colour_h: mean (or Karis mean) of the 2×2 quad, 4 planes
-  Image color_far;   ///< colourFar_h: far-bilateral mean × far(TL), 4 planes
-  Image coc;         ///< coc_h: near/far of the top-left full-res pixel, 2 planes
-  Image near_blur;   ///< nearBlur_h: max-then-box dilated near CoC, 1 plane
-  Image dof_near;    ///< near field after the gather, 4 planes
-  Image dof_far;     ///< far field after the gather, 4 planes
-  Image near_fill;   ///< near field after the 3×3 max fill, 4 planes
-  Image far_fill;    ///< far field after the 3×3 max fill, 4 planes
+  Image color;      ///< colour_h: mean (or Karis mean) of the 2×2 quad, 4 planes
+  Image color_far;  ///< colourFar_h: far-bilateral mean × far(TL), 4 planes
+  Image coc;        ///< coc_h: near/far of the top-left full-res pixel, 2 planes
+  Image near_blur;  ///< nearBlur_h: max-then-box dilated near CoC, 1 plane
+  Image dof_near;   ///< near field after the gather, 4 planes
+  Image dof_far;    ///< far field after the gather, 4 planes
+  Image near_fill;  ///< near field after the 3×3 max fill, 4 planes
+  Image far_fill;   ///< far field after the 3×3 max fill, 4 planes
   int tiles_x = 0, tiles_y = 0;
   /// Per tile: 1 when some nearBlur_h or far_h in it is > 0 (gather and fill run there).
   std::vector<std::uint8_t> tile_active;

@@ -104,8 +104,8 @@ void render_sterna(const MethodContext& ctx, Image& out) {
   const bool fast = p.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
 
   const bool want_view = ctx.debug.wants("near_coc") || ctx.debug.wants("far_coc") ||
-                         ctx.debug.wants("near_coc_dilated") || ctx.debug.wants("near") ||
-                         ctx.debug.wants("far") || ctx.debug.wants("near_fill") || ctx.debug.wants("far_fill");
+                         ctx.debug.wants("near_coc_dilated") || ctx.debug.wants("near") || ctx.debug.wants("far") ||
+                         ctx.debug.wants("near_fill") || ctx.debug.wants("far_fill");
   const bool strength_zero = s.composite_blend <= 0.0f && !want_view;
   // impl=fast (default) runs the optimised passes of fast_*.cpp, which give the same output
   // as the plain passes below (the oracle, impl=plain); settings they do not cover run plain.
@@ -151,7 +151,8 @@ const MethodDef& sterna_method() {
       {
           {"strength", "1", "effect strength 0-1: >= 0.25 scales the kernel, below fades the blend out (0 = input)"},
           {"kernel_scale", "auto",
-           "auto (kernel radius = largest far CoC of the frame, else largest near CoC) or a number 0.01-50: ring radius 12 px x this at the "
+           "auto (kernel radius = largest far CoC of the frame, else largest near CoC) or a number 0.01-50: ring "
+           "radius 12 px x this at the "
            "camera's reference width"},
           {"near_upsample", "bilinear", "near-field upsampling: bilinear or bicubic (cubic B-spline)"},
           {"per_pixel_scale", "off", "on/off: scale the far kernel by each pixel's far CoC (S2 §3.5)"},

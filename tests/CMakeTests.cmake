@@ -8,7 +8,8 @@
 if(TARGET test_cli)
   target_sources(test_cli PRIVATE
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cmd_render.cpp
-    ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cli_common.cpp)
+    ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cli_common.cpp
+    ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/budget.cpp)
   target_include_directories(test_cli PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit)
   # bench_cli_test.cpp parses `dofkit bench --json`.
   find_package(nlohmann_json REQUIRED)

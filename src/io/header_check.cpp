@@ -762,7 +762,7 @@ void check_jpeg(std::ifstream& f, std::size_t file_size, const std::string& path
   int scans = 0;
   for (;;) {
     // The next marker: FF, any fill FFs, then the code.
-    unsigned char b;
+    unsigned char b = 0;
     if (!byte_at(pos, b)) fail("it ends before its end-of-image marker (truncated)");
     if (b != 0xff) fail("no marker at byte " + std::to_string(pos));
     while (byte_at(pos + 1, b) && b == 0xff) ++pos;
@@ -784,8 +784,8 @@ void check_jpeg(std::ifstream& f, std::size_t file_size, const std::string& path
       if (marker == 0xc5 || marker == 0xc6 || marker == 0xc7) fail("hierarchical JPEG is not supported");
       progressive = marker == 0xc2;
       lossless = marker == 0xc3;
-      std::uint32_t hh, ww;
-      unsigned char nf;
+      std::uint32_t hh = 0, ww = 0;
+      unsigned char nf = 0;
       if (len < 8 || !be16_at(seg + 1, hh) || !be16_at(seg + 3, ww) || !byte_at(seg + 5, nf))
         fail("frame header too short");
       if (hh == 0) fail("height 0 (a DNL marker) is not supported");
@@ -796,7 +796,7 @@ void check_jpeg(std::ifstream& f, std::size_t file_size, const std::string& path
       height = hh;
       int hmax = 1, vmax = 1;
       for (unsigned i = 0; i < nf; ++i) {
-        unsigned char id, hv;
+        unsigned char id = 0, hv = 0;
         byte_at(seg + 6 + 3 * i, id);
         byte_at(seg + 7 + 3 * i, hv);
         const int h = hv >> 4, v = hv & 15;
@@ -815,9 +815,9 @@ void check_jpeg(std::ifstream& f, std::size_t file_size, const std::string& path
       }
     } else if (marker == 0xda) {
       if (!frame) fail("a scan before the frame header");
-      unsigned char ns;
+      unsigned char ns = 0;
       if (!byte_at(seg, ns) || ns < 1 || ns > 4 || len < 6u + 2u * ns) fail("scan header too short");
-      unsigned char ss, se, a;
+      unsigned char ss = 0, se = 0, a = 0;
       byte_at(seg + 1 + 2 * ns, ss);
       byte_at(seg + 2 + 2 * ns, se);
       byte_at(seg + 3 + 2 * ns, a);
@@ -826,7 +826,7 @@ void check_jpeg(std::ifstream& f, std::size_t file_size, const std::string& path
       const int bits = lossless ? 1 : !progressive ? 2 : ss == 0 ? 1 : 0;
       std::uint64_t need_bits = 0;
       for (unsigned i = 0; i < ns; ++i) {
-        unsigned char id;
+        unsigned char id = 0;
         byte_at(seg + 1 + 2 * i, id);
         auto c = std::find_if(comps.begin(), comps.end(), [&](const Component& k) { return k.id == id; });
         if (c == comps.end()) fail("a scan codes component " + std::to_string(id) + ", which the frame lacks");
@@ -837,7 +837,7 @@ void check_jpeg(std::ifstream& f, std::size_t file_size, const std::string& path
       // The entropy-coded data: up to a marker other than FF 00 (stuffing) and RSTn.
       std::uint64_t p = seg_end, data = 0;
       for (;;) {
-        unsigned char x, y;
+        unsigned char x = 0, y = 0;
         if (!byte_at(p, x)) fail("it ends inside its image data (truncated)");
         if (x == 0xff) {
           if (!byte_at(p + 1, y)) fail("it ends inside its image data (truncated)");
@@ -871,13 +871,20 @@ void check_jpeg(std::ifstream& f, std::size_t file_size, const std::string& path
 
 // The walk proper, by the file's first bytes.
 void walk(const std::string& path, const char* role, std::uint64_t size, HeaderFacts* facts) {
+  // Only the four formats dofkit documents are read; any other file (BMP, GIF, HDR, PSD, …,
+  // which OpenImageIO would decode without these checks) is refused.
+  const auto not_an_image = [&] {
+    throw_bad_input(path + ": cannot read " + role + " image: not an EXR, PNG, JPEG or TIFF file" +
+                    (size == 0 ? " (it is empty)" : ""));
+  };
   std::ifstream f(path, std::ios::binary);
-  if (!f || size < 3) return;  // the decoders report an empty or vanished file
+  if (!f) return;  // vanished since it was opened: the decoder reports it
+  if (size < 3) not_an_image();
   const std::size_t file_size = static_cast<std::size_t>(size);
   unsigned char magic[8] = {};
   if (!f.read(reinterpret_cast<char*>(magic), static_cast<std::streamsize>(std::min<std::uint64_t>(8, size)))) return;
   if (magic[0] == 0xff && magic[1] == 0xd8 && magic[2] == 0xff) return check_jpeg(f, file_size, path, role, facts);
-  if (size < 8) return;
+  if (size < 8) not_an_image();
   static const unsigned char png_sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (std::memcmp(magic, png_sig, 8) == 0) return check_png(f, file_size, path, role, facts);
   if (magic[0] == 'I' && magic[1] == 'I' && (magic[2] == 42 || magic[2] == 43) && magic[3] == 0)
@@ -885,7 +892,7 @@ void walk(const std::string& path, const char* role, std::uint64_t size, HeaderF
   if (magic[0] == 'M' && magic[1] == 'M' && magic[2] == 0 && (magic[3] == 42 || magic[3] == 43))
     return check_tiff(f, file_size, true, magic[3] == 43, path, role, facts);
   const bool exr = magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01;
-  if (!exr) return;
+  if (!exr) not_an_image();
   Walker walker(f, file_size, path, role);
   if (walker.start()) walker.run(facts);
 }

@@ -44,9 +44,10 @@ struct HeaderFacts {
 };
 
 /// check_input_file, then the header walk above: throws Error(bad_input) naming `path` if
-/// the file is structurally impossible, beyond the pixel budget, or compressed with a codec
-/// dofkit does not bound. Files that are none of EXR, PNG, TIFF / BigTIFF and JPEG are left to
-/// their decoders. `facts`, when given, receives what the walk learned.
+/// the file is structurally impossible, beyond the pixel budget, compressed with a codec
+/// dofkit does not bound, or none of EXR, PNG, TIFF / BigTIFF and JPEG (OpenImageIO would
+/// decode BMP, GIF, HDR, … without these checks). `facts`, when given, receives what the walk
+/// learned.
 void check_file_header(const std::string& path, const char* role, HeaderFacts* facts = nullptr);
 
 }  // namespace dofkit::io

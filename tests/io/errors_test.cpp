@@ -144,3 +144,21 @@ TEST(PixelBudget, IsConfigurableAndCheckedFromTheHeader) {
   EXPECT_THROW(dofkit::io::set_pixel_budget(0), dofkit::Error);
   dofkit::io::set_pixel_budget(dofkit::io::kMaxPixels);
 }
+
+// Only EXR, PNG, JPEG and TIFF are read (issue 37): a BMP, GIF or Radiance HDR that
+// OpenImageIO would decode without dofkit's header checks is refused by its first bytes,
+// whatever its name; an empty file too.
+TEST(ReadErrors, OtherFormatsAreRefused) {
+  ScratchDir dir;
+  for (const char* name : {"a.bmp", "a.hdr", "a.tga"}) {
+    raw_write(dir / name, 4, 4, {"R", "G", "B"}, std::vector<float>(48, 0.5f), OIIO::TypeDesc::UINT8);
+    const std::string renamed = dir / (std::string(name) + ".exr");
+    std::filesystem::copy_file(dir / name, renamed);
+    for (const std::string& path : {dir / name, renamed}) {
+      const std::string m = bad_input_message([&] { io::read_color(path); });
+      EXPECT_TRUE(contains(m, path + ": cannot read colour image: not an EXR, PNG, JPEG or TIFF file")) << m;
+    }
+  }
+  write_bytes(dir / "empty.png", "");
+  EXPECT_TRUE(contains(bad_input_message([&] { io::read_depth(dir / "empty.png", {}); }), "(it is empty)"));
+}

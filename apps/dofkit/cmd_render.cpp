@@ -293,8 +293,10 @@ class FileKeys {
       if (output && S_ISDIR(st.st_mode)) throw_bad_input(output->flag + " " + path + ": is a folder");
       return "i:" + std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino);
     }
-    const std::filesystem::path abs = std::filesystem::absolute(path);
-    const std::string dir = abs.parent_path().string();
+    // Not there (yet): its folder, as written, canonicalised once, and its name.
+    const auto slash = path.rfind('/');
+    const std::string dir = slash == std::string::npos ? "." : path.substr(0, slash == 0 ? 1 : slash);
+    const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
     auto it = dirs_.find(dir);
     if (it == dirs_.end()) {
       std::error_code ec;
@@ -303,7 +305,7 @@ class FileKeys {
     }
     if (it->second.empty() && output)
       throw_bad_input(output->flag + " " + path + ": folder " + dir + " does not exist");
-    return "p:" + (it->second.empty() ? dir : it->second) + "/" + abs.filename().string();
+    return "p:" + (it->second.empty() ? dir : it->second) + "/" + name;
   }
 
  private:
@@ -547,9 +549,16 @@ void run_render(RenderArgs& a) {
     // The overlaps of all frames, by file identity (cheap enough for 100,000 frames).
     FileKeys keys;
     std::map<std::string, std::pair<NamedPath, long>> inputs_seen, outputs_seen;
-    for (long i = 0; i < range.count(); ++i)
-      for (const NamedPath& in : paths_of(range.at(i)).inputs())
-        if (!in.path.empty()) inputs_seen.emplace(keys.of(in.path), std::make_pair(in, range.at(i)));
+    // (An input without a pattern is the same file in every frame: keyed once.)
+    for (std::size_t k = 0; k < std::size(kFrameFields); ++k) {
+      const FrameField& f = kFrameFields[k];
+      if (f.output || (given.*f.path).empty()) continue;
+      for (long i = 0; i < (pattern[k] ? range.count() : 1); ++i) {
+        const long frame = range.at(i);
+        const std::string path = pattern[k] ? expand_frame(given.*f.path, *pattern[k], frame) : given.*f.path;
+        inputs_seen.emplace(keys.of(path), std::make_pair(NamedPath{f.flag, path}, frame));
+      }
+    }
     for (long i = 0; i < range.count(); ++i)
       for (const NamedPath& out : paths_of(range.at(i)).outputs()) {
         if (out.path.empty()) continue;

@@ -1,0 +1,69 @@
+// Helpers of the GPU backend tests: the CPU oracle against the vulkan backend on one frame.
+#pragma once
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "dofkit/error.hpp"
+#include "dofkit/render.hpp"
+#include "gpu/gpu.hpp"
+#include "metrics/metrics.hpp"
+#include "scene/scene.hpp"
+
+namespace dofkit::test {
+
+/// Every GPU test runs with the Khronos validation layer and synchronisation validation on:
+/// any message fails the render that caused it (gpu::set_validation). Built with
+/// -DDOFKIT_VULKAN=OFF the tests are skipped (visibly); built with Vulkan they need a device
+/// (CI: Mesa's lavapipe, installed by scripts/deps) and fail without one.
+inline void require_gpu() {
+  gpu::set_validation(true);
+  if (gpu::supported_methods().empty()) GTEST_SKIP() << "built with -DDOFKIT_VULKAN=OFF";
+  gpu::selected_device();  // throws (fails the test) when there is no usable device
+}
+
+struct Parity {
+  double max_abs = 0;     ///< largest |gpu − cpu| over every sample
+  double max_rel = 0;     ///< largest |gpu − cpu| / max(1, |cpu|)
+  double psnr_db = 0;     ///< metrics::psnr (clipped sRGB, peak 1)
+  int x = -1, y = -1, c = -1;  ///< where max_abs is
+};
+
+inline Parity parity(const Image& cpu, const Image& gpu) {
+  Parity p;
+  EXPECT_TRUE(cpu.same_size(gpu) && cpu.channels() == gpu.channels());
+  for (int c = 0; c < cpu.channels(); ++c)
+    for (int y = 0; y < cpu.height(); ++y)
+      for (int x = 0; x < cpu.width(); ++x) {
+        const double a = cpu.at(x, y, c), b = gpu.at(x, y, c);
+        const double d = std::isfinite(b) ? std::fabs(a - b) : INFINITY;
+        if (d > p.max_abs || std::isnan(d)) {
+          p.max_abs = std::isnan(d) ? INFINITY : d;
+          p.x = x, p.y = y, p.c = c;
+        }
+        p.max_rel = std::max(p.max_rel, d / std::max(1.0, std::fabs(a)));
+      }
+  p.psnr_db = metrics::psnr(cpu, gpu);
+  return p;
+}
+
+/// Renders `frame` with the CPU's plain passes (impl=plain, the oracle) and with the vulkan
+/// backend, same settings otherwise.
+inline Parity cpu_vs_gpu(const Frame& frame, RenderSettings s) {
+  s.params["impl"] = "plain";
+  s.backend = Backend::cpu;
+  const RenderResult cpu = render(frame, s);
+  s.backend = Backend::vulkan;
+  const RenderResult gpu = render(frame, s);
+  return parity(cpu.image, gpu.image);
+}
+
+inline std::string describe(const Parity& p) {
+  return "max abs " + std::to_string(p.max_abs) + " at (" + std::to_string(p.x) + ", " + std::to_string(p.y) +
+         ", plane " + std::to_string(p.c) + "), max rel " + std::to_string(p.max_rel) + ", PSNR " +
+         std::to_string(p.psnr_db) + " dB";
+}
+
+}  // namespace dofkit::test

@@ -150,7 +150,8 @@ std::vector<double> time_frame_copy(int width, int height, bool half, int iterat
                                     sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
               "vkGetQueryPoolResults");
     for (int it = 1; it <= iterations; ++it)
-      out.push_back(static_cast<double>((ts[2 * it + 1] - ts[2 * it]) & ctx->timestamp_mask) * ctx->timestamp_ns * 1e-6);
+      out.push_back(static_cast<double>((ts[2 * it + 1] - ts[2 * it]) & ctx->timestamp_mask) * ctx->timestamp_ns *
+                    1e-6);
   } catch (...) {
     cleanup();
     throw;

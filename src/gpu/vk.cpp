@@ -33,15 +33,24 @@ namespace {
 
 const char* result_name(VkResult r) {
   switch (r) {
-    case VK_ERROR_OUT_OF_HOST_MEMORY: return "VK_ERROR_OUT_OF_HOST_MEMORY";
-    case VK_ERROR_OUT_OF_DEVICE_MEMORY: return "VK_ERROR_OUT_OF_DEVICE_MEMORY";
-    case VK_ERROR_INITIALIZATION_FAILED: return "VK_ERROR_INITIALIZATION_FAILED";
-    case VK_ERROR_DEVICE_LOST: return "VK_ERROR_DEVICE_LOST";
-    case VK_ERROR_LAYER_NOT_PRESENT: return "VK_ERROR_LAYER_NOT_PRESENT";
-    case VK_ERROR_EXTENSION_NOT_PRESENT: return "VK_ERROR_EXTENSION_NOT_PRESENT";
-    case VK_ERROR_INCOMPATIBLE_DRIVER: return "VK_ERROR_INCOMPATIBLE_DRIVER";
-    case VK_ERROR_FEATURE_NOT_PRESENT: return "VK_ERROR_FEATURE_NOT_PRESENT";
-    default: return "VkResult error";
+    case VK_ERROR_OUT_OF_HOST_MEMORY:
+      return "VK_ERROR_OUT_OF_HOST_MEMORY";
+    case VK_ERROR_OUT_OF_DEVICE_MEMORY:
+      return "VK_ERROR_OUT_OF_DEVICE_MEMORY";
+    case VK_ERROR_INITIALIZATION_FAILED:
+      return "VK_ERROR_INITIALIZATION_FAILED";
+    case VK_ERROR_DEVICE_LOST:
+      return "VK_ERROR_DEVICE_LOST";
+    case VK_ERROR_LAYER_NOT_PRESENT:
+      return "VK_ERROR_LAYER_NOT_PRESENT";
+    case VK_ERROR_EXTENSION_NOT_PRESENT:
+      return "VK_ERROR_EXTENSION_NOT_PRESENT";
+    case VK_ERROR_INCOMPATIBLE_DRIVER:
+      return "VK_ERROR_INCOMPATIBLE_DRIVER";
+    case VK_ERROR_FEATURE_NOT_PRESENT:
+      return "VK_ERROR_FEATURE_NOT_PRESENT";
+    default:
+      return "VkResult error";
   }
 }
 
@@ -63,25 +72,36 @@ bool has_layer(const char* name) {
   vkEnumerateInstanceLayerProperties(&n, nullptr);
   std::vector<VkLayerProperties> layers(n);
   vkEnumerateInstanceLayerProperties(&n, layers.data());
-  return std::any_of(layers.begin(), layers.end(), [&](const VkLayerProperties& l) { return std::strcmp(l.layerName, name) == 0; });
+  return std::any_of(layers.begin(), layers.end(),
+                     [&](const VkLayerProperties& l) { return std::strcmp(l.layerName, name) == 0; });
 }
 
 int type_rank(VkPhysicalDeviceType t) {
   switch (t) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 0;
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 1;
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
-    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 4;
-    default: return 3;
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+      return 0;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+      return 1;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+      return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU:
+      return 4;
+    default:
+      return 3;
   }
 }
 const char* type_name(VkPhysicalDeviceType t) {
   switch (t) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete";
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated";
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual";
-    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "cpu";
-    default: return "other";
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+      return "discrete";
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+      return "integrated";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+      return "virtual";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU:
+      return "cpu";
+    default:
+      return "other";
   }
 }
 
@@ -185,7 +205,8 @@ void Context::init() {
   const Candidate* pick = nullptr;
   if (const char* want = std::getenv("DOFKIT_VK_DEVICE"); want && *want) {
     const std::string w = want;
-    const bool numeric = std::all_of(w.begin(), w.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); });
+    const bool numeric =
+        std::all_of(w.begin(), w.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); });
     for (const Candidate& c : usable)
       if (numeric ? std::to_string(c.index) == w : lower(c.props.deviceName).find(lower(w)) != std::string::npos) {
         pick = &c;
@@ -195,7 +216,8 @@ void Context::init() {
   } else {
     // A discrete GPU first, then integrated, virtual, other; the CPU implementation last.
     pick = &*std::min_element(usable.begin(), usable.end(), [](const Candidate& a, const Candidate& b) {
-      return std::make_pair(type_rank(a.props.deviceType), a.index) < std::make_pair(type_rank(b.props.deviceType), b.index);
+      return std::make_pair(type_rank(a.props.deviceType), a.index) <
+             std::make_pair(type_rank(b.props.deviceType), b.index);
     });
   }
   phys = pick->dev;
@@ -264,10 +286,10 @@ Buffer Context::make_buffer(VkDeviceSize bytes, VkBufferUsageFlags usage, bool h
   VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   mai.allocationSize = req.size;
   mai.memoryTypeIndex =
-      host_visible ? memory_type(req.memoryTypeBits,
-                                 VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                                 VK_MEMORY_PROPERTY_HOST_CACHED_BIT)
-                   : memory_type(req.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+      host_visible
+          ? memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                        VK_MEMORY_PROPERTY_HOST_CACHED_BIT)
+          : memory_type(req.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
   const VkResult r = vkAllocateMemory(device, &mai, nullptr, &b.mem);
   if (r != VK_SUCCESS) {
     vkDestroyBuffer(device, b.buf, nullptr);
@@ -389,10 +411,10 @@ int Graph::buffer(const std::string& name, std::size_t floats) {
     if (b.size != std::max<VkDeviceSize>(bytes, 16)) {
       // Only between frames (end_frame waited for the device).
       ctx_->destroy(b);
-      b = ctx_->make_buffer(bytes,
-                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
-                                VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                            false);
+      b = ctx_->make_buffer(
+          bytes,
+          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+          false);
     }
     return it->second;
   }
@@ -425,7 +447,8 @@ VkDescriptorSetLayout Graph::set_layout(int nbuf) {
 Graph::Pipeline& Graph::pipeline(const char* shader, int nbuf) {
   auto it = pipelines_.find(shader);
   if (it != pipelines_.end()) {
-    if (it->second.nbuf != nbuf) throw_internal(std::string("vulkan: shader ") + shader + " bound with another buffer count");
+    if (it->second.nbuf != nbuf)
+      throw_internal(std::string("vulkan: shader ") + shader + " bound with another buffer count");
     return it->second;
   }
   Pipeline p;
@@ -485,8 +508,8 @@ Buffer& Graph::staging(Buffer& b, std::size_t bytes, bool readback) {
   if (b.size < bytes) {
     // Only between frames (begin_frame): no recorded command refers to the old buffer.
     if (b.buf) ctx_->destroy(b);
-    b = ctx_->make_buffer(bytes * 5 / 4,
-                          readback ? VK_BUFFER_USAGE_TRANSFER_DST_BIT : VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+    b = ctx_->make_buffer(bytes * 5 / 4, readback ? VK_BUFFER_USAGE_TRANSFER_DST_BIT : VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                          true);
   }
   return b;
 }
@@ -495,7 +518,8 @@ void Graph::upload(int id, const float* const* planes, int n, std::size_t plane_
   const std::size_t bytes = static_cast<std::size_t>(n) * plane_floats * sizeof(float);
   if (upload_used_ + bytes > upload_.size) throw_internal("vulkan: upload staging too small (internal)");
   char* dst = static_cast<char*>(upload_.map) + upload_used_;
-  for (int c = 0; c < n; ++c) std::memcpy(dst + c * plane_floats * sizeof(float), planes[c], plane_floats * sizeof(float));
+  for (int c = 0; c < n; ++c)
+    std::memcpy(dst + c * plane_floats * sizeof(float), planes[c], plane_floats * sizeof(float));
   VkBufferCopy region{upload_used_, 0, bytes};
   vkCmdCopyBuffer(cmd_, upload_.buf, buffers_[id].buf, 1, &region);
   upload_used_ += (bytes + 255) / 256 * 256;
@@ -505,7 +529,8 @@ void Graph::dispatch(const char* shader, const std::vector<int>& bufs, const voi
                      std::uint32_t gx, std::uint32_t gy, const std::string& pass) {
   if (params_size > kParamsBytes) throw_internal("vulkan: shader parameters too large");
   if (bufs.size() > kMaxBuffers) throw_internal("vulkan: too many buffers for one dispatch");
-  if (static_cast<std::uint32_t>(dispatch_index_) >= kMaxSlots) throw_internal("vulkan: too many dispatches in a frame");
+  if (static_cast<std::uint32_t>(dispatch_index_) >= kMaxSlots)
+    throw_internal("vulkan: too many dispatches in a frame");
   Pipeline& p = pipeline(shader, static_cast<int>(bufs.size()));
   if (!after_upload_) {
     timestamp();  // query 1: end of the uploads, start of the passes

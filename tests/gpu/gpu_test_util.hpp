@@ -25,9 +25,9 @@ inline void require_gpu() {
 }
 
 struct Parity {
-  double max_abs = 0;     ///< largest |gpu − cpu| over every sample
-  double max_rel = 0;     ///< largest |gpu − cpu| / max(1, |cpu|)
-  double psnr_db = 0;     ///< metrics::psnr (clipped sRGB, peak 1)
+  double max_abs = 0;          ///< largest |gpu − cpu| over every sample
+  double max_rel = 0;          ///< largest |gpu − cpu| / max(1, |cpu|)
+  double psnr_db = 0;          ///< metrics::psnr (clipped sRGB, peak 1)
   int x = -1, y = -1, c = -1;  ///< where max_abs is
 };
 

@@ -45,8 +45,15 @@ TEST_P(GpuParity, SmallOdd) { run_case(GetParam(), 161, 91); }
 
 INSTANTIATE_TEST_SUITE_P(
     Methods, GpuParity,
-    ::testing::Values(Case{"mcguire_demo", "mcguire", {}, 1e-5}, Case{"mcguire_book", "mcguire", {{"variant", "book"}}, 1e-5},
-                      Case{"mcguire_g3d", "mcguire", {{"variant", "g3d"}}, 1e-5}),
+    ::testing::Values(Case{"mcguire_demo", "mcguire", {}, 1e-5},
+                      Case{"mcguire_book", "mcguire", {{"variant", "book"}}, 1e-5},
+                      Case{"mcguire_g3d", "mcguire", {{"variant", "g3d"}}, 1e-5}, Case{"sterna", "sterna", {}, 1e-5},
+                      Case{"sterna_polygon_bicubic",
+                           "sterna",
+                           {{"bokeh", "polygon"}, {"blades", "7"}, {"near_upsample", "bicubic"}},
+                           1e-5},
+                      Case{
+                          "sterna_per_pixel_karis", "sterna", {{"per_pixel_scale", "on"}, {"firefly", "karis"}}, 1e-5}),
     [](const ::testing::TestParamInfo<Case>& i) { return std::string(i.param.name); });
 
 }  // namespace

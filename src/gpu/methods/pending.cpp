@@ -1,6 +1,7 @@
 #include "dofkit/error.hpp"
 #include "gpu/methods/common.hpp"
 namespace dofkit::gpu {
-std::unique_ptr<MethodRenderer> make_sterna(const RenderSettings&) { throw_internal("sterna: not yet on the GPU"); }
-std::unique_ptr<MethodRenderer> make_starcraft(const RenderSettings&) { throw_internal("starcraft: not yet on the GPU"); }
+std::unique_ptr<MethodRenderer> make_starcraft(const RenderSettings&) {
+  throw_internal("starcraft: not yet on the GPU");
+}
 }  // namespace dofkit::gpu

@@ -246,9 +246,14 @@ void Context::init() {
   qci.queueFamilyIndex = family;
   qci.queueCount = 1;
   qci.pQueuePriorities = &priority;
+  VkPhysicalDeviceFeatures have{}, want{};
+  vkGetPhysicalDeviceFeatures(phys, &have);
+  want.shaderFloat64 = have.shaderFloat64;  // starcraft's depth path (docs/gpu.md)
+  float64 = have.shaderFloat64 == VK_TRUE;
   VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   dci.queueCreateInfoCount = 1;
   dci.pQueueCreateInfos = &qci;
+  dci.pEnabledFeatures = &want;
   check(vkCreateDevice(phys, &dci, nullptr, &device), "vkCreateDevice");
   volkLoadDevice(device);
   vkGetDeviceQueue(device, family, 0, &queue);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include "dofkit/error.hpp"
@@ -61,9 +62,10 @@ inline Parity cpu_vs_gpu(const Frame& frame, RenderSettings s) {
 }
 
 inline std::string describe(const Parity& p) {
-  return "max abs " + std::to_string(p.max_abs) + " at (" + std::to_string(p.x) + ", " + std::to_string(p.y) +
-         ", plane " + std::to_string(p.c) + "), max rel " + std::to_string(p.max_rel) + ", PSNR " +
-         std::to_string(p.psnr_db) + " dB";
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "max abs %.3g at (%d, %d, plane %d), max rel %.3g, PSNR %.1f dB", p.max_abs, p.x, p.y,
+                p.c, p.max_rel, p.psnr_db);
+  return buf;
 }
 
 }  // namespace dofkit::test

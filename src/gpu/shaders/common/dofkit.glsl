@@ -12,12 +12,13 @@
 #define DOFKIT_LOCAL_2D layout(local_size_x = 16, local_size_y = 8, local_size_z = 1) in;
 
 // a / b correctly rounded (IEEE), as the CPU divides: GPU division may be up to 2.5 ulp off,
-// and one residual step with a fused multiply-add recovers the rounded quotient.
+// and one residual step with a fused multiply-add recovers the rounded quotient. Where the
+// step is undefined (b or the quotient infinite: 0·inf) the quotient stands as it is.
 float div_rn(float a, float b) {
   precise float q = a / b;
   precise float r = fma(-q, b, a);
   precise float res = fma(r, 1.0 / b, q);
-  return res;
+  return isnan(res) ? q : res;
 }
 
 int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }

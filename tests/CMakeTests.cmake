@@ -58,3 +58,23 @@ foreach(simd_target ${DOFKIT_TEST_SIMD_TARGETS})
     endif()
   endforeach()
 endforeach()
+
+# The GPU backend's CLI tests run `dofkit render/bench --backend vulkan`.
+if(TARGET test_gpu_cli)
+  find_package(nlohmann_json REQUIRED)
+  target_link_libraries(test_gpu_cli PRIVATE nlohmann_json::nlohmann_json)
+  if(TARGET dofkit_cli)
+    add_dependencies(test_gpu_cli dofkit_cli)
+  endif()
+endif()
+
+# scripts/gpu-check's copy of the GPU parity and validation tests (tests/gpu/), linked without
+# the IO stack so that it can run on a machine that has only a Vulkan driver (the binary and
+# the few libraries it needs travel there; see scripts/gpu-check --pack). Not a CTest test
+# (test_gpu runs the same tests); built only on request.
+if(TARGET test_gpu)
+  file(GLOB _gpu_check_sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/tests/gpu/*.cpp)
+  add_executable(gpu_check_tests EXCLUDE_FROM_ALL ${_gpu_check_sources})
+  target_include_directories(gpu_check_tests PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src ${CMAKE_CURRENT_SOURCE_DIR}/tests)
+  target_link_libraries(gpu_check_tests PRIVATE dofkit dofkit_scene GTest::gtest GTest::gtest_main TBB::tbb)
+endif()

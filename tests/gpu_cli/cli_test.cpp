@@ -65,13 +65,16 @@ TEST(GpuCli, RenderMatchesTheCpu) {
   write_scene(dir);
   const std::string p = dir.path().string();
   for (const char* method : {"mcguire", "sterna", "starcraft"}) {
-    const std::string common = "render --color " + p + "/c.exr --depth " + p + "/z.exr --focus 3 --blur-at-infinity 6 "
-                               "--method " + method + " --set impl=plain --bits 32 --output ";
+    const std::string common = "render --color " + p + "/c.exr --depth " + p +
+                               "/z.exr --focus 3 --blur-at-infinity 6 "
+                               "--method " +
+                               method + " --set impl=plain --bits 32 --output ";
     const CmdResult cpu = dofkit_cmd(dir, "", common + p + "/cpu.exr");
     ASSERT_EQ(cpu.code, 0) << cpu.err;
     const CmdResult gpu = dofkit_cmd(dir, "", common + p + "/gpu.exr --backend vulkan");
     ASSERT_EQ(gpu.code, 0) << gpu.err;
-    const Parity q = parity(io::read_color((dir.path() / "cpu.exr").string()), io::read_color((dir.path() / "gpu.exr").string()));
+    const Parity q =
+        parity(io::read_color((dir.path() / "cpu.exr").string()), io::read_color((dir.path() / "gpu.exr").string()));
     EXPECT_LE(q.max_abs, 1e-3) << method << ": " << describe(q);
   }
 }
@@ -79,7 +82,8 @@ TEST(GpuCli, RenderMatchesTheCpu) {
 TEST(GpuCli, BenchRowsNameBackendAndDevice) {
   require_gpu();
   ScratchDir dir;
-  const CmdResult r = dofkit_cmd(dir, "", "bench --backend vulkan --size 48x32 --methods mcguire,starcraft --iterations 1 --passes --json");
+  const CmdResult r = dofkit_cmd(
+      dir, "", "bench --backend vulkan --size 48x32 --methods mcguire,starcraft --iterations 1 --passes --json");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json rows = nlohmann::json::parse(r.out);
   ASSERT_EQ(rows.size(), 4u);  // RGBA16F copy, RGBA32F copy, mcguire, starcraft
@@ -107,8 +111,10 @@ TEST(GpuCli, NoDeviceIsAOneLineErrorAndTheCpuStillWorks) {
   ScratchDir dir;
   write_scene(dir);
   const std::string p = dir.path().string();
-  const std::string args = "render --color " + p + "/c.exr --depth " + p + "/z.exr --focus 3 --blur-at-infinity 6 "
-                           "--method mcguire --output " + p + "/out.exr";
+  const std::string args = "render --color " + p + "/c.exr --depth " + p +
+                           "/z.exr --focus 3 --blur-at-infinity 6 "
+                           "--method mcguire --output " +
+                           p + "/out.exr";
   // No driver at all (the loader finds no ICD), and a device name that matches none.
   for (const char* env : {"VK_ICD_FILENAMES=/nonexistent/icd.json VK_DRIVER_FILES=/nonexistent/icd.json",
                           "DOFKIT_VK_DEVICE=no-such-device"}) {

@@ -10,13 +10,18 @@ if(TARGET test_cli)
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cmd_render.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cli_common.cpp)
   target_include_directories(test_cli PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit)
-  # bench_cli_test.cpp parses `dofkit bench --json`.
-  find_package(nlohmann_json REQUIRED)
-  target_link_libraries(test_cli PRIVATE nlohmann_json::nlohmann_json)
-  if(TARGET dofkit_cli)
-    add_dependencies(test_cli dofkit_cli)
-  endif()
 endif()
+# Tests that run the built `dofkit` and parse its `--json` (bench_cli_test.cpp; the GPU
+# backend's tests/gpu_cli/).
+foreach(t test_cli test_gpu_cli)
+  if(TARGET ${t})
+    find_package(nlohmann_json REQUIRED)
+    target_link_libraries(${t} PRIVATE nlohmann_json::nlohmann_json)
+    if(TARGET dofkit_cli)
+      add_dependencies(${t} dofkit_cli)
+    endif()
+  endif()
+endforeach()
 
 # Library users (issue 2 item 8): install this build into a scratch prefix, then configure,
 # build and run a tiny project that does find_package(dofkit) and links dofkit::dofkit.
@@ -59,14 +64,6 @@ foreach(simd_target ${DOFKIT_TEST_SIMD_TARGETS})
   endforeach()
 endforeach()
 
-# The GPU backend's CLI tests run `dofkit render/bench --backend vulkan`.
-if(TARGET test_gpu_cli)
-  find_package(nlohmann_json REQUIRED)
-  target_link_libraries(test_gpu_cli PRIVATE nlohmann_json::nlohmann_json)
-  if(TARGET dofkit_cli)
-    add_dependencies(test_gpu_cli dofkit_cli)
-  endif()
-endif()
 
 # scripts/gpu-check's copy of the GPU parity and validation tests (tests/gpu/), linked without
 # the IO stack so that it can run on a machine that has only a Vulkan driver (the binary and

@@ -224,6 +224,7 @@ void Context::init() {
   family = pick->family;
   timestamp_ns = pick->props.limits.timestampPeriod;
   ubo_align = std::max<VkDeviceSize>(256, pick->props.limits.minUniformBufferOffsetAlignment);
+  max_storage_bytes = pick->props.limits.maxStorageBufferRange;
   std::uint32_t nq = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(phys, &nq, nullptr);
   std::vector<VkQueueFamilyProperties> qf(nq);
@@ -410,6 +411,9 @@ Graph::~Graph() {
 
 int Graph::buffer(const std::string& name, std::size_t floats) {
   const VkDeviceSize bytes = std::max<VkDeviceSize>(floats, 1) * sizeof(float);
+  if (bytes > ctx_->max_storage_bytes)
+    throw_internal("--backend vulkan: the frame needs a " + std::to_string(bytes >> 20) + " MiB buffer (" + name +
+                   "), more than this device binds (" + std::to_string(ctx_->max_storage_bytes >> 20) + " MiB)");
   auto it = buffer_ids_.find(name);
   if (it != buffer_ids_.end()) {
     Buffer& b = buffers_[it->second];

@@ -46,7 +46,8 @@ class Context {
   std::uint64_t timestamp_mask = ~0ull;
   VkDeviceSize ubo_align = 256;
   bool validation = false;
-  bool float64 = false;  ///< shaderFloat64 (enabled when the device has it)
+  bool float64 = false;                ///< shaderFloat64 (enabled when the device has it)
+  VkDeviceSize max_storage_bytes = 0;  ///< maxStorageBufferRange
 
   Buffer make_buffer(VkDeviceSize bytes, VkBufferUsageFlags usage, bool host_visible);
   void destroy(Buffer& b);

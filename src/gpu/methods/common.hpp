@@ -3,12 +3,39 @@
 // starcraft.cpp), each recording the passes of src/gpu/shaders/<method>/.
 #pragma once
 #include <cstdint>
+#include <cstring>
 #include <string>
 
 #include "gpu/gpu.hpp"
 #include "gpu/vk.hpp"
 
 namespace dofkit::gpu {
+
+/// The constants of src/gpu/shaders/core/box.comp (one extended-box pass) and box_f64.comp
+/// (the same with the double norm's two 32-bit halves in norm_lo / norm_hi).
+struct BoxParams {
+  std::int32_t w, h, planes, axis;
+  std::int32_t r, norm_lo, norm_hi, pad2;
+  float alpha, norm, flush_below, pad3;
+};
+/// A box pass over `planes` planes of w × h with radius r and end weight alpha (0: plain box),
+/// norm = 1 / (2r + 1 + 2·alpha) as the CPU computes it (double); nothing flushed.
+inline BoxParams box_params(int w, int h, int planes, int r, float alpha) {
+  BoxParams b{};
+  b.w = w;
+  b.h = h;
+  b.planes = planes;
+  b.r = r;
+  b.alpha = alpha;
+  const double norm = 1.0 / (2.0 * r + 1.0 + 2.0 * alpha);
+  b.norm = static_cast<float>(norm);
+  std::uint64_t bits;
+  std::memcpy(&bits, &norm, sizeof bits);
+  b.norm_lo = static_cast<std::int32_t>(bits & 0xffffffffu);
+  b.norm_hi = static_cast<std::int32_t>(bits >> 32);
+  b.flush_below = -1.0f;
+  return b;
+}
 
 class GraphRenderer : public MethodRenderer {
  public:

@@ -30,14 +30,6 @@ struct Params {
 };
 static_assert(sizeof(Params) == 16 * 4);
 
-// src/gpu/shaders/core/box.comp.
-// (box_f64.comp: the same with the double norm's two halves in norm_lo / norm_hi.)
-struct BoxParams {
-  std::int32_t w, h, planes, axis;
-  std::int32_t r, norm_lo, norm_hi, pad2;
-  float alpha, norm, flush_below, pad3;
-};
-
 class Starcraft final : public GraphRenderer {
  public:
   void render(const detail::MethodContext& ctx, Image& out) override {
@@ -104,19 +96,7 @@ class Starcraft final : public GraphRenderer {
     int r;
     float alpha;
     core::extended_box_params(sigma, passes, r, alpha);
-    BoxParams b{};
-    b.w = w;
-    b.h = h;
-    b.planes = planes;
-    b.r = r;
-    b.alpha = alpha;
-    const double norm = 1.0 / (2.0 * r + 1.0 + 2.0 * alpha);
-    b.norm = static_cast<float>(norm);
-    std::uint64_t bits;
-    std::memcpy(&bits, &norm, sizeof bits);
-    b.norm_lo = static_cast<std::int32_t>(bits & 0xffffffffu);
-    b.norm_hi = static_cast<std::int32_t>(bits >> 32);
-    b.flush_below = -1.0f;  // never
+    BoxParams b = box_params(w, h, planes, r, alpha);
     int src = buf, dst = tmp;
     for (int axis = 0; axis < 2; ++axis)
       for (int i = 0; i < passes; ++i) {

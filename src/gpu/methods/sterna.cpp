@@ -30,13 +30,6 @@ struct Params {
 };
 static_assert(sizeof(Params) == 24 * 4);
 
-// src/gpu/shaders/core/box.comp.
-struct BoxParams {
-  std::int32_t w, h, planes, axis;
-  std::int32_t r, pad0, pad1, pad2;
-  float alpha, norm, flush_below, pad3;
-};
-
 class Sterna final : public GraphRenderer {
  public:
   void render(const detail::MethodContext& ctx, Image& out) override {
@@ -98,13 +91,7 @@ class Sterna final : public GraphRenderer {
     dispatch("sterna/near_max", {coc_h, tmp}, p, w, h, "sterna/near coc");
     p.axis = 1;
     dispatch("sterna/near_max", {tmp, tmp2}, p, w, h, "sterna/near coc");
-    BoxParams b{};
-    b.w = w;
-    b.h = h;
-    b.planes = 1;
-    b.r = s.dilate_radius;
-    b.norm = 1.0f / static_cast<float>(2 * s.dilate_radius + 1);
-    b.flush_below = -1.0f;
+    BoxParams b = box_params(w, h, 1, s.dilate_radius, 0.0f);
     b.axis = 0;
     dispatch("core/box", {tmp2, tmp}, b, w, h, "sterna/near coc");
     b.axis = 1;

@@ -18,12 +18,14 @@ namespace dofkit::test {
 /// Every GPU test runs with the Khronos validation layer and synchronisation validation on:
 /// any message fails the render that caused it (gpu::set_validation). Built with
 /// -DDOFKIT_VULKAN=OFF the tests are skipped (visibly); built with Vulkan they need a device
-/// (CI: Mesa's lavapipe, installed by scripts/deps) and fail without one.
-inline void require_gpu() {
-  gpu::set_validation(true);
-  if (gpu::supported_methods().empty()) GTEST_SKIP() << "built with -DDOFKIT_VULKAN=OFF";
-  gpu::selected_device();  // throws (fails the test) when there is no usable device
-}
+/// (CI: Mesa's lavapipe, installed by scripts/deps) and fail without one. A macro, so that the
+/// skip ends the test itself (in a test body or SetUp).
+#define DOFKIT_REQUIRE_GPU()                                                                          \
+  do {                                                                                                \
+    if (::dofkit::gpu::supported_methods().empty()) GTEST_SKIP() << "built with -DDOFKIT_VULKAN=OFF"; \
+    ::dofkit::gpu::set_validation(true);                                                              \
+    ::dofkit::gpu::selected_device(); /* throws (fails the test) without a usable device */           \
+  } while (0)
 
 struct Parity {
   double max_abs = 0;          ///< largest |gpu − cpu| over every sample

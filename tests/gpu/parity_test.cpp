@@ -37,7 +37,7 @@ void run_case(const Case& c, int w, int h) {
 
 class GpuParity : public ::testing::TestWithParam<Case> {
  protected:
-  void SetUp() override { require_gpu(); }
+  void SetUp() override { DOFKIT_REQUIRE_GPU(); }
 };
 
 TEST_P(GpuParity, SmallEven) { run_case(GetParam(), 160, 90); }

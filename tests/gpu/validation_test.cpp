@@ -17,7 +17,7 @@ RenderSettings mcguire_settings(const scene::SceneRender& s) {
 }
 
 TEST(GpuValidation, MissingBarrierIsCaught) {
-  require_gpu();
+  DOFKIT_REQUIRE_GPU();
   scene::SceneOptions opt;
   opt.width = 96;
   opt.height = 64;
@@ -39,7 +39,7 @@ TEST(GpuValidation, MissingBarrierIsCaught) {
 }
 
 TEST(GpuValidation, UnsupportedMethodIsAUsageError) {
-  require_gpu();
+  DOFKIT_REQUIRE_GPU();
   RenderSettings rs;
   rs.method = "reference";
   rs.backend = Backend::vulkan;

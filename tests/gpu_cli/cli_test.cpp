@@ -60,7 +60,7 @@ void write_scene(const ScratchDir& dir) {
 }
 
 TEST(GpuCli, RenderMatchesTheCpu) {
-  require_gpu();
+  DOFKIT_REQUIRE_GPU();
   ScratchDir dir;
   write_scene(dir);
   const std::string p = dir.path().string();
@@ -80,7 +80,7 @@ TEST(GpuCli, RenderMatchesTheCpu) {
 }
 
 TEST(GpuCli, BenchRowsNameBackendAndDevice) {
-  require_gpu();
+  DOFKIT_REQUIRE_GPU();
   ScratchDir dir;
   const CmdResult r = dofkit_cmd(
       dir, "", "bench --backend vulkan --size 48x32 --methods mcguire,starcraft --iterations 1 --passes --json");
@@ -107,7 +107,7 @@ TEST(GpuCli, BenchRowsNameBackendAndDevice) {
 }
 
 TEST(GpuCli, NoDeviceIsAOneLineErrorAndTheCpuStillWorks) {
-  require_gpu();
+  DOFKIT_REQUIRE_GPU();
   ScratchDir dir;
   write_scene(dir);
   const std::string p = dir.path().string();

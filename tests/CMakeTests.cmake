@@ -86,3 +86,10 @@ if(TARGET dofkit_cli)
     set_tests_properties(QuickStart.ReadmeCommands PROPERTIES TIMEOUT 900)
   endif()
 endif()
+
+# The parameter tables of docs/methods/*.md against `dofkit methods --json` (tests/docs/).
+if(TARGET dofkit_cli AND Python3_Interpreter_FOUND)
+  add_test(NAME Docs.ParameterTablesMatchTheMethods
+    COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/tests/docs/params_doc_test.py
+      --dofkit $<TARGET_FILE:dofkit_cli> --docs ${CMAKE_CURRENT_SOURCE_DIR}/docs/methods)
+endif()

@@ -404,4 +404,10 @@ void out_of_memory(const std::string& what) {
                   "image size)");
 }
 
+Backend parse_backend(const std::string& text) {
+  if (text == "cpu") return Backend::cpu;
+  if (text == "vulkan") return Backend::vulkan;
+  throw_usage("--backend " + text + ": must be cpu or vulkan");
+}
+
 }  // namespace dofkit::cli

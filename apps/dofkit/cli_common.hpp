@@ -20,6 +20,7 @@
 #include "dofkit/coc.hpp"
 #include "dofkit/image.hpp"
 #include "dofkit/ranges.hpp"
+#include "dofkit/render.hpp"
 #include "io/atomic_write.hpp"
 #include "io/image_io.hpp"
 
@@ -154,5 +155,8 @@ CLI::Option* add_number(CLI::App* cmd, const std::string& flag, T& var, const st
   if (row.empty()) row = flag;
   return cmd->add_option(flag, var, help + " [" + range_text(numeric_range(row)) + "]")->transform(range_check(row));
 }
+
+/// Parses --backend cpu|vulkan. Throws Error(usage).
+Backend parse_backend(const std::string& text);
 
 }  // namespace dofkit::cli

@@ -6,6 +6,7 @@
 
 #include "cli_common.hpp"
 #include "commands.hpp"
+#include "cli_common.hpp"
 #include "quality_run.hpp"
 
 namespace dofkit::cli {
@@ -16,6 +17,7 @@ void add_quality_command(CLI::App& app) {
     std::vector<std::string> set;
     int samples = 0, threads = 0, layers = 0;
     BudgetFlags budget;
+    std::string backend = "cpu";
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -40,6 +42,9 @@ void add_quality_command(CLI::App& app) {
   add_threads(cmd, opts->threads, "worker threads (default: all hardware threads)");
   opts->budget.add(cmd, false);
   cmd->add_option("--set", opts->set, "method.key=value for every row of that method (repeatable)");
+  cmd->add_option("--backend", opts->backend,
+                  "cpu (default) or vulkan: run the methods on the GPU (give --methods from mcguire, sterna, "
+                  "starcraft, and input)");
   cmd->callback([opts] {
     opts->budget.apply();
     QualityOptions q;
@@ -54,6 +59,7 @@ void add_quality_command(CLI::App& app) {
     q.samples = opts->samples;
     q.layers = opts->layers;
     q.threads = opts->threads;
+    q.backend = parse_backend(opts->backend);
     q.out_dir = opts->out;
     q.command_line = "dofkit quality";
     if (!opts->scenes.empty()) q.command_line += " --scenes " + opts->scenes;
@@ -63,6 +69,7 @@ void add_quality_command(CLI::App& app) {
     if (opts->layers) q.command_line += " --layers " + std::to_string(opts->layers);
     for (const auto& s : opts->set) q.command_line += " --set " + s;
     if (opts->threads) q.command_line += " --threads " + std::to_string(opts->threads);
+    if (q.backend != Backend::cpu) q.command_line += " --backend " + opts->backend;
     const QualityResult r = run_quality(q);
     std::cout << metrics::markdown_table(r.rows);
     std::cerr << "wrote:";

@@ -48,6 +48,7 @@ struct RenderArgs {
   std::string debug_view;
   std::vector<std::string> sets;
   int threads = 0;
+  std::string backend = "cpu";
   int max_layers = 8;
   int bits = 0;
   double max_work = 0;  // 0 = the library's default
@@ -472,6 +473,7 @@ void run_render(RenderArgs& a) {
   settings.threads = a.threads;
   settings.debug_view = a.debug_view;
   settings.max_work = a.max_work;
+  settings.backend = parse_backend(a.backend);
 
   // --compression: every EXR output of the run (at least one must be EXR).
   if (!a.compression.empty() && !io::is_exr_path(a.output) && !io::is_exr_path(a.output_coc) &&
@@ -648,6 +650,10 @@ void add_render_command(CLI::App& app) {
   add_number(cmd, "--max-work", args->max_work,
              "reference / scatter: refuse a frame whose discs need more pixel visits than this (default 2e11, about "
              "half a minute on two cores); see docs/robustness.md")
+      ->group(meth);
+  cmd->add_option("--backend", args->backend,
+                  "cpu (default) or vulkan: run the method's passes as Vulkan compute shaders on the GPU "
+                  "(mcguire, sterna, starcraft; DOFKIT_VK_DEVICE=<index|name> picks the device)")
       ->group(meth);
   cmd->add_option("--debug-view", args->debug_view,
                   "NAME of an intermediate buffer to save with --debug-output; `list` prints the method's views")

@@ -368,7 +368,12 @@ class Walker {
         part.tiled = t == "tiledimage" || t == "deeptile";
         part.deep = t == "deepscanline" || t == "deeptile";
       } else if (name == "channels" && type == "chlist") {
-        part.channels = channel_list(v, static_cast<std::size_t>(size));
+        // OpenImageIO 2.4 aborts (an assertion) on a pixel type other than 0–2, and OpenEXR
+        // reports a malformed list in several lines: refused here (found by fuzz_layers).
+        if (!channel_list(v, static_cast<std::size_t>(size), part.channels))
+          fail(
+              "malformed channel list (a pixel type other than uint / half / float, a sampling below 1, or "
+              "a list that runs past its attribute)");
       } else if (name == "chunkCount" && size == 4) {
         part.chunk_count = le32(v);
         if (part.chunk_count < 0) fail("negative chunkCount");
@@ -378,18 +383,18 @@ class Walker {
   }
 
   // The channel list: `name\0 int32 type, uint8 pLinear, 3 reserved, int32 xSampling, int32
-  // ySampling` per channel, ended by a 0 byte. Empty if malformed (OpenEXR reports that).
-  static std::vector<Part::Channel> channel_list(const unsigned char* v, std::size_t size) {
-    std::vector<Part::Channel> out;
+  // ySampling` per channel, ended by a 0 byte. False if malformed.
+  static bool channel_list(const unsigned char* v, std::size_t size, std::vector<Part::Channel>& out) {
+    out.clear();
     std::size_t i = 0;
     for (;;) {
-      if (i >= size) return {};
-      if (v[i] == 0) return out;
+      if (i >= size) return false;
+      if (v[i] == 0) return true;
       while (i < size && v[i] != 0) ++i;
-      if (i + 1 + 16 > size) return {};
+      if (i + 1 + 16 > size) return false;
       const unsigned char* e = v + i + 1;
       const std::int32_t type = le32(e), xs = le32(e + 8), ys = le32(e + 12);
-      if (type < 0 || type > 2 || xs < 1 || ys < 1) return {};
+      if (type < 0 || type > 2 || xs < 1 || ys < 1) return false;
       out.push_back({type == 1 ? 2 : 4, xs, ys});
       i += 1 + 16;
     }

@@ -5,9 +5,11 @@
 #include <OpenImageIO/deepdata.h>
 
 #include <cstdint>
+#include <functional>
 
 #include "dofkit/error.hpp"
 #include "io/image_io.hpp"
+#include "io/layers_io.hpp"
 #include "io/io_test_util.hpp"
 
 using namespace dofkit;
@@ -161,4 +163,31 @@ TEST(ReadErrors, OtherFormatsAreRefused) {
   }
   write_bytes(dir / "empty.png", "");
   EXPECT_TRUE(contains(bad_input_message([&] { io::read_depth(dir / "empty.png", {}); }), "(it is empty)"));
+}
+
+// A channel whose pixel type is not uint / half / float (fuzz_layers, issue 37's fuzzing):
+// OpenImageIO 2.4 aborted on an assertion ("Unknown Imf::PixelType 3") when it opened the
+// file; the header walk refuses it in one line, for every reader.
+TEST(ReadErrors, UnknownExrPixelTypeIsRefused) {
+  ScratchDir dir;
+  raw_write(dir / "ok.exr", 4, 4, {"R", "G", "B"}, std::vector<float>(48, 0.5f), OIIO::TypeDesc::FLOAT);
+  std::string bytes = read_bytes(dir / "ok.exr");
+  const std::size_t list = bytes.find(std::string("chlist\0", 7));
+  ASSERT_NE(list, std::string::npos);
+  // chlist\0, int32 size, then the first channel's name "B\0" and its int32 type.
+  const std::size_t type_at = list + 7 + 4 + 2;
+  ASSERT_EQ(bytes[type_at], 2);  // FLOAT
+  bytes[type_at] = 3;
+  write_bytes(dir / "bad.exr", bytes);
+  for (const auto& read : std::vector<std::function<void()>>{[&] { io::read_color(dir / "bad.exr"); },
+                                                             [&] { io::read_depth(dir / "bad.exr", {}); },
+                                                             [&] {
+                                                               Frame f;
+                                                               io::read_layers(dir / "bad.exr", f);
+                                                             }}) {
+    const std::string m = bad_input_message(read);
+    EXPECT_TRUE(contains(m, "bad.exr")) << m;
+    EXPECT_TRUE(contains(m, "malformed channel list")) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
 }

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "dofkit/aperture.hpp"
 #include "dofkit/coc.hpp"
 #include "dofkit/error.hpp"
 #include "dofkit/frame.hpp"
@@ -19,13 +20,20 @@ struct RenderSettings {
   std::string method = "reference";
   /// The camera: CoC model, reference width, clamp.
   CameraModel camera;
+  /// The lens aperture (bokeh shape), for the methods that honour it (MethodInfo::aperture;
+  /// the others draw their own kernel). Default: the circle.
+  ApertureShape aperture;
+  /// Highlight recovery for display-referred colour (default: off). Applied by render() to the
+  /// colour every method gets, so it works with any method.
+  HighlightRecovery highlights;
   /// Method parameters as key → value text (the CLI's `--set k=v`). Unknown keys and
   /// out-of-range values throw Error(usage) naming the key.
   std::map<std::string, std::string> params;
   /// Worker threads; 0 = all hardware threads. Output is identical for every count.
   int threads = 0;
   /// Name of an intermediate buffer to return in RenderResult::debug ("" = none).
-  /// See MethodInfo::debug_views.
+  /// See MethodInfo::debug_views; every method has `highlights` (the boost mask m², 1 plane)
+  /// and every method that honours an aperture has `aperture` (its kernels, far | near).
   std::string debug_view;
 };
 
@@ -91,6 +99,9 @@ struct MethodInfo {
   std::string summary;
   std::vector<ParamInfo> params;
   std::vector<DebugViewInfo> debug_views;
+  /// Which RenderSettings::aperture fields the method honours, in words ("" = none: it draws
+  /// its own kernel whatever the aperture says).
+  std::string aperture;
 };
 
 /// All available techniques, sorted by name.

@@ -1,7 +1,9 @@
 // Shared machinery of the two scatter methods (`reference` and the depth-blind `scatter`
 // baseline): every source pixel spreads its colour over a disc of radius |r| with an
-// anti-aliased edge, energy-normalised so the disc's weights sum to 1.
+// anti-aliased edge (or over the footprint of the aperture model), energy-normalised so the
+// footprint's weights sum to 1.
 #pragma once
+#include "core/aperture.hpp"
 #include "dofkit/image.hpp"
 
 namespace dofkit::detail {
@@ -15,6 +17,9 @@ struct DiscScatterOptions {
   float depth_softness = 0.05f;
   /// SIMD hot loop (default) or the plain scalar one (the test oracle).
   bool simd = true;
+  /// The aperture every source spreads over (core/aperture.hpp); null = the circle. An RGB
+  /// aperture image takes one scatter per colour channel (alpha: the mean of the three).
+  const core::ApertureModel* aperture = nullptr;
 };
 
 /// colour: RGBA premultiplied; depth: z; coc: signed px. Writes RGBA into `out`.

@@ -17,8 +17,11 @@ const MethodDef& reference_method() {
         DiscScatterOptions opt;
         opt.depth_order = true;
         opt.depth_softness = static_cast<float>(ctx.params.get_double("depth_softness", 0.05, 0.001, 1.0));
+        opt.aperture = ctx.aperture;
         disc_scatter(ctx.frame.color, ctx.frame.depth, ctx.coc, opt, out);
-      }};
+      },
+      /*checks_colour=*/false,
+      "all: blades, rotation, curvature, anamorphic, cat's eye, aperture image"};
   return def;
 }
 

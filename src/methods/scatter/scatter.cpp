@@ -15,8 +15,11 @@ const MethodDef& scatter_method() {
       [](const MethodContext& ctx, Image& out) {
         DiscScatterOptions opt;
         opt.depth_order = false;
+        opt.aperture = ctx.aperture;
         disc_scatter(ctx.frame.color, ctx.frame.depth, ctx.coc, opt, out);
-      }};
+      },
+      /*checks_colour=*/false,
+      "all: blades, rotation, curvature, anamorphic, cat's eye, aperture image"};
   return def;
 }
 

@@ -10,6 +10,7 @@
 
 #include "dofkit/error.hpp"
 #include "dofkit/render.hpp"
+#include "io/image_io.hpp"
 
 namespace fs = std::filesystem;
 
@@ -363,6 +364,126 @@ void OutputWriter::commit() { set_.commit(); }
 int check_threads(int threads) {
   if (threads < 0) throw_usage("--threads: must be >= 0 (0 = all hardware threads), got " + std::to_string(threads));
   return threads;
+}
+
+void ApertureFlags::add(CLI::App* cmd, bool rotation_alias, const std::string& group) {
+  cmd->add_option("--blades", blades_,
+                  "aperture blades: 0 = circle (default), 3..16 = a regular polygon whose vertices lie on the circle "
+                  "of radius |r| (Blender Cycles' convention)")
+      ->group(group);
+  cmd->add_option(rotation_alias ? "--blade-rotation,--rotation" : "--blade-rotation", rotation_deg_,
+                  "polygon rotation, degrees counter-clockwise on screen; 0 = a flat edge facing +x behind the focus "
+                  "(in front of it the bokeh is turned by 180 degrees), as Blender's aperture rotation" +
+                      std::string(rotation_alias ? "; --rotation is the older spelling" : ""))
+      ->group(group);
+  cmd->add_option("--blade-curvature", curvature_,
+                  "0 = straight blades (default) .. 1 = circle; in between the edges bulge out (vertices fixed)")
+      ->group(group);
+  cmd->add_option("--anamorphic", anamorphic_,
+                  "anamorphic squeeze 0.1..10: bokeh width = height / RATIO (Blender's aperture ratio; 1 = round, "
+                  "e.g. 1.33 or 2 for oval bokeh)")
+      ->group(group);
+  cmd->add_option("--cat-eye", cat_eye_,
+                  "optical vignetting 0..1 (0 = off): off-axis bokeh is clipped by a second circle displaced toward "
+                  "the frame centre, by AMOUNT x the radius at the corners")
+      ->group(group);
+  cmd->add_option("--aperture-image", image_,
+                  "FILE: a grey or RGB image (<= 1024x1024) used as the bokeh kernel instead of --blades (RGB: one "
+                  "kernel per colour channel; each normalised to unit energy); its longer side spans the bokeh's "
+                  "diameter, its top is the top of the bokeh behind the focus; 8/16-bit files are sRGB-decoded")
+      ->group(group);
+}
+
+ApertureShape ApertureFlags::numbers() const {
+  ApertureShape a;
+  a.blades = blades_;
+  a.rotation_deg = rotation_deg_;
+  a.curvature = curvature_;
+  a.anamorphic = anamorphic_;
+  a.cat_eye = cat_eye_;
+  return a;
+}
+
+void ApertureFlags::check() const {
+  validate(numbers());
+  if (!image_.empty() && blades_ != 0) throw_usage("--aperture-image: replaces --blades; give one of them");
+}
+
+ApertureShape ApertureFlags::build() const {
+  check();
+  ApertureShape a = numbers();
+  if (!image_.empty()) {
+    Image rgba;
+    try {
+      rgba = io::read_color(image_);
+    } catch (const Error& e) {
+      throw Error(e.kind(), "--aperture-image " + std::string(e.what()));
+    }
+    // Premultiplied RGB: a transparent pixel passes no light.
+    auto img = std::make_shared<Image>(rgba.width(), rgba.height(), 3);
+    for (int c = 0; c < 3; ++c) std::copy(rgba.plane(c), rgba.plane(c) + rgba.plane_size(), img->plane(c));
+    a.image = std::move(img);
+    try {
+      validate(a);
+    } catch (const Error& e) {
+      throw Error(e.kind(), std::string(e.what()) + " (" + image_ + ")");
+    }
+  }
+  return a;
+}
+
+std::string ApertureFlags::text() const {
+  std::ostringstream s;
+  if (blades_) s << " --blades " << blades_;
+  if (rotation_deg_ != 0) s << " --blade-rotation " << rotation_deg_;
+  if (curvature_ != 0) s << " --blade-curvature " << curvature_;
+  if (anamorphic_ != 1) s << " --anamorphic " << anamorphic_;
+  if (cat_eye_ != 0) s << " --cat-eye " << cat_eye_;
+  if (!image_.empty()) s << " --aperture-image " << image_;
+  const std::string t = s.str();
+  return t.empty() ? t : t.substr(1);
+}
+
+void HighlightFlags::add(CLI::App* cmd, const std::string& group) {
+  cmd->add_option("--highlight-threshold", threshold_,
+                  "display value in [0, 1) above which a pixel counts as clipped (default 0.9)")
+      ->group(group);
+  boost_opt_ = cmd->add_option("--highlight-boost", boost_,
+                               "energy a fully clipped pixel gets back: its linear colour x (1 + BOOST), ramping in "
+                               "from the threshold (>= 0; 0 = off). Default: " +
+                                   std::to_string(static_cast<int>(kDefaultDisplayBoost)) +
+                                   " for 8/16-bit colour files (display-referred, clipped at 1; measured, see "
+                                   "docs/methods/highlights.md), 0 for float files (EXR, float TIFF)")
+                   ->group(group);
+  cmd->add_flag("--highlight-restore", restore_,
+                "map the result back through the inverse of the boost curve (display-referred output); without it "
+                "the boosted highlights stay above 1 (scene-referred)")
+      ->group(group);
+}
+
+void HighlightFlags::check() const {
+  HighlightRecovery h;
+  h.threshold = threshold_;
+  h.boost = boost_;
+  validate(h);
+}
+
+std::string HighlightFlags::text() const {
+  std::ostringstream s;
+  if (threshold_ != 0.9) s << " --highlight-threshold " << threshold_;
+  if (given(boost_opt_)) s << " --highlight-boost " << boost_;
+  if (restore_) s << " --highlight-restore";
+  const std::string t = s.str();
+  return t.empty() ? t : t.substr(1);
+}
+
+HighlightRecovery HighlightFlags::build(bool display_referred) const {
+  check();
+  HighlightRecovery h;
+  h.threshold = threshold_;
+  h.boost = given(boost_opt_) ? boost_ : (display_referred ? kDefaultDisplayBoost : 0.0);
+  h.restore = restore_;
+  return h;
 }
 
 }  // namespace dofkit::cli

@@ -4,6 +4,7 @@
 #include <memory>
 #include <sstream>
 
+#include "cli_common.hpp"
 #include "commands.hpp"
 #include "quality_run.hpp"
 
@@ -13,7 +14,9 @@ void add_quality_command(CLI::App& app) {
   struct Opts {
     std::string scenes, methods, size = "320x180", out = "dofkit-quality";
     std::vector<std::string> set;
-    int samples = 0, threads = 0, layers = 0;
+    int samples = 0, threads = 0, layers = 0, input_bits = 0;
+    ApertureFlags aperture;
+    HighlightFlags highlights;
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -35,6 +38,11 @@ void add_quality_command(CLI::App& app) {
   cmd->add_option("--out", opts->out, "output folder (default ./dofkit-quality)");
   cmd->add_option("--threads", opts->threads, "worker threads (default: all hardware threads)");
   cmd->add_option("--set", opts->set, "method.key=value for every row of that method (repeatable)");
+  cmd->add_option("--input-bits", opts->input_bits,
+                  "8 or 16: quantise the input colour to an 8/16-bit sRGB file's values first (clipped at 1, "
+                  "display-referred; the default highlight boost then applies); default 0 = float HDR");
+  opts->aperture.add(cmd);
+  opts->highlights.add(cmd);
   cmd->callback([opts] {
     QualityOptions q;
     if (!opts->scenes.empty()) {
@@ -46,6 +54,9 @@ void add_quality_command(CLI::App& app) {
     parse_size(opts->size, "--size", q.width, q.height);
     for (const auto& s : opts->set) parse_set(s, q.set);
     q.samples = opts->samples;
+    q.aperture = opts->aperture.build();
+    q.input_bits = opts->input_bits;
+    q.highlights = opts->highlights.build(opts->input_bits > 0);
     q.layers = opts->layers;
     q.threads = opts->threads;
     q.out_dir = opts->out;
@@ -56,6 +67,9 @@ void add_quality_command(CLI::App& app) {
     if (opts->samples) q.command_line += " --samples " + std::to_string(opts->samples);
     if (opts->layers) q.command_line += " --layers " + std::to_string(opts->layers);
     for (const auto& s : opts->set) q.command_line += " --set " + s;
+    if (!opts->aperture.text().empty()) q.command_line += " " + opts->aperture.text();
+    if (opts->input_bits) q.command_line += " --input-bits " + std::to_string(opts->input_bits);
+    if (!opts->highlights.text().empty()) q.command_line += " " + opts->highlights.text();
     if (opts->threads) q.command_line += " --threads " + std::to_string(opts->threads);
     const QualityResult r = run_quality(q);
     std::cout << metrics::markdown_table(r.rows);

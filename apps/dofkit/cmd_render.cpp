@@ -48,6 +48,8 @@ struct RenderArgs {
   int bits = 0;
   CameraFlags camera;
   DepthFlags depth_flags;
+  ApertureFlags aperture;
+  HighlightFlags highlights;
 };
 
 const char* kFooter = R"(
@@ -314,6 +316,8 @@ void run_render(RenderArgs& a) {
   io::set_pixel_budget(a.max_pixels);
   check_threads(a.threads);
   a.camera.check();
+  a.aperture.check();
+  a.highlights.check();
   const io::DepthOptions depth_opt = a.depth_flags.build();
   RenderSettings settings;
   settings.method = a.method;
@@ -393,7 +397,9 @@ void run_render(RenderArgs& a) {
     return std::filesystem::weakly_canonical(std::filesystem::absolute(path), ec);
   };
   for (const FramePaths& p : paths) {
-    check_paths(p.inputs(), p.outputs());
+    std::vector<NamedPath> ins = p.inputs();
+    ins.push_back({"--aperture-image", a.aperture.image_path()});
+    check_paths(ins, p.outputs());
     if (a.frames.empty()) continue;
     for (const NamedPath& in : p.inputs())
       if (!in.path.empty()) inputs_seen.insert(canonical(in.path));
@@ -412,6 +418,21 @@ void run_render(RenderArgs& a) {
           throw_bad_input(in.flag + " " + in.path + ": does not exist (frame " + std::to_string(frames[i]) +
                           " of --frames " + a.frames + ")");
       }
+
+  // The aperture (its image is an input too) and highlight recovery, whose default depends on
+  // whether the colour is display-referred (an 8/16-bit file).
+  settings.aperture = a.aperture.build();
+  for (const auto& m : methods())
+    if (m.name == a.method && m.aperture.empty() && !settings.aperture.is_circle())
+      std::cerr << "dofkit: note: method " << a.method
+                << " draws its own kernel; the aperture flags apply to the methods that honour them (see dofkit "
+                   "methods)\n";
+  const bool display = !paths[0].color.empty() && io::is_display_referred(paths[0].color);
+  settings.highlights = a.highlights.build(display);
+  if (display && settings.highlights.enabled())
+    std::cerr << "dofkit: " << paths[0].color
+              << " is display-referred (8/16-bit): highlight recovery on (--highlight-boost "
+              << settings.highlights.boost << "; --highlight-boost 0 turns it off)\n";
 
   // 2–4, frame by frame. In a sequence the next frame's inputs are read on another thread
   // while this frame renders and is written; a read error is reported when that frame's turn
@@ -471,6 +492,8 @@ void add_render_command(CLI::App& app) {
       ->group(in);
   args->depth_flags.add(cmd);
   args->camera.add(cmd);
+  args->aperture.add(cmd);
+  args->highlights.add(cmd);
   cmd->add_option("--method", args->method, "technique (default reference; see `dofkit methods`)")->group(meth);
   cmd->add_option("--set", args->sets, "KEY=VALUE method parameter, repeatable (see `dofkit methods`)")
       ->allow_extra_args(false)

@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli_common.hpp"
 #include "commands.hpp"
 #include "quality_run.hpp"
 #include "dofkit/error.hpp"
@@ -33,8 +34,7 @@ struct SceneArgs {
   double focus_m = 0;
   double blur_px = 0;
   int layers = 4;
-  int blades = 0;
-  double rotation_deg = 0;
+  ApertureFlags aperture;
   std::uint64_t seed = 1;
   int threads = 0;
   bool list = false;
@@ -66,8 +66,7 @@ void run_scene(const SceneArgs& a) {
   opt.focus_m = a.focus_m;
   opt.blur_at_infinity_px = a.blur_px;
   opt.layers = a.layers;
-  opt.blades = a.blades;
-  opt.blade_rotation_deg = a.rotation_deg;
+  opt.aperture = a.aperture.build();
   opt.seed = a.seed;
   opt.threads = a.threads;
   // Validates the name and every option before anything is rendered or written.
@@ -109,6 +108,7 @@ void run_scene(const SceneArgs& a) {
 
   std::ostringstream flags;
   flags << "--focus " << exact(d.focus_m) << " --blur-at-infinity " << exact(d.blur_at_infinity_px);
+  if (!a.aperture.text().empty()) flags << " " << a.aperture.text();
   nlohmann::json j;
   j["scene"] = a.name;
   j["description"] = scene::scene_description(a.name);
@@ -120,8 +120,12 @@ void run_scene(const SceneArgs& a) {
   j["coc_model"] = "r(z) = blur_at_infinity_px * (focus_m / z - 1), px at this width";
   j["samples"] = d.samples;
   j["layers"] = a.layers;
-  j["blades"] = a.blades;
-  j["blade_rotation_deg"] = a.rotation_deg;
+  j["blades"] = opt.aperture.blades;
+  j["blade_rotation_deg"] = opt.aperture.rotation_deg;
+  j["blade_curvature"] = opt.aperture.curvature;
+  j["anamorphic"] = opt.aperture.anamorphic;
+  j["cat_eye"] = opt.aperture.cat_eye;
+  j["aperture_flags"] = a.aperture.text();
   j["seed"] = a.seed;
   j["render_flags"] = flags.str();
   j["ground_truth_seconds"] = seconds;
@@ -166,8 +170,7 @@ void add_scene_command(CLI::App& app) {
                   "scaled from 640 px wide)");
   cmd->add_option("--layers", args->layers,
                   "surfaces per pixel written to layers.exr, front to back (0 = none; default 4)");
-  cmd->add_option("--blades", args->blades, "aperture blades: 0 = circular, >= 3 = regular polygon");
-  cmd->add_option("--rotation", args->rotation_deg, "aperture polygon rotation in degrees");
+  args->aperture.add(cmd, /*rotation_alias=*/true);
   cmd->add_option("--seed", args->seed, "lens sampling seed (default 1)");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)");
   cmd->callback([args] { run_scene(*args); });

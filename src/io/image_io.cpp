@@ -504,6 +504,11 @@ Image read_depth(const std::string& path, const DepthOptions& opt) {
   return depth;
 }
 
+bool is_display_referred(const std::string& path) {
+  OpenedFile f = open_checked(path, "colour");
+  return f.spec.integer;
+}
+
 bool has_depth_channel(const std::string& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return false;

@@ -367,23 +367,23 @@ int check_threads(int threads) {
 }
 
 void ApertureFlags::add(CLI::App* cmd, bool rotation_alias, const std::string& group) {
-  cmd->add_option("--blades", blades_,
+  cmd->add_option("--blades", shape_.blades,
                   "aperture blades: 0 = circle (default), 3..16 = a regular polygon whose vertices lie on the circle "
                   "of radius |r| (Blender Cycles' convention)")
       ->group(group);
-  cmd->add_option(rotation_alias ? "--blade-rotation,--rotation" : "--blade-rotation", rotation_deg_,
+  cmd->add_option(rotation_alias ? "--blade-rotation,--rotation" : "--blade-rotation", shape_.rotation_deg,
                   "polygon rotation, degrees counter-clockwise on screen; 0 = a flat edge facing +x behind the focus "
                   "(in front of it the bokeh is turned by 180 degrees), as Blender's aperture rotation" +
                       std::string(rotation_alias ? "; --rotation is the older spelling" : ""))
       ->group(group);
-  cmd->add_option("--blade-curvature", curvature_,
+  cmd->add_option("--blade-curvature", shape_.curvature,
                   "0 = straight blades (default) .. 1 = circle; in between the edges bulge out (vertices fixed)")
       ->group(group);
-  cmd->add_option("--anamorphic", anamorphic_,
+  cmd->add_option("--anamorphic", shape_.anamorphic,
                   "anamorphic squeeze 0.1..10: bokeh width = height / RATIO (Blender's aperture ratio; 1 = round, "
                   "e.g. 1.33 or 2 for oval bokeh)")
       ->group(group);
-  cmd->add_option("--cat-eye", cat_eye_,
+  cmd->add_option("--cat-eye", shape_.cat_eye,
                   "optical vignetting 0..1 (0 = off): off-axis bokeh is clipped by a second circle displaced toward "
                   "the frame centre, by AMOUNT x the radius at the corners")
       ->group(group);
@@ -394,24 +394,14 @@ void ApertureFlags::add(CLI::App* cmd, bool rotation_alias, const std::string& g
       ->group(group);
 }
 
-ApertureShape ApertureFlags::numbers() const {
-  ApertureShape a;
-  a.blades = blades_;
-  a.rotation_deg = rotation_deg_;
-  a.curvature = curvature_;
-  a.anamorphic = anamorphic_;
-  a.cat_eye = cat_eye_;
-  return a;
-}
-
 void ApertureFlags::check() const {
-  validate(numbers());
-  if (!image_.empty() && blades_ != 0) throw_usage("--aperture-image: replaces --blades; give one of them");
+  validate(shape_);
+  if (!image_.empty() && shape_.blades != 0) throw_usage("--aperture-image: replaces --blades; give one of them");
 }
 
 ApertureShape ApertureFlags::build() const {
   check();
-  ApertureShape a = numbers();
+  ApertureShape a = shape_;
   if (!image_.empty()) {
     Image rgba;
     try {
@@ -434,55 +424,48 @@ ApertureShape ApertureFlags::build() const {
 
 std::string ApertureFlags::text() const {
   std::ostringstream s;
-  if (blades_) s << " --blades " << blades_;
-  if (rotation_deg_ != 0) s << " --blade-rotation " << rotation_deg_;
-  if (curvature_ != 0) s << " --blade-curvature " << curvature_;
-  if (anamorphic_ != 1) s << " --anamorphic " << anamorphic_;
-  if (cat_eye_ != 0) s << " --cat-eye " << cat_eye_;
+  if (shape_.blades) s << " --blades " << shape_.blades;
+  if (shape_.rotation_deg != 0) s << " --blade-rotation " << shape_.rotation_deg;
+  if (shape_.curvature != 0) s << " --blade-curvature " << shape_.curvature;
+  if (shape_.anamorphic != 1) s << " --anamorphic " << shape_.anamorphic;
+  if (shape_.cat_eye != 0) s << " --cat-eye " << shape_.cat_eye;
   if (!image_.empty()) s << " --aperture-image " << image_;
   const std::string t = s.str();
   return t.empty() ? t : t.substr(1);
 }
 
 void HighlightFlags::add(CLI::App* cmd, const std::string& group) {
-  cmd->add_option("--highlight-threshold", threshold_,
+  cmd->add_option("--highlight-threshold", h_.threshold,
                   "display value in [0, 1) above which a pixel counts as clipped (default 0.9)")
       ->group(group);
-  boost_opt_ = cmd->add_option("--highlight-boost", boost_,
+  boost_opt_ = cmd->add_option("--highlight-boost", h_.boost,
                                "energy a fully clipped pixel gets back: its linear colour x (1 + BOOST), ramping in "
                                "from the threshold (>= 0; 0 = off). Default: " +
                                    std::to_string(static_cast<int>(kDefaultDisplayBoost)) +
                                    " for 8/16-bit colour files (display-referred, clipped at 1; measured, see "
                                    "docs/methods/highlights.md), 0 for float files (EXR, float TIFF)")
                    ->group(group);
-  cmd->add_flag("--highlight-restore", restore_,
+  cmd->add_flag("--highlight-restore", h_.restore,
                 "map the result back through the inverse of the boost curve (display-referred output); without it "
                 "the boosted highlights stay above 1 (scene-referred)")
       ->group(group);
 }
 
-void HighlightFlags::check() const {
-  HighlightRecovery h;
-  h.threshold = threshold_;
-  h.boost = boost_;
-  validate(h);
-}
+void HighlightFlags::check() const { validate(h_); }
 
 std::string HighlightFlags::text() const {
   std::ostringstream s;
-  if (threshold_ != 0.9) s << " --highlight-threshold " << threshold_;
-  if (given(boost_opt_)) s << " --highlight-boost " << boost_;
-  if (restore_) s << " --highlight-restore";
+  if (h_.threshold != 0.9) s << " --highlight-threshold " << h_.threshold;
+  if (given(boost_opt_)) s << " --highlight-boost " << h_.boost;
+  if (h_.restore) s << " --highlight-restore";
   const std::string t = s.str();
   return t.empty() ? t : t.substr(1);
 }
 
 HighlightRecovery HighlightFlags::build(bool display_referred) const {
   check();
-  HighlightRecovery h;
-  h.threshold = threshold_;
-  h.boost = given(boost_opt_) ? boost_ : (display_referred ? kDefaultDisplayBoost : 0.0);
-  h.restore = restore_;
+  HighlightRecovery h = h_;
+  if (!given(boost_opt_)) h.boost = display_referred ? kDefaultDisplayBoost : 0.0;
   return h;
 }
 

@@ -99,15 +99,13 @@ class ApertureFlags {
   const std::string& image_path() const { return image_; }
 
  private:
-  ApertureShape numbers() const;
-  int blades_ = 0;
-  double rotation_deg_ = 0, curvature_ = 0, anamorphic_ = 1, cat_eye_ = 0;
+  ApertureShape shape_;  // the flags' numbers (the image is read by build())
   std::string image_;
 };
 
 /// The measured default --highlight-boost for display-referred (8/16-bit) colour files
 /// (docs/methods/highlights.md: within 1 dB of the best boost on night_8 and `highlights`).
-inline constexpr double kDefaultDisplayBoost = 48.0;
+inline constexpr double kDefaultDisplayBoost = 64.0;
 
 /// --highlight-threshold, --highlight-boost, --highlight-restore.
 class HighlightFlags {
@@ -123,8 +121,7 @@ class HighlightFlags {
 
  private:
   CLI::Option* boost_opt_ = nullptr;
-  double threshold_ = 0.9, boost_ = 0;
-  bool restore_ = false;
+  HighlightRecovery h_;
 };
 
 /// One file a command reads or writes, with the flag that named it (for messages).

@@ -32,7 +32,7 @@ struct RenderSettings {
   /// Worker threads; 0 = all hardware threads. Output is identical for every count.
   int threads = 0;
   /// Name of an intermediate buffer to return in RenderResult::debug ("" = none).
-  /// See MethodInfo::debug_views; every method has `highlights` (the boost mask m², 1 plane)
+  /// See MethodInfo::debug_views; every method has `highlights` (the boost mask m²·w, 1 plane)
   /// and every method that honours an aperture has `aperture` (its kernels, far | near).
   std::string debug_view;
 };

@@ -83,8 +83,9 @@ std::string Params::get_choice(const std::string& key, const std::string& def,
 }
 
 std::vector<DebugViewInfo> common_debug_views(const MethodDef& m) {
-  std::vector<DebugViewInfo> v{
-      {"highlights", "highlight recovery's boost mask m^2 (1 plane, 0 where nothing was boosted or recovery is off)"}};
+  std::vector<DebugViewInfo> v{{"highlights",
+                                "highlight recovery's boost mask m^2 * w (1 plane; the gain is 1 + boost * mask; 0 "
+                                "where nothing was boosted or recovery is off)"}};
   if (!m.aperture.empty())
     v.push_back({"aperture",
                  "the aperture kernels the method used, normalised to a peak of 1: far field (left) and near field "

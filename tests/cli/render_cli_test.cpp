@@ -892,7 +892,14 @@ TEST_F(RenderCli, BadApertureImageIsRefusedWithNoOutput) {
 
 TEST_F(RenderCli, EightBitColourGetsTheDefaultBoostAndEveryViewWorks) {
   // An 8-bit PNG is display-referred: the default boost applies; --highlight-boost 0 turns it off.
-  io::write_image(dir_ / "c8.png", color_);
+  // A small light (3x3 at the clip level) on a dark 9x9 patch: what recovery boosts.
+  Image c = color_;
+  for (int y = 20; y < 29; ++y)
+    for (int x = 40; x < 49; ++x) {
+      const float v = (x >= 43 && x < 46 && y >= 23 && y < 26) ? 1.0f : 0.02f;
+      for (int ch = 0; ch < 3; ++ch) c.at(x, y, ch) = v * c.at(x, y, 3);
+    }
+  io::write_image(dir_ / "c8.png", c);
   auto call = [&](std::vector<std::string> extra, const std::string& out) {
     std::vector<std::string> a = {"--color", dir_ / "c8.png",      "--depth", dir_ / "z.exr", "--focus",
                                   "4",       "--blur-at-infinity", "24",      "--output",     dir_ / out};
@@ -900,12 +907,12 @@ TEST_F(RenderCli, EightBitColourGetsTheDefaultBoostAndEveryViewWorks) {
     return run_render(a);
   };
   ASSERT_EQ(call({}, "def.exr").code, 0);
-  ASSERT_EQ(call({"--highlight-boost", "48"}, "b48.exr").code, 0);
+  ASSERT_EQ(call({"--highlight-boost", "64"}, "b64.exr").code, 0);
   ASSERT_EQ(call({"--highlight-boost", "0"}, "b0.exr").code, 0);
-  const Image def = io::read_color(dir_ / "def.exr"), b48 = io::read_color(dir_ / "b48.exr"),
+  const Image def = io::read_color(dir_ / "def.exr"), b64 = io::read_color(dir_ / "b64.exr"),
               b0 = io::read_color(dir_ / "b0.exr");
-  EXPECT_EQ(def.data(), b48.data());
-  EXPECT_NE(def.data(), b0.data());  // test_rgba has values at the clip level
+  EXPECT_EQ(def.data(), b64.data());
+  EXPECT_NE(def.data(), b0.data());  // the light was boosted
   // The debug views: the boost mask and the aperture kernels.
   const CliResult m = call({"--debug-view", "highlights", "--debug-output", dir_ / "mask.exr"}, "m.exr");
   ASSERT_EQ(m.code, 0) << m.message;

@@ -28,9 +28,9 @@ TEST(ReferenceAperture, MatchingPolygonBeatsCircleAndWrongRotation) {
   ApertureShape wrong = o.aperture;
   wrong.rotation_deg += 180.0 / 5;  // the other orientation of a pentagon
   const metrics::Scores right = score(o.aperture), circle = score({}), turned = score(wrong);
-  std::printf("highlights 160x90, 5 blades at 20 deg: matching %.2f dB (edge %.2f), circle %.2f (%.2f), 56 deg %.2f (%.2f)\n",
-              right.psnr_db, right.edge_psnr_db, circle.psnr_db, circle.edge_psnr_db, turned.psnr_db,
-              turned.edge_psnr_db);
+  std::printf(
+      "highlights 160x90, 5 blades at 20 deg: matching %.2f dB (edge %.2f), circle %.2f (%.2f), 56 deg %.2f (%.2f)\n",
+      right.psnr_db, right.edge_psnr_db, circle.psnr_db, circle.edge_psnr_db, turned.psnr_db, turned.edge_psnr_db);
   EXPECT_GT(right.psnr_db, circle.psnr_db + 0.3);  // measured +1.04 dB
   EXPECT_GT(right.psnr_db, turned.psnr_db + 0.3);  // measured +0.59 dB
 }

@@ -18,6 +18,7 @@
 #include "dofkit/aperture.hpp"
 #include "dofkit/coc.hpp"
 #include "dofkit/image.hpp"
+#include "dofkit/render.hpp"
 #include "io/atomic_write.hpp"
 #include "io/image_io.hpp"
 
@@ -151,5 +152,8 @@ class OutputWriter {
 
 /// Parses --threads (>= 0; 0 = all hardware threads). Throws Error(usage).
 int check_threads(int threads);
+
+/// Parses --backend cpu|vulkan. Throws Error(usage).
+Backend parse_backend(const std::string& text);
 
 }  // namespace dofkit::cli

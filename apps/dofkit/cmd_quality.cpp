@@ -6,6 +6,7 @@
 
 #include "cli_common.hpp"
 #include "commands.hpp"
+#include "cli_common.hpp"
 #include "quality_run.hpp"
 
 namespace dofkit::cli {
@@ -15,6 +16,7 @@ void add_quality_command(CLI::App& app) {
     std::string scenes, methods, size = "320x180", out = "dofkit-quality";
     std::vector<std::string> set;
     int samples = 0, threads = 0, layers = 0, input_bits = 0;
+    std::string backend = "cpu";
     ApertureFlags aperture;
     HighlightFlags highlights;
   };
@@ -43,6 +45,9 @@ void add_quality_command(CLI::App& app) {
                   "display-referred; the default highlight boost then applies); default 0 = float HDR");
   opts->aperture.add(cmd);
   opts->highlights.add(cmd);
+  cmd->add_option("--backend", opts->backend,
+                  "cpu (default) or vulkan: run the methods on the GPU (give --methods from mcguire, sterna, "
+                  "starcraft, and input)");
   cmd->callback([opts] {
     QualityOptions q;
     if (!opts->scenes.empty()) {
@@ -59,6 +64,7 @@ void add_quality_command(CLI::App& app) {
     q.highlights = opts->highlights.build(opts->input_bits > 0);
     q.layers = opts->layers;
     q.threads = opts->threads;
+    q.backend = parse_backend(opts->backend);
     q.out_dir = opts->out;
     q.command_line = "dofkit quality";
     if (!opts->scenes.empty()) q.command_line += " --scenes " + opts->scenes;
@@ -71,6 +77,7 @@ void add_quality_command(CLI::App& app) {
     if (opts->input_bits) q.command_line += " --input-bits " + std::to_string(opts->input_bits);
     if (!opts->highlights.text().empty()) q.command_line += " " + opts->highlights.text();
     if (opts->threads) q.command_line += " --threads " + std::to_string(opts->threads);
+    if (q.backend != Backend::cpu) q.command_line += " --backend " + opts->backend;
     const QualityResult r = run_quality(q);
     std::cout << metrics::markdown_table(r.rows);
     std::cerr << "wrote:";

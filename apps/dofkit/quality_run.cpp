@@ -266,6 +266,7 @@ QualityResult run_quality(const QualityOptions& opt) {
     s.threads = opt.threads;
     s.aperture = row_aperture(opt.aperture, specs[i]);
     s.highlights = opt.highlights;
+    s.backend = opt.backend;
     Frame probe;
     probe.color = Image(16, 16, 4, 0.5f);
     probe.depth = Image(16, 16, 1, 2.0f);

@@ -12,6 +12,7 @@
 #include "core/coc_range.hpp"
 #include "core/parallel.hpp"
 #include "core/pass_profile.hpp"
+#include "gpu/gpu.hpp"
 #include "methods/method.hpp"
 #include "render/highlights.hpp"
 #include "render/sanitize.hpp"
@@ -259,6 +260,7 @@ struct Renderer::Impl {
   // The aperture model for the current frame size (made again when the size changes).
   std::optional<core::ApertureModel> aperture;
   int aperture_w = -1, aperture_h = -1;
+  std::unique_ptr<gpu::MethodRenderer> gpu;  // backend = vulkan: the method's shaders
 };
 
 namespace {
@@ -295,8 +297,11 @@ Image aperture_view(const core::ApertureModel& model, const core::CocRange& rang
 
 Renderer::Renderer(RenderSettings settings) : impl_(std::make_unique<Impl>()) {
   impl_->method = &checked_method(settings);
+  if (settings.backend == Backend::vulkan) impl_->gpu = gpu::make_renderer(settings);
   impl_->settings = std::move(settings);
 }
+
+const gpu::MethodRenderer* detail::RendererAccess::gpu(const Renderer& r) { return r.impl_->gpu.get(); }
 Renderer::~Renderer() = default;
 Renderer::Renderer(Renderer&&) noexcept = default;
 Renderer& Renderer::operator=(Renderer&&) noexcept = default;
@@ -324,7 +329,8 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     // the colour is checked here and sanitised into a copy where needed.
     std::atomic<bool> dirty{false};
     const bool boost = settings.highlights.enabled();
-    const bool deferred = method.checks_colour && frame_in.layer_color.empty() && !boost;
+    // The GPU passes get sanitised colour (the check is not made in their shaders).
+    const bool deferred = method.checks_colour && frame_in.layer_color.empty() && !boost && !impl_->gpu;
     const Frame& frame = [&]() -> const Frame& {
       if (deferred) return frame_in;
       core::PassScope pass("colour check");
@@ -357,9 +363,14 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     result.image.resize(frame.width(), frame.height(), 4);
     sink.emplace(settings.debug_view);
     core::PassScope pass(method.name.c_str());
-    method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,
-                   deferred ? &dirty : nullptr, &range, aperture},
-                  result.image);
+    if (impl_->gpu)
+      impl_->gpu->render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr,
+                          &range, aperture},
+                         result.image);
+    else
+      method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,
+                     deferred ? &dirty : nullptr, &range, aperture},
+                    result.image);
     if (deferred && dirty.load()) {
       // Rare (hostile input): everything from the first try is discarded. The depth, and so
       // the CoC, are the caller's in both tries.

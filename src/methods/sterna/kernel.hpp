@@ -1,5 +1,5 @@
-// Sterna's 49-tap sampling pattern and Sousa's n-gon modifier, with the shape taken from the
-// shared aperture model (core/aperture.hpp).
+// Sterna's 49-tap sampling pattern (docs/methods/sterna.md) and Sousa's n-gon modifier, with the
+// shape taken from the shared aperture model (core/aperture.hpp).
 #pragma once
 #include <vector>
 

@@ -20,10 +20,10 @@ Image frame() {
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 96; ++x) {
       float v = 0.02f;
-      if (x >= 40 && y >= 24) v = 1.0f;                                    // the wall
-      if (x >= 19 && x < 22 && y >= 19 && y < 22) v = 1.0f;                // the light
-      if (x >= 4 && x < 24 && y >= 42 && y < 62) v = 0.6f;                 // bright patch
-      if (x >= 12 && x < 14 && y >= 50 && y < 52) v = 1.0f;               // the speck
+      if (x >= 40 && y >= 24) v = 1.0f;                      // the wall
+      if (x >= 19 && x < 22 && y >= 19 && y < 22) v = 1.0f;  // the light
+      if (x >= 4 && x < 24 && y >= 42 && y < 62) v = 0.6f;   // bright patch
+      if (x >= 12 && x < 14 && y >= 50 && y < 52) v = 1.0f;  // the speck
       for (int c = 0; c < 3; ++c) img.at(x, y, c) = v;
       img.at(x, y, 3) = 1.0f;
     }

@@ -11,6 +11,7 @@
 #include "budget.hpp"
 #include "dofkit/error.hpp"
 #include "dofkit/render.hpp"
+#include "io/image_io.hpp"
 
 namespace fs = std::filesystem;
 
@@ -408,6 +409,110 @@ Backend parse_backend(const std::string& text) {
   if (text == "cpu") return Backend::cpu;
   if (text == "vulkan") return Backend::vulkan;
   throw_usage("--backend " + text + ": must be cpu or vulkan");
+}
+
+void ApertureFlags::add(CLI::App* cmd, bool rotation_alias, const std::string& group) {
+  add_number(cmd, "--blades", shape_.blades,
+                  "aperture blades: 0 = circle (default), 3..16 = a regular polygon whose vertices lie on the circle "
+                  "of radius |r| (Blender Cycles' convention)")
+      ->group(group);
+  add_number(cmd, rotation_alias ? "--blade-rotation,--rotation" : "--blade-rotation", shape_.rotation_deg,
+                  "polygon rotation, degrees counter-clockwise on screen; 0 = a flat edge facing +x behind the focus "
+                  "(in front of it the bokeh is turned by 180 degrees), as Blender's aperture rotation" +
+                      std::string(rotation_alias ? "; --rotation is the older spelling" : ""),
+             "--blade-rotation")
+      ->group(group);
+  add_number(cmd, "--blade-curvature", shape_.curvature,
+                  "0 = straight blades (default) .. 1 = circle; in between the edges bulge out (vertices fixed)")
+      ->group(group);
+  add_number(cmd, "--anamorphic", shape_.anamorphic,
+                  "anamorphic squeeze 0.1..10: bokeh width = height / RATIO (Blender's aperture ratio; 1 = round, "
+                  "e.g. 1.33 or 2 for oval bokeh)")
+      ->group(group);
+  add_number(cmd, "--cat-eye", shape_.cat_eye,
+                  "optical vignetting 0..1 (0 = off): off-axis bokeh is clipped by a second circle displaced toward "
+                  "the frame centre, by AMOUNT x the radius at the corners")
+      ->group(group);
+  cmd->add_option("--aperture-image", image_,
+                  "FILE: a grey or RGB image (<= 1024x1024) used as the bokeh kernel instead of --blades (RGB: one "
+                  "kernel per colour channel; each normalised to unit energy); its longer side spans the bokeh's "
+                  "diameter, its top is the top of the bokeh behind the focus; 8/16-bit files are sRGB-decoded")
+      ->group(group);
+}
+
+void ApertureFlags::check() const {
+  validate(shape_);
+  if (!image_.empty() && shape_.blades != 0) throw_usage("--aperture-image: replaces --blades; give one of them");
+}
+
+ApertureShape ApertureFlags::build() const {
+  check();
+  ApertureShape a = shape_;
+  if (!image_.empty()) {
+    Image rgba;
+    try {
+      rgba = io::read_color(image_);
+    } catch (const Error& e) {
+      throw Error(e.kind(), "--aperture-image " + std::string(e.what()));
+    }
+    // Premultiplied RGB: a transparent pixel passes no light.
+    auto img = std::make_shared<Image>(rgba.width(), rgba.height(), 3);
+    for (int c = 0; c < 3; ++c) std::copy(rgba.plane(c), rgba.plane(c) + rgba.plane_size(), img->plane(c));
+    a.image = std::move(img);
+    try {
+      validate(a);
+    } catch (const Error& e) {
+      throw Error(e.kind(), std::string(e.what()) + " (" + image_ + ")");
+    }
+  }
+  return a;
+}
+
+std::string ApertureFlags::text() const {
+  std::ostringstream s;
+  if (shape_.blades) s << " --blades " << shape_.blades;
+  if (shape_.rotation_deg != 0) s << " --blade-rotation " << shape_.rotation_deg;
+  if (shape_.curvature != 0) s << " --blade-curvature " << shape_.curvature;
+  if (shape_.anamorphic != 1) s << " --anamorphic " << shape_.anamorphic;
+  if (shape_.cat_eye != 0) s << " --cat-eye " << shape_.cat_eye;
+  if (!image_.empty()) s << " --aperture-image " << image_;
+  const std::string t = s.str();
+  return t.empty() ? t : t.substr(1);
+}
+
+void HighlightFlags::add(CLI::App* cmd, const std::string& group) {
+  add_number(cmd, "--highlight-threshold", h_.threshold,
+                  "display value in [0, 1) above which a pixel counts as clipped (default 0.9)")
+      ->group(group);
+  boost_opt_ = add_number(cmd, "--highlight-boost", h_.boost,
+                               "energy a fully clipped pixel gets back: its linear colour x (1 + BOOST), ramping in "
+                               "from the threshold (>= 0; 0 = off). Default: " +
+                                   std::to_string(static_cast<int>(kDefaultDisplayBoost)) +
+                                   " for 8/16-bit colour files (display-referred, clipped at 1; measured, see "
+                                   "docs/methods/highlights.md), 0 for float files (EXR, float TIFF)")
+                   ->group(group);
+  cmd->add_flag("--highlight-restore", h_.restore,
+                "map the result back through the inverse of the boost curve (display-referred output); without it "
+                "the boosted highlights stay above 1 (scene-referred)")
+      ->group(group);
+}
+
+void HighlightFlags::check() const { validate(h_); }
+
+std::string HighlightFlags::text() const {
+  std::ostringstream s;
+  if (h_.threshold != 0.9) s << " --highlight-threshold " << h_.threshold;
+  if (given(boost_opt_)) s << " --highlight-boost " << h_.boost;
+  if (h_.restore) s << " --highlight-restore";
+  const std::string t = s.str();
+  return t.empty() ? t : t.substr(1);
+}
+
+HighlightRecovery HighlightFlags::build(bool display_referred) const {
+  check();
+  HighlightRecovery h = h_;
+  if (!given(boost_opt_)) h.boost = display_referred ? kDefaultDisplayBoost : 0.0;
+  return h;
 }
 
 }  // namespace dofkit::cli

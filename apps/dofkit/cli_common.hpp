@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "dofkit/aperture.hpp"
 #include "dofkit/coc.hpp"
 #include "dofkit/image.hpp"
 #include "dofkit/ranges.hpp"
@@ -103,6 +104,48 @@ class DepthFlags {
   CLI::Option *fov_ = nullptr, *scale_ = nullptr, *clip_ = nullptr;
   std::string kind_ = "z", clip_text_, invalid_ = "error";
   double fov_deg_ = 0, disparity_scale_ = 1;
+};
+
+/// The aperture flags of render, scene and quality: --blades, --blade-rotation,
+/// --blade-curvature, --anamorphic, --cat-eye, --aperture-image (dofkit/aperture.hpp).
+class ApertureFlags {
+ public:
+  /// `rotation_alias`: also accept --rotation (the spelling `dofkit scene` had before).
+  void add(CLI::App* cmd, bool rotation_alias = false, const std::string& group = "Aperture (bokeh shape)");
+  /// Checks every number (Error(usage) naming the flag) before any file is read.
+  void check() const;
+  /// The shape, with --aperture-image read: an unreadable file is Error(bad_input) naming the
+  /// flag; an empty, all-black or too large one Error(usage).
+  ApertureShape build() const;
+  /// The flags as given, for logs and params.json ("" for the default circle).
+  std::string text() const;
+  /// The --aperture-image path ("" if none).
+  const std::string& image_path() const { return image_; }
+
+ private:
+  ApertureShape shape_;  // the flags' numbers (the image is read by build())
+  std::string image_;
+};
+
+/// The measured default --highlight-boost for display-referred (8/16-bit) colour files
+/// (docs/methods/highlights.md: within 1 dB of the best boost on night_8 and `highlights`).
+inline constexpr double kDefaultDisplayBoost = 64.0;
+
+/// --highlight-threshold, --highlight-boost, --highlight-restore.
+class HighlightFlags {
+ public:
+  void add(CLI::App* cmd, const std::string& group = "Highlight recovery");
+  /// Checks the numbers (Error(usage) naming the flag).
+  void check() const;
+  /// The settings; `display_referred`: the colour came from an 8/16-bit file, so the default
+  /// boost (kDefaultDisplayBoost) applies unless --highlight-boost was given.
+  HighlightRecovery build(bool display_referred) const;
+  /// The flags as given ("" if none).
+  std::string text() const;
+
+ private:
+  CLI::Option* boost_opt_ = nullptr;
+  HighlightRecovery h_;
 };
 
 /// One file a command reads or writes, with the flag that named it (for messages).

@@ -50,6 +50,7 @@ RenderSettings bench_settings(const std::string& method_spec, int w, int threads
   RenderSettings s;
   s.method = specs[0].name;
   s.params = specs[0].params;
+  s.aperture = row_aperture(ApertureShape{}, specs[0]);
   s.camera = scene::bench_camera(w);
   s.threads = threads;
   s.backend = backend;

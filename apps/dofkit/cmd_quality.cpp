@@ -15,9 +15,11 @@ void add_quality_command(CLI::App& app) {
   struct Opts {
     std::string scenes, methods, size = "320x180", out = "dofkit-quality";
     std::vector<std::string> set;
-    int samples = 0, threads = 0, layers = 0;
+    int samples = 0, threads = 0, layers = 0, input_bits = 0;
     BudgetFlags budget;
     std::string backend = "cpu";
+    ApertureFlags aperture;
+    HighlightFlags highlights;
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -42,6 +44,11 @@ void add_quality_command(CLI::App& app) {
   add_threads(cmd, opts->threads, "worker threads (default: all hardware threads)");
   opts->budget.add(cmd, false);
   cmd->add_option("--set", opts->set, "method.key=value for every row of that method (repeatable)");
+  cmd->add_option("--input-bits", opts->input_bits,
+                  "8 or 16: quantise the input colour to an 8/16-bit sRGB file's values first (clipped at 1, "
+                  "display-referred; the default highlight boost then applies); default 0 = float HDR");
+  opts->aperture.add(cmd);
+  opts->highlights.add(cmd);
   cmd->add_option("--backend", opts->backend,
                   "cpu (default) or vulkan: run the methods on the GPU (give --methods from mcguire, sterna, "
                   "starcraft, and input)");
@@ -57,6 +64,9 @@ void add_quality_command(CLI::App& app) {
     parse_size(opts->size, "--size", q.width, q.height);
     for (const auto& s : opts->set) parse_set(s, q.set);
     q.samples = opts->samples;
+    q.aperture = opts->aperture.build();
+    q.input_bits = opts->input_bits;
+    q.highlights = opts->highlights.build(opts->input_bits > 0);
     q.layers = opts->layers;
     q.threads = opts->threads;
     q.backend = parse_backend(opts->backend);
@@ -68,6 +78,9 @@ void add_quality_command(CLI::App& app) {
     if (opts->samples) q.command_line += " --samples " + std::to_string(opts->samples);
     if (opts->layers) q.command_line += " --layers " + std::to_string(opts->layers);
     for (const auto& s : opts->set) q.command_line += " --set " + s;
+    if (!opts->aperture.text().empty()) q.command_line += " " + opts->aperture.text();
+    if (opts->input_bits) q.command_line += " --input-bits " + std::to_string(opts->input_bits);
+    if (!opts->highlights.text().empty()) q.command_line += " " + opts->highlights.text();
     if (opts->threads) q.command_line += " --threads " + std::to_string(opts->threads);
     if (q.backend != Backend::cpu) q.command_line += " --backend " + opts->backend;
     const QualityResult r = run_quality(q);

@@ -55,6 +55,8 @@ struct RenderArgs {
   BudgetFlags budget;
   CameraFlags camera;
   DepthFlags depth_flags;
+  ApertureFlags aperture;
+  HighlightFlags highlights;
 };
 
 const char* kFooter = R"(
@@ -466,6 +468,8 @@ void run_render(RenderArgs& a) {
   if (!a.mask.empty() && !a.layers.empty()) throw_usage("--mask and --layers: cannot be combined");
   a.budget.apply();
   a.camera.check();
+  a.aperture.check();
+  a.highlights.check();
   const io::DepthOptions depth_opt = a.depth_flags.build();
   RenderSettings settings;
   settings.method = a.method;
@@ -541,13 +545,18 @@ void run_render(RenderArgs& a) {
   // Every frame's paths are checked before the first frame is read: no output may be an
   // input or another output of any frame (usage errors first), and with --frames every input
   // must exist (so a missing frame stops the run before anything is written).
+  // The aperture image is an input of every frame.
+  auto with_aperture = [&](std::vector<NamedPath> ins) {
+    ins.push_back({"--aperture-image", a.aperture.image_path()});
+    return ins;
+  };
   if (!sequence) {
-    check_paths(given.inputs(), given.outputs());
+    check_paths(with_aperture(given.inputs()), given.outputs());
   } else {
     // The longest numbers make the longest paths: the first and the last frame.
     for (const long f : {range.first, range.at(range.count() - 1)})
       for (const NamedPath& np : paths_of(f).named_all()) check_path_length(np.flag, np.path, f);
-    check_paths(paths_of(range.first).inputs(), paths_of(range.first).outputs());
+    check_paths(with_aperture(paths_of(range.first).inputs()), paths_of(range.first).outputs());
     // The overlaps of all frames, by file identity (cheap enough for 100,000 frames).
     FileKeys keys;
     std::map<std::string, std::pair<NamedPath, long>> inputs_seen, outputs_seen;
@@ -582,6 +591,26 @@ void run_render(RenderArgs& a) {
       }
   }
 
+  // The aperture (its image is an input too) and highlight recovery, whose default depends on
+  // whether the colour is display-referred (an 8/16-bit file).
+  settings.aperture = a.aperture.build();
+  for (const auto& m : methods())
+    if (m.name == a.method && m.aperture.empty() && !settings.aperture.is_circle())
+      std::cerr << "dofkit: note: method " << a.method
+                << " draws its own kernel; the aperture flags apply to the methods that honour them (see dofkit "
+                   "methods)\n";
+  const FramePaths first = sequence ? paths_of(range.first) : paths_of(-1);
+  const bool display = !first.color.empty() && io::is_display_referred(first.color);
+  settings.highlights = a.highlights.build(display);
+  // Said once the first frame's inputs have been read (an input error stays one line).
+  bool noted = false;
+  auto note_highlights = [&] {
+    if (noted || !display || !settings.highlights.enabled()) return;
+    noted = true;
+    std::cerr << "dofkit: " << first.color << " is display-referred (8/16-bit): highlight recovery on (--highlight-boost "
+              << settings.highlights.boost << "; --highlight-boost 0 turns it off)\n";
+  };
+
   // 2–4, frame by frame. In a sequence the next frame's inputs are read on another thread
   // while this frame renders and is written; a read error is reported when that frame's turn
   // comes, after the frames before it are written.
@@ -589,7 +618,9 @@ void run_render(RenderArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   if (!sequence) {
     const FramePaths p = paths_of(-1);
-    render_frame(a, p, read_inputs(a, p, depth_opt, settings, false), settings, renderer, out_opt, coc_opt, debug_opt);
+    FrameInputs in = read_inputs(a, p, depth_opt, settings, false);
+    note_highlights();
+    render_frame(a, p, in, settings, renderer, out_opt, coc_opt, debug_opt);
   } else {
     auto read_async = [&](long frame) {
       return std::async(std::launch::async, [&a, &depth_opt, s = settings, p = paths_of(frame)] {
@@ -599,6 +630,7 @@ void run_render(RenderArgs& a) {
     std::future<FrameInputs> next = read_async(range.first);
     for (long i = 0; i < range.count(); ++i) {
       const FrameInputs in = next.get();
+      note_highlights();
       if (i + 1 < range.count()) next = read_async(range.at(i + 1));
       render_frame(a, paths_of(range.at(i)), in, settings, renderer, out_opt, coc_opt, debug_opt);
     }
@@ -640,6 +672,8 @@ void add_render_command(CLI::App& app) {
       ->group(in);
   args->depth_flags.add(cmd);
   args->camera.add(cmd);
+  args->aperture.add(cmd);
+  args->highlights.add(cmd);
   cmd->add_option("--method", args->method, "technique (default reference; see `dofkit methods`)")->group(meth);
   cmd->add_option("--set", args->sets, "KEY=VALUE method parameter, repeatable (see `dofkit methods`)")
       ->allow_extra_args(false)

@@ -36,8 +36,7 @@ struct SceneArgs {
   double focus_m = 0;
   double blur_px = 0;
   int layers = 4;
-  int blades = 0;
-  double rotation_deg = 0;
+  ApertureFlags aperture;
   std::uint64_t seed = 1;
   int threads = 0;
   bool list = false;
@@ -69,8 +68,7 @@ void run_scene(const SceneArgs& a) {
   opt.focus_m = a.focus_m;
   opt.blur_at_infinity_px = a.blur_px;
   opt.layers = a.layers;
-  opt.blades = a.blades;
-  opt.blade_rotation_deg = a.rotation_deg;
+  opt.aperture = a.aperture.build();
   opt.seed = a.seed;
   opt.threads = a.threads;
   // Validates the name and every option before anything is rendered or written.
@@ -124,6 +122,7 @@ void run_scene(const SceneArgs& a) {
 
   std::ostringstream flags;
   flags << "--focus " << exact(d.focus_m) << " --blur-at-infinity " << exact(d.blur_at_infinity_px);
+  if (!a.aperture.text().empty()) flags << " " << a.aperture.text();
   nlohmann::json j;
   j["scene"] = a.name;
   j["description"] = scene::scene_description(a.name);
@@ -135,8 +134,12 @@ void run_scene(const SceneArgs& a) {
   j["coc_model"] = "r(z) = blur_at_infinity_px * (focus_m / z - 1), px at this width";
   j["samples"] = d.samples;
   j["layers"] = a.layers;
-  j["blades"] = a.blades;
-  j["blade_rotation_deg"] = a.rotation_deg;
+  j["blades"] = opt.aperture.blades;
+  j["blade_rotation_deg"] = opt.aperture.rotation_deg;
+  j["blade_curvature"] = opt.aperture.curvature;
+  j["anamorphic"] = opt.aperture.anamorphic;
+  j["cat_eye"] = opt.aperture.cat_eye;
+  j["aperture_flags"] = a.aperture.text();
   j["seed"] = a.seed;
   j["render_flags"] = flags.str();
   j["ground_truth_seconds"] = seconds;
@@ -179,8 +182,7 @@ void add_scene_command(CLI::App& app) {
              "scene --blur-at-infinity");
   add_number(cmd, "--layers", args->layers,
              "surfaces per pixel written to layers.exr, front to back (0 = none; default 4)", "scene --layers");
-  add_number(cmd, "--blades", args->blades, "aperture blades: 0 = circular, >= 3 = regular polygon", "scene --blades");
-  add_number(cmd, "--rotation", args->rotation_deg, "aperture polygon rotation in degrees", "scene --rotation");
+  args->aperture.add(cmd, /*rotation_alias=*/true);
   cmd->add_option("--seed", args->seed, "lens sampling seed (default 1)");
   add_threads(cmd, args->threads, "worker threads (0 = all cores)");
   args->budget.add(cmd);

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <iterator>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -24,6 +25,7 @@
 #include "dofkit/render.hpp"
 #include "io/atomic_write.hpp"
 #include "io/image_io.hpp"
+#include "io/srgb.hpp"
 #include "metrics/metrics.hpp"
 #include "scene/scene.hpp"
 
@@ -119,7 +121,19 @@ void write_text(const std::string& path, const std::string& text) {
 /// Adds key=value to a spec; `input_layers` is the quality run's own key (the input frame's
 /// hidden fragments), everything else goes to the method.
 void add_param(MethodSpec& m, const std::string& key, const std::string& value, const std::string& list) {
-  if (key == "input_layers") {
+  if (key.rfind("aperture_", 0) == 0) {
+    static const char* const known[] = {"aperture_blades", "aperture_rotation", "aperture_curvature",
+                                        "aperture_anamorphic", "aperture_cat_eye"};
+    if (std::find(std::begin(known), std::end(known), key) == std::end(known))
+      throw_usage("--methods " + list + ": " + key +
+                  ": unknown (aperture_blades, aperture_rotation, aperture_curvature, aperture_anamorphic, "
+                  "aperture_cat_eye)");
+    char* end = nullptr;
+    const double v = std::strtod(value.c_str(), &end);
+    if (value.empty() || *end != '\0' || !std::isfinite(v))
+      throw_usage("--methods " + list + ": " + key + "=" + value + ": not a number");
+    m.aperture[key] = v;
+  } else if (key == "input_layers") {
     char* end = nullptr;
     const long n = std::strtol(value.c_str(), &end, 10);
     if (value.empty() || *end != '\0' || n < 0 || n > 16)
@@ -127,6 +141,16 @@ void add_param(MethodSpec& m, const std::string& key, const std::string& value, 
     m.input_layers = static_cast<int>(n);
   } else {
     m.params[key] = value;
+  }
+}
+
+// What an 8/16-bit sRGB file holds of linear colour: encoded, clipped to [0, 1], quantised, decoded.
+void quantise_display(Image& img, int bits) {
+  const float levels = static_cast<float>((1 << bits) - 1);
+  for (int c = 0; c < 3; ++c) {
+    float* p = img.plane(c);
+    for (std::size_t i = 0; i < img.plane_size(); ++i)
+      p[i] = io::decode_srgb(std::round(io::encode_srgb(p[i]) * levels) / levels);
   }
 }
 
@@ -144,7 +168,7 @@ std::vector<MethodSpec> parse_method_list(const std::string& list) {
     const bool is_param = piece.find('=') != std::string::npos && piece.find(':') == std::string::npos;
     if (is_param) {
       // "key=value" continuing the previous "name:key=value".
-      if (out.empty() || (out.back().params.empty() && out.back().input_layers < 0))
+      if (out.empty() || (out.back().params.empty() && out.back().input_layers < 0 && out.back().aperture.empty()))
         throw_usage("--methods " + list + ": " + piece + " is not a method (write name:key=value,key=value)");
       const auto eq = piece.find('=');
       add_param(out.back(), piece.substr(0, eq), piece.substr(eq + 1), list);
@@ -164,7 +188,7 @@ std::vector<MethodSpec> parse_method_list(const std::string& list) {
     }
     if (!known_method(m.name))
       throw_usage("--methods: unknown method " + m.name + " (available: " + available_methods() + ")");
-    if (m.name == "input" && (!m.params.empty() || m.input_layers >= 0))
+    if (m.name == "input" && (!m.params.empty() || m.input_layers >= 0 || !m.aperture.empty()))
       throw_usage("--methods: input takes no parameters");
     out.push_back(std::move(m));
   }
@@ -173,9 +197,24 @@ std::vector<MethodSpec> parse_method_list(const std::string& list) {
 }
 
 std::vector<MethodSpec> default_method_list() {
-  std::vector<MethodSpec> out{{"input", "input", {}}};
-  for (const auto& m : methods()) out.push_back({m.name, m.name, {}});
+  std::vector<MethodSpec> out{{"input", "input", {}, -1, {}}};
+  for (const auto& m : methods()) out.push_back({m.name, m.name, {}, -1, {}});
   return out;
+}
+
+ApertureShape row_aperture(const ApertureShape& base, const MethodSpec& spec) {
+  ApertureShape a = base;
+  for (const auto& [k, v] : spec.aperture) {
+    if (k == "aperture_blades") a.blades = static_cast<int>(v);
+    if (k == "aperture_rotation") a.rotation_deg = v;
+    if (k == "aperture_curvature") a.curvature = v;
+    if (k == "aperture_anamorphic") a.anamorphic = v;
+    if (k == "aperture_cat_eye") a.cat_eye = v;
+    if (k == "aperture_blades" && v != std::floor(v))
+      throw_usage("--methods " + spec.label + ": aperture_blades: not an integer");
+  }
+  validate(a);
+  return a;
 }
 
 void parse_size(const std::string& text, const char* option, int& width, int& height) {
@@ -205,6 +244,10 @@ QualityResult run_quality(const QualityOptions& opt) {
   if (opt.out_dir.empty()) throw_usage("--out: no output folder given");
   check_number("--threads", opt.threads);
   if (opt.samples < 0) throw_usage("--samples: must be >= 0");
+  if (opt.input_bits != 0 && opt.input_bits != 8 && opt.input_bits != 16)
+    throw_usage("--input-bits: expected 8 or 16 (0 = the float colour as rendered)");
+  validate(opt.aperture);
+  validate(opt.highlights);
   const auto known_scenes = scene::scene_names();
   for (const auto& s : scenes)
     if (std::find(known_scenes.begin(), known_scenes.end(), s) == known_scenes.end()) {
@@ -223,6 +266,8 @@ QualityResult run_quality(const QualityOptions& opt) {
     if (auto it = opt.set.find(s.method); it != opt.set.end()) s.params = it->second;
     for (const auto& [k, v] : specs[i].params) s.params[k] = v;
     s.threads = opt.threads;
+    s.aperture = row_aperture(opt.aperture, specs[i]);
+    s.highlights = opt.highlights;
     s.backend = opt.backend;
     Frame probe;
     probe.color = Image(16, 16, 4, 0.5f);
@@ -264,9 +309,14 @@ QualityResult run_quality(const QualityOptions& opt) {
     so.samples = opt.samples;
     so.threads = opt.threads;
     so.layers = max_layers;
+    so.aperture = opt.aperture;
     so.progress = [&progress](double f) { progress.partial(f); };
     scene::SceneRender sr;
     core::with_threads(opt.threads, [&] { sr = scene::render_scene(name, so); });
+    if (opt.input_bits) {
+      quantise_display(sr.pinhole.color, opt.input_bits);
+      for (Image& l : sr.pinhole.layer_color) quantise_display(l, opt.input_bits);
+    }
     ++done;
     const Image& gt = sr.ground_truth;
     const Image band = metrics::edge_band(sr.pinhole.depth, metrics::kEdgeBandPx, metrics::kEdgeJump);
@@ -345,6 +395,9 @@ QualityResult run_quality(const QualityOptions& opt) {
       "row says input_layers=N. Time = one render() call, {} threads.\n\n",
       opt.width, opt.height, opt.samples > 0 ? std::to_string(opt.samples) : std::string("the scene's default"),
       metrics::kEdgeBandPx, opt.layers, opt.threads > 0 ? std::to_string(opt.threads) : std::string("all"));
+  if (opt.input_bits)
+    md += fmt::format("Input colour quantised to {}-bit sRGB (clipped at 1); highlight boost {}.\n\n", opt.input_bits,
+                      opt.highlights.boost);
   if (!opt.command_line.empty()) md += "Regenerate: `" + opt.command_line + "`\n\n";
   md += metrics::markdown_table(result.rows);
   const std::string md_path = (fs::path(opt.out_dir) / "quality.md").string();

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "dofkit/aperture.hpp"
 #include "dofkit/render.hpp"
 #include "metrics/report.hpp"
 
@@ -22,7 +23,14 @@ struct MethodSpec {
   /// frame carries: the spec key `input_layers=N`, taken out of `params`;
   /// -1 = QualityOptions::layers; 0 = plain single-layer RGB-D.
   int input_layers = -1;
+  /// The spec keys aperture_blades, aperture_rotation, aperture_curvature, aperture_anamorphic,
+  /// aperture_cat_eye (taken out of `params`): this row's aperture differs from the run's in
+  /// those fields (e.g. a wrong rotation or the circle against a polygon ground truth).
+  std::map<std::string, double> aperture;
 };
+
+/// `base` with a spec's aperture overrides applied (validated: Error(usage)).
+ApertureShape row_aperture(const ApertureShape& base, const MethodSpec& spec);
 
 /// Splits a --methods list on commas, keeping "key=value" pieces with the method before
 /// them: "mcguire:variant=book,quality=2,reference" → two specs. Throws Error(usage) for an
@@ -46,6 +54,13 @@ struct QualityOptions {
   /// --set method.key=value: parameters for every row of that method.
   std::map<std::string, std::map<std::string, std::string>> set;
   std::string command_line;  ///< recorded in the Markdown and JSON (how to regenerate)
+  /// The aperture of the ground truth and of every method row (the methods that honour it).
+  ApertureShape aperture;
+  /// Highlight recovery for every method row.
+  HighlightRecovery highlights;
+  /// 0: the pinhole colour as rendered (float, HDR); 8 or 16: quantised to an 8/16-bit sRGB
+  /// file's values first (clipped at 1, as a display-referred input is), input row included.
+  int input_bits = 0;
 };
 
 struct QualityResult {

@@ -49,11 +49,13 @@ void validate(const ApertureShape& aperture);
 
 /// Highlight recovery for display-referred colour (8/16-bit sRGB files clip at 1): before the
 /// blur, a pixel whose display value (sRGB-encoded, largest of R, G, B, alpha divided out)
-/// exceeds `threshold` has its linear colour multiplied by 1 + boost · m², where
-/// m = (display − threshold) / (1 − threshold) in [0, 1] — a fully clipped pixel gets 1 + boost
-/// times its energy back. With `restore`, the result is mapped back through the inverse of the
-/// same curve (an output at the clip level returns to it; an HDR output stays scene-referred
-/// without it).
+/// exceeds `threshold` has its linear colour multiplied by 1 + boost · m² · w, where
+/// m = (display − threshold) / (1 − threshold) in [0, 1] and w in [0, 1] weighs the connected
+/// region of such pixels: full for a small one standing out of a darker surround (a light),
+/// none for a large one or one on a bright surround (docs/methods/highlights.md). A fully clipped
+/// light gets 1 + boost times its energy back. With `restore`, the result is mapped back through
+/// the inverse of the pixel curve (an output at the clip level returns to it; an HDR output
+/// stays scene-referred without it).
 struct HighlightRecovery {
   double threshold = 0.9;  ///< display value in [0, 1) above which a pixel counts as clipped
   double boost = 0.0;      ///< >= 0 and finite; 0 = off

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "dofkit/aperture.hpp"
 #include "dofkit/coc.hpp"
 #include "dofkit/error.hpp"
 #include "dofkit/frame.hpp"
@@ -24,6 +25,12 @@ struct RenderSettings {
   std::string method = "reference";
   /// The camera: CoC model, reference width, clamp.
   CameraModel camera;
+  /// The lens aperture (bokeh shape), for the methods that honour it (MethodInfo::aperture;
+  /// the others draw their own kernel). Default: the circle.
+  ApertureShape aperture;
+  /// Highlight recovery for display-referred colour (default: off). Applied by render() to the
+  /// colour every method gets, so it works with any method.
+  HighlightRecovery highlights;
   /// Method parameters as key → value text (the CLI's `--set k=v`). Unknown keys and
   /// out-of-range values throw Error(usage) naming the key.
   std::map<std::string, std::string> params;
@@ -31,7 +38,8 @@ struct RenderSettings {
   /// every count.
   int threads = 0;
   /// Name of an intermediate buffer to return in RenderResult::debug ("" = none).
-  /// See MethodInfo::debug_views.
+  /// See MethodInfo::debug_views; every method has `highlights` (the boost mask m²·w, 1 plane)
+  /// and every method that honours an aperture has `aperture` (its kernels, far | near).
   std::string debug_view;
   /// The most work the disc scatter of `reference` and `scatter` may take, in pixel visits
   /// (a source's disc covers about (2r + 1)² receivers): a frame whose CoC map implies more is
@@ -122,6 +130,9 @@ struct MethodInfo {
   std::string summary;
   std::vector<ParamInfo> params;
   std::vector<DebugViewInfo> debug_views;
+  /// Which RenderSettings::aperture fields the method honours, in words ("" = none: it draws
+  /// its own kernel whatever the aperture says).
+  std::string aperture;
 };
 
 /// All available techniques, sorted by name.

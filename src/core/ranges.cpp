@@ -60,8 +60,15 @@ const std::vector<NumericRange> kRanges = {
     // scene, quality, demo, bench.
     {"scene --samples", "", 0, 1e6, false, false, true, false, "0 = the scene's own"},
     {"scene --layers", "", 0, 64, false, false, true, false, ""},
-    {"scene --blades", "", 0, 64, false, false, true, false, "0 = circular, else 3 or more"},
-    {"scene --rotation", "deg", -3600, 3600, false, false, false, false, ""},
+    // The aperture and highlight flags (render, scene, quality); the library's validate() of
+    // ApertureShape / HighlightRecovery checks the same or looser bounds.
+    {"--blades", "", 0, 16, false, false, true, false, "0 = circle, else 3 to 16"},
+    {"--blade-rotation", "deg", -3600, 3600, false, false, false, false, "scene: also --rotation"},
+    {"--blade-curvature", "", 0, 1, false, false, false, false, ""},
+    {"--anamorphic", "", 0.1, 10, false, false, false, false, ""},
+    {"--cat-eye", "", 0, 1, false, false, false, false, ""},
+    {"--highlight-threshold", "", 0, 1, false, true, false, false, ""},
+    {"--highlight-boost", "", 0, 1e6, false, false, false, false, ""},
     {"scene --focus", "m", 0, 1e6, false, false, false, false, "0 = the scene's own"},
     {"scene --blur-at-infinity", "px", 0, 1e6, false, false, false, false, "0 = the scene's own"},
     {"quality --samples", "", 0, 1e6, false, false, true, false, "0 = the scene's own"},

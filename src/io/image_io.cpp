@@ -501,6 +501,17 @@ Image read_depth(const std::string& path, const DepthOptions& opt) {
   return depth;
 }
 
+bool is_display_referred(const std::string& path) {
+  // A probe: a file that cannot be opened is not display-referred here; the colour read that
+  // follows (after every input's size is checked) reports why.
+  try {
+    OpenedFile f = open_checked(path, "colour");
+    return f.spec.integer;
+  } catch (const Error&) {
+    return false;
+  }
+}
+
 bool has_depth_channel(const std::string& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return false;

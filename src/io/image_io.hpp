@@ -46,6 +46,10 @@ Image read_color(const std::string& path);
 /// pixel, unless opt.invalid_as_far (they become +inf).
 Image read_depth(const std::string& path, const DepthOptions& opt);
 
+/// True if the file holds integer (8/16-bit) samples, i.e. display-referred sRGB colour that
+/// clips at 1 (reads the header only; Error(bad_input) like read_color if it cannot).
+bool is_display_referred(const std::string& path);
+
 /// True if the file is an EXR with a Z (or depth.Z) channel.
 bool has_depth_channel(const std::string& path);
 

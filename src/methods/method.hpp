@@ -13,6 +13,7 @@
 #include "dofkit/image.hpp"
 #include "dofkit/render.hpp"
 
+#include "core/aperture.hpp"
 #include "core/coc_range.hpp"
 
 namespace dofkit::detail {
@@ -105,6 +106,9 @@ struct MethodContext {
   const core::CocRange* coc_range = nullptr;
   /// RenderSettings::max_work in force (the default filled in): the disc scatter's limit.
   double max_work = kDefaultMaxWork;
+  /// The aperture model of RenderSettings::aperture for this frame size (render() always sets
+  /// it; null means the circle). Only methods whose MethodDef::aperture is non-empty read it.
+  const core::ApertureModel* aperture = nullptr;
 };
 
 /// One technique.
@@ -118,9 +122,14 @@ struct MethodDef {
   /// The method checks the colour itself when MethodContext::colour_dirty is set (saves
   /// render()'s separate read of the whole colour image).
   bool checks_colour = false;
+  /// Which aperture fields the method honours (MethodInfo::aperture; "" = none).
+  std::string aperture;
 };
 
 const std::vector<const MethodDef*>& all_methods();
+/// The debug views render() adds to every method: `highlights`, and `aperture` for a method
+/// that honours the aperture (render() makes it from the model unless the method offers its own).
+std::vector<DebugViewInfo> common_debug_views(const MethodDef& m);
 const MethodDef* find_method(const std::string& name);
 
 }  // namespace dofkit::detail

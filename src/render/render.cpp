@@ -14,6 +14,7 @@
 #include "core/pass_profile.hpp"
 #include "gpu/gpu.hpp"
 #include "methods/method.hpp"
+#include "render/highlights.hpp"
 #include "render/sanitize.hpp"
 #include "dofkit/ranges.hpp"
 
@@ -81,6 +82,18 @@ std::string Params::get_choice(const std::string& key, const std::string& def,
   if (std::find(choices.begin(), choices.end(), it->second) == choices.end())
     bad_param(method_, key, it->second, "must be one of " + known_names(choices));
   return it->second;
+}
+
+std::vector<DebugViewInfo> common_debug_views(const MethodDef& m) {
+  std::vector<DebugViewInfo> v{{"highlights",
+                                "highlight recovery's boost mask m^2 * w (1 plane; the gain is 1 + boost * mask; 0 "
+                                "where nothing was boosted or recovery is off)"}};
+  if (!m.aperture.empty())
+    v.push_back({"aperture",
+                 "the aperture kernels the method used, normalised to a peak of 1: far field (left) and near field "
+                 "(right) at the frame's largest far / near radius (at most 64 px), each a 3x3 grid of source "
+                 "positions across the frame (cat's eye), RGB"});
+  return v;
 }
 
 }  // namespace detail
@@ -185,7 +198,11 @@ Image compute_coc(const Image& depth, const CameraModel& camera, int threads) {
 
 std::vector<MethodInfo> methods() {
   std::vector<MethodInfo> out;
-  for (const auto* m : detail::all_methods()) out.push_back({m->name, m->summary, m->params, m->debug_views});
+  for (const auto* m : detail::all_methods()) {
+    MethodInfo info{m->name, m->summary, m->params, m->debug_views, m->aperture};
+    for (const DebugViewInfo& v : detail::common_debug_views(*m)) info.debug_views.push_back(v);
+    out.push_back(std::move(info));
+  }
   std::sort(out.begin(), out.end(), [](const MethodInfo& a, const MethodInfo& b) { return a.name < b.name; });
   return out;
 }
@@ -213,11 +230,13 @@ const detail::MethodDef& checked_method(const RenderSettings& settings) {
     }
   }
   if (!settings.debug_view.empty()) {
-    const bool known = std::any_of(method->debug_views.begin(), method->debug_views.end(),
-                                   [&](const DebugViewInfo& v) { return v.name == settings.debug_view; });
+    std::vector<DebugViewInfo> views = method->debug_views;
+    for (const DebugViewInfo& v : detail::common_debug_views(*method)) views.push_back(v);
+    const bool known =
+        std::any_of(views.begin(), views.end(), [&](const DebugViewInfo& v) { return v.name == settings.debug_view; });
     if (!known) {
       std::vector<std::string> names;
-      for (const auto& v : method->debug_views) names.push_back(v.name);
+      for (const auto& v : views) names.push_back(v.name);
       throw_usage("--debug-view " + settings.debug_view + ": method " + method->name + " has no such view (" +
                   (names.empty() ? std::string("it has none") : "known: " + detail::known_names(names)) + ")");
     }
@@ -225,6 +244,8 @@ const detail::MethodDef& checked_method(const RenderSettings& settings) {
   check_number("--threads", settings.threads);
   if (settings.max_work != 0) check_number("--max-work", settings.max_work);
   validate(settings.camera);
+  validate(settings.aperture);
+  validate(settings.highlights);
   return *method;
 }
 
@@ -235,9 +256,46 @@ struct Renderer::Impl {
   const detail::MethodDef* method = nullptr;
   detail::Workspace workspace;
   RenderResult result;
-  Frame sanitized;                           // colour-sanitised copy of the input, used only when the input needs it
+  Frame sanitized;  // colour-sanitised copy of the input, used only when the input needs it
+  Frame boosted;    // the highlight-boosted copy, used only when highlight recovery is on
+  Image boost_mask;
+  // The aperture model for the current frame size (made again when the size changes).
+  std::optional<core::ApertureModel> aperture;
+  int aperture_w = -1, aperture_h = -1;
   std::unique_ptr<gpu::MethodRenderer> gpu;  // backend = vulkan: the method's shaders
 };
+
+namespace {
+
+// The `aperture` debug view: far | near kernels, each a 3×3 grid of source positions.
+Image aperture_view(const core::ApertureModel& model, const core::CocRange& range, int w, int h) {
+  const float rho_far = std::clamp(static_cast<float>(range.far_max), 0.5f, 64.0f);
+  const float rho_near = std::clamp(static_cast<float>(range.near_max), 0.5f, 64.0f);
+  const int reach = std::max(model.reach(rho_far), model.reach(rho_near));
+  const int cell = 2 * reach + 3, side = 3 * cell;
+  Image out(2 * side + 4, side, 4, 0.0f);
+  std::fill(out.plane(3), out.plane(3) + out.plane_size(), 1.0f);
+  for (int panel = 0; panel < 2; ++panel) {
+    const core::Field f = panel == 0 ? core::Field::far : core::Field::near;
+    const float rho = panel == 0 ? rho_far : rho_near;
+    for (int gy = 0; gy < 3; ++gy)
+      for (int gx = 0; gx < 3; ++gx) {
+        const float sx = (gx == 0 ? 0.5f : gx == 1 ? 0.5f * w : w - 0.5f);
+        const float sy = (gy == 0 ? 0.5f : gy == 1 ? 0.5f * h : h - 0.5f);
+        for (int c = 0; c < 3; ++c) {
+          const core::ApertureModel::Kernel k = model.kernel(rho, f, sx, sy, std::min(c, model.channels() - 1));
+          const float peak = *std::max_element(k.cov.begin(), k.cov.end());
+          const int ox = panel * (side + 4) + gx * cell + cell / 2, oy = gy * cell + cell / 2;
+          for (int dy = -k.reach; dy <= k.reach; ++dy)
+            for (int dx = -k.reach; dx <= k.reach; ++dx)
+              out.at(ox + dx, oy + dy, c) = peak > 0 ? k.at(dx, dy) / peak : 0.0f;
+        }
+      }
+  }
+  return out;
+}
+
+}  // namespace
 
 Renderer::Renderer(RenderSettings settings) : impl_(std::make_unique<Impl>()) {
   impl_->method = &checked_method(settings);
@@ -272,13 +330,31 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     // anyway checks them there (checks_colour); otherwise, or when it found a bad sample,
     // the colour is checked here and sanitised into a copy where needed.
     std::atomic<bool> dirty{false};
+    const bool boost = settings.highlights.enabled();
     // The GPU passes get sanitised colour (the check is not made in their shaders).
-    const bool deferred = method.checks_colour && frame_in.layer_color.empty() && !impl_->gpu;
+    const bool deferred = method.checks_colour && frame_in.layer_color.empty() && !boost && !impl_->gpu;
     const Frame& frame = [&]() -> const Frame& {
       if (deferred) return frame_in;
       core::PassScope pass("colour check");
-      return detail::sanitized_frame(frame_in, impl_->sanitized);
+      const Frame& clean = detail::sanitized_frame(frame_in, impl_->sanitized);
+      if (!boost) return clean;
+      // Highlight recovery: the boosted copy of the (clean) colour and of every layer.
+      Frame& b = impl_->boosted;
+      const bool want_mask = settings.debug_view == "highlights";
+      detail::boost_highlights(clean.color, settings.highlights, b.color, want_mask ? &impl_->boost_mask : nullptr);
+      b.depth = clean.depth;
+      b.layer_color.resize(clean.layer_color.size());
+      for (std::size_t l = 0; l < clean.layer_color.size(); ++l)
+        detail::boost_highlights(clean.layer_color[l], settings.highlights, b.layer_color[l]);
+      b.layer_depth = clean.layer_depth;
+      return b;
     }();
+    if (!impl_->aperture || impl_->aperture_w != frame.width() || impl_->aperture_h != frame.height()) {
+      impl_->aperture.emplace(settings.aperture, frame.width(), frame.height());
+      impl_->aperture_w = frame.width();
+      impl_->aperture_h = frame.height();
+    }
+    const core::ApertureModel* aperture = &*impl_->aperture;
     const CocFunction coc_of(settings.camera, frame.width());
     core::CocRange range;
     {
@@ -290,15 +366,14 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     sink.emplace(settings.debug_view);
     core::PassScope pass(method.name.c_str());
     const double max_work = settings.max_work > 0 ? settings.max_work : kDefaultMaxWork;
-    if (impl_->gpu) {
-      impl_->gpu->render(
-          {frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr, &range},
-          result.image);
-      return;
-    }
-    method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,
-                   deferred ? &dirty : nullptr, &range, max_work},
-                  result.image);
+    if (impl_->gpu)
+      impl_->gpu->render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr,
+                          &range, max_work, aperture},
+                         result.image);
+    else
+      method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,
+                     deferred ? &dirty : nullptr, &range, max_work, aperture},
+                    result.image);
     if (deferred && dirty.load()) {
       // Rare (hostile input): everything from the first try is discarded. The depth, and so
       // the CoC, are the caller's in both tries.
@@ -306,9 +381,18 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
       const Frame& clean = detail::sanitized_frame(frame_in, impl_->sanitized);
       sink.emplace(settings.debug_view);
       method.render({clean, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr,
-                     &range, max_work},
+                     &range, max_work, aperture},
                     result.image);
     }
+    if (boost && settings.highlights.restore) {
+      core::PassScope again("highlight restore");
+      detail::restore_highlights(result.image, settings.highlights);
+    }
+    if (settings.debug_view == "highlights")
+      sink->offer("highlights",
+                  [&] { return boost ? impl_->boost_mask : Image(frame.width(), frame.height(), 1, 0.0f); });
+    if (settings.debug_view == "aperture" && !sink->found())
+      sink->offer("aperture", [&] { return aperture_view(*aperture, range, frame.width(), frame.height()); });
   });
   result.debug = Image();
   if (!settings.debug_view.empty()) {

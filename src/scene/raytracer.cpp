@@ -7,6 +7,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/aperture.hpp"
 #include "core/parallel.hpp"
 #include "dofkit/error.hpp"
 #include "scene/sampling.hpp"
@@ -388,7 +389,7 @@ void check_camera(const LensCamera& cam) {
   if (!(cam.hfov_deg > 0 && cam.hfov_deg < 180)) throw_usage("field of view must be in (0, 180) degrees");
   if (!(cam.focus_m > 0) || !std::isfinite(cam.focus_m)) throw_usage("--focus: must be > 0 metres");
   if (!(cam.k_px >= 0) || !std::isfinite(cam.k_px)) throw_usage("--blur-at-infinity: must be >= 0 px");
-  if (cam.blades != 0 && (cam.blades < 3 || cam.blades > 64)) throw_usage("--blades: must be 0 (circle) or 3..64");
+  validate(cam.aperture);
 }
 
 }  // namespace
@@ -458,7 +459,7 @@ struct EmitterRegion {
   double cx, cy, r;
 };
 
-bool emitter_region(const Primitive& e, Vec3 p, double lens_r, EmitterRegion& out) {
+bool emitter_region(const Primitive& e, Vec3 p, double lens_r, double lens_bound, EmitterRegion& out) {
   const Vec3 v = e.p0 - p;
   const double dist = std::sqrt(dot(v, v));
   if (dist < 1.5 * e.radius) return false;  // P (nearly) inside: the pixel is in focus on it
@@ -484,8 +485,8 @@ bool emitter_region(const Primitive& e, Vec3 p, double lens_r, EmitterRegion& ou
     r = std::max(r, std::hypot(x - cx, y - cy));
   }
   r *= 1.1;
-  if (r > 0.5 * lens_r) return false;                 // large: plain lens samples do well
-  if (std::hypot(cx, cy) > lens_r + r) return false;  // cannot be seen through the lens
+  if (r > 0.5 * lens_r) return false;                     // large: plain lens samples do well
+  if (std::hypot(cx, cy) > lens_bound + r) return false;  // cannot be seen through the lens
   out = {cx, cy, r};
   return true;
 }
@@ -526,13 +527,31 @@ Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, s
   if (samples < 1 || samples > (1 << 20)) throw_usage("--samples: must be 1..1048576");
   const int w = cam.width, h = cam.height;
   const double f = cam.f_px(), zf = cam.focus_m, a = cam.lens_radius_m();
-  const double rot = cam.rotation_deg * std::numbers::pi / 180.0;
-  const int blades = cam.blades >= 3 ? cam.blades : 0;
-  // Lens area in the same normalisation as the samples (metres²).
-  // (K = 0 is a pinhole: every sample is the same ray; use a unit "area" so weights stay finite.)
+  // The aperture: the model's far-field footprint of radius 1, in image axes, scaled by a.
+  // Blender's rotation turns counter-clockwise on screen; these axes have y down, so the
+  // polygon's edge midpoints lie at 2kπ/n − rotation here.
+  const core::ApertureModel model(cam.aperture, w, h);
+  const ApertureShape& ap = cam.aperture;
+  const double rot = -ap.rotation_deg * std::numbers::pi / 180.0;
+  const double ratio = ap.anamorphic;
+  const bool round = ap.blades == 0 || ap.curvature >= 1.0;
+  const int blades = round ? 0 : ap.blades;
+  // Exact: an area-preserving map onto the aperture (disc or straight polygon, squeezed) and
+  // its exact area. Otherwise the samples cover the bounding disc (curved blades) or box (an
+  // image) and are weighted by the transmission, including the cat's eye.
+  const bool exact = !ap.image && (round || ap.curvature == 0.0) && ap.cat_eye == 0.0;
+  const bool boxed = ap.image != nullptr;
+  const int nch = model.channels();
+  const double ex = model.unit_extent_x(), ey = model.unit_extent_y();
+  const double lens_bound = a * (boxed ? std::hypot(ex, ey) : std::max(1.0, 1.0 / ratio));
+  // Lens area in the same normalisation as the samples (metres²): the aperture's (exact) or the
+  // sampled domain's. (K = 0 is a pinhole: every sample is the same ray; a unit "area" keeps
+  // the weights finite.)
   const double lens_area = a <= 0   ? 1.0
-                           : blades ? 0.5 * blades * a * a * std::sin(2 * std::numbers::pi / blades)
-                                    : std::numbers::pi * a * a;
+                           : boxed  ? 4 * ex * ey * a * a
+                           : blades ? 0.5 * blades * a * a * std::sin(2 * std::numbers::pi / blades) / ratio
+                                    : std::numbers::pi * a * a / ratio;
+  const double hd = 0.5 * std::hypot(double(w), double(h));
   const std::uint32_t seed32 =
       detail::hash_combine(detail::hash32(static_cast<std::uint32_t>(seed)), static_cast<std::uint32_t>(seed >> 32));
   Image out(w, h, 4);
@@ -549,11 +568,35 @@ Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, s
         // Focus-plane point of the pixel centre; every lens ray of this pixel passes through it.
         const Vec3 p{(x + 0.5 - 0.5 * w) / f * zf, (y + 0.5 - 0.5 * h) / f * zf, zf};
         const std::uint32_t pixel_seed = detail::hash_combine(detail::hash_combine(seed32, x), y);
+        // Cat's eye: the second circle (radius 1 in lens units, squeezed like the aperture),
+        // displaced toward the frame centre by cat_eye · (distance from the centre / half diagonal).
+        const double eye_x = ap.cat_eye * (0.5 * w - (x + 0.5)) / hd, eye_y = ap.cat_eye * (0.5 * h - (y + 0.5)) / hd;
+        // Transmission of lens point (lx, ly) (metres) per channel; returns false if it is 0.
+        double t[3] = {1, 1, 1};
+        auto transmit = [&](double lx, double ly) {
+          const double ux = lx / a, uy = ly / a;
+          if (ap.cat_eye > 0) {
+            const double qx = (ux - eye_x) * ratio, qy = uy - eye_y;
+            if (qx * qx + qy * qy > 1) return false;
+          }
+          if (exact || !ap.image) {
+            if (!exact && model.unit_transmission(ux, uy, core::Field::far) <= 0) return false;
+            if (exact && !in_aperture(ux * ratio * a, ly, a, blades, rot)) return false;
+            t[0] = t[1] = t[2] = 1;
+            return true;
+          }
+          bool any = false;
+          for (int c = 0; c < 3; ++c) {
+            t[c] = model.unit_transmission(ux, uy, core::Field::far, std::min(c, nch - 1));
+            any |= t[c] > 0;
+          }
+          return any;
+        };
         regions.clear();
         if (a > 0)
           for (int e : emitters) {
             EmitterRegion r;
-            if (emitter_region(scene.prims[e], p, a, r)) regions.push_back(r);
+            if (emitter_region(scene.prims[e], p, a, lens_bound, r)) regions.push_back(r);
           }
         auto in_region = [&](double lx, double ly, std::size_t upto) {
           for (std::size_t j = 0; j < upto; ++j)
@@ -562,27 +605,36 @@ Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, s
               return true;
           return false;
         };
-        double sr = 0, sg = 0, sb = 0;
+        double sum[3] = {0, 0, 0}, wsum[3] = {0, 0, 0};
         auto trace = [&](double lx, double ly, double weight) {
           const Vec3 o{lx, ly, 0};
           const Vec3 d = (p - o) * (1.0 / zf);  // d.z = 1: t is planar depth
           const Rgb c = radiance(scene, closest(scene, cand, o, d), o, d);
-          sr += weight * c.r;
-          sg += weight * c.g;
-          sb += weight * c.b;
+          sum[0] += weight * t[0] * c.r;
+          sum[1] += weight * t[1] * c.g;
+          sum[2] += weight * t[2] * c.b;
+          for (int k = 0; k < 3; ++k) wsum[k] += weight * t[k];
         };
         const detail::SobolSet lens_set(pixel_seed);
         const double w_main = lens_area / samples;
         for (int i = 0; i < samples; ++i) {
           double u, v, lx, ly;
           lens_set.sample(static_cast<std::uint32_t>(i), u, v);
-          if (blades)
-            detail::polygon_sample(u, v, blades, rot, lx, ly);
-          else
-            detail::concentric_disc(u, v, lx, ly);
+          if (boxed) {
+            lx = (2 * u - 1) * ex;
+            ly = (2 * v - 1) * ey;
+          } else {
+            if (blades && exact)
+              detail::polygon_sample(u, v, blades, rot, lx, ly);
+            else
+              detail::concentric_disc(u, v, lx, ly);
+            lx /= ratio;
+          }
           lx *= a;
           ly *= a;
-          if (!in_region(lx, ly, regions.size())) trace(lx, ly, w_main);
+          if (in_region(lx, ly, regions.size())) continue;
+          if (!exact && !transmit(lx, ly)) continue;
+          trace(lx, ly, w_main);
         }
         const int m_region = std::max(kMinEmitterSamples, samples);
         for (std::size_t j = 0; j < regions.size(); ++j) {
@@ -595,12 +647,14 @@ Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, s
             detail::concentric_disc(u, v, lx, ly);
             lx = r.cx + r.r * lx;
             ly = r.cy + r.r * ly;
-            if (in_aperture(lx, ly, a, blades, rot) && !in_region(lx, ly, j)) trace(lx, ly, w_region);
+            if (transmit(lx, ly) && !in_region(lx, ly, j)) trace(lx, ly, w_region);
           }
         }
-        out.at(x, y, 0) = static_cast<float>(sr / lens_area);
-        out.at(x, y, 1) = static_cast<float>(sg / lens_area);
-        out.at(x, y, 2) = static_cast<float>(sb / lens_area);
+        for (int c = 0; c < 3; ++c) {
+          // Exact apertures: the known area (an unbiased estimate); else the ratio estimate.
+          const double norm = exact ? lens_area : wsum[c];
+          out.at(x, y, c) = norm > 0 ? static_cast<float>(sum[c] / norm) : 0.0f;
+        }
         out.at(x, y, 3) = 1.0f;
       }
   });

@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "dofkit/aperture.hpp"
 #include "dofkit/frame.hpp"
 #include "dofkit/image.hpp"
 #include "scene/scene.hpp"
@@ -118,11 +119,12 @@ struct Scene {
 /// The thin-lens camera: resolution, field of view, focus, blur at infinity, aperture shape.
 struct LensCamera {
   int width = 640, height = 360;
-  double hfov_deg = 60;     ///< horizontal field of view, degrees
-  double focus_m = 5;       ///< z_F, metres
-  double k_px = 12;         ///< K, blur radius of a point at infinity, px at `width`
-  int blades = 0;           ///< 0 = circular aperture, >= 3 = regular polygon
-  double rotation_deg = 0;  ///< polygon rotation, degrees (image axes: x right, y down)
+  double hfov_deg = 60;  ///< horizontal field of view, degrees
+  double focus_m = 5;    ///< z_F, metres
+  double k_px = 12;      ///< K, blur radius of a point at infinity, px at `width`
+  /// The aperture (core/aperture.hpp's model): the lens-plane shape, in image axes (x right,
+  /// y down), is the model's far-field footprint of radius 1 scaled by the lens radius a.
+  ApertureShape aperture;
 
   /// Pinhole focal length in pixels, F = (W/2)/tan(hfov/2).
   double f_px() const;
@@ -157,7 +159,9 @@ Frame render_pinhole(const Scene& scene, const LensCamera& cam, int layers = 0);
 /// Thin-lens render: for every pixel centre, `samples` lens points (Owen-scrambled Sobol mapped
 /// to the disc or polygon aperture), each traced through the pixel's focus-plane point; the
 /// first hit's radiance is averaged. RGBA, alpha 1. Deterministic for (seed, samples), any
-/// thread count.
+/// thread count. Apertures without an area-preserving map (curved blades, an aperture image,
+/// cat's eye) are sampled over their bounding disc or box and weighted by their transmission
+/// (per colour channel for an RGB image): the ratio of the weighted radiance to the weights.
 Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, std::uint64_t seed,
                        const Progress& progress = {});
 

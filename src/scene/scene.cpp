@@ -16,8 +16,7 @@ LensCamera camera_for(const Scene& s, const SceneOptions& opt) {
   if (opt.blur_at_infinity_px < 0 || !std::isfinite(opt.blur_at_infinity_px))
     throw_usage("--blur-at-infinity: must be >= 0 px");
   if (opt.samples < 0) throw_usage("--samples: must be >= 1 (0 = the scene's default)");
-  if (opt.blades != 0 && (opt.blades < 3 || opt.blades > 64)) throw_usage("--blades: must be 0 (circle) or 3..64");
-  if (!std::isfinite(opt.blade_rotation_deg)) throw_usage("--rotation: must be finite degrees");
+  validate(opt.aperture);
   LensCamera cam;
   cam.width = opt.width;
   cam.height = opt.height;
@@ -26,8 +25,7 @@ LensCamera camera_for(const Scene& s, const SceneOptions& opt) {
   // The scene's default K is composed at 640 px wide; radii scale with the width so the
   // picture is the same at any resolution. A K given by the user is at the rendered width.
   cam.k_px = opt.blur_at_infinity_px > 0 ? opt.blur_at_infinity_px : s.k_px_at_640 * opt.width / 640.0;
-  cam.blades = opt.blades;
-  cam.rotation_deg = opt.blade_rotation_deg;
+  cam.aperture = opt.aperture;
   return cam;
 }
 

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "dofkit/aperture.hpp"
 #include "dofkit/coc.hpp"
 #include "dofkit/frame.hpp"
 #include "dofkit/image.hpp"
@@ -23,9 +24,9 @@ struct SceneOptions {
   double blur_at_infinity_px = 0;
   /// Hidden fragments to record per pixel (front to back) in Frame::layer_* (0 = none).
   int layers = 0;
-  /// Aperture: 0 = circle, >= 3 = regular polygon with this many blades.
-  int blades = 0;
-  double blade_rotation_deg = 0;
+  /// The lens aperture (dofkit/aperture.hpp; the same model the methods draw): blades,
+  /// rotation, curvature, anamorphic squeeze, cat's eye, or an aperture image.
+  ApertureShape aperture;
   std::uint64_t seed = 1;
   /// Worker threads (0 = all hardware threads). The output does not depend on it.
   int threads = 0;

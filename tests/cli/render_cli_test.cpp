@@ -825,3 +825,102 @@ TEST_F(RenderCli, FramesWithAMaskAndAFixedMaskDepth) {
     return one;
   });
 }
+
+// --- aperture and highlight recovery flags (issue 29) -----------------------------------------
+
+TEST_F(RenderCli, ApertureFlagsReachTheLibrary) {
+  std::vector<std::string> args = exact_call();
+  for (const char* a : {"--blades", "6", "--blade-rotation", "15", "--blade-curvature", "0.2", "--anamorphic", "1.33"})
+    args.push_back(a);
+  const CliResult r = run_render(args);
+  ASSERT_EQ(r.code, 0) << r.message;
+  Frame f{color_, depth_, {}, {}};
+  RenderSettings s;
+  s.camera.model = BlurAtInfinity{4.0, 24.0};
+  s.camera.max_coc_px = 40;
+  s.aperture.blades = 6;
+  s.aperture.rotation_deg = 15;
+  s.aperture.curvature = 0.2;
+  s.aperture.anamorphic = 1.33;
+  EXPECT_EQ(io::read_color(dir_ / "out.exr").data(), render(f, s).image.data());
+}
+
+TEST_F(RenderCli, BadApertureIsAUsageErrorNamingTheFlag) {
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = exact_call();
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  for (const char* b : {"1", "2", "17"}) expect_failure(with({"--blades", b}), 2, {"--blades"});
+  expect_failure(with({"--blade-curvature", "1.5"}), 2, {"--blade-curvature"});
+  expect_failure(with({"--blade-curvature", "-0.1"}), 2, {"--blade-curvature"});
+  expect_failure(with({"--anamorphic", "0"}), 2, {"--anamorphic"});
+  expect_failure(with({"--cat-eye", "3"}), 2, {"--cat-eye"});
+  expect_failure(with({"--highlight-boost", "nan"}), 2, {"--highlight-boost"});
+  expect_failure(with({"--highlight-boost", "inf"}), 2, {"--highlight-boost"});
+  expect_failure(with({"--highlight-boost", "-1"}), 2, {"--highlight-boost"});
+  expect_failure(with({"--highlight-threshold", "1"}), 2, {"--highlight-threshold"});
+}
+
+TEST_F(RenderCli, BadApertureImageIsRefusedWithNoOutput) {
+  auto with_image = [&](const std::string& name) {
+    std::vector<std::string> a = exact_call();
+    a.push_back("--aperture-image");
+    a.push_back(dir_ / name);
+    return a;
+  };
+  // Unreadable: missing, empty file, not an image → bad input (3).
+  expect_failure(with_image("missing.png"), 3, {"--aperture-image", "missing.png"});
+  {
+    std::FILE* f = std::fopen((dir_ / "empty.png").c_str(), "wb");
+    std::fclose(f);
+  }
+  expect_failure(with_image("empty.png"), 3, {"--aperture-image", "empty.png"}, {"empty.png"});
+  // All black, larger than 1024x1024 → usage (2).
+  io::write_image(dir_ / "black.exr", Image(16, 16, 1, 0.0f));
+  expect_failure(with_image("black.exr"), 2, {"--aperture-image", "all black"}, {"black.exr", "empty.png"});
+  io::write_image(dir_ / "big.exr", Image(1025, 8, 1, 1.0f));
+  expect_failure(with_image("big.exr"), 2, {"--aperture-image", "1025x8"}, {"big.exr", "black.exr", "empty.png"});
+  // An image of the disc gives the circle's render.
+  Image disc(64, 64, 1, 0.0f);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) disc.at(x, y) = std::hypot(x + 0.5 - 32, y + 0.5 - 32) <= 32 ? 1.0f : 0.0f;
+  io::write_image(dir_ / "disc.exr", disc);
+  const CliResult r = run_render(with_image("disc.exr"));
+  ASSERT_EQ(r.code, 0) << r.message;
+}
+
+TEST_F(RenderCli, EightBitColourGetsTheDefaultBoostAndEveryViewWorks) {
+  // An 8-bit PNG is display-referred: the default boost applies; --highlight-boost 0 turns it off.
+  // A small light (3x3 at the clip level) on a dark 9x9 patch: what recovery boosts.
+  Image c = color_;
+  for (int y = 20; y < 29; ++y)
+    for (int x = 40; x < 49; ++x) {
+      const float v = (x >= 43 && x < 46 && y >= 23 && y < 26) ? 1.0f : 0.02f;
+      for (int ch = 0; ch < 3; ++ch) c.at(x, y, ch) = v * c.at(x, y, 3);
+    }
+  io::write_image(dir_ / "c8.png", c);
+  auto call = [&](std::vector<std::string> extra, const std::string& out) {
+    std::vector<std::string> a = {"--color", dir_ / "c8.png",      "--depth", dir_ / "z.exr", "--focus",
+                                  "4",       "--blur-at-infinity", "24",      "--output",     dir_ / out};
+    a.insert(a.end(), extra.begin(), extra.end());
+    return run_render(a);
+  };
+  ASSERT_EQ(call({}, "def.exr").code, 0);
+  ASSERT_EQ(call({"--highlight-boost", "64"}, "b64.exr").code, 0);
+  ASSERT_EQ(call({"--highlight-boost", "0"}, "b0.exr").code, 0);
+  const Image def = io::read_color(dir_ / "def.exr"), b64 = io::read_color(dir_ / "b64.exr"),
+              b0 = io::read_color(dir_ / "b0.exr");
+  EXPECT_EQ(def.data(), b64.data());
+  EXPECT_NE(def.data(), b0.data());  // the light was boosted
+  // The debug views: the boost mask and the aperture kernels.
+  const CliResult m = call({"--debug-view", "highlights", "--debug-output", dir_ / "mask.exr"}, "m.exr");
+  ASSERT_EQ(m.code, 0) << m.message;
+  const Image mask = io::read_color(dir_ / "mask.exr");
+  float mx = 0;
+  for (float v : mask.data()) mx = std::max(mx, v);
+  EXPECT_GT(mx, 0.0f);
+  const CliResult a = call({"--blades", "5", "--debug-view", "aperture", "--debug-output", dir_ / "ap.exr"}, "a.exr");
+  ASSERT_EQ(a.code, 0) << a.message;
+  EXPECT_GT(io::read_color(dir_ / "ap.exr").width(), 10);
+}

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "core/parallel.hpp"
+#include "core/aperture.hpp"
 #include "methods/layered/disc_blur.hpp"
 
 namespace {
@@ -63,10 +64,12 @@ TEST(LayeredDisc, KernelSumsToOne) {
     double sum = 0;
     int taps = 0;
     for (const auto& row : k.rows) {
-      if (row.span >= 0) sum += (2 * row.span + 1) * k.full_weight, taps += 2 * row.span + 1;
+      EXPECT_EQ(row.lo, -row.hi);  // a disc's full run is symmetric
+      if (row.lo <= row.hi) sum += (row.hi - row.lo + 1) * k.full_weight, taps += row.hi - row.lo + 1;
       for (const auto& t : row.rim) {
         EXPECT_GT(t.w, 0.0);
         EXPECT_LT(t.w, k.full_weight);  // rim taps are partial
+        EXPECT_EQ(t.len, 1);
         sum += t.w, ++taps;
       }
     }
@@ -115,6 +118,45 @@ TEST(LayeredDisc, SameResultForAnyThreadCount) {
   core::with_threads(1, [&] { disc_blur(one, 6.3); });
   core::with_threads(2, [&] { disc_blur(two, 6.3); });
   EXPECT_EQ(one.data(), two.data());
+}
+
+// Other apertures: the blur equals the brute-force scatter of every pixel over the model's
+// footprint (p = q + o with weight cov(o) / Σcov; clamp-to-edge sources), for a rotated
+// pentagon in both fields (the near field point-reflected) and a squeezed, curved hexagon.
+TEST(LayeredDisc, ApertureKernelScattersTheFootprint) {
+  const Image src = random_layer(29, 21, 7);
+  struct Case {
+    dofkit::ApertureShape shape;
+    double coc;
+  };
+  dofkit::ApertureShape pent;
+  pent.blades = 5;
+  pent.rotation_deg = 17;
+  dofkit::ApertureShape hex;
+  hex.blades = 6;
+  hex.curvature = 0.3;
+  hex.anamorphic = 1.6;
+  for (const Case& c : {Case{pent, -4.6}, Case{pent, 5.2}, Case{hex, -7.1}}) {
+    const dofkit::core::ApertureModel m(c.shape, src.width(), src.height());
+    Image fast = src;
+    disc_blur(fast, c.coc, &m);
+    const float rho = static_cast<float>(std::fabs(c.coc));
+    const auto f = c.coc > 0 ? dofkit::core::Field::near : dofkit::core::Field::far;
+    const auto k = m.kernel(rho, f);
+    double worst = 0;
+    for (int ch = 0; ch < 4; ++ch)
+      for (int y = 0; y < src.height(); ++y)
+        for (int x = 0; x < src.width(); ++x) {
+          double acc = 0;
+          for (int dy = -k.reach; dy <= k.reach; ++dy)
+            for (int dx = -k.reach; dx <= k.reach; ++dx) {
+              const int sx = std::clamp(x - dx, 0, src.width() - 1), sy = std::clamp(y - dy, 0, src.height() - 1);
+              acc += k.at(dx, dy) / k.sum * src.at(sx, sy, ch);
+            }
+          worst = std::max(worst, std::fabs(acc - fast.at(x, y, ch)));
+        }
+    EXPECT_LT(worst, 1e-5) << c.coc;
+  }
 }
 
 }  // namespace

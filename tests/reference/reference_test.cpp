@@ -4,8 +4,13 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "dofkit/render.hpp"
+#include "core/aperture.hpp"
 #include "methods/reference/disc_scatter.hpp"
 
 using namespace dofkit;
@@ -200,5 +205,146 @@ TEST(Reference, SimdLoopMatchesPlainLoopWhenDiscsExceedTheImage) {
     detail::disc_scatter(f.color, f.depth, coc, a, oa);
     detail::disc_scatter(f.color, f.depth, coc, b, ob);
     for (std::size_t i = 0; i < oa.data().size(); ++i) ASSERT_NEAR(oa.data()[i], ob.data()[i], 1e-4) << w << ": " << i;
+  }
+}
+
+// --- apertures other than the circle (core/aperture.hpp) ------------------------------------
+
+namespace {
+
+std::vector<std::pair<std::string, ApertureShape>> test_apertures() {
+  std::vector<std::pair<std::string, ApertureShape>> v;
+  ApertureShape a;
+  a.blades = 5;
+  a.rotation_deg = 10;
+  v.push_back({"pentagon", a});
+  a = {};
+  a.blades = 6;
+  a.curvature = 0.3;
+  a.anamorphic = 1.5;
+  v.push_back({"curved hexagon, anamorphic 1.5", a});
+  a = {};
+  a.anamorphic = 0.6;
+  v.push_back({"wide oval", a});
+  a = {};
+  a.blades = 7;
+  a.rotation_deg = -20;
+  a.cat_eye = 0.8;
+  v.push_back({"heptagon, cat's eye", a});
+  // A grey image (a soft-edged triangle-ish blob) and an RGB one (red smaller than blue).
+  auto grey = std::make_shared<Image>(21, 17, 1, 0.0f);
+  for (int y = 0; y < 17; ++y)
+    for (int x = 0; x < 21; ++x) grey->at(x, y) = (y >= 2 && std::abs(x - 10) <= (y - 2) * 0.7) ? 1.0f : 0.0f;
+  a = {};
+  a.image = grey;
+  a.rotation_deg = 20;
+  v.push_back({"grey image, rotated", a});
+  auto rgb = std::make_shared<Image>(16, 16, 3, 0.0f);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) {
+      const double d = std::hypot(x - 7.5, y - 7.5);
+      rgb->at(x, y, 0) = d < 5 ? 1.0f : 0.0f;
+      rgb->at(x, y, 1) = d < 6.5 ? 1.0f : 0.0f;
+      rgb->at(x, y, 2) = d < 8 ? 0.5f : 0.0f;
+    }
+  a = {};
+  a.image = rgb;
+  v.push_back({"RGB image", a});
+  return v;
+}
+
+Frame aperture_frame(int w, int h) {
+  Frame f = make_frame(w, h, 1.0f);
+  texture(f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      f.depth.at(x, y) = (x > 15 && x < 24) ? 0.6f : (y < h / 2 ? 25.0f : 1.0f + 0.05f * y) + ((x * 7 + y) % 5 == 0);
+  f.depth.at(w / 2, 5) = std::numeric_limits<float>::infinity();
+  f.color.at(w / 3, h / 4, 0) = 40.0f;  // a highlight far behind the focus
+  return f;
+}
+
+}  // namespace
+
+TEST(Reference, SimdLoopMatchesPlainLoopForEveryAperture) {
+  const Frame f = aperture_frame(61, 43);
+  const Image coc = compute_coc(f.depth, CameraModel{BlurAtInfinity{2.5, 7.0}});
+  for (const auto& [name, shape] : test_apertures()) {
+    const core::ApertureModel model(shape, f.width(), f.height());
+    for (bool depth_order : {true, false}) {
+      detail::DiscScatterOptions a, b;
+      a.depth_order = b.depth_order = depth_order;
+      a.aperture = b.aperture = &model;
+      b.simd = false;
+      Image oa, ob;
+      detail::disc_scatter(f.color, f.depth, coc, a, oa);
+      detail::disc_scatter(f.color, f.depth, coc, b, ob);
+      for (std::size_t i = 0; i < oa.data().size(); ++i)
+        ASSERT_NEAR(oa.data()[i], ob.data()[i], 1e-4 * std::max(1.0f, std::fabs(ob.data()[i]))) << name << ": " << i;
+    }
+  }
+}
+
+TEST(Reference, EveryApertureIsIdenticalAcrossThreadCounts) {
+  const Frame f = aperture_frame(70, 44);
+  for (const auto& [name, shape] : test_apertures()) {
+    RenderSettings s = settings(2.5, 7.0);
+    s.aperture = shape;
+    s.threads = 1;
+    const RenderResult a = render(f, s);
+    s.threads = 2;
+    const RenderResult b = render(f, s);
+    ASSERT_EQ(a.image.data(), b.image.data()) << name;
+  }
+}
+
+TEST(Reference, EveryApertureKeepsFocusAndConstants) {
+  // In focus: the identity; a constant image stays constant (energy-normalised footprints).
+  for (const auto& [name, shape] : test_apertures()) {
+    Frame f = make_frame(40, 30, 4.0f);
+    texture(f);
+    RenderSettings s = settings(4.0, 8.0);
+    s.aperture = shape;
+    const RenderResult r = render(f, s);
+    ASSERT_EQ(r.image.data(), f.color.data()) << name;
+    Frame c = make_frame(40, 30, 1.0f, 0.3f, 0.6f, 0.9f);
+    for (int y = 0; y < 30; ++y)
+      for (int x = 0; x < 40; ++x) c.depth.at(x, y) = x < 20 ? 1.0f : 9.0f;
+    const RenderResult rc = render(c, settings(3.0, 6.0));
+    RenderSettings sc = settings(3.0, 6.0);
+    sc.aperture = shape;
+    const RenderResult rs = render(c, sc);
+    for (std::size_t i = 0; i < rs.image.data().size(); ++i)
+      ASSERT_NEAR(rs.image.data()[i], rc.image.data()[i], 1e-5) << name;
+  }
+}
+
+// A bright far pixel spreads over the model's far footprint with its energy; a near one over
+// the footprint turned by 180°.
+TEST(Reference, BrightPixelBecomesTheApertureFootprint) {
+  ApertureShape shape;
+  shape.blades = 5;
+  shape.rotation_deg = 10;
+  const core::ApertureModel model(shape, 81, 81);
+  for (float z : {100.0f, 0.35f}) {  // focus 1 m, K = 10: r = −9.9 px and +18.6 px
+    Frame f = make_frame(81, 81, z, 0, 0, 0);
+    f.color.at(40, 40, 0) = 1000.0f;
+    RenderSettings s = settings(1.0, 10.0);
+    s.aperture = shape;
+    const RenderResult r = render(f, s);
+    const float rc = 10.0f * (1.0f / z - 1.0f);
+    const core::Field field = core::field_of(rc);
+    const float rho = std::fabs(rc);
+    const double sum = model.weight_sum(rho, field);
+    double energy = 0, worst = 0;
+    for (int y = 0; y < 81; ++y)
+      for (int x = 0; x < 81; ++x) {
+        const double v = r.image.at(x, y, 0);
+        energy += v;
+        const double want = 1000.0 * model.coverage(x - 40, y - 40, rho, field) / sum;
+        worst = std::max(worst, std::abs(v - want));
+      }
+    EXPECT_NEAR(energy, 1000.0, 1.0) << z;
+    EXPECT_LT(worst, 1e-3 * 1000.0 / sum) << z;
   }
 }

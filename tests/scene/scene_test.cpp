@@ -156,7 +156,8 @@ TEST(ThinLens, PointImagesToDiscOfTheCocRadius) {
 }
 
 // A regular n-gon aperture gives polygonal bokeh: the boundary radius as a function of angle
-// has n maxima at the vertex angles (2k+1)π/n + rotation (far field: the aperture itself;
+// has n maxima at the vertex angles (2k+1)π/n − rotation in image axes (y down; the rotation
+// turns counter-clockwise on screen, Blender's convention; far field: the aperture itself;
 // near field: point-reflected), and follows the polygon within 0.7 px.
 TEST(ThinLens, PolygonApertureGivesPolygonWithNCorners) {
   const int w = 64, h = 64;
@@ -167,8 +168,8 @@ TEST(ThinLens, PolygonApertureGivesPolygonWithNCorners) {
   };
   for (const Case c : {Case{5, 10, 16}, Case{6, 0, 16}, Case{5, 10, 2.5}, Case{7, 25, 16}}) {
     SceneOptions opt = small(w, h, focus, k, 1024);
-    opt.blades = c.blades;
-    opt.blade_rotation_deg = c.rot_deg;
+    opt.aperture.blades = c.blades;
+    opt.aperture.rotation_deg = c.rot_deg;
     const double r = k * std::abs(1 - focus / c.z);
     const Image img = render_custom(point_scene(c.z, s_px, w), opt, true).ground_truth;
     // Interior level (centre) and the half-level boundary along 360 rays from the centre.
@@ -191,7 +192,8 @@ TEST(ThinLens, PolygonApertureGivesPolygonWithNCorners) {
       rad[i] = t;
     }
     const bool near = c.z < focus;
-    const double rot = c.rot_deg * kPi / 180 + (near ? kPi : 0);
+    // Counter-clockwise on screen is clockwise in these image axes (y down).
+    const double rot = -c.rot_deg * kPi / 180 + (near ? kPi : 0);
     double worst = 0;
     for (int i = 0; i < m; ++i) {
       const double phi = 2 * kPi * i / m;
@@ -443,7 +445,7 @@ TEST(Scenes, BadNamesAndOptionsAreUsageErrors) {
     EXPECT_NE(std::string(e.what()).find("nope"), std::string::npos);
   }
   SceneOptions o;
-  o.blades = 2;
+  o.aperture.blades = 2;
   EXPECT_THROW(render_pinhole("fence", o), Error);
   o = {};
   o.width = 0;

@@ -17,6 +17,14 @@ namespace st = dofkit::detail::sterna;
 
 namespace {
 
+// The polar equation of a regular n-gon of circumradius 1 with an edge midpoint at φ = 0
+// (screen angles, y down): cos(π/n) / cos(φ − (2π/n)·round(nφ / 2π)).
+double polygon_radius(int blades, double phi) {
+  const double n = blades, two_pi = 2.0 * std::numbers::pi;
+  const double m = std::floor((n * phi + std::numbers::pi) / two_pi);
+  return std::cos(std::numbers::pi / n) / std::cos(phi - (two_pi / n) * m);
+}
+
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 Frame make_frame(int w, int h, float r, float g, float b, float z) {
@@ -69,7 +77,7 @@ double energy(const Image& img) {
 }  // namespace
 
 TEST(SternaKernel, RingPatternIs48PlusCentreOnRadii246) {
-  const auto off = st::make_offsets({});
+  const auto off = st::make_offsets(st::BokehShape{});
   ASSERT_EQ(off.size(), 49u);
   EXPECT_EQ(off[0].x, 0.0f);
   EXPECT_EQ(off[0].y, 0.0f);
@@ -102,7 +110,7 @@ TEST(SternaKernel, PolygonOffsetsLieInsideTheNGonAndTouchEveryEdge) {
         // The taps are the aperture reflected through the centre (the bokeh of a gather is
         // the reflected tap set): test the reflected point against the aperture n-gon.
         const double phi = std::atan2(-off[k].y, -off[k].x);
-        const double bound = 6.0 * st::polygon_radius(n, phi - r);  // n-gon of circumradius 6
+        const double bound = 6.0 * polygon_radius(n, phi - r);  // n-gon of circumradius 6
         const double rho = std::hypot(off[k].x, off[k].y);
         EXPECT_LE(rho, bound + 1e-4) << "n=" << n << " tap " << k;
         if (std::abs(rho - bound) < 1e-4) {
@@ -287,7 +295,7 @@ void fit_polygon(const std::vector<double>& rho, int& best_n, double& best_rot_d
       std::vector<double> p(360);
       double mp = 0, mr = 0;
       for (int a = 0; a < 360; ++a) {
-        p[a] = st::polygon_radius(n, (a - rot) * std::numbers::pi / 180.0);
+        p[a] = polygon_radius(n, (a - rot) * std::numbers::pi / 180.0);
         mp += p[a] / 360;
         mr += rho[a] / 360;
       }

@@ -27,8 +27,9 @@ scene::SceneRender small_scene(const std::string& name, int w, int h, int sample
   o.width = w;
   o.height = h;
   o.samples = samples;
-  o.blades = blades;
-  o.blade_rotation_deg = rot;
+  o.aperture.blades = blades;
+  // sterna's own rotation_deg turns clockwise on screen, the shared one counter-clockwise.
+  o.aperture.rotation_deg = -rot;
   return scene::render_scene(name, o);
 }
 

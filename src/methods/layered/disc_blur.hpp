@@ -12,9 +12,18 @@
 // approximation of the shape). Prefix sums are in double so long rows lose nothing.
 // Borders clamp to the edge (as core::gaussian_blur). Output does not depend on the thread
 // count: every output pixel is summed in the same fixed order.
+//
+// Other apertures (core/aperture.hpp): the kernel is the model's footprint for the layer's
+// anchor radius and field side, read as a gather (the tap at offset t weighs the footprint at
+// −t: a source spreads over p = q + o, so receiver p gathers q = p − o). Each row is a run of
+// full-weight taps (the footprint's interior, asymmetric in general) plus partial taps, where
+// consecutive taps of equal weight (an aperture image's flat parts, a polygon's horizontal
+// edge) form one run: one span look-up each. An RGB aperture image gives each colour plane its
+// own kernel and the alpha plane the mean of the three.
 #pragma once
 #include <vector>
 
+#include "core/aperture.hpp"
 #include "dofkit/image.hpp"
 
 namespace dofkit::detail::layered {
@@ -23,10 +32,11 @@ struct DiscKernel {
   struct Tap {
     int dx;
     double w;
+    int len = 1;  ///< taps dx … dx + len − 1, each of weight w
   };
   struct Row {
     int dy;
-    int span;              ///< full-weight taps dx ∈ [−span, span]; −1: none
+    int lo = 0, hi = -1;   ///< full-weight taps dx ∈ [lo, hi] (none when lo > hi)
     std::vector<Tap> rim;  ///< partial-coverage taps of this row
   };
   double radius = 0;
@@ -41,7 +51,16 @@ double disc_coverage(double r, int dx, int dy);
 /// The normalised kernel of a disc of radius `radius` px (>= 0).
 DiscKernel make_disc_kernel(double radius);
 
+/// The normalised gather kernel of `model`'s footprint for a layer of signed CoC `coc` px
+/// (radius |coc|, field side from its sign), coverage channel `channel` (−1: the mean of the
+/// model's channels). The circle gives make_disc_kernel(|coc|).
+DiscKernel make_aperture_kernel(const core::ApertureModel& model, double coc, int channel);
+
 /// Blurs every plane of `img` by the disc of radius `radius` px, in place.
 void disc_blur(Image& img, double radius);
+
+/// Blurs every plane of `img` by the footprint of `model` for signed CoC `coc` px, in place
+/// (model null or the circle: disc_blur(img, |coc|)).
+void disc_blur(Image& img, double coc, const core::ApertureModel* model);
 
 }  // namespace dofkit::detail::layered

@@ -148,7 +148,7 @@ void render_layered(const MethodContext& ctx, Image& out) {
     ctx.debug.offer(b.c_str(), std::function<Image()>([&] {
                       Image copy = img;
                       if (disc)
-                        disc_blur(copy, std::fabs(plan.anchor[k]));
+                        disc_blur(copy, plan.anchor[k], ctx.aperture);
                       else
                         core::gaussian_blur(copy, static_cast<float>(plan.total_sigma[k]));
                       return copy;
@@ -193,13 +193,13 @@ void render_layered(const MethodContext& ctx, Image& out) {
       // mix of the two discs.
       for (int k = plan.count - 1; k > plan.focus; --k) {
         if (!make_layer(k, layer, !back.has_content())) continue;
-        disc_blur(layer, std::fabs(plan.anchor[k]));
+        disc_blur(layer, plan.anchor[k], ctx.aperture);
         back.composite_front(layer);
       }
       focus_full = make_layer(plan.focus, focus_layer, !back.has_content());
       for (int k = 0; k < plan.focus; ++k) {
         if (!make_layer(k, layer, false)) continue;
-        disc_blur(layer, std::fabs(plan.anchor[k]));
+        disc_blur(layer, plan.anchor[k], ctx.aperture);
         front.composite_back(layer);
       }
     }
@@ -284,7 +284,9 @@ const MethodDef& layered_method() {
         "once)"}},
       debug_views(),
       render_layered,
-      /*checks_colour=*/true};
+      /*checks_colour=*/true,
+      /*aperture=*/
+      "psf=disc: blades, rotation, curvature, anamorphic, aperture image (not the cat's eye: one kernel per layer)"};
   return def;
 }
 

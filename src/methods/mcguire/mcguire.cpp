@@ -269,7 +269,8 @@ const MethodDef& mcguire_method() {
           {"weights", "composite weights: R = near coverage, G = blurry weight, B = sharp weight (full size)"},
       },
       render_mcguire,
-      /*checks_colour=*/true};
+      /*checks_colour=*/true,
+      /*aperture=*/""};
   return def;
 }
 

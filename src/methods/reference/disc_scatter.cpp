@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <vector>
 
 #include "dofkit/error.hpp"
@@ -50,14 +51,19 @@ inline int round_clamp(float v, int hi) {
   return t >= static_cast<float>(hi) ? hi : static_cast<int>(t);
 }
 
-// Table of disc_area at 1/32 px steps; A(r) is piecewise linear in r, so linear
-// interpolation between table points is nearly exact.
+// Table of the footprint's weight sum at 1/32 px steps (disc_area for the circle, the aperture
+// model's exact sum otherwise); A(r) is piecewise linear in r, so linear interpolation between
+// table points is nearly exact.
 class AreaTable {
  public:
-  explicit AreaTable(float rmax) {
+  AreaTable(float rmax, const core::ApertureModel* model) {
     const int n = static_cast<int>(std::ceil(rmax * kSteps)) + 2;
     table_.resize(n);
-    for (int i = 0; i < n; ++i) table_[i] = static_cast<float>(disc_area(double(i) / kSteps));
+    for (int i = 0; i < n; ++i) {
+      const double r = double(i) / kSteps;
+      // Radii below 0.5 never occur (rho >= 0.5); the model's sum needs rho >= 0.
+      table_[i] = static_cast<float>(model ? model->weight_sum(static_cast<float>(r), core::Field::far) : disc_area(r));
+    }
   }
   float operator()(float r) const {
     const float f = r * kSteps;
@@ -84,13 +90,15 @@ double scatter_work(const Image& coc) {
   return work;
 }
 
-void disc_scatter(const Image& colour, const Image& depth, const Image& coc, const DiscScatterOptions& opt,
-                  Image& out) {
+namespace {
+
+// Refuses (Error(usage)) a frame whose discs need more pixel visits than opt.max_work.
+void check_work(const Image& coc, const DiscScatterOptions& opt, int channels) {
   // The cost bound first: with radii at the cap of a quarter of the width, the work grows
   // with the fourth power of the width (Σ r² over W·H sources): 55 s at 1280x720, an hour at
   // 4K. Refused before any buffer is made.
   if (opt.max_work > 0) {
-    const double work = scatter_work(coc);
+    const double work = scatter_work(coc) * channels;
     if (work > opt.max_work) {
       float largest = 0;
       for (std::size_t i = 0; i < coc.plane_size(); ++i) largest = std::max(largest, std::fabs(coc.plane(0)[i]));
@@ -105,8 +113,18 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
       throw_usage(text);
     }
   }
+}
+
+}  // namespace
+
+namespace {
+
+// One scatter with one coverage channel of the aperture (see disc_scatter).
+void scatter_channel(const Image& colour, const Image& depth, const Image& coc, const DiscScatterOptions& opt,
+                     int channel, Image& out) {
   const int w = colour.width(), h = colour.height();
   const std::size_t n = colour.plane_size();
+  const core::ApertureModel* model = opt.aperture && !opt.aperture->is_circle() ? opt.aperture : nullptr;
   // Per-pixel precomputation: disc radius, sharpness, inverse depth, weight per unit coverage.
   // (+16 floats of padding: the SIMD loop may read a vector past the last pixel.)
   std::vector<float> rho(n + 16), sharpness(n + 16, 0.0f), inv_z(n + 16, 0.0f), isu(n + 16, 0.0f), wscale(n + 16);
@@ -121,14 +139,46 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
     isu[i] = inv_z[i] > 0 ? 1.0f / (soft * inv_z[i]) : 1e30f;
     rmax = std::max(rmax, rho[i]);
   }
-  const AreaTable area(rmax + 1);
-  for (std::size_t i = 0; i < n; ++i) wscale[i] = 1.0f / area(rho[i]);
-  const int reach = static_cast<int>(std::ceil(rmax + 0.5f));
+  // An aperture image: rasters per radius, each source's radius quantised to the bank's step.
+  std::optional<core::KernelBank> bank;
+  std::vector<int> bucket;
+  if (model && model->has_image()) {
+    bank.emplace(*model, rmax, channel, 16);
+    bucket.resize(n + 16, 0);
+    rmax = 0.5f;
+    for (std::size_t i = 0; i < n; ++i) {
+      bucket[i] = bank->bucket(rho[i]);
+      rho[i] = bank->bucket_rho(bucket[i]);
+      rmax = std::max(rmax, rho[i]);
+    }
+  }
+  // The cat's eye: each source's second-circle offset (and its own exact normaliser).
+  std::vector<float> eye_x, eye_y;
+  if (model && model->position_dependent()) {
+    eye_x.resize(n + 16, 0.0f);
+    eye_y.resize(n + 16, 0.0f);
+    core::parallel_for(h, [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y)
+        for (int x = 0; x < w; ++x) {
+          const std::size_t i = static_cast<std::size_t>(y) * w + x;
+          const core::Field f = core::field_of(coc.plane(0)[i]);
+          model->eye_offset(rho[i], f, x + 0.5f, y + 0.5f, eye_x[i], eye_y[i]);
+          wscale[i] = static_cast<float>(1.0 / model->weight_sum(rho[i], f, x + 0.5f, y + 0.5f, channel));
+        }
+    });
+  } else if (bank) {
+    for (std::size_t i = 0; i < n; ++i) wscale[i] = static_cast<float>(1.0 / bank->sum(bucket[i]));
+  } else {
+    const AreaTable area(rmax + 1, model);
+    for (std::size_t i = 0; i < n; ++i) wscale[i] = 1.0f / area(rho[i]);
+  }
+  const int reach = model ? model->reach(rmax) + 1 : static_cast<int>(std::ceil(rmax + 0.5f));
 
   // For the SIMD loop: how many rows each source reaches above and below itself, its maximum
   // per block of kSourceBlock sources (whole blocks that cannot reach a band are skipped), and
   // |(dx, dy)| for every integer offset it can meet, computed as the plain loop does
-  // (sqrtf of an exact integer), so the coverage is the same bit for bit.
+  // (sqrtf of an exact integer), so the coverage is the same bit for bit. With an aperture,
+  // the table holds the model's gauge per field instead (rows dy = −reach … reach).
   std::vector<int> ext, block_ext;
   std::vector<float> dist;
   const int dist_half = reach + 16;
@@ -140,16 +190,29 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
         const std::size_t i = static_cast<std::size_t>(y) * w + x;
-        ext[i] = static_cast<int>(std::ceil(rho[i] + 0.5f)) - 1;
+        ext[i] = model ? model->reach(rho[i]) : static_cast<int>(std::ceil(rho[i] + 0.5f)) - 1;
         int& be = block_ext[static_cast<std::size_t>(y) * nblk + x / kSourceBlock];
         be = std::max(be, ext[i]);
       }
-    dist.resize(static_cast<std::size_t>(reach + 1) * dist_stride);
-    for (int dy = 0; dy <= reach; ++dy)
-      for (std::size_t i = 0; i < dist_stride; ++i) {
-        const float dx = static_cast<float>(static_cast<int>(i) - dist_half), fdy = static_cast<float>(dy);
-        dist[dy * dist_stride + i] = std::sqrt(dx * dx + fdy * fdy);
-      }
+    if (!model) {
+      dist.resize(static_cast<std::size_t>(reach + 1) * dist_stride);
+      for (int dy = 0; dy <= reach; ++dy)
+        for (std::size_t i = 0; i < dist_stride; ++i) {
+          const float dx = static_cast<float>(static_cast<int>(i) - dist_half), fdy = static_cast<float>(dy);
+          dist[dy * dist_stride + i] = std::sqrt(dx * dx + fdy * fdy);
+        }
+    } else if (!bank) {
+      const std::size_t rows = static_cast<std::size_t>(2 * reach + 1);
+      dist.resize(2 * rows * dist_stride);
+      core::parallel_for(static_cast<int>(2 * rows), [&](int r0, int r1) {
+        for (int r = r0; r < r1; ++r) {
+          const core::Field f = r < static_cast<int>(rows) ? core::Field::far : core::Field::near;
+          const int dy = r % static_cast<int>(rows) - reach;
+          for (std::size_t i = 0; i < dist_stride; ++i)
+            dist[r * dist_stride + i] = model->gauge(static_cast<int>(i) - dist_half, dy, f);
+        }
+      });
+    }
   }
 
   // Receivers are processed in fixed bands of rows; each band gathers the discs of every
@@ -245,6 +308,15 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
       job.dist = dist.data();
       job.dist_half = dist_half;
       job.dist_stride = dist_stride;
+      if (model) {
+        job.model = model;
+        job.coc = coc.plane(0);
+        job.channel = channel;
+        job.bank = bank ? &*bank : nullptr;
+        job.bucket = bucket.empty() ? nullptr : bucket.data();
+        job.eye_x = eye_x.empty() ? nullptr : eye_x.data();
+        job.eye_y = eye_y.empty() ? nullptr : eye_y.data();
+      }
       for (int c = 0; c < 4; ++c) job.colour[c] = colour.plane(c);
       job.acc = acc.data();
       job.band = kBand;
@@ -282,6 +354,31 @@ void disc_scatter(const Image& colour, const Image& depth, const Image& coc, con
       }
     }
   });
+}
+
+}  // namespace
+
+void disc_scatter(const Image& colour, const Image& depth, const Image& coc, const DiscScatterOptions& opt,
+                  Image& out) {
+  check_work(coc, opt, opt.aperture ? opt.aperture->channels() : 1);
+  if (!opt.aperture || opt.aperture->channels() == 1) {
+    scatter_channel(colour, depth, coc, opt, 0, out);
+    return;
+  }
+  // RGB aperture image: one scatter per colour kernel; each run's colour channel c is kept,
+  // and the alpha is the mean of the three runs' alphas.
+  Image part;
+  out.resize(colour.width(), colour.height(), 4);
+  std::fill(out.plane(3), out.plane(3) + out.plane_size(), 0.0f);
+  for (int c = 0; c < 3; ++c) {
+    scatter_channel(colour, depth, coc, opt, c, part);
+    std::copy(part.plane(c), part.plane(c) + part.plane_size(), out.plane(c));
+    float* a = out.plane(3);
+    const float* pa = part.plane(3);
+    for (std::size_t i = 0; i < out.plane_size(); ++i) a[i] += pa[i];
+  }
+  float* a = out.plane(3);
+  for (std::size_t i = 0; i < out.plane_size(); ++i) a[i] /= 3.0f;
 }
 
 }  // namespace dofkit::detail

@@ -1,7 +1,9 @@
 // Shared machinery of the two scatter methods (`reference` and the depth-blind `scatter`
 // baseline): every source pixel spreads its colour over a disc of radius |r| with an
-// anti-aliased edge, energy-normalised so the disc's weights sum to 1.
+// anti-aliased edge (or over the footprint of the aperture model), energy-normalised so the
+// footprint's weights sum to 1.
 #pragma once
+#include "core/aperture.hpp"
 #include "dofkit/image.hpp"
 
 namespace dofkit::detail {
@@ -18,6 +20,9 @@ struct DiscScatterOptions {
   /// Refuse (Error(usage)) a frame whose discs need more pixel visits than this
   /// (scatter_work); RenderSettings::max_work. 0 = no limit.
   double max_work = 0;
+  /// The aperture every source spreads over (core/aperture.hpp); null = the circle. An RGB
+  /// aperture image takes one scatter per colour channel (alpha: the mean of the three).
+  const core::ApertureModel* aperture = nullptr;
 };
 
 /// The work of scattering a CoC map, in pixel visits: Σ over sources of the receivers their

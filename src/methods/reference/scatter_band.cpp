@@ -28,7 +28,11 @@ namespace hn = hwy::HWY_NAMESPACE;
 // one table load (|p − q| comes from a table: the offsets are integers), instead of ten
 // accumulator loads and stores per pair. Each receiver still adds its sources in the order of
 // the plain loop (row by row, left to right), so the sums differ from it only by rounding.
-template <bool kDepthOrder>
+// kGeneral: an aperture other than the circle (job.model): the table holds the model's gauge per
+// field (or an aperture image's rasters come from job.bank), spans use the bounding circle
+// |p| < lim (the gauge is >= |p|), and the cat's eye (job.eye_x) clips each footprint by its
+// second circle.
+template <bool kDepthOrder, bool kGeneral>
 void ScatterBandT(const BandJob& job) {
   const hn::ScalableTag<float> d;
   const int lanes = static_cast<int>(hn::Lanes(d));
@@ -46,6 +50,18 @@ void ScatterBandT(const BandJob& job) {
                   s_c3[S] = {};
   HWY_ALIGN int32_t s_qx[S] = {}, s_ext[S] = {}, s_off[S] = {}, s_lo[S] = {}, s_hi[S] = {}, s_ilo[S] = {},
                     s_ihi[S] = {};
+  // kGeneral: span radius (the model's bounding circle), interior radius (< 0: none), field,
+  // bucket, cat's-eye offset and rho + 0.5; per row: the table row and (dy − oy)².
+  HWY_ALIGN float s_out[S] = {}, s_in[S] = {}, s_ox[S] = {}, s_oy[S] = {}, s_r5[S] = {}, s_ey2[S] = {};
+  int s_field[S] = {}, s_bk[S] = {};
+  const float* s_tab[S] = {};
+  const core::ApertureModel* model = job.model;
+  const bool image = kGeneral && job.bank != nullptr;
+  const bool eye = kGeneral && job.eye_x != nullptr;
+  const float inv_inner = kGeneral ? 1.0f / model->inner_scale() : 1.0f;
+  const auto vratio = hn::Set(d, kGeneral ? static_cast<float>(model->shape().anamorphic) : 1.0f);
+  const auto iota_i = hn::Iota(di, 0);
+  const std::size_t field_rows = static_cast<std::size_t>(2 * job.reach + 1);
   static_assert(S <= 64, "source bits are kept in 64-bit masks");
   const auto mask_bits = [](auto tag, auto mask) {
     std::uint8_t bytes[8] = {};
@@ -78,12 +94,27 @@ void ScatterBandT(const BandJob& job) {
         s_c1[m] = job.colour[1][q];
         s_c2[m] = job.colour[2][q];
         s_c3[m] = job.colour[3][q];
+        if constexpr (kGeneral) {
+          const float rq = job.rho[q];
+          s_lim[m] = model->lim(rq);  // T >= |p|: the footprint lies in |p| < lim
+          s_out[m] = s_lim[m] + 1e-3f;
+          s_in[m] = image || eye ? -1.0f : (s_lim[m] - 1.001f) * inv_inner;
+          s_field[m] = static_cast<int>(core::field_of(job.coc[q]));
+          if (image) s_bk[m] = job.bucket[q];
+          if (eye) {
+            s_ox[m] = job.eye_x[q];
+            s_oy[m] = job.eye_y[q];
+            s_r5[m] = rq + 0.5f;
+          }
+        }
         ++m;
       }
       for (int i = m; i < S; ++i) {  // unused slots: never active
         s_ext[i] = -1;
         s_qx[i] = 0;
         s_lim[i] = 0.0f;
+        s_out[i] = 0.0f;
+        s_in[i] = -1.0f;
       }
       for (int py = pyA; py <= pyB; ++py) {
         const int dy = py - qy, ady = dy < 0 ? -dy : dy;
@@ -94,7 +125,7 @@ void ScatterBandT(const BandJob& job) {
         const auto never = hn::Set(di, kNever), neg_never = hn::Set(di, -kNever), wlast = hn::Set(di, w - 1);
         auto vlo = never, vhi = neg_never;
         for (int i = 0; i < m; i += lanes) {
-          const auto lim = hn::Load(d, s_lim + i);
+          const auto lim = hn::Load(d, (kGeneral ? s_out : s_lim) + i);
           const auto hw = hn::ConvertTo(di, hn::Sqrt(hn::Max(hn::Sub(hn::Mul(lim, lim), vdy2), zero)));
           const auto qx = hn::Load(di, s_qx + i);
           const auto active = hn::Not(hn::Lt(hn::Load(di, s_ext + i), vady));
@@ -107,7 +138,7 @@ void ScatterBandT(const BandJob& job) {
           // distance by at most ~li·1e-7 px, far inside the 1e-3 px margin, so lim − |p − q| ≥ 1
           // holds in float there. ihi = kNever where the interior reaches the row end (the
           // lanes past it are padding).
-          const auto li = hn::Sub(lim, hn::Set(d, 1.001f));
+          const auto li = kGeneral ? hn::Load(d, s_in + i) : hn::Sub(lim, hn::Set(d, 1.001f));
           const auto inner = hn::And(active, hn::RebindMask(di, hn::Gt(li, hn::ConvertTo(d, vady))));
           const auto hwi = hn::ConvertTo(di, hn::Sqrt(hn::Max(hn::Sub(hn::Mul(li, li), vdy2), zero)));
           const auto ihi = hn::Add(qx, hwi);
@@ -116,10 +147,54 @@ void ScatterBandT(const BandJob& job) {
           vlo = hn::Min(vlo, slo);
           vhi = hn::Max(vhi, shi);
         }
-        const int lo = hn::GetLane(hn::MinOfLanes(di, vlo)), hi = hn::GetLane(hn::MaxOfLanes(di, vhi));
+        int lo = hn::GetLane(hn::MinOfLanes(di, vlo)), hi = hn::GetLane(hn::MaxOfLanes(di, vhi));
+        if constexpr (kGeneral) {
+          if (image)
+            for (int i = m; i < S; ++i) {  // unused slots (read by the vector loops below): never active
+              s_lo[i] = s_ilo[i] = kNever;
+              s_hi[i] = s_ihi[i] = -kNever;
+            }
+          if (image) {
+            // The rasters' exact row extents replace the bounding circle's.
+            lo = kNever;
+            hi = -kNever;
+            for (int i = 0; i < m; ++i) {
+              const core::Span sp =
+                  ady > s_ext[i] ? core::Span{} : job.bank->row_span(s_bk[i], core::Field(s_field[i]), dy);
+              if (sp.empty() || s_qx[i] + sp.x1 < 0 || s_qx[i] + sp.x0 > w - 1) {
+                s_lo[i] = kNever;
+                s_hi[i] = -kNever;
+                continue;
+              }
+              s_lo[i] = std::max(s_qx[i] + sp.x0, 0);
+              s_hi[i] = std::min(s_qx[i] + sp.x1, w - 1);
+              lo = std::min(lo, s_lo[i]);
+              hi = std::max(hi, s_hi[i]);
+            }
+          }
+          if (lo > hi) continue;
+          for (int i = 0; i < m; ++i) {
+            const core::Field f = core::Field(s_field[i]);
+            if (image) {
+              const int b = s_bk[i], r = job.bank->reach(b);
+              s_tab[i] = ady > r ? nullptr
+                                 : job.bank->raster(b, f) + static_cast<std::ptrdiff_t>(dy + r) * job.bank->pitch(b) +
+                                       r - s_qx[i];
+            } else {
+              s_tab[i] = job.dist +
+                         (static_cast<std::size_t>(dy + job.reach) + static_cast<std::size_t>(f) * field_rows) *
+                             job.dist_stride +
+                         job.dist_half - s_qx[i];
+            }
+            if (eye) {
+              const float ey = static_cast<float>(dy) - s_oy[i];
+              s_ey2[i] = ey * ey;
+            }
+          }
+        }
         if (lo > hi) continue;
         const int n = m;
-        const float* trow = job.dist + static_cast<std::size_t>(ady) * job.dist_stride;
+        const float* trow = kGeneral ? nullptr : job.dist + static_cast<std::size_t>(ady) * job.dist_stride;
         const std::size_t prow = static_cast<std::size_t>(py) * w;
         float* a[10];
         for (int k = 0; k < 10; ++k)
@@ -174,9 +249,22 @@ void ScatterBandT(const BandJob& job) {
             }
           }
           const auto weight = [&](int j) {
-            const auto dist = hn::LoadU(d, trow + (px + s_off[j]));
-            const auto cov = hn::Min(hn::Max(hn::Sub(hn::Set(d, s_lim[j]), dist), zero), one);
-            return hn::Mul(cov, hn::Set(d, s_ws[j]));
+            if constexpr (kGeneral) {
+              const auto t = hn::LoadU(d, s_tab[j] + px);
+              auto cov = image ? t : hn::Min(hn::Max(hn::Sub(hn::Set(d, s_lim[j]), t), zero), one);
+              if (eye) {
+                // As ApertureModel::eye_coverage: ex = (dx − ox)·anamorphic, sat(rho + 0.5 − |(ex, ey)|).
+                const auto dxv = hn::ConvertTo(d, hn::Add(hn::Set(di, px - s_qx[j]), iota_i));
+                const auto ex = hn::Mul(hn::Sub(dxv, hn::Set(d, s_ox[j])), vratio);
+                const auto dist = hn::Sqrt(hn::Add(hn::Mul(ex, ex), hn::Set(d, s_ey2[j])));
+                cov = hn::Min(cov, hn::Min(hn::Max(hn::Sub(hn::Set(d, s_r5[j]), dist), zero), one));
+              }
+              return hn::Mul(cov, hn::Set(d, s_ws[j]));
+            } else {
+              const auto dist = hn::LoadU(d, trow + (px + s_off[j]));
+              const auto cov = hn::Min(hn::Max(hn::Sub(hn::Set(d, s_lim[j]), dist), zero), one);
+              return hn::Mul(cov, hn::Set(d, s_ws[j]));
+            }
           };
           // wt·(colour, 1) into the B or the F sums.
           const auto add_b = [&](auto wt, int j) {
@@ -318,10 +406,16 @@ void HiddenRows(const HiddenJob& job, int y0, int y1) {
 }
 
 void ScatterBand(const BandJob& job) {
-  if (job.depth_order)
-    ScatterBandT<true>(job);
-  else
-    ScatterBandT<false>(job);
+  if (job.model) {
+    if (job.depth_order)
+      ScatterBandT<true, true>(job);
+    else
+      ScatterBandT<false, true>(job);
+  } else if (job.depth_order) {
+    ScatterBandT<true, false>(job);
+  } else {
+    ScatterBandT<false, false>(job);
+  }
 }
 
 }  // namespace HWY_NAMESPACE
@@ -345,7 +439,10 @@ void scatter_band_plain(const BandJob& job) {
     for (int qx = 0; qx < w; ++qx) {
       const std::size_t q = static_cast<std::size_t>(qy) * w + qx;
       const float rq = job.rho[q];
-      const int ext = static_cast<int>(std::ceil(rq + 0.5f)) - 1;
+      const core::ApertureModel* model = job.model;
+      const core::Field field = model ? core::field_of(job.coc[q]) : core::Field::far;
+      const float sx = qx + 0.5f, sy = qy + 0.5f;
+      const int ext = model ? model->reach(rq) : static_cast<int>(std::ceil(rq + 0.5f)) - 1;
       const int py0 = std::max(job.y0, qy - ext), py1 = std::min(job.y1 - 1, qy + ext);
       if (py0 > py1) continue;
       const float c[4] = {job.colour[0][q], job.colour[1][q], job.colour[2][q], job.colour[3][q]};
@@ -354,15 +451,24 @@ void scatter_band_plain(const BandJob& job) {
       const float lim = rq + 0.5f;
       for (int py = py0; py <= py1; ++py) {
         const float dy = static_cast<float>(py - qy);
-        const int hw = static_cast<int>(std::sqrt(std::max(0.0f, lim * lim - dy * dy)));
-        const int px0 = std::max(0, qx - hw), px1 = std::min(w - 1, qx + hw);
+        int px0, px1;
+        if (model) {
+          const core::Span sp = model->row_span(py - qy, rq, field, sx, sy);
+          px0 = std::max(0, qx + sp.x0);
+          px1 = std::min(w - 1, qx + sp.x1);
+        } else {
+          const int hw = static_cast<int>(std::sqrt(std::max(0.0f, lim * lim - dy * dy)));
+          px0 = std::max(0, qx - hw);
+          px1 = std::min(w - 1, qx + hw);
+        }
         const std::size_t prow = static_cast<std::size_t>(py) * w;
         float* a[10];
         for (int k = 0; k < 10; ++k)
           a[k] = job.acc + (static_cast<std::size_t>(k) * job.band + (py - job.y0)) * job.stride;
         for (int px = px0; px <= px1; ++px) {
           const float dx = static_cast<float>(px - qx);
-          const float cov = std::min(std::max(rq - std::sqrt(dx * dx + dy * dy) + 0.5f, 0.0f), 1.0f);
+          const float cov = model ? model->coverage(px - qx, py - qy, rq, field, sx, sy, job.channel)
+                                  : std::min(std::max(rq - std::sqrt(dx * dx + dy * dy) + 0.5f, 0.0f), 1.0f);
           float wt = cov * ws;
           float front = 0.0f;
           if (job.depth_order) {

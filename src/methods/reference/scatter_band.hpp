@@ -4,6 +4,8 @@
 #pragma once
 #include <cstddef>
 
+#include "core/aperture.hpp"
+
 namespace dofkit::detail {
 
 /// Sources are taken in blocks of this many consecutive pixels of one row (SIMD loop).
@@ -33,6 +35,20 @@ struct BandJob {
   const float* dist = nullptr;
   int dist_half = 0;
   std::size_t dist_stride = 0;
+  // Aperture other than the circle (null: the circle, with `dist` as above). Then `rho` is each
+  // source's footprint radius (quantised to the bank's step for an aperture image), `coc` its
+  // signed CoC (the field side), and the coverage of offset (dx, dy) is model->coverage(...)
+  // for `channel`. SIMD loop: `dist` holds the model's gauge, rows dy = −reach … reach of the
+  // far field, then those of the near field (dy at dist + (dy + reach + field·(2·reach + 1))·
+  // dist_stride, dx at + dx + dist_half); an aperture image takes its rasters from `bank`
+  // (bucket: each source's); eye_x/eye_y: each source's cat's-eye offset (null when off).
+  const core::ApertureModel* model = nullptr;
+  const float* coc = nullptr;
+  int channel = 0;
+  const core::KernelBank* bank = nullptr;
+  const int* bucket = nullptr;
+  const float* eye_x = nullptr;
+  const float* eye_y = nullptr;
   // Accumulators: row r of stream k (F rgba, F w, B rgba, B w) at acc + (k·band + r)·stride;
   // stride >= w + 16 so vector stores may run past the last receiver.
   float* acc = nullptr;

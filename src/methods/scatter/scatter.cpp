@@ -16,8 +16,11 @@ const MethodDef& scatter_method() {
         DiscScatterOptions opt;
         opt.depth_order = false;
         opt.max_work = ctx.max_work;
+        opt.aperture = ctx.aperture;
         disc_scatter(ctx.frame.color, ctx.frame.depth, ctx.coc, opt, out);
-      }};
+      },
+      /*checks_colour=*/false,
+      "all: blades, rotation, curvature, anamorphic, cat's eye, aperture image"};
   return def;
 }
 

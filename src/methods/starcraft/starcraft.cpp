@@ -161,7 +161,8 @@ const MethodDef& starcraft_method() {
           {"weights", "level weights: planes source, small, medium, large (sum 1)"},
       },
       render_starcraft,
-      /*checks_colour=*/true};
+      /*checks_colour=*/true,
+      /*aperture=*/""};
   return def;
 }
 

@@ -96,7 +96,23 @@ Settings read_settings(const MethodContext& ctx) {
   shape.blades = p.get_int("blades", 6, 5, 9);
   shape.rotation_deg = p.get_double("rotation_deg", 0.0, -360.0, 360.0);
   shape.anamorphic = p.get_double("anamorphic", 1.0, 0.5, 2.0);
-  s.offsets = make_offsets(shape);
+  // The shared aperture (RenderSettings::aperture) or sterna's own keys, not both. Its fixed
+  // 49 taps take the shape (blades, rotation, curvature, anamorphic); an aperture image or the
+  // cat's eye (per pixel) cannot be drawn by one tap set and is left out.
+  static const core::ApertureModel circle;
+  const core::ApertureModel& model = ctx.aperture ? *ctx.aperture : circle;
+  const bool shared = !model.is_circle() && !model.has_image();
+  if (shared && (p.has("bokeh") || p.has("blades") || p.has("rotation_deg") || p.has("anamorphic")))
+    throw_usage(
+        "sterna: give the aperture either with --blades/--blade-rotation/--anamorphic or with --set bokeh=polygon "
+        "blades=... rotation_deg=... anamorphic=..., not both");
+  if (shared) {
+    ApertureShape plain = model.shape();
+    plain.cat_eye = 0;
+    s.offsets = make_offsets(core::ApertureModel(plain, 0, 0));
+  } else {
+    s.offsets = make_offsets(shape);
+  }
   return s;
 }
 
@@ -170,7 +186,9 @@ const MethodDef& sterna_method() {
            "camera's reference width"},
           {"near_upsample", "bilinear", "near-field upsampling: bilinear or bicubic (cubic B-spline)"},
           {"per_pixel_scale", "off", "on/off: scale the far kernel by each pixel's far CoC (S2 §3.5)"},
-          {"bokeh", "circle", "kernel shape: circle or polygon"},
+          {"bokeh", "circle",
+           "kernel shape: circle or polygon (sterna's own keys; the shared --blades, --blade-rotation, "
+           "--blade-curvature, --anamorphic flags work too, not both)"},
           {"blades", "6", "polygon sides, 5-9 (bokeh=polygon)"},
           {"rotation_deg", "0", "polygon rotation, degrees clockwise on screen (-360-360); 0 = edge midpoint at +x"},
           {"anamorphic", "1", "bokeh width/height ratio 0.5-2 (area preserving)"},
@@ -189,7 +207,10 @@ const MethodDef& sterna_method() {
           {"far_fill", "half-res far field after the 3x3 max fill (RGBA, W/2 x H/2)"},
       },
       render_sterna,
-      /*checks_colour=*/true};
+      /*checks_colour=*/true,
+      /*aperture=*/
+      "blades, rotation, curvature, anamorphic (its 49 taps moved onto the shape; not the cat's eye or an aperture "
+      "image)"};
   return def;
 }
 

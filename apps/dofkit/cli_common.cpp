@@ -413,25 +413,25 @@ Backend parse_backend(const std::string& text) {
 
 void ApertureFlags::add(CLI::App* cmd, bool rotation_alias, const std::string& group) {
   add_number(cmd, "--blades", shape_.blades,
-                  "aperture blades: 0 = circle (default), 3..16 = a regular polygon whose vertices lie on the circle "
-                  "of radius |r| (Blender Cycles' convention)")
+             "aperture blades: 0 = circle (default), 3..16 = a regular polygon whose vertices lie on the circle "
+             "of radius |r| (Blender Cycles' convention)")
       ->group(group);
   add_number(cmd, rotation_alias ? "--blade-rotation,--rotation" : "--blade-rotation", shape_.rotation_deg,
-                  "polygon rotation, degrees counter-clockwise on screen; 0 = a flat edge facing +x behind the focus "
-                  "(in front of it the bokeh is turned by 180 degrees), as Blender's aperture rotation" +
-                      std::string(rotation_alias ? "; --rotation is the older spelling" : ""),
+             "polygon rotation, degrees counter-clockwise on screen; 0 = a flat edge facing +x behind the focus "
+             "(in front of it the bokeh is turned by 180 degrees), as Blender's aperture rotation" +
+                 std::string(rotation_alias ? "; --rotation is the older spelling" : ""),
              "--blade-rotation")
       ->group(group);
   add_number(cmd, "--blade-curvature", shape_.curvature,
-                  "0 = straight blades (default) .. 1 = circle; in between the edges bulge out (vertices fixed)")
+             "0 = straight blades (default) .. 1 = circle; in between the edges bulge out (vertices fixed)")
       ->group(group);
   add_number(cmd, "--anamorphic", shape_.anamorphic,
-                  "anamorphic squeeze 0.1..10: bokeh width = height / RATIO (Blender's aperture ratio; 1 = round, "
-                  "e.g. 1.33 or 2 for oval bokeh)")
+             "anamorphic squeeze 0.1..10: bokeh width = height / RATIO (Blender's aperture ratio; 1 = round, "
+             "e.g. 1.33 or 2 for oval bokeh)")
       ->group(group);
   add_number(cmd, "--cat-eye", shape_.cat_eye,
-                  "optical vignetting 0..1 (0 = off): off-axis bokeh is clipped by a second circle displaced toward "
-                  "the frame centre, by AMOUNT x the radius at the corners")
+             "optical vignetting 0..1 (0 = off): off-axis bokeh is clipped by a second circle displaced toward "
+             "the frame centre, by AMOUNT x the radius at the corners")
       ->group(group);
   cmd->add_option("--aperture-image", image_,
                   "FILE: a grey or RGB image (<= 1024x1024) used as the bokeh kernel instead of --blades (RGB: one "
@@ -482,14 +482,14 @@ std::string ApertureFlags::text() const {
 
 void HighlightFlags::add(CLI::App* cmd, const std::string& group) {
   add_number(cmd, "--highlight-threshold", h_.threshold,
-                  "display value in [0, 1) above which a pixel counts as clipped (default 0.9)")
+             "display value in [0, 1) above which a pixel counts as clipped (default 0.9)")
       ->group(group);
   boost_opt_ = add_number(cmd, "--highlight-boost", h_.boost,
-                               "energy a fully clipped pixel gets back: its linear colour x (1 + BOOST), ramping in "
-                               "from the threshold (>= 0; 0 = off). Default: " +
-                                   std::to_string(static_cast<int>(kDefaultDisplayBoost)) +
-                                   " for 8/16-bit colour files (display-referred, clipped at 1; measured, see "
-                                   "docs/methods/highlights.md), 0 for float files (EXR, float TIFF)")
+                          "energy a fully clipped pixel gets back: its linear colour x (1 + BOOST), ramping in "
+                          "from the threshold (>= 0; 0 = off). Default: " +
+                              std::to_string(static_cast<int>(kDefaultDisplayBoost)) +
+                              " for 8/16-bit colour files (display-referred, clipped at 1; measured, see "
+                              "docs/methods/highlights.md), 0 for float files (EXR, float TIFF)")
                    ->group(group);
   cmd->add_flag("--highlight-restore", h_.restore,
                 "map the result back through the inverse of the boost curve (display-referred output); without it "

@@ -607,7 +607,8 @@ void run_render(RenderArgs& a) {
   auto note_highlights = [&] {
     if (noted || !display || !settings.highlights.enabled()) return;
     noted = true;
-    std::cerr << "dofkit: " << first.color << " is display-referred (8/16-bit): highlight recovery on (--highlight-boost "
+    std::cerr << "dofkit: " << first.color
+              << " is display-referred (8/16-bit): highlight recovery on (--highlight-boost "
               << settings.highlights.boost << "; --highlight-boost 0 turns it off)\n";
   };
 

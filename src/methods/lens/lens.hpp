@@ -1,0 +1,14 @@
+// `lens`: the reference's picture (energy-normalised per-pixel disc scatter, depth-ordered
+// soft occlusion, hidden-background estimate) at a small fraction of its cost — see
+// docs/methods/lens.md.
+#pragma once
+#include "dofkit/image.hpp"
+#include "methods/lens/plan.hpp"
+
+namespace dofkit::detail::lens {
+
+/// The plain form: straightforward loops, the oracle of the fast path.
+void render_plain(const Image& colour, const Image& depth, const Image& coc, const SlicePlan& plan,
+                  const LensOptions& opt, Image& out, Image* cover = nullptr);
+
+}  // namespace dofkit::detail::lens

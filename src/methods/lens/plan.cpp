@@ -42,7 +42,7 @@ SlicePlan plan_slices(float near_max, float far_max, const LensOptions& opt) {
     float inner = 0.0f;
     if (a > 0 && j + 1 < k) inner = std::max(0.0f, p.anchor[j + 1]);
     if (a < 0 && j > 0) inner = std::max(0.0f, -p.anchor[j - 1]);
-    p.level[j] = level_of(inner, opt);
+    p.level[j] = level_of(std::max(inner, opt.direct_px()), opt);
   }
   return p;
 }

@@ -14,10 +14,14 @@ struct LensOptions {
   /// Anchor spacing: max(slice_px, slice_rel·|a|) px of CoC between neighbouring anchors.
   float slice_px = 1.0f;
   float slice_rel = 0.15f;
-  /// A slice whose smallest |CoC| is >= level_px·2^L is scattered at resolution level L
-  /// (1/2^L of the frame in each direction), L <= max_level.
-  float level_px = 4.0f;
+  /// Sources with radius < 2·level_px (and highlights) are scattered exactly, one full-
+  /// resolution footprint each, with the reference's per-pair depth order ("direct"); the
+  /// others are merged per slice and scattered at resolution level L >= 1 (1/2^L of the frame
+  /// in each direction), the largest L <= max_level with level_px·2^L <= the slice's smallest
+  /// radius.
+  float level_px = 3.0f;
   int max_level = 5;
+  float direct_px() const { return 2.0f * level_px; }
   /// Highlights: a source of a reduced-resolution slice whose luminance is above highlight_abs
   /// and above highlight_rel times the mean of its 2^(L+2) block is scattered at full
   /// resolution (its disc's rim stays sharp).
@@ -25,6 +29,8 @@ struct LensOptions {
   float highlight_rel = 4.0f;
   /// The hidden-background estimate (partial occlusion of a near blurred object).
   bool hidden = true;
+  int hidden_samples = 64;  // (experiment: 16 or 64)
+  int deep_mode = 0;  // (experiment)
   /// The SIMD / tiled path (default) or the plain one (the test oracle).
   bool simd = true;
 };
@@ -32,7 +38,8 @@ struct LensOptions {
 struct SlicePlan {
   /// Signed CoC of each anchor (px, near > 0), strictly decreasing: slice 0 is the nearest.
   std::vector<float> anchor;
-  /// Resolution level of each slice.
+  /// Resolution level (>= 1) of each slice's merged sources, and of its hidden-background
+  /// estimate.
   std::vector<int> level;
   int count() const { return static_cast<int>(anchor.size()); }
   /// The slice j that a CoC r falls in and the weight t of slice j + 1 (r between anchors j

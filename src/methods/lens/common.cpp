@@ -3,6 +3,8 @@
 #include "core/parallel.hpp"
 #include "core/sampling.hpp"
 
+#include <cmath>
+
 namespace dofkit::detail::lens {
 
 std::vector<std::uint8_t> direct_sources(const float* rho, const float* lum, int w, int h, const LensOptions& opt) {
@@ -47,6 +49,76 @@ std::vector<std::uint8_t> direct_sources(const float* rho, const float* lum, int
       if (lum[i] > opt.highlight_rel * static_cast<float>(sum[m][b] / cnt[m][b])) direct[i] = 1;
     }
   return direct;
+}
+
+Fragments::Fragments(const Sources& s, const SlicePlan& plan, const LensOptions& opt) : src(s) {
+  const int w = s.width(), h = s.height(), nf = s.count();
+  n = static_cast<std::size_t>(w) * h;
+  const std::size_t nn = n * nf;
+  slice.resize(nn);
+  t.resize(nn);
+  inv_z.resize(nn);
+  rho.resize(nn);
+  sharp.resize(nn);
+  weight.assign(nn, 1.0f);
+  trans.assign(nn, 1.0f);
+  exists.assign(nn, 0);
+  direct.assign(nn, 0);
+  auto inv = [](float z) { return std::isinf(z) ? 0.0f : 1.0f / z; };
+  // "a clearly in front of b" in inverse depth (the reference's softness).
+  const float soft = opt.depth_softness;
+  auto in_front = [&](float ua, float ub) { return ub > 0 ? (ua - ub) >= soft * ub : ua > 0; };
+  for (std::size_t i = 0; i < n; ++i) {
+    const float u0 = inv(s.depth[0]->plane(0)[i]);
+    float through = 1.0f;  // what the hidden fragments so far let through
+    for (int f = 1; f < nf; ++f) {
+      const std::size_t q = f * n + i;
+      const float a = s.colour[f]->plane(3)[i];
+      if (!in_front(u0, inv(s.depth[f]->plane(0)[i]))) {
+        trans[q] = weight[q] = 0.0f;  // peeled with the visible surface
+        continue;
+      }
+      trans[q] = through;
+      weight[q] = a * through;
+      through *= 1.0f - a;
+    }
+  }
+  std::vector<float> lum(n);
+  for (int f = 0; f < nf; ++f) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t q = f * n + i;
+      const float r = s.coc[f]->plane(0)[i];
+      plan.member(r, slice[q], t[q]);
+      inv_z[q] = inv(s.depth[f]->plane(0)[i]);
+      rho[q] = std::max(std::fabs(r), 0.5f);
+      sharp[q] = std::max(std::fabs(r) - 0.5f, 0.0f);
+      exists[q] = f == 0 || weight[q] > 0.0f;
+      if (exists[q]) rho_max = std::max(rho_max, rho[q]);
+      lum[i] = luminance(colour(q, 0), colour(q, 1), colour(q, 2));
+    }
+    const std::vector<std::uint8_t> d = direct_sources(&rho[f * n], lum.data(), w, h, opt);
+    std::copy(d.begin(), d.end(), direct.begin() + static_cast<std::ptrdiff_t>(f * n));
+  }
+  pad = reach(rho_max) + 1;
+  this->soft = soft;
+}
+
+SliceDepth::SliceDepth(const SlicePlan& plan, const std::vector<double>& mass, const std::vector<double>& u_sum) {
+  const int k = plan.count();
+  u.assign(k, 0.0f);
+  sharp.assign(k, 0.0f);
+  for (int j = 0; j < k; ++j) {
+    u[j] = mass[j] > 0 ? static_cast<float>(u_sum[j] / mass[j]) : 0.0f;
+    sharp[j] = std::max(std::fabs(plan.anchor[j]) - 0.5f, 0.0f);
+  }
+}
+
+Receivers::Receivers(const Fragments& fr) {
+  inv_z.assign(fr.inv_z.begin(), fr.inv_z.begin() + static_cast<std::ptrdiff_t>(fr.n));
+  sharp.assign(fr.sharp.begin(), fr.sharp.begin() + static_cast<std::ptrdiff_t>(fr.n));
+  isu.resize(fr.n);
+  // 1 / (softness · inverse depth); a receiver at infinity: everything finite is in front.
+  for (std::size_t i = 0; i < fr.n; ++i) isu[i] = inv_z[i] > 0 ? 1.0f / (fr.soft * inv_z[i]) : 1e30f;
 }
 
 HiddenPattern::HiddenPattern(int count) {

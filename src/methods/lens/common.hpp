@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "dofkit/image.hpp"
 #include "methods/lens/footprint.hpp"
 #include "methods/lens/plan.hpp"
 
@@ -33,6 +34,125 @@ inline int round_clamp(float v, int hi) {
   if (!(v >= 0.5f)) return 0;
   const float t = v + 0.5f;
   return t >= static_cast<float>(hi) ? hi : static_cast<int>(t);
+}
+
+/// Index of the frame pixel that the mirror-padded frame shows at coordinate v (the frame
+/// has n pixels along that axis): … 1 0 | 0 1 … n−1 | n−1 n−2 …
+inline int mirror(int v, int n) {
+  while (v < 0 || v >= n) v = v < 0 ? -1 - v : 2 * n - 1 - v;
+  return v;
+}
+
+/// The sources: one fragment per pixel (an RGB-D frame) or several front to back (deep /
+/// multi-layer input; a missing fragment has alpha 0). Layer 0 is the visible surface.
+struct Sources {
+  std::vector<const Image*> colour, depth, coc;  // rgba premultiplied, z, signed CoC px
+  int count() const { return static_cast<int>(colour.size()); }
+  int width() const { return colour[0]->width(); }
+  int height() const { return colour[0]->height(); }
+};
+
+/// Everything lens derives per fragment (index f·W·H + pixel).
+struct Fragments {
+  Fragments(const Sources& src, const SlicePlan& plan, const LensOptions& opt);
+  const Sources& src;
+  std::size_t n = 0;  // pixels per layer
+  std::vector<int> slice;
+  std::vector<float> t, inv_z, rho, sharp;
+  /// The weight a fragment spreads: 1 for the visible one; for a hidden one its alpha times
+  /// what the hidden fragments in front of it let through (the surface seen with the visible
+  /// one peeled away; fragments not clearly behind the visible one — its back faces — are
+  /// peeled with it). Its colour is scaled by the same transmittance (trans).
+  std::vector<float> weight, trans;
+  std::vector<std::uint8_t> exists, direct;
+  float rho_max = 0.5f;
+  int pad = 1;  // mirror padding of the frame, px: more than any footprint reaches
+  float soft = 0.05f;
+  float colour(std::size_t q, int ch) const {
+    return src.colour[q / n]->plane(ch)[q % n] * trans[q];
+  }
+};
+
+/// A slice's depth as the fold sees it: the mean inverse depth of its members and the
+/// sharpness max(|a| − 0.5, 0) of its anchor.
+struct SliceDepth {
+  SliceDepth(const SlicePlan& plan, const std::vector<double>& mass, const std::vector<double>& u_sum);
+  std::vector<float> u, sharp;
+};
+
+/// A slice's cells at its level: the frame (frame_w × frame_h cells of 2^level px) plus
+/// `margin` cells on every side for the mirror padding. Cell (X, Y) covers frame pixels
+/// [(X − margin)·2^level, …) × [(Y − margin)·2^level, …).
+struct Grid {
+  int level = 1, margin = 0, frame_w = 0, frame_h = 0, w = 0, h = 0;
+  Grid() = default;
+  Grid(int width, int height, int level_, int pad_px)
+      : level(level_),
+        margin((pad_px + (1 << level_) - 1) / (1 << level_) + 1),
+        frame_w((width + (1 << level_) - 1) >> level_),
+        frame_h((height + (1 << level_) - 1) >> level_),
+        w(frame_w + 2 * margin),
+        h(frame_h + 2 * margin) {}
+  std::size_t cells() const { return static_cast<std::size_t>(w) * h; }
+  std::size_t index(int x, int y) const { return static_cast<std::size_t>(y) * w + x; }
+  bool covers(int x, int y) const {
+    const int o = margin << level;
+    return x + o >= 0 && y + o >= 0 && ((x + o) >> level) < w && ((y + o) >> level) < h;
+  }
+  std::size_t cell_of(int x, int y) const {
+    const int o = margin << level;
+    return index((x + o) >> level, (y + o) >> level);
+  }
+  /// Bilinear read-back position of frame pixel (x, y): cells (x0 … x0 + 1) × (y0 … y0 + 1)
+  /// with weights of the second ax, ay.
+  void locate(int x, int y, int& x0, int& y0, float& ax, float& ay) const {
+    const float s = 1.0f / static_cast<float>(1 << level);
+    const float fx = (static_cast<float>(x) + 0.5f) * s - 0.5f + static_cast<float>(margin);
+    const float fy = (static_cast<float>(y) + 0.5f) * s - 0.5f + static_cast<float>(margin);
+    x0 = std::min(static_cast<int>(fx), w - 2);
+    y0 = std::min(static_cast<int>(fy), h - 2);
+    ax = fx - static_cast<float>(x0);
+    ay = fy - static_cast<float>(y0);
+  }
+};
+
+/// What a source needs to know about itself for the per-pair rule.
+struct Source {
+  float u, sharp;
+};
+
+/// The receivers: layer 0's inverse depth, 1 / (softness · inverse depth) and sharpness.
+struct Receivers {
+  explicit Receivers(const Fragments& fr);
+  std::vector<float> inv_z, isu, sharp;
+};
+
+/// The per-pair rule: a source (inverse depth u_q, sharpness) reaching receiver p with
+/// weight wt carries c = (rgba, weight). A visible source: the reference's rule — in front
+/// (soft in inverse depth) it goes to F (a[0…4]), else to B (a[5…9]), and from behind only in
+/// proportion sharp_p / sharp_q. A hidden fragment: in front and on the receiver's surface
+/// the same, behind it to the fill (a[10…14]) as far as it is sharper than the receiver (seen
+/// through a blurred near surface; one blurred about as much is covered in the lens too).
+inline void add_source(const Receivers& rc, std::size_t p, bool hidden, const Source& s, float wt, const float* c,
+                       float* a) {
+  const float rel = (s.u - rc.inv_z[p]) * rc.isu[p];
+  const float front = std::min(std::max(rel, 0.0f), 1.0f), behind = std::min(std::max(-rel, 0.0f), 1.0f);
+  const float sp = rc.sharp[p];
+  if (hidden) {
+    const float show = sp > 0.0f ? behind * std::min(std::max(2.0f * (sp - s.sharp) / sp, 0.0f), 1.0f) : 0.0f;
+    for (int ch = 0; ch < 5; ++ch) {
+      a[ch] += wt * front * c[ch];
+      a[5 + ch] += wt * (1.0f - front - behind) * c[ch];
+      a[10 + ch] += wt * show * c[ch];
+    }
+    return;
+  }
+  const float pass = s.sharp > 0.0f ? std::min(sp / s.sharp, 1.0f) : (sp > 0.0f ? 1.0f : 0.0f);
+  const float v = wt * (1.0f - behind * (1.0f - pass));
+  for (int ch = 0; ch < 5; ++ch) {
+    a[ch] += v * front * c[ch];
+    a[5 + ch] += v * (1.0f - front) * c[ch];
+  }
 }
 
 /// Fixed sample offsets in the unit disc for the hidden-background estimate: the concentric

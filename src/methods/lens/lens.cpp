@@ -20,7 +20,6 @@ void render_lens(const MethodContext& ctx, Image& out) {
   opt.level_px = static_cast<float>(ctx.params.get_double("level_px", 3.0, 1.0, 1e6));
   opt.hidden = ctx.params.get_bool("hidden", true);
   opt.hidden_samples = ctx.params.get_int("hidden_samples", 64, 16, 64);
-  opt.deep_mode = ctx.params.get_int("deep_mode", 0, 0, 3);
   opt.simd = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
   core::CocRange range = ctx.coc_range ? *ctx.coc_range : core::coc_range(ctx.coc);
   lens::Sources src;
@@ -49,41 +48,6 @@ void render_lens(const MethodContext& ctx, Image& out) {
   }
   const lens::SlicePlan plan = lens::plan_slices(range.near_max, range.far_max, opt);
   Image cover;
-  const int pad_mode = ctx.params.get_int("pad_exp", 0, 0, 2);
-  const int pad = pad_mode ? static_cast<int>(std::ceil(std::max(range.near_max, range.far_max) + 1.0f)) : 0;
-  if (pad > 0) {
-    // (experiment) clamp-extend every source image by pad px
-    auto ext = [&](const Image& im) {
-      Image e(im.width() + 2 * pad, im.height() + 2 * pad, im.channels());
-      for (int c = 0; c < im.channels(); ++c)
-        for (int y = 0; y < e.height(); ++y)
-          for (int x = 0; x < e.width(); ++x)
-          {
-            auto mir = [&](int v, int n) { v = v < 0 ? -1 - v : v; v = v >= n ? 2 * n - 1 - v : v; return std::clamp(v, 0, n - 1); };
-            e.at(x, y, c) = pad_mode == 1 ? im.at(std::clamp(x - pad, 0, im.width() - 1), std::clamp(y - pad, 0, im.height() - 1), c)
-                                          : im.at(mir(x - pad, im.width()), mir(y - pad, im.height()), c);
-          }
-      return e;
-    };
-    std::vector<Image> store;
-    store.reserve(3 * src.count());
-    lens::Sources ps;
-    for (int f = 0; f < src.count(); ++f) {
-      store.push_back(ext(*src.colour[f]));
-      ps.colour.push_back(&store.back());
-      store.push_back(ext(*src.depth[f]));
-      ps.depth.push_back(&store.back());
-      store.push_back(ext(*src.coc[f]));
-      ps.coc.push_back(&store.back());
-    }
-    Image po;
-    lens::render_plain(ps, plan, opt, po, nullptr);
-    out.resize(ctx.frame.width(), ctx.frame.height(), 4);
-    for (int c = 0; c < 4; ++c)
-      for (int y = 0; y < out.height(); ++y)
-        for (int x = 0; x < out.width(); ++x) out.at(x, y, c) = po.at(x + pad, y + pad, c);
-    return;
-  }
   lens::render_plain(src, plan, opt, out, ctx.debug.wants("coverage") ? &cover : nullptr);
   ctx.debug.offer("coverage", cover);
 }
@@ -104,8 +68,6 @@ const MethodDef& lens_method() {
         "full resolution everywhere)"},
        {"hidden", "on", "hidden-background estimate behind blurred near objects: on/off"},
        {"hidden_samples", "64", "(experiment) 16 or 64"},
-       {"pad_exp", "0", "(experiment)"},
-       {"deep_mode", "0", "(experiment)"},
        {"impl", "fast", "fast (SIMD, tiled) or plain (the straightforward form, the test oracle)"}},
       {{"coverage", "R: front weight (sources in front of the pixel), G: back weight, B: uncovered share filled by the hidden-background estimate"}},
       render_lens};

@@ -10,13 +10,6 @@
 
 namespace dofkit::detail::lens {
 
-/// The sources: one fragment per pixel (an RGB-D frame) or several front to back (deep /
-/// multi-layer input; a missing fragment has alpha 0). Layer 0 is the visible surface.
-struct Sources {
-  std::vector<const Image*> colour, depth, coc;  // rgba premultiplied, z, signed CoC px
-  int count() const { return static_cast<int>(colour.size()); }
-};
-
 /// The plain form: straightforward loops, the oracle of the fast path.
 void render_plain(const Sources& src, const SlicePlan& plan, const LensOptions& opt, Image& out,
                   Image* cover = nullptr);

@@ -30,7 +30,6 @@ struct LensOptions {
   /// The hidden-background estimate (partial occlusion of a near blurred object).
   bool hidden = true;
   int hidden_samples = 64;  // (experiment: 16 or 64)
-  int deep_mode = 0;  // (experiment)
   /// The SIMD / tiled path (default) or the plain one (the test oracle).
   bool simd = true;
 };

@@ -20,11 +20,14 @@ inline float luminance(float r, float g, float b) { return 0.2126f * r + 0.7152f
 /// would soften the rim of its bokeh). rho and lum: one value per pixel.
 std::vector<std::uint8_t> direct_sources(const float* rho, const float* lum, int w, int h, const LensOptions& opt);
 
-/// The radius index (footprint.hpp) of a merged source at level L whose members' mean radius
-/// is rho px: the box merge and the bilinear read-back blur by a variance of 4^L / 4 px² per
-/// axis, so the footprint is shrunk to keep the total (a disc of radius ρ has ρ² / 4).
-inline int merged_radius_index(float rho, int level) {
-  const float cell = static_cast<float>(1 << level);
+/// The radius index (footprint.hpp) of the footprints of slice j's merged sources: its
+/// anchor's radius at the slice's level (a source between two anchors is the hat-weighted mix
+/// of the two slices' footprints). The box merge and the bilinear read-back blur by a
+/// variance of 4^L / 4 px² per axis, so the footprint is shrunk to keep the total (a disc of
+/// radius ρ has ρ² / 4).
+inline int slice_radius_index(const SlicePlan& plan, int j) {
+  const float rho = std::max(std::fabs(plan.anchor[j]), 0.5f);
+  const float cell = static_cast<float>(1 << plan.level[j]);
   const float r = std::sqrt(std::max(rho * rho - cell * cell, 0.25f)) / cell;
   return radius_index(std::max(r, 0.5f));
 }

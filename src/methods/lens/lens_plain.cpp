@@ -16,7 +16,7 @@ inline float sat(float v) { return std::min(std::max(v, 0.0f), 1.0f); }
 // One slice's grids at its level over the extended frame (margin cells on every side):
 // merged sources (kM*), scattered sums (rgba, weight) and the hidden-background estimate
 // (rgba · mass, mass).
-enum { kMR, kMG, kMB, kMA, kMMass, kMRho, kMAll, kMAllRho, kMChannels };
+enum { kMR, kMG, kMB, kMA, kMMass, kMAll, kMChannels };
 struct SliceGrid {
   Grid grid;
   std::vector<float> merged;  // kMChannels per cell
@@ -88,31 +88,28 @@ void render_plain(const Sources& src, const SlicePlan& plan, const LensOptions& 
           SliceGrid& s = g[f > 0][j];
           if (!s.grid.covers(x, y)) continue;
           float* c = &s.merged[s.grid.cell_of(x, y) * kMChannels];
-          if (f == 0 && real) {
-            c[kMAll] += hw;
-            c[kMAllRho] += hw * fr.rho[q];
-          }
+          if (f == 0 && real) c[kMAll] += hw;
           if (fr.direct[q]) continue;
           for (int ch = 0; ch < 4; ++ch) c[ch] += hw * col(q, ch);
           c[kMMass] += hw * fr.weight[q];
-          c[kMRho] += hw * fr.weight[q] * fr.rho[q];
         }
       }
 
-  // Merged sources: one footprint each at the slice's level, energy-normalised.
+  // Merged sources: one footprint each at the slice's level (the slice's radius),
+  // energy-normalised.
   TapTable taps;
   for (int set = 0; set < 2; ++set)
     for (int j = 0; j < k; ++j) {
       SliceGrid& s = g[set][j];
       if (s.merged.empty()) continue;
       const Grid& gr = s.grid;
+      const int ri = slice_radius_index(plan, j);
+      taps.prepare(radius_of_index(ri));
       for (int qy = 0; qy < gr.h; ++qy)
         for (int qx = 0; qx < gr.w; ++qx) {
           const float* c = &s.merged[(static_cast<std::size_t>(qy) * gr.w + qx) * kMChannels];
           if (c[kMMass] <= 0.0f) continue;
           if (s.acc.empty()) s.acc.assign(gr.cells() * 5, 0.0f);
-          const int ri = merged_radius_index(c[kMRho] / c[kMMass], gr.level);
-          taps.prepare(radius_of_index(ri));
           const Taps& t = taps[ri];
           for (int dy = -t.n; dy <= t.n; ++dy) {
             const int py = qy + dy;
@@ -148,17 +145,16 @@ void render_plain(const Sources& src, const SlicePlan& plan, const LensOptions& 
           for (int ch = 0; ch < 4; ++ch) b[ch] += col(i, ch);
           b[4] += 1.0f;
         }
-      const float scale = 1.0f / static_cast<float>(1 << gr.level);
+      const float r = std::max(std::fabs(plan.anchor[j]), 0.5f) / static_cast<float>(1 << gr.level);
+      if (r <= 0.5f) continue;  // in-focus receivers are opaque
       for (int qy = gr.margin; qy < gr.margin + gr.frame_h; ++qy)
         for (int qx = gr.margin; qx < gr.margin + gr.frame_w; ++qx) {
           const float* c = &s.merged[(static_cast<std::size_t>(qy) * gr.w + qx) * kMChannels];
           if (c[kMAll] <= 0.0f) continue;
-          const float r = c[kMAllRho] / c[kMAll];
-          if (r <= 0.5f) continue;  // an in-focus receiver is opaque
           float sum[5] = {0, 0, 0, 0, 0};
           for (int t = 0; t < pattern.count(); ++t) {
-            const int bx = gr.margin + round_clamp(qx - gr.margin + pattern.x(t) * r * scale, gr.frame_w - 1);
-            const int by = gr.margin + round_clamp(qy - gr.margin + pattern.y(t) * r * scale, gr.frame_h - 1);
+            const int bx = gr.margin + round_clamp(qx - gr.margin + pattern.x(t) * r, gr.frame_w - 1);
+            const int by = gr.margin + round_clamp(qy - gr.margin + pattern.y(t) * r, gr.frame_h - 1);
             const float* b = &behind[(static_cast<std::size_t>(by) * gr.w + bx) * 5];
             for (int ch = 0; ch < 5; ++ch) sum[ch] += b[ch];
           }

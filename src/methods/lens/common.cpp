@@ -1,54 +1,89 @@
 #include "methods/lens/common.hpp"
 
+#include <cmath>
+
 #include "core/parallel.hpp"
 #include "core/sampling.hpp"
 
-#include <cmath>
-
 namespace dofkit::detail::lens {
 
-std::vector<std::uint8_t> direct_sources(const float* rho, const float* lum, int w, int h, const LensOptions& opt) {
-  const std::size_t n = static_cast<std::size_t>(w) * h;
-  std::vector<std::uint8_t> direct(n, 0);
+void mark_direct(const Image& colour, const Image& coc, const float* trans, const LensOptions& opt,
+                 std::uint8_t* flags, std::uint8_t bit) {
+  const int w = colour.width(), h = colour.height();
   const float r0 = opt.direct_px();
-  // Block means of the luminance, level m = blocks of side 2^m, built from level m − 1 (sums
-  // in double, in a fixed order), only as far as a highlight candidate needs.
-  std::vector<std::vector<double>> sum(1), cnt(1);
-  std::vector<int> bw(1, w), bh(1, h);
-  sum[0].assign(lum, lum + n);
-  cnt[0].assign(n, 1.0);
-  auto level = [&](int m) {
-    while (static_cast<int>(sum.size()) <= m) {
-      const int l = static_cast<int>(sum.size());
-      const int pw = bw[l - 1], ph = bh[l - 1], cw = (pw + 1) / 2, chh = (ph + 1) / 2;
-      std::vector<double> s(static_cast<std::size_t>(cw) * chh, 0.0), c(s.size(), 0.0);
-      for (int y = 0; y < ph; ++y)
-        for (int x = 0; x < pw; ++x) {
-          s[static_cast<std::size_t>(y / 2) * cw + x / 2] += sum[l - 1][static_cast<std::size_t>(y) * pw + x];
-          c[static_cast<std::size_t>(y / 2) * cw + x / 2] += cnt[l - 1][static_cast<std::size_t>(y) * pw + x];
-        }
-      sum.push_back(std::move(s));
-      cnt.push_back(std::move(c));
-      bw.push_back(cw);
-      bh.push_back(chh);
-    }
+  auto lum_at = [&](std::size_t i) {
+    const float s = trans ? trans[i] : 1.0f;
+    return luminance(colour.plane(0)[i] * s, colour.plane(1)[i] * s, colour.plane(2)[i] * s);
   };
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const std::size_t i = static_cast<std::size_t>(y) * w + x;
-      if (rho[i] < r0) {
-        direct[i] = 1;
-        continue;
-      }
-      if (!(lum[i] > opt.highlight_abs)) continue;
-      int m = 0;
-      while (static_cast<float>(1 << m) < 2.0f * rho[i] && m < 24) ++m;
-      level(m);
-      const int bx = x >> m, by = y >> m;
-      const std::size_t b = static_cast<std::size_t>(by) * bw[m] + bx;
-      if (lum[i] > opt.highlight_rel * static_cast<float>(sum[m][b] / cnt[m][b])) direct[i] = 1;
-    }
-  return direct;
+  // Small radii, and the highest block level a highlight candidate needs (0: none).
+  std::vector<int> row_need(h, 0);
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          int need = 0;
+          for (int x = 0; x < w; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * w + x;
+            const float rho = std::max(std::fabs(coc.plane(0)[i]), 0.5f);
+            if (rho < r0) {
+              flags[i] |= bit;
+              continue;
+            }
+            if (!(lum_at(i) > opt.highlight_abs)) continue;
+            need = std::max(need, block_level(rho));
+          }
+          row_need[y] = need;
+        }
+      },
+      8);
+  const int top = *std::max_element(row_need.begin(), row_need.end());
+  if (top == 0) return;
+  // Block sums of the luminance, level m from level m − 1 (children (0,0), (1,0), (0,1),
+  // (1,1) in that order).
+  std::vector<std::vector<double>> sum(top + 1);
+  std::vector<int> bw(top + 1), bh(top + 1);
+  bw[0] = w;
+  bh[0] = h;
+  for (int m = 1; m <= top; ++m) {
+    bw[m] = (bw[m - 1] + 1) / 2;
+    bh[m] = (bh[m - 1] + 1) / 2;
+    sum[m].assign(static_cast<std::size_t>(bw[m]) * bh[m], 0.0);
+    core::parallel_for(
+        bh[m],
+        [&](int y0, int y1) {
+          for (int y = y0; y < y1; ++y)
+            for (int x = 0; x < bw[m]; ++x) {
+              double v = 0.0;
+              for (int cy = 2 * y; cy < std::min(2 * y + 2, bh[m - 1]); ++cy)
+                for (int cx = 2 * x; cx < std::min(2 * x + 2, bw[m - 1]); ++cx)
+                  v += m == 1 ? static_cast<double>(lum_at(static_cast<std::size_t>(cy) * w + cx))
+                              : sum[m - 1][static_cast<std::size_t>(cy) * bw[m - 1] + cx];
+              sum[m][static_cast<std::size_t>(y) * bw[m] + x] = v;
+            }
+        },
+        8);
+  }
+  core::parallel_for(
+      h,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          if (row_need[y] == 0) continue;
+          for (int x = 0; x < w; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * w + x;
+            const float rho = std::max(std::fabs(coc.plane(0)[i]), 0.5f);
+            if (rho < r0) continue;
+            const float l = lum_at(i);
+            if (!(l > opt.highlight_abs)) continue;
+            const int m = block_level(rho);
+            const int bx = x >> m, by = y >> m, side = 1 << m;
+            const double count = static_cast<double>(std::min(w, (bx + 1) * side) - bx * side) *
+                                 static_cast<double>(std::min(h, (by + 1) * side) - by * side);
+            const double mean = sum[m][static_cast<std::size_t>(by) * bw[m] + bx] / count;
+            if (l > opt.highlight_rel * static_cast<float>(mean)) flags[i] |= bit;
+          }
+        }
+      },
+      8);
 }
 
 Fragments::Fragments(const Sources& s, const SlicePlan& plan, const LensOptions& opt) : src(s) {
@@ -83,8 +118,8 @@ Fragments::Fragments(const Sources& s, const SlicePlan& plan, const LensOptions&
       through *= 1.0f - a;
     }
   }
-  std::vector<float> lum(n);
   for (int f = 0; f < nf; ++f) {
+    mark_direct(*s.colour[f], *s.coc[f], f > 0 ? &trans[f * n] : nullptr, opt, &direct[f * n], 1);
     for (std::size_t i = 0; i < n; ++i) {
       const std::size_t q = f * n + i;
       const float r = s.coc[f]->plane(0)[i];
@@ -94,10 +129,7 @@ Fragments::Fragments(const Sources& s, const SlicePlan& plan, const LensOptions&
       sharp[q] = std::max(std::fabs(r) - 0.5f, 0.0f);
       exists[q] = f == 0 || weight[q] > 0.0f;
       if (exists[q]) rho_max = std::max(rho_max, rho[q]);
-      lum[i] = luminance(colour(q, 0), colour(q, 1), colour(q, 2));
     }
-    const std::vector<std::uint8_t> d = direct_sources(&rho[f * n], lum.data(), w, h, opt);
-    std::copy(d.begin(), d.end(), direct.begin() + static_cast<std::ptrdiff_t>(f * n));
   }
   pad = reach(rho_max) + 1;
   this->soft = soft;

@@ -13,12 +13,22 @@ namespace dofkit::detail::lens {
 
 inline float luminance(float r, float g, float b) { return 0.2126f * r + 0.7152f * g + 0.0722f * b; }
 
-/// Per pixel: 1 where the source is scattered directly at full resolution — its radius is
-/// below opt.direct_px(), or it is a highlight: luminance above opt.highlight_abs and above
-/// opt.highlight_rel times the mean luminance of the aligned block of side 2^m >= 2ρ that
-/// holds it (a source much brighter than the area its footprint covers: reduced resolution
-/// would soften the rim of its bokeh). rho and lum: one value per pixel.
-std::vector<std::uint8_t> direct_sources(const float* rho, const float* lum, int w, int h, const LensOptions& opt);
+/// The block level of a highlight test: the smallest m with 2^m >= 2ρ.
+inline int block_level(float rho) {
+  int m = 0;
+  while (static_cast<float>(1 << m) < 2.0f * rho && m < 24) ++m;
+  return m;
+}
+
+/// Marks (ORs `bit` into flags[i]) the fragments of one layer that are scattered directly at
+/// full resolution: radius below opt.direct_px(), or a highlight — luminance above
+/// opt.highlight_abs and above opt.highlight_rel times the mean luminance of the aligned
+/// block of side 2^m >= 2ρ that holds it (a source much brighter than the area its footprint
+/// covers: reduced resolution would soften the rim of its bokeh). colour: rgba premultiplied,
+/// times trans[i] where trans is given (hidden layers); coc: signed px. Rows in parallel; the
+/// block sums are doubles added in a fixed order, so the flags never depend on the threads.
+void mark_direct(const Image& colour, const Image& coc, const float* trans, const LensOptions& opt,
+                 std::uint8_t* flags, std::uint8_t bit);
 
 /// The radius index (footprint.hpp) of the footprints of slice j's merged sources: its
 /// anchor's radius at the slice's level (a source between two anchors is the hat-weighted mix
@@ -89,13 +99,16 @@ struct SliceDepth {
 struct Grid {
   int level = 1, margin = 0, frame_w = 0, frame_h = 0, w = 0, h = 0;
   Grid() = default;
-  Grid(int width, int height, int level_, int pad_px)
+  /// margin_cells: at least ceil(pad / 2^level) + 1 (every source the padding holds, and the
+  /// bilinear read-back of the frame's edge pixels).
+  Grid(int width, int height, int level_, int margin_cells)
       : level(level_),
-        margin((pad_px + (1 << level_) - 1) / (1 << level_) + 1),
+        margin(margin_cells),
         frame_w((width + (1 << level_) - 1) >> level_),
         frame_h((height + (1 << level_) - 1) >> level_),
         w(frame_w + 2 * margin),
         h(frame_h + 2 * margin) {}
+  static int min_margin(int pad_px, int level_) { return (pad_px + (1 << level_) - 1) / (1 << level_) + 1; }
   std::size_t cells() const { return static_cast<std::size_t>(w) * h; }
   std::size_t index(int x, int y) const { return static_cast<std::size_t>(y) * w + x; }
   bool covers(int x, int y) const {
@@ -127,6 +140,7 @@ struct Source {
 /// The receivers: layer 0's inverse depth, 1 / (softness · inverse depth) and sharpness.
 struct Receivers {
   explicit Receivers(const Fragments& fr);
+  explicit Receivers(std::size_t count) : inv_z(count), isu(count), sharp(count) {}
   std::vector<float> inv_z, isu, sharp;
 };
 

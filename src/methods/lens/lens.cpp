@@ -48,7 +48,10 @@ void render_lens(const MethodContext& ctx, Image& out) {
   }
   const lens::SlicePlan plan = lens::plan_slices(range.near_max, range.far_max, opt);
   Image cover;
-  lens::render_plain(src, plan, opt, out, ctx.debug.wants("coverage") ? &cover : nullptr);
+  if (opt.simd)
+    lens::render_fast(src, plan, opt, ctx.workspace, out, ctx.debug.wants("coverage") ? &cover : nullptr);
+  else
+    lens::render_plain(src, plan, opt, out, ctx.debug.wants("coverage") ? &cover : nullptr);
   ctx.debug.offer("coverage", cover);
 }
 

@@ -71,7 +71,7 @@ void render_plain(const Sources& src, const SlicePlan& plan, const LensOptions& 
     g[set].resize(k);
     for (int j = 0; j < k; ++j) {
       SliceGrid& s = g[set][j];
-      s.grid = Grid(w, h, plan.level[j], fr.pad);
+      s.grid = Grid(w, h, plan.level[j], Grid::min_margin(fr.pad, plan.level[j]));
       if (set == 0 || nf > 1) s.merged.assign(s.grid.cells() * kMChannels, 0.0f);
     }
   }

@@ -150,11 +150,10 @@ struct Receivers {
 /// proportion sharp_p / sharp_q. A hidden fragment: in front and on the receiver's surface
 /// the same, behind it to the fill (a[10…14]) as far as it is sharper than the receiver (seen
 /// through a blurred near surface; one blurred about as much is covered in the lens too).
-inline void add_source(const Receivers& rc, std::size_t p, bool hidden, const Source& s, float wt, const float* c,
-                       float* a) {
-  const float rel = (s.u - rc.inv_z[p]) * rc.isu[p];
+inline void add_source_at(float up, float isup, float sp, bool hidden, const Source& s, float wt, const float* c,
+                          float* a) {
+  const float rel = (s.u - up) * isup;
   const float front = std::min(std::max(rel, 0.0f), 1.0f), behind = std::min(std::max(-rel, 0.0f), 1.0f);
-  const float sp = rc.sharp[p];
   if (hidden) {
     const float show = sp > 0.0f ? behind * std::min(std::max(2.0f * (sp - s.sharp) / sp, 0.0f), 1.0f) : 0.0f;
     for (int ch = 0; ch < 5; ++ch) {
@@ -170,6 +169,10 @@ inline void add_source(const Receivers& rc, std::size_t p, bool hidden, const So
     a[ch] += v * front * c[ch];
     a[5 + ch] += v * (1.0f - front) * c[ch];
   }
+}
+inline void add_source(const Receivers& rc, std::size_t p, bool hidden, const Source& s, float wt, const float* c,
+                       float* a) {
+  add_source_at(rc.inv_z[p], rc.isu[p], rc.sharp[p], hidden, s, wt, c, a);
 }
 
 /// Fixed sample offsets in the unit disc for the hidden-background estimate: the concentric

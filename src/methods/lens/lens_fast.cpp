@@ -14,14 +14,19 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <vector>
+
+#include <tbb/enumerable_thread_specific.h>
 
 #include "core/clones.hpp"
 #include "core/parallel.hpp"
 #include "core/pass_profile.hpp"
 #include "methods/lens/footprint.hpp"
+#include "methods/lens/kernels.hpp"
 #include "methods/lens/lens.hpp"
 
 namespace dofkit::detail::lens {
@@ -218,11 +223,28 @@ void axpy(float* __restrict acc, const float* __restrict src, float wt, int n) {
 
 }  // namespace
 
+namespace {
+// Per-thread scratch of the tile pass.
+struct TileScratch {
+  std::vector<float> acc, est, rcv, outp, vrow;
+  std::vector<std::int32_t> rslice;
+};
+// Everything kept from frame to frame (a Renderer's workspace object).
+struct State {
+  Prep pr;
+  InverseArea inv_area;
+  TapTable taps;
+  std::vector<float> arena, behind;
+  tbb::enumerable_thread_specific<TileScratch> scratch;
+};
+}  // namespace
+
 void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& opt, Workspace& ws, Image& out,
                  Image* cover) {
   const int w = src.width(), h = src.height(), nf = src.count(), k = plan.count();
   const float soft = opt.depth_softness;
-  Prep pr;
+  State& st = ws.object<State>("lens.state");
+  Prep& pr = st.pr;
   {
     core::PassScope pass("prep");
     prepare(src, plan, opt, pr);
@@ -238,7 +260,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
 
   // Buffers: per set and slice, the rows its members (and their mirror copies) occupy.
   std::vector<SliceBuf> sb[2];
-  TapTable taps;
+  TapTable& taps = st.taps;
   std::size_t total = 0;
   for (int s = 0; s < 2; ++s) {
     sb[s].resize(k);
@@ -268,11 +290,19 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
       b.ahi.assign(b.a1 - b.a0, -1);
     }
   }
-  // One arena for all grids (a workspace buffer: kept from frame to frame).
-  Image& arena = ws.image("lens.arena", static_cast<int>(std::min<std::size_t>(total + 1, 1u << 30)),
-                          static_cast<int>((total + (1u << 30)) >> 30), 1);
+  if (getenv("LENS_DEBUG")) {
+    fprintf(stderr, "lens: %d slices, pad %d origin %d, arena %.1f M floats\n", k, pad, origin, total / 1e6);
+    for (int s = 0; s < 2; ++s)
+      for (int j = 0; j < k; ++j)
+        if (sb[s][j].used)
+          fprintf(stderr, "  set %d slice %d a=%.2f L=%d grid %dx%d merged rows %d acc rows %d ri %d reach %d\n", s, j,
+                  plan.anchor[j], plan.level[j], sb[s][j].grid.w, sb[s][j].grid.h, sb[s][j].m1 - sb[s][j].m0,
+                  sb[s][j].a1 - sb[s][j].a0, sb[s][j].ri, sb[s][j].reach);
+  }
+  // One arena for all grids.
+  if (st.arena.size() < total + 1) st.arena.resize(total + 1);
   {
-    float* p = arena.data().data();
+    float* p = st.arena.data();
     for (int s = 0; s < 2; ++s)
       for (int j = 0; j < k; ++j) {
         SliceBuf& b = sb[s][j];
@@ -384,7 +414,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   if (opt.hidden) {
     core::PassScope pass("estimate");
     const HiddenPattern pattern(opt.hidden_samples);
-    std::vector<float> behind;
+    std::vector<float>& behind = st.behind;
     for (int j = 0; j < k; ++j) {
       SliceBuf& b = sb[0][j];
       if (!b.used) continue;
@@ -452,76 +482,137 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   // 4. Tiles.
   out.resize(w, h, 4);
   if (cover) cover->resize(w, h, 4);
-  InverseArea inv_area;
+  InverseArea& inv_area = st.inv_area;
   inv_area.prepare(pr.rho_max + 1.0f);
   const float r0 = opt.direct_px();
   const int small_reach = reach(r0);
+  const int hreach = reach(pr.rho_max);
   const int tiles_x = (w + kTileCols - 1) / kTileCols, tiles_y = (h + kTileRows - 1) / kTileRows;
+  int grid_w = 0;
+  for (int s = 0; s < 2; ++s)
+    for (int j = 0; j < k; ++j)
+      if (sb[s][j].used) grid_w = std::max(grid_w, sb[s][j].grid.w);
+  // Tile planes: rows of kStride floats (kernels may run up to 16 lanes past a row's end).
+  constexpr int kStride = kTileCols + 32;
+  constexpr std::size_t kPlane = static_cast<std::size_t>(kTileRows) * kStride;
   core::PassScope pass("tiles");
   core::parallel_for(tiles_x * tiles_y, [&](int t0, int t1) {
-    std::vector<float> acc(static_cast<std::size_t>(kTileRows) * kTileCols * 15);
-    std::vector<float> est(static_cast<std::size_t>(kTileRows) * kTileCols * 5);
-    Receivers rc(kTileRows * kTileCols);
-    std::vector<int> rslice(kTileRows * kTileCols);
-    std::vector<float> rt(kTileRows * kTileCols);
+    TileScratch& ts = st.scratch.local();
+    ts.acc.resize(kPlane * 15);
+    ts.est.resize(kPlane * 5);
+    ts.rcv.resize(kPlane * 4);
+    ts.outp.resize(static_cast<std::size_t>(kStride) * 11);
+    ts.rslice.resize(kPlane);
+    ts.vrow.resize(static_cast<std::size_t>(grid_w + 32) * 5);
+    std::vector<float>& acc = ts.acc;
+    std::vector<float>& est = ts.est;
+    std::vector<float>& rcv = ts.rcv;
+    std::vector<float>& outp = ts.outp;
+    std::vector<std::int32_t>& rslice = ts.rslice;
+    std::vector<float>& vrow = ts.vrow;
     for (int tile = t0; tile < t1; ++tile) {
       const int tx0 = (tile % tiles_x) * kTileCols, ty0 = (tile / tiles_x) * kTileRows;
       const int tw = std::min(kTileCols, w - tx0), th = std::min(kTileRows, h - ty0);
-      // Receivers of the tile, index (y − ty0)·tw + (x − tx0).
+      float* ru = rcv.data();
+      float* risu = ru + kPlane;
+      float* rsharp = risu + kPlane;
+      float* rt = rsharp + kPlane;
+      std::fill(rcv.begin(), rcv.end(), 0.0f);
+      std::fill(rslice.begin(), rslice.end(), -2);
       for (int y = ty0; y < ty0 + th; ++y) {
         const float* z = src.depth[0]->row(0, y);
         const float* coc = src.coc[0]->row(0, y);
+        const std::size_t row = static_cast<std::size_t>(y - ty0) * kStride;
         for (int x = tx0; x < tx0 + tw; ++x) {
-          const int p = (y - ty0) * tw + (x - tx0);
+          const std::size_t p = row + (x - tx0);
           const float u = inv_depth(z[x]);
-          rc.inv_z[p] = u;
-          rc.isu[p] = u > 0 ? 1.0f / (soft * u) : 1e30f;
-          rc.sharp[p] = std::max(std::fabs(coc[x]) - 0.5f, 0.0f);
+          ru[p] = u;
+          risu[p] = u > 0 ? 1.0f / (soft * u) : 1e30f;
+          rsharp[p] = std::max(std::fabs(coc[x]) - 0.5f, 0.0f);
           const std::size_t i = static_cast<std::size_t>(y) * w + x;
           rslice[p] = pr.slice[i];
           rt[p] = pr.t[i];
         }
       }
-      std::fill(acc.begin(), acc.begin() + static_cast<std::ptrdiff_t>(tw * th * 15), 0.0f);
+      std::fill(acc.begin(), acc.end(), 0.0f);
+      auto receivers = [&](int ty, int col, int count) {
+        RowReceivers r;
+        const std::size_t o = static_cast<std::size_t>(ty) * kStride + col;
+        r.n = count;
+        r.u = ru + o;
+        r.isu = risu + o;
+        r.sharp = rsharp + o;
+        for (int c = 0; c < 15; ++c) r.acc[c] = acc.data() + c * kPlane + o;
+        return r;
+      };
       // Direct sources: one exact footprint each.
       auto direct = [&](int qx, int qy, std::size_t q) {
         const int f = static_cast<int>(q / n);
         const std::size_t i = q % n;
-        const float rq = std::max(std::fabs(src.coc[f]->plane(0)[i]), 0.5f);
+        DirectRow d;
+        d.rho = std::max(std::fabs(src.coc[f]->plane(0)[i]), 0.5f);
         const float tr = pr.trans_of(q);
-        const float c[5] = {src.colour[f]->plane(0)[i] * tr, src.colour[f]->plane(1)[i] * tr,
-                            src.colour[f]->plane(2)[i] * tr, src.colour[f]->plane(3)[i] * tr, pr.weight_of(q)};
-        const Source sq{inv_depth(src.depth[f]->plane(0)[i]), std::max(rq - 0.5f, 0.0f)};
-        const float ws = inv_area(rq);
-        const int e = reach(rq);
-        for (int py = std::max(ty0, qy - e); py <= std::min(ty0 + th - 1, qy + e); ++py)
-          for (int px = std::max(tx0, qx - e); px <= std::min(tx0 + tw - 1, qx + e); ++px) {
-            const float cov = coverage(rq, static_cast<float>(px - qx), static_cast<float>(py - qy));
-            if (cov <= 0.0f) continue;
-            const int p = (py - ty0) * tw + (px - tx0);
-            add_source(rc, static_cast<std::size_t>(p), f > 0, sq, cov * ws, c, &acc[static_cast<std::size_t>(p) * 15]);
-          }
+        for (int c = 0; c < 4; ++c) d.c[c] = src.colour[f]->plane(c)[i] * tr;
+        d.c[4] = pr.weight_of(q);
+        d.su = inv_depth(src.depth[f]->plane(0)[i]);
+        d.ssharp = std::max(d.rho - 0.5f, 0.0f);
+        d.hidden = f > 0;
+        d.ws = inv_area(d.rho);
+        const int e = reach(d.rho);
+        if (e == 0) {  // in focus: the receiver under it only
+          if (qx < tx0 || qx >= tx0 + tw || qy < ty0 || qy >= ty0 + th) return;
+          const RowReceivers r = receivers(qy - ty0, qx - tx0, 1);
+          float a[15];
+          for (int c = 0; c < 15; ++c) a[c] = r.acc[c][0];
+          add_source_at(r.u[0], r.isu[0], r.sharp[0], d.hidden, {d.su, d.ssharp}, d.ws, d.c, a);
+          for (int c = 0; c < 15; ++c) r.acc[c][0] = a[c];
+          return;
+        }
+        const float lim = d.rho + 0.5f;
+        for (int py = std::max(ty0, qy - e); py <= std::min(ty0 + th - 1, qy + e); ++py) {
+          d.dy = static_cast<float>(py - qy);
+          const int hw = static_cast<int>(std::sqrt(std::max(0.0f, lim * lim - d.dy * d.dy)));
+          const int px0 = std::max(tx0, qx - hw), px1 = std::min(tx0 + tw - 1, qx + hw);
+          if (px0 > px1) continue;
+          d.dx0 = static_cast<float>(px0 - qx);
+          direct_row(d, receivers(py - ty0, px0 - tx0, px1 - px0 + 1));
+        }
       };
       for (int yp = std::max(-pad, ty0 - small_reach); yp < std::min(h + pad, ty0 + th + small_reach); ++yp) {
         const int y = mirror(yp, h);
         for (int f = 0; f < nf; ++f) {
           const float* coc = src.coc[f]->row(0, y);
+          const std::uint8_t* fl = &pr.flags[f * n + static_cast<std::size_t>(y) * w];
           for (int xp = std::max(-pad, tx0 - small_reach); xp < std::min(w + pad, tx0 + tw + small_reach); ++xp) {
             const int x = mirror(xp, w);
-            const std::size_t q = f * n + static_cast<std::size_t>(y) * w + x;
-            if ((pr.flags[q] & (kExists | kDirect)) != (kExists | kDirect)) continue;
+            if ((fl[x] & (kExists | kDirect)) != (kExists | kDirect)) continue;
             if (!(std::max(std::fabs(coc[x]), 0.5f) < r0)) continue;  // highlights below
-            direct(xp, yp, q);
+            direct(xp, yp, f * n + static_cast<std::size_t>(y) * w + x);
           }
         }
       }
-      const int hreach = reach(pr.rho_max);
       for (int yp = std::max(-pad, ty0 - hreach); yp < std::min(h + pad, ty0 + th + hreach); ++yp)
         for (int e = pr.hl_start[yp + pad]; e < pr.hl_start[yp + pad + 1]; ++e) {
           const int xp = pr.hl_x[e];
           if (xp < tx0 - hreach || xp >= tx0 + tw + hreach) continue;
           direct(xp, yp, pr.hl_q[e]);
         }
+      // A cell row interpolated vertically at fine row y: rows Y0, Y0 + 1 of `plane(c, Y)`
+      // (rows outside [r0, r1) are zero), columns [xa, xb].
+      auto vertical = [&](const Grid& g, int y, int ra, int rb, const auto& plane, int xa, int xb) {
+        int x0, y0;
+        float ax, ay;
+        g.locate(tx0, y, x0, y0, ax, ay);
+        for (int c = 0; c < 5; ++c) {
+          float* dst = vrow.data() + static_cast<std::size_t>(c) * (grid_w + 32);
+          const float* a = y0 >= ra && y0 < rb ? plane(c, y0) : nullptr;
+          const float* b = y0 + 1 >= ra && y0 + 1 < rb ? plane(c, y0 + 1) : nullptr;
+          for (int X = xa; X <= xb; ++X) {
+            const float va = a ? a[X] : 0.0f, vb = b ? b[X] : 0.0f;
+            dst[X] = va + ay * (vb - va);
+          }
+        }
+      };
       // Slices, read back bilinearly.
       for (int s = 0; s < 2; ++s)
         for (int j = 0; j < k; ++j) {
@@ -539,73 +630,84 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           for (int Y = std::max(ya, b.a0); Y <= std::min(yb, b.a1 - 1); ++Y)
             any |= b.alo[Y - b.a0] <= xb && b.ahi[Y - b.a0] >= xa;
           if (!any) continue;
-          const float norm = 1.0f / static_cast<float>(1 << (2 * g.level));
-          const Source ss{sd.u[j], sd.sharp[j]};
-          for (int y = ty0; y < ty0 + th; ++y)
-            for (int x = tx0; x < tx0 + tw; ++x) {
-              int x0, y0;
-              g.locate(x, y, x0, y0, ax, ay);
-              float v[5] = {0, 0, 0, 0, 0};
-              const float wts[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
-              for (int cy = 0; cy < 2; ++cy) {
-                const int Y = y0 + cy;
-                if (Y < b.a0 || Y >= b.a1) continue;
-                for (int cx = 0; cx < 2; ++cx)
-                  for (int c = 0; c < 5; ++c) v[c] += wts[2 * cy + cx] * b.arow(c, Y)[x0 + cx];
-              }
-              const int p = (y - ty0) * tw + (x - tx0);
-              add_source(rc, static_cast<std::size_t>(p), s > 0, ss, norm, v, &acc[static_cast<std::size_t>(p) * 15]);
-            }
+          FoldRow fr;
+          fr.x0 = tx0;
+          fr.level = g.level;
+          fr.margin = g.margin;
+          fr.norm = 1.0f / static_cast<float>(1 << (2 * g.level));
+          fr.su = sd.u[j];
+          fr.ssharp = sd.sharp[j];
+          fr.hidden = s > 0;
+          for (int c = 0; c < 5; ++c) fr.row[c] = vrow.data() + static_cast<std::size_t>(c) * (grid_w + 32);
+          for (int y = ty0; y < ty0 + th; ++y) {
+            vertical(g, y, b.a0, b.a1, [&](int c, int Y) { return b.arow(c, Y); }, xa, xb);
+            fold_row(fr, receivers(y - ty0, 0, tw));
+          }
         }
       // Estimate: each receiver's two slices.
-      std::fill(est.begin(), est.begin() + static_cast<std::ptrdiff_t>(tw * th * 5), 0.0f);
+      std::fill(est.begin(), est.end(), 0.0f);
       if (opt.hidden) {
         int jlo = k, jhi = -1;
-        for (int p = 0; p < tw * th; ++p) {
-          jlo = std::min(jlo, rslice[p]);
-          jhi = std::max(jhi, rslice[p] + 1);
-        }
-        for (int j = jlo; j <= std::min(jhi, k - 1); ++j) {
+        for (int y = 0; y < th; ++y)
+          for (int x = 0; x < tw; ++x) {
+            const int sl = rslice[static_cast<std::size_t>(y) * kStride + x];
+            jlo = std::min(jlo, sl);
+            jhi = std::max(jhi, sl + 1);
+          }
+        for (int j = std::max(jlo, 0); j <= std::min(jhi, k - 1); ++j) {
           const SliceBuf& b = sb[0][j];
           if (!b.used || !b.any_est) continue;
           const Grid& g = b.grid;
-          for (int y = ty0; y < ty0 + th; ++y)
-            for (int x = tx0; x < tx0 + tw; ++x) {
-              const int p = (y - ty0) * tw + (x - tx0);
-              if (!(rc.sharp[p] > 0.0f)) continue;
-              const float hw = rslice[p] == j ? 1.0f - rt[p] : (rslice[p] + 1 == j ? rt[p] : 0.0f);
-              if (hw <= 0.0f) continue;
-              int x0, y0;
-              float ax, ay;
-              g.locate(x, y, x0, y0, ax, ay);
-              const float wts[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
-              for (int cy = 0; cy < 2; ++cy) {
-                const int Y = y0 + cy;
-                if (Y < b.m0 || Y >= b.m1) continue;
-                for (int cx = 0; cx < 2; ++cx)
-                  for (int c = 0; c < 5; ++c)
-                    est[static_cast<std::size_t>(p) * 5 + c] += hw * wts[2 * cy + cx] * b.erow(c, Y)[x0 + cx];
-              }
-            }
+          int ya, yb, xa, xb;
+          float ax, ay;
+          g.locate(tx0, ty0, xa, ya, ax, ay);
+          g.locate(tx0 + tw - 1, ty0 + th - 1, xb, yb, ax, ay);
+          ++xb;
+          ++yb;
+          if (yb < b.m0 || ya >= b.m1) continue;
+          EstRow er;
+          er.x0 = tx0;
+          er.level = g.level;
+          er.margin = g.margin;
+          er.j = j;
+          for (int c = 0; c < 5; ++c) er.row[c] = vrow.data() + static_cast<std::size_t>(c) * (grid_w + 32);
+          for (int y = ty0; y < ty0 + th; ++y) {
+            const std::size_t o = static_cast<std::size_t>(y - ty0) * kStride;
+            vertical(g, y, b.m0, b.m1, [&](int c, int Y) { return b.erow(c, Y); }, xa, xb);
+            er.n = tw;
+            er.slice = rslice.data() + o;
+            er.t = rt + o;
+            er.sharp = rsharp + o;
+            for (int c = 0; c < 5; ++c) er.est[c] = est.data() + c * kPlane + o;
+            est_row(er);
+          }
         }
       }
       // Composite.
-      for (int y = ty0; y < ty0 + th; ++y)
-        for (int x = tx0; x < tx0 + tw; ++x) {
-          const int p = (y - ty0) * tw + (x - tx0);
-          const float* a = &acc[static_cast<std::size_t>(p) * 15];
-          float px[4];
-          const float m = composite(a, &est[static_cast<std::size_t>(p) * 5], a + 10, src.colour[0]->row(0, y)[x],
-                                    src.colour[0]->row(1, y)[x], src.colour[0]->row(2, y)[x],
-                                    src.colour[0]->row(3, y)[x], px);
-          for (int c = 0; c < 4; ++c) out.row(c, y)[x] = px[c];
-          if (cover) {
-            cover->row(0, y)[x] = a[4];
-            cover->row(1, y)[x] = a[9];
-            cover->row(2, y)[x] = m;
-            cover->row(3, y)[x] = 1.0f;
-          }
+      for (int y = ty0; y < ty0 + th; ++y) {
+        const std::size_t o = static_cast<std::size_t>(y - ty0) * kStride;
+        CompositeRow cr;
+        cr.n = tw;
+        for (int c = 0; c < 15; ++c) cr.acc[c] = acc.data() + c * kPlane + o;
+        for (int c = 0; c < 5; ++c) cr.est[c] = est.data() + c * kPlane + o;
+        float* srcrow = outp.data();  // the receivers' own colour, padded
+        for (int c = 0; c < 4; ++c) {
+          std::memcpy(srcrow + c * kStride, src.colour[0]->row(c, y) + tx0, sizeof(float) * tw);
+          cr.src[c] = srcrow + c * kStride;
+          cr.out[c] = srcrow + (4 + c) * kStride - (c == 3 ? 0 : 0);
         }
+        float* res = outp.data() + 4 * kStride;
+        for (int c = 0; c < 4; ++c) cr.out[c] = res + c * kStride;
+        float* cov = outp.data() + 8 * kStride;
+        if (cover)
+          for (int c = 0; c < 3; ++c) cr.cover[c] = cov + c * kStride;
+        composite_row(cr);
+        for (int c = 0; c < 4; ++c) std::memcpy(out.row(c, y) + tx0, res + c * kStride, sizeof(float) * tw);
+        if (cover) {
+          for (int c = 0; c < 3; ++c) std::memcpy(cover->row(c, y) + tx0, cov + c * kStride, sizeof(float) * tw);
+          std::fill(cover->row(3, y) + tx0, cover->row(3, y) + tx0 + tw, 1.0f);
+        }
+      }
     }
   });
 }

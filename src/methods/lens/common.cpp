@@ -8,7 +8,7 @@
 namespace dofkit::detail::lens {
 
 void mark_direct(const Image& colour, const Image& coc, const float* trans, const LensOptions& opt,
-                 std::uint8_t* flags, std::uint8_t bit) {
+                 std::uint8_t* flags, std::uint8_t bit, std::vector<std::vector<double>>* scratch) {
   const int w = colour.width(), h = colour.height();
   const float r0 = opt.direct_px();
   auto lum_at = [&](std::size_t i) {
@@ -40,14 +40,16 @@ void mark_direct(const Image& colour, const Image& coc, const float* trans, cons
   if (top == 0) return;
   // Block sums of the luminance, level m from level m − 1 (children (0,0), (1,0), (0,1),
   // (1,1) in that order).
-  std::vector<std::vector<double>> sum(top + 1);
+  std::vector<std::vector<double>> own;
+  std::vector<std::vector<double>>& sum = scratch ? *scratch : own;
+  if (static_cast<int>(sum.size()) < top + 1) sum.resize(top + 1);
   std::vector<int> bw(top + 1), bh(top + 1);
   bw[0] = w;
   bh[0] = h;
   for (int m = 1; m <= top; ++m) {
     bw[m] = (bw[m - 1] + 1) / 2;
     bh[m] = (bh[m - 1] + 1) / 2;
-    sum[m].assign(static_cast<std::size_t>(bw[m]) * bh[m], 0.0);
+    sum[m].resize(static_cast<std::size_t>(bw[m]) * bh[m]);  // every element written below
     core::parallel_for(
         bh[m],
         [&](int y0, int y1) {

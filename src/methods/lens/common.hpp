@@ -27,8 +27,9 @@ inline int block_level(float rho) {
 /// covers: reduced resolution would soften the rim of its bokeh). colour: rgba premultiplied,
 /// times trans[i] where trans is given (hidden layers); coc: signed px. Rows in parallel; the
 /// block sums are doubles added in a fixed order, so the flags never depend on the threads.
+/// scratch: the block sums' storage (kept by the caller from frame to frame; may be null).
 void mark_direct(const Image& colour, const Image& coc, const float* trans, const LensOptions& opt,
-                 std::uint8_t* flags, std::uint8_t bit);
+                 std::uint8_t* flags, std::uint8_t bit, std::vector<std::vector<double>>* scratch = nullptr);
 
 /// The radius index (footprint.hpp) of the footprints of slice j's merged sources: its
 /// anchor's radius at the slice's level (a source between two anchors is the hat-weighted mix

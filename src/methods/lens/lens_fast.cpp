@@ -1,26 +1,23 @@
 // The fast form of `lens` (docs/methods/lens.md): the model of lens_plain.cpp, organised for
 // speed and memory. Per frame:
 //   1. prep (rows in parallel): each fragment's slice and hat weight, direct / exists flags,
-//      the slices' mean inverse depths and row ranges;
+//      the slices' mean inverse depths and the rows and columns their members occupy;
 //   2. merge (blocks of rows aligned to the coarsest level, in parallel): every slice's merged
 //      sources at its level, only over the cell rows it occupies (mirror-padded frame);
 //   3. per slice, the convolution of its merged sources with its footprint (rows in parallel)
 //      and the hidden-background estimate of its cells;
 //   4. tiles of the frame (in parallel): the direct sources' exact pairs, every slice's sums
-//      read back bilinearly, the estimate, and the composite.
+//      read back bilinearly, the estimate, and the composite (SIMD row kernels, kernels.hpp).
 // Each output value is computed by one task in a fixed order, so the result is the same for
 // any thread count. Tested against the plain form (tests/lens/).
+#include <tbb/enumerable_thread_specific.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
 #include <cstring>
-#include <mutex>
 #include <vector>
-
-#include <tbb/enumerable_thread_specific.h>
 
 #include "core/clones.hpp"
 #include "core/parallel.hpp"
@@ -33,7 +30,7 @@ namespace dofkit::detail::lens {
 
 namespace {
 
-constexpr std::uint8_t kExists = 1, kDirect = 2;
+constexpr std::uint8_t kExists = 1, kDirect = 2, kHighlight = 4, kSmall = 8;
 constexpr int kTileRows = 16, kTileCols = 256;
 constexpr int kRowBlock = 16;  // prep rows per task
 
@@ -45,17 +42,23 @@ struct Prep {
   std::size_t n = 0;
   std::vector<std::int16_t> slice;
   std::vector<float> t;
-  std::vector<std::uint8_t> flags;
+  std::vector<std::uint8_t> flags;   // kExists, kDirect, kHighlight (direct, radius >= direct_px),
+                                     // kSmall (direct, 0.5 < radius < direct_px, or hidden)
   std::vector<float> weight, trans;  // layers >= 1 only: index (f − 1)·n + i
+  std::vector<float> inv_z;          // layer 0's inverse depth
+  std::vector<int> row_hl, row_small;  // per frame row: highlights, small direct sources (every layer)
   float rho_max = 0.5f;
   int pad = 1;
   std::vector<double> mass, u_sum;
-  std::vector<int> lo[2], hi[2];  // per set and slice: rows holding members (lo > hi: none)
-  // Highlights (direct sources with radius >= direct_px): per padded row y' in [−pad, h + pad),
-  // their padded x' and fragment index, in row order (CSR: row y' at hl_start[y' + pad]).
-  std::vector<int> hl_start;
-  std::vector<int> hl_x;
+  // Per set and slice: rows and columns holding members, and whether any is scattered at the
+  // slice's level (not direct).
+  std::vector<int> ylo[2], yhi[2], xlo[2], xhi[2];
+  std::vector<std::uint8_t> sliced[2];
+  // Highlights per padded row y' in [−pad, h + pad): their padded x' and fragment index, in
+  // order of x' (CSR: row y' at hl_start[y' + pad]).
+  std::vector<int> hl_start, hl_x;
   std::vector<std::size_t> hl_q;
+  std::vector<std::vector<double>> block_sums;  // mark_direct's scratch
 
   float weight_of(std::size_t q) const { return q < n ? 1.0f : weight[q - n]; }
   float trans_of(std::size_t q) const { return q < n ? 1.0f : trans[q - n]; }
@@ -72,6 +75,7 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
   pr.slice.resize(nn);
   pr.t.resize(nn);
   pr.flags.assign(nn, 0);
+  pr.inv_z.resize(n);
   if (nf > 1) {
     pr.weight.assign(n * (nf - 1), 0.0f);
     pr.trans.assign(n * (nf - 1), 0.0f);
@@ -100,16 +104,24 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
   }
   for (int f = 0; f < nf; ++f)
     mark_direct(*src.colour[f], *src.coc[f], f > 0 ? &pr.trans[(f - 1) * n] : nullptr, opt, &pr.flags[f * n],
-                kDirect);
-  // Slices, existence, per-block sums (combined in block order: deterministic).
+                kDirect, &pr.block_sums);
+  // Slices, existence, per-block sums and extents (combined in block order: deterministic).
   const int blocks = (h + kRowBlock - 1) / kRowBlock;
-  std::vector<double> bmass(static_cast<std::size_t>(blocks) * k, 0.0), bu(bmass.size(), 0.0);
-  std::vector<int> blo[2], bhi[2];
+  const std::size_t bk = static_cast<std::size_t>(blocks) * k;
+  std::vector<double> bmass(bk, 0.0), bu(bk, 0.0);
+  std::vector<int> b_ylo[2], b_yhi[2], b_xlo[2], b_xhi[2];
+  std::vector<std::uint8_t> b_sliced[2];
   for (int s = 0; s < 2; ++s) {
-    blo[s].assign(static_cast<std::size_t>(blocks) * k, h);
-    bhi[s].assign(static_cast<std::size_t>(blocks) * k, -1);
+    b_ylo[s].assign(bk, h);
+    b_yhi[s].assign(bk, -1);
+    b_xlo[s].assign(bk, w);
+    b_xhi[s].assign(bk, -1);
+    b_sliced[s].assign(bk, 0);
   }
   std::vector<float> brho(blocks, 0.5f);
+  const float r0 = opt.direct_px();
+  pr.row_hl.assign(h, 0);
+  pr.row_small.assign(h, 0);
   core::parallel_for(blocks, [&](int b0, int b1) {
     for (int b = b0; b < b1; ++b) {
       double* ms = &bmass[static_cast<std::size_t>(b) * k];
@@ -120,31 +132,48 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
           const float* coc = src.coc[f]->row(0, y);
           const float* z = src.depth[f]->row(0, y);
           const int s = f > 0;
+          int* ylo = &b_ylo[s][static_cast<std::size_t>(b) * k];
+          int* yhi = &b_yhi[s][static_cast<std::size_t>(b) * k];
+          int* xlo = &b_xlo[s][static_cast<std::size_t>(b) * k];
+          int* xhi = &b_xhi[s][static_cast<std::size_t>(b) * k];
+          std::uint8_t* sl = &b_sliced[s][static_cast<std::size_t>(b) * k];
           for (int x = 0; x < w; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * w + x, q = f * n + i;
-            const bool exists = f == 0 || pr.weight[q - n] > 0.0f;
             int j;
             float tt;
-            plan.member(coc[x], j, tt);
+            plan.member_fast(coc[x], j, tt);
             pr.slice[q] = static_cast<std::int16_t>(j);
             pr.t[q] = tt;
-            if (!exists) {
+            const float u = inv_depth(z[x]);
+            if (f == 0) pr.inv_z[i] = u;
+            if (f > 0 && !(pr.weight[q - n] > 0.0f)) {
               pr.flags[q] = 0;
               continue;
             }
-            pr.flags[q] |= kExists;
-            rmax = std::max(rmax, std::max(std::fabs(coc[x]), 0.5f));
-            const float u = inv_depth(z[x]);
+            std::uint8_t fl = pr.flags[q] | kExists;
+            const float rho = std::max(std::fabs(coc[x]), 0.5f);
+            rmax = std::max(rmax, rho);
+            if (fl & kDirect) {
+              if (!(rho < r0)) {
+                fl |= kHighlight;
+                ++pr.row_hl[y];
+              } else if (rho > 0.5f || f > 0) {
+                fl |= kSmall;
+                ++pr.row_small[y];
+              }
+            }
+            pr.flags[q] = fl;
             for (int part = 0; part < 2; ++part) {
               const int jj = j + part;
               const float hw = part ? tt : 1.0f - tt;
               if (jj >= k || hw <= 0.0f) continue;
               ms[jj] += hw;
               us[jj] += static_cast<double>(hw) * u;
-              int& l = blo[s][static_cast<std::size_t>(b) * k + jj];
-              int& hh = bhi[s][static_cast<std::size_t>(b) * k + jj];
-              l = std::min(l, y);
-              hh = std::max(hh, y);
+              ylo[jj] = std::min(ylo[jj], y);
+              yhi[jj] = std::max(yhi[jj], y);
+              xlo[jj] = std::min(xlo[jj], x);
+              xhi[jj] = std::max(xhi[jj], x);
+              if (!(fl & kDirect)) sl[jj] = 1;
             }
           }
         }
@@ -154,8 +183,11 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
   pr.mass.assign(k, 0.0);
   pr.u_sum.assign(k, 0.0);
   for (int s = 0; s < 2; ++s) {
-    pr.lo[s].assign(k, h);
-    pr.hi[s].assign(k, -1);
+    pr.ylo[s].assign(k, h);
+    pr.yhi[s].assign(k, -1);
+    pr.xlo[s].assign(k, w);
+    pr.xhi[s].assign(k, -1);
+    pr.sliced[s].assign(k, 0);
   }
   pr.rho_max = 0.5f;
   for (int b = 0; b < blocks; ++b) {
@@ -164,47 +196,95 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
       pr.mass[j] += bmass[bj];
       pr.u_sum[j] += bu[bj];
       for (int s = 0; s < 2; ++s) {
-        pr.lo[s][j] = std::min(pr.lo[s][j], blo[s][bj]);
-        pr.hi[s][j] = std::max(pr.hi[s][j], bhi[s][bj]);
+        pr.ylo[s][j] = std::min(pr.ylo[s][j], b_ylo[s][bj]);
+        pr.yhi[s][j] = std::max(pr.yhi[s][j], b_yhi[s][bj]);
+        pr.xlo[s][j] = std::min(pr.xlo[s][j], b_xlo[s][bj]);
+        pr.xhi[s][j] = std::max(pr.xhi[s][j], b_xhi[s][bj]);
+        pr.sliced[s][j] |= b_sliced[s][bj];
       }
     }
     pr.rho_max = std::max(pr.rho_max, brho[b]);
   }
   pr.pad = reach(pr.rho_max) + 1;
-  // Highlights: direct sources too large for the tiles' small-source window.
-  const float r0 = opt.direct_px();
+  // Highlights (direct sources too large for the tiles' small-source window), per padded row
+  // in padded-column order: the mirror copies of a row's highlights (few) in order of x'.
   const int pad = pr.pad;
-  pr.hl_start.assign(static_cast<std::size_t>(h + 2 * pad) + 1, 0);
-  pr.hl_x.clear();
-  pr.hl_q.clear();
+  const int rows = h + 2 * pad;
+  std::vector<int> count(rows, 0);
   for (int yp = -pad; yp < h + pad; ++yp) {
     const int y = mirror(yp, h);
+    if (pr.row_hl[y] == 0) continue;
     for (int f = 0; f < nf; ++f) {
-      const float* coc = src.coc[f]->row(0, y);
-      for (int xp = -pad; xp < w + pad; ++xp) {
-        const int x = mirror(xp, w);
-        const std::size_t q = f * n + static_cast<std::size_t>(y) * w + x;
-        if ((pr.flags[q] & (kExists | kDirect)) != (kExists | kDirect)) continue;
-        if (std::max(std::fabs(coc[x]), 0.5f) < r0) continue;
-        pr.hl_x.push_back(xp);
-        pr.hl_q.push_back(q);
+      const std::uint8_t* fl = &pr.flags[f * n + static_cast<std::size_t>(y) * w];
+      if (pad > w) {  // a frame narrower than the padding: reflections repeat
+        for (int xp = -pad; xp < w + pad; ++xp) count[yp + pad] += (fl[mirror(xp, w)] & kHighlight) != 0;
+        continue;
+      }
+      for (int x = 0; x < w; ++x)
+        if (fl[x] & kHighlight) count[yp + pad] += 1 + (x < pad) + (x >= w - pad);
+    }
+  }
+  pr.hl_start.assign(static_cast<std::size_t>(rows) + 1, 0);
+  for (int r = 0; r < rows; ++r) pr.hl_start[r + 1] = pr.hl_start[r] + count[r];
+  pr.hl_x.resize(pr.hl_start[rows]);
+  pr.hl_q.resize(pr.hl_start[rows]);
+  core::parallel_for(rows, [&](int a, int b) {
+    for (int r = a; r < b; ++r) {
+      if (count[r] == 0) continue;
+      const int y = mirror(r - pad, h);
+      int e = pr.hl_start[r];
+      for (int f = 0; f < nf; ++f) {
+        const std::size_t base = f * n + static_cast<std::size_t>(y) * w;
+        const std::uint8_t* fl = &pr.flags[base];
+        auto put = [&](int xp, int x) {
+          pr.hl_x[e] = xp;
+          pr.hl_q[e] = base + x;
+          ++e;
+        };
+        if (pad > w) {
+          for (int xp = -pad; xp < w + pad; ++xp)
+            if (fl[mirror(xp, w)] & kHighlight) put(xp, mirror(xp, w));
+          continue;
+        }
+        for (int x = std::min(pad, w) - 1; x >= 0; --x)  // left copies: x' = −1 − x
+          if (fl[x] & kHighlight) put(-1 - x, x);
+        for (int x = 0; x < w; ++x)
+          if (fl[x] & kHighlight) put(x, x);
+        for (int x = w - 1; x >= std::max(0, w - pad); --x)  // right copies: x' = 2w − 1 − x
+          if (fl[x] & kHighlight) put(2 * w - 1 - x, x);
       }
     }
-    pr.hl_start[static_cast<std::size_t>(yp + pad) + 1] = static_cast<int>(pr.hl_x.size());
+  });
+}
+
+// The padded range [lo', hi'] that shows frame rows (or columns) [lo, hi] of an axis of n
+// pixels, with `pad` px of mirror padding: the range itself and its mirror copies.
+void padded_range(int lo, int hi, int n, int pad, int& plo, int& phi) {
+  plo = lo;
+  phi = hi;
+  if (pad >= n) {  // reflections repeat: all of it
+    plo = -pad;
+    phi = n + pad - 1;
+    return;
   }
+  if (lo < pad) plo = std::min(plo, -1 - std::min(hi, pad - 1));
+  if (hi >= n - pad) phi = std::max(phi, 2 * n - 1 - std::max(lo, n - pad));
+  plo = std::max(plo, -pad);
+  phi = std::min(phi, n + pad - 1);
 }
 
 // One slice's buffers (per source set): planar rows of its grid.
+enum { kMR, kMG, kMB, kMA, kMMass, kMAll, kMChannels };
 struct SliceBuf {
   Grid grid;
-  bool used = false;
+  bool used = false, sliced = false, estimate = false;
   int m0 = 0, m1 = 0;  // merged rows [m0, m1)
   int a0 = 0, a1 = 0;  // acc rows [a0, a1)
   int ri = 0, reach = 0;
-  float* merged = nullptr;  // kMChannels planes of (m1 − m0)·grid.w
-  float* acc = nullptr;     // 5 planes of (a1 − a0)·grid.w
-  float* est = nullptr;     // 5 planes of (m1 − m0)·grid.w (set 0, estimate on)
-  std::vector<int> mlo, mhi;  // per merged row: columns with sources
+  float* merged = nullptr;  // kMChannels planes of (m1 − m0)·grid.w (rgba, mass only if sliced; all only if estimate)
+  float* acc = nullptr;     // 5 planes of (a1 − a0)·grid.w (if sliced)
+  float* est = nullptr;     // 5 planes of (m1 − m0)·grid.w (if estimate)
+  std::vector<int> mlo, mhi;  // per merged row: columns with sliced sources
   std::vector<int> alo, ahi;  // per acc row: columns with sums
   bool any_est = false;
   std::size_t mplane() const { return static_cast<std::size_t>(m1 - m0) * grid.w; }
@@ -213,7 +293,102 @@ struct SliceBuf {
   float* arow(int c, int y) const { return acc + c * aplane() + static_cast<std::size_t>(y - a0) * grid.w; }
   float* erow(int c, int y) const { return est + c * mplane() + static_cast<std::size_t>(y - m0) * grid.w; }
 };
-enum { kMR, kMG, kMB, kMA, kMMass, kMAll, kMChannels };
+
+// The content clearly behind a slice on a run of n frame pixels, added into its cells (level
+// L, the run starting at a cell boundary): cells[c][x >> L] += m · colour[c][x],
+// cells[4][x >> L] += m, with m = (u[x] < limit). tmp: 5 (n + 1) floats of scratch. The pixels
+// of a cell are summed pairwise.
+DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH
+void behind_row(const float* __restrict u, float limit, const float* __restrict c0, const float* __restrict c1,
+                const float* __restrict c2, const float* __restrict c3, int n, int level, float* __restrict tmp,
+                float* const* cells) {
+  const std::size_t s = static_cast<std::size_t>(n) + 1;
+  float* t0 = tmp;
+  float* t1 = tmp + s;
+  float* t2 = tmp + 2 * s;
+  float* t3 = tmp + 3 * s;
+  float* t4 = tmp + 4 * s;
+  for (int x = 0; x < n; ++x) {
+    const float m = u[x] < limit ? 1.0f : 0.0f;
+    t0[x] = m * c0[x];
+    t1[x] = m * c1[x];
+    t2[x] = m * c2[x];
+    t3[x] = m * c3[x];
+    t4[x] = m;
+  }
+  int m = n;
+  for (int l = 0; l < level; ++l) {
+    if (m & 1) {
+      t0[m] = t1[m] = t2[m] = t3[m] = t4[m] = 0.0f;
+      ++m;
+    }
+    m /= 2;
+    for (int i = 0; i < m; ++i) {
+      t0[i] = t0[2 * i] + t0[2 * i + 1];
+      t1[i] = t1[2 * i] + t1[2 * i + 1];
+      t2[i] = t2[2 * i] + t2[2 * i + 1];
+      t3[i] = t3[2 * i] + t3[2 * i + 1];
+      t4[i] = t4[2 * i] + t4[2 * i + 1];
+    }
+  }
+  float* k0 = cells[0];
+  float* k1 = cells[1];
+  float* k2 = cells[2];
+  float* k3 = cells[3];
+  float* k4 = cells[4];
+  for (int i = 0; i < m; ++i) {
+    k0[i] += t0[i];
+    k1[i] += t1[i];
+    k2[i] += t2[i];
+    k3[i] += t3[i];
+    k4[i] += t4[i];
+  }
+}
+
+// dst[x] = a[x] + ay (b[x] − a[x]) for x in [0, n); a null row is zero.
+DOFKIT_CLONES
+void lerp_rows(const float* __restrict a, const float* __restrict b, float ay, float* __restrict dst, int n) {
+  if (a && b)
+    for (int x = 0; x < n; ++x) dst[x] = a[x] + ay * (b[x] - a[x]);
+  else if (a)
+    for (int x = 0; x < n; ++x) dst[x] = a[x] + ay * (0.0f - a[x]);
+  else if (b)
+    for (int x = 0; x < n; ++x) dst[x] = 0.0f + ay * (b[x] - 0.0f);
+  else
+    for (int x = 0; x < n; ++x) dst[x] = 0.0f;
+}
+
+// A tile row's receivers: inverse depth, 1 / (softness · it), sharpness, slice and hat weight;
+// and the visible in-focus sources under them (radius 0.5, only their own pixel: rel = 0,
+// weight 1 / area(0.5) = 1, all to B), which need no footprint.
+DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH
+void setup_receivers(const float* __restrict u, const float* __restrict coc, const std::int16_t* __restrict slice,
+                     const float* __restrict t, const std::uint8_t* __restrict flags, const float* __restrict c0,
+                     const float* __restrict c1, const float* __restrict c2, const float* __restrict c3, float soft,
+                     int n, float* __restrict ru, float* __restrict risu, float* __restrict rsharp,
+                     std::int32_t* __restrict rslice, float* __restrict rt, float* __restrict b0,
+                     float* __restrict b1, float* __restrict b2, float* __restrict b3, float* __restrict bw) {
+  for (int x = 0; x < n; ++x) {
+    ru[x] = u[x];
+    risu[x] = u[x] > 0.0f ? 1.0f / (soft * u[x]) : 1e30f;
+    const float sp = std::max(std::fabs(coc[x]) - 0.5f, 0.0f);
+    rsharp[x] = sp;
+    rslice[x] = slice[x];
+    rt[x] = t[x];
+    const float m = (flags[x] & kDirect) && !(sp > 0.0f) ? 1.0f : 0.0f;
+    b0[x] = m * c0[x];
+    b1[x] = m * c1[x];
+    b2[x] = m * c2[x];
+    b3[x] = m * c3[x];
+    bw[x] = m;
+  }
+}
+
+// acc[x] += src[x] for x in [0, n).
+DOFKIT_CLONES
+void add_row(float* __restrict acc, const float* __restrict src, int n) {
+  for (int x = 0; x < n; ++x) acc[x] += src[x];
+}
 
 // acc[x] += wt · src[x] for x in [0, n).
 DOFKIT_CLONES
@@ -221,9 +396,6 @@ void axpy(float* __restrict acc, const float* __restrict src, float wt, int n) {
   for (int x = 0; x < n; ++x) acc[x] += wt * src[x];
 }
 
-}  // namespace
-
-namespace {
 // Per-thread scratch of the tile pass.
 struct TileScratch {
   std::vector<float> acc, est, rcv, outp, vrow;
@@ -234,9 +406,12 @@ struct State {
   Prep pr;
   InverseArea inv_area;
   TapTable taps;
-  std::vector<float> arena, behind;
+  std::vector<float> arena, behind, padded;
+  std::vector<int> offsets;
   tbb::enumerable_thread_specific<TileScratch> scratch;
+  tbb::enumerable_thread_specific<std::vector<float>> row_tmp;
 };
+
 }  // namespace
 
 void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& opt, Workspace& ws, Image& out,
@@ -266,38 +441,32 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
     sb[s].resize(k);
     for (int j = 0; j < k; ++j) {
       SliceBuf& b = sb[s][j];
-      if (pr.lo[s][j] > pr.hi[s][j]) continue;
+      if (pr.ylo[s][j] > pr.yhi[s][j]) continue;
       const int L = plan.level[j];
       b.grid = Grid(w, h, L, origin >> L);
+      b.sliced = pr.sliced[s][j];
+      // The estimate of a slice whose receivers are blurred (radius > 0.5 cell at its level).
+      b.estimate = s == 0 && opt.hidden && std::max(std::fabs(plan.anchor[j]), 0.5f) / static_cast<float>(1 << L) > 0.5f;
+      if (!b.sliced && !b.estimate) continue;
       b.used = true;
-      // Padded rows that show a member row: the rows themselves and their mirror copies.
-      int lo = pr.lo[s][j], hi = pr.hi[s][j];
-      if (lo < pad) lo = std::min(lo, -1 - std::min(hi, pad - 1));
-      if (hi >= h - pad) hi = std::max(hi, 2 * h - 1 - std::max(pr.lo[s][j], h - pad));
-      lo = std::max(lo, -pad);
-      hi = std::min(hi, h + pad - 1);
+      int lo, hi;
+      padded_range(pr.ylo[s][j], pr.yhi[s][j], h, pad, lo, hi);
       b.m0 = (lo + origin) >> L;
       b.m1 = ((hi + origin) >> L) + 1;
       b.ri = slice_radius_index(plan, j);
       taps.prepare(radius_of_index(b.ri));
       b.reach = taps[b.ri].n;
-      b.a0 = std::max(0, b.m0 - b.reach);
-      b.a1 = std::min(b.grid.h, b.m1 + b.reach);
-      total += b.mplane() * kMChannels + b.aplane() * 5 + (s == 0 && opt.hidden ? b.mplane() * 5 : 0);
+      b.a0 = b.a1 = b.m0;
+      if (b.sliced) {
+        b.a0 = std::max(0, b.m0 - b.reach);
+        b.a1 = std::min(b.grid.h, b.m1 + b.reach);
+      }
+      total += b.mplane() * kMChannels + b.aplane() * 5 + (b.estimate ? b.mplane() * 5 : 0);
       b.mlo.assign(b.m1 - b.m0, b.grid.w);
       b.mhi.assign(b.m1 - b.m0, -1);
       b.alo.assign(b.a1 - b.a0, b.grid.w);
       b.ahi.assign(b.a1 - b.a0, -1);
     }
-  }
-  if (getenv("LENS_DEBUG")) {
-    fprintf(stderr, "lens: %d slices, pad %d origin %d, arena %.1f M floats\n", k, pad, origin, total / 1e6);
-    for (int s = 0; s < 2; ++s)
-      for (int j = 0; j < k; ++j)
-        if (sb[s][j].used)
-          fprintf(stderr, "  set %d slice %d a=%.2f L=%d grid %dx%d merged rows %d acc rows %d ri %d reach %d\n", s, j,
-                  plan.anchor[j], plan.level[j], sb[s][j].grid.w, sb[s][j].grid.h, sb[s][j].m1 - sb[s][j].m0,
-                  sb[s][j].a1 - sb[s][j].a0, sb[s][j].ri, sb[s][j].reach);
   }
   // One arena for all grids.
   if (st.arena.size() < total + 1) st.arena.resize(total + 1);
@@ -311,7 +480,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
         p += b.mplane() * kMChannels;
         b.acc = p;
         p += b.aplane() * 5;
-        if (s == 0 && opt.hidden) {
+        if (b.estimate) {
           b.est = p;
           p += b.mplane() * 5;
         }
@@ -323,8 +492,32 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   {
     core::PassScope pass("merge");
     for (int s = 0; s < 2; ++s)
-      for (int j = 0; j < k; ++j)
-        if (sb[s][j].used) std::fill(sb[s][j].merged, sb[s][j].merged + sb[s][j].mplane() * kMChannels, 0.0f);
+      for (int j = 0; j < k; ++j) {
+        const SliceBuf& b = sb[s][j];
+        if (!b.used) continue;
+        if (b.sliced) std::fill(b.merged, b.merged + b.mplane() * (kMMass + 1), 0.0f);
+        if (b.estimate) std::fill(b.mrow(kMAll, b.m0), b.mrow(kMAll, b.m0) + b.mplane(), 0.0f);
+      }
+    // Per set and slice, where its merged sources go (null: nowhere).
+    struct Target {
+      float* plane[kMChannels];
+      int level, m0, gw;
+      int* mlo;
+      int* mhi;
+    };
+    std::vector<Target> targets(2 * static_cast<std::size_t>(k));
+    for (int s = 0; s < 2; ++s)
+      for (int j = 0; j < k; ++j) {
+        Target& tg = targets[static_cast<std::size_t>(s) * k + j];
+        SliceBuf& b = sb[s][j];
+        for (int c = 0; c < kMChannels; ++c)
+          tg.plane[c] = b.used && (c == kMAll ? b.estimate : b.sliced) ? b.merged + c * b.mplane() : nullptr;
+        tg.level = b.grid.level;
+        tg.m0 = b.m0;
+        tg.gw = b.grid.w;
+        tg.mlo = b.mlo.data();
+        tg.mhi = b.mhi.data();
+      }
     const int rows = h + 2 * origin;
     const int blocks = (rows + unit - 1) / unit;
     core::parallel_for(blocks, [&](int b0, int b1) {
@@ -334,33 +527,39 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           const int y = mirror(yp, h);
           const bool real_row = yp >= 0 && yp < h;
           for (int f = 0; f < nf; ++f) {
-            const int set = f > 0;
+            const Target* tset = &targets[static_cast<std::size_t>(f > 0) * k];
             const float* col[4];
             for (int c = 0; c < 4; ++c) col[c] = src.colour[f]->row(c, y);
+            const std::size_t rowq = f * n + static_cast<std::size_t>(y) * w;
+            const std::uint8_t* flr = &pr.flags[rowq];
+            const std::int16_t* slr = &pr.slice[rowq];
+            const float* tr = &pr.t[rowq];
+            const float* wr = f > 0 ? &pr.weight[rowq - n] : nullptr;
+            const float* trr = f > 0 ? &pr.trans[rowq - n] : nullptr;
             for (int xp = -pad; xp < w + pad; ++xp) {
-              const int x = mirror(xp, w);
-              const std::size_t i = static_cast<std::size_t>(y) * w + x, q = f * n + i;
-              const std::uint8_t fl = pr.flags[q];
+              const int x = xp >= 0 && xp < w ? xp : mirror(xp, w);
+              const std::uint8_t fl = flr[x];
               if (!(fl & kExists)) continue;
-              const int j = pr.slice[q];
-              const float tt = pr.t[q];
-              const bool real = real_row && xp >= 0 && xp < w;
-              const float tr = pr.trans_of(q), wt = pr.weight_of(q);
+              const int j = slr[x];
+              const float tt = tr[x];
+              const bool all = f == 0 && real_row && xp >= 0 && xp < w;
+              const bool direct = fl & kDirect;
+              if (direct && !all) continue;
+              const float tw = trr ? trr[x] : 1.0f, wt = wr ? wr[x] : 1.0f;
               for (int part = 0; part < 2; ++part) {
                 const int jj = j + part;
                 const float hw = part ? tt : 1.0f - tt;
                 if (jj >= k || hw <= 0.0f) continue;
-                SliceBuf& sbuf = sb[set][jj];
-                const int L = sbuf.grid.level;
+                const Target& tg = tset[jj];
+                const int L = tg.level;
                 const int Y = (yp + origin) >> L, X = (xp + origin) >> L;
-                const std::size_t off = static_cast<std::size_t>(Y - sbuf.m0) * sbuf.grid.w + X;
-                const std::size_t pl = sbuf.mplane();
-                if (f == 0 && real) sbuf.merged[kMAll * pl + off] += hw;
-                if (fl & kDirect) continue;
-                for (int c = 0; c < 4; ++c) sbuf.merged[c * pl + off] += hw * col[c][x] * tr;
-                sbuf.merged[kMMass * pl + off] += hw * wt;
-                int& lo = sbuf.mlo[Y - sbuf.m0];
-                int& hi = sbuf.mhi[Y - sbuf.m0];
+                const std::size_t off = static_cast<std::size_t>(Y - tg.m0) * tg.gw + X;
+                if (all && tg.plane[kMAll]) tg.plane[kMAll][off] += hw;
+                if (direct || !tg.plane[kMR]) continue;
+                for (int c = 0; c < 4; ++c) tg.plane[c][off] += hw * col[c][x] * tw;
+                tg.plane[kMMass][off] += hw * wt;
+                int& lo = tg.mlo[Y - tg.m0];
+                int& hi = tg.mhi[Y - tg.m0];
                 lo = std::min(lo, X);
                 hi = std::max(hi, X);
               }
@@ -376,15 +575,26 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
     for (int s = 0; s < 2; ++s)
       for (int j = 0; j < k; ++j) {
         SliceBuf& b = sb[s][j];
-        if (!b.used) continue;
+        if (!b.used || !b.sliced) continue;
         const Taps& tp = taps[b.ri];
         const int gw = b.grid.w;
         core::parallel_for(
             b.a1 - b.a0,
             [&](int r0, int r1) {
               for (int Y = b.a0 + r0; Y < b.a0 + r1; ++Y) {
-                for (int c = 0; c < 5; ++c) std::fill(b.arow(c, Y), b.arow(c, Y) + gw, 0.0f);
+                // Columns this row receives: the source rows' columns widened by the taps.
                 int lo = gw, hi = -1;
+                for (int dy = -tp.n; dy <= tp.n; ++dy) {
+                  const int ys = Y - dy;
+                  if (ys < b.m0 || ys >= b.m1 || b.mlo[ys - b.m0] > b.mhi[ys - b.m0]) continue;
+                  const int row = dy + tp.n;
+                  lo = std::min(lo, std::max(0, b.mlo[ys - b.m0] + tp.x0[row]));
+                  hi = std::min(gw - 1, std::max(hi, b.mhi[ys - b.m0] + tp.x0[row] + tp.len[row] - 1));
+                }
+                b.alo[Y - b.a0] = lo;
+                b.ahi[Y - b.a0] = hi;
+                if (lo > hi) continue;
+                for (int c = 0; c < 5; ++c) std::fill(b.arow(c, Y) + lo, b.arow(c, Y) + hi + 1, 0.0f);
                 for (int dy = -tp.n; dy <= tp.n; ++dy) {
                   const int ys = Y - dy;
                   if (ys < b.m0 || ys >= b.m1) continue;
@@ -396,14 +606,10 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
                     const float wt = tp.w[tp.off[row] + e];
                     const int x0 = std::max(0, slo + dx), x1 = std::min(gw - 1, shi + dx);
                     if (x0 > x1) continue;
-                    lo = std::min(lo, x0);
-                    hi = std::max(hi, x1);
                     for (int c = 0; c < 5; ++c)
                       axpy(b.arow(c, Y) + x0, b.mrow(c == 4 ? kMMass : c, ys) + x0 - dx, wt, x1 - x0 + 1);
                   }
                 }
-                b.alo[Y - b.a0] = lo;
-                b.ahi[Y - b.a0] = hi;
               }
             },
             4);
@@ -417,58 +623,91 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
     std::vector<float>& behind = st.behind;
     for (int j = 0; j < k; ++j) {
       SliceBuf& b = sb[0][j];
-      if (!b.used) continue;
+      if (!b.used || !b.estimate) continue;
       const Grid& g = b.grid;
       const int gw = g.w, L = g.level;
       for (int c = 0; c < 5; ++c) std::fill(b.erow(c, b.m0), b.erow(c, b.m0) + b.mplane(), 0.0f);
       const float r = std::max(std::fabs(plan.anchor[j]), 0.5f) / static_cast<float>(1 << L);
-      if (r <= 0.5f) continue;
       const float limit = sd.u[j] * (1.0f - soft);
-      // Frame cell rows the samples may reach.
-      const int e = static_cast<int>(std::ceil(r)) + 1;
-      const int f0 = g.margin, f1 = g.margin + g.frame_h;  // frame cell rows
-      const int c0 = std::max(f0, b.m0 - e), c1 = std::min(f1, b.m1 + e);
-      if (c0 >= c1) continue;
-      const std::size_t bp = static_cast<std::size_t>(c1 - c0) * gw;
-      behind.assign(bp * 5, 0.0f);
+      // The samples as integer cell offsets: round_clamp(X + o·r) = clamp(X + round(o·r)) for a
+      // cell X >= 0 of the frame, so a sample is the same shift for every cell.
+      std::vector<int>& ox = st.offsets;
+      ox.resize(2 * static_cast<std::size_t>(pattern.count()));
+      int D = 0;
+      for (int tt = 0; tt < pattern.count(); ++tt) {
+        ox[2 * tt] = static_cast<int>(std::floor(pattern.x(tt) * r + 0.5f));
+        ox[2 * tt + 1] = static_cast<int>(std::floor(pattern.y(tt) * r + 0.5f));
+        D = std::max({D, std::abs(ox[2 * tt]), std::abs(ox[2 * tt + 1])});
+      }
+      // Frame cells the samples may reach: the members' cells widened by D.
+      const int f0 = g.margin, f1 = g.margin + g.frame_h;
+      const int c0 = std::max(f0, b.m0 - D), c1 = std::min(f1, b.m1 + D);
+      const int x0c = std::max(0, (pr.xlo[0][j] >> L) - D), x1c = std::min(g.frame_w - 1, (pr.xhi[0][j] >> L) + D);
+      if (c0 >= c1 || x0c > x1c) continue;
+      const int cw = x1c - x0c + 1;
+      // Behind content per cell over those rows and columns, extended by its edge cells so that
+      // the shifts need no clamping.
+      const int pw = cw + 2 * D, ph = c1 - c0 + 2 * D;
+      const std::size_t pp = static_cast<std::size_t>(pw) * ph;
+      st.padded.assign(pp * 5, 0.0f);
       core::parallel_for(
           c1 - c0,
           [&](int r0, int r1) {
+            std::vector<float>& tmp = st.row_tmp.local();
+            const int px0 = x0c << L, pn = std::min(w, (x1c + 1) << L) - px0;
+            tmp.resize(static_cast<std::size_t>(pn + 1) * 5);
             for (int Y = c0 + r0; Y < c0 + r1; ++Y) {
-              float* brow[5];
-              for (int c = 0; c < 5; ++c) brow[c] = behind.data() + c * bp + static_cast<std::size_t>(Y - c0) * gw;
-              for (int y = ((Y - g.margin) << L); y < std::min(h, (Y - g.margin + 1) << L); ++y) {
-                const float* z = src.depth[0]->row(0, y);
-                for (int x = 0; x < w; ++x) {
-                  if (!(inv_depth(z[x]) < limit)) continue;
-                  const int X = (x >> L) + g.margin;
-                  for (int c = 0; c < 4; ++c) brow[c][X] += src.colour[0]->row(c, y)[x];
-                  brow[4][X] += 1.0f;
+              float* prow[5];
+              for (int c = 0; c < 5; ++c) prow[c] = st.padded.data() + c * pp + static_cast<std::size_t>(Y - c0 + D) * pw + D;
+              for (int y = ((Y - g.margin) << L); y < std::min(h, (Y - g.margin + 1) << L); ++y)
+                behind_row(&pr.inv_z[static_cast<std::size_t>(y) * w + px0], limit, src.colour[0]->row(0, y) + px0,
+                           src.colour[0]->row(1, y) + px0, src.colour[0]->row(2, y) + px0,
+                           src.colour[0]->row(3, y) + px0, pn, L, tmp.data(), prow);
+              // Edge cells: clamp to the frame's first / last cell column, if the range ends there.
+              for (int c = 0; c < 5; ++c) {
+                for (int x = 0; x < D; ++x) {
+                  prow[c][-1 - x] = x0c == 0 ? prow[c][0] : 0.0f;
+                  prow[c][cw + x] = x1c == g.frame_w - 1 ? prow[c][cw - 1] : 0.0f;
                 }
               }
             }
           },
           4);
+      for (int yy = 0; yy < D; ++yy)
+        for (int c = 0; c < 5; ++c) {
+          float* base = st.padded.data() + c * pp;
+          if (c0 == f0) std::copy(base + static_cast<std::size_t>(D) * pw, base + static_cast<std::size_t>(D + 1) * pw,
+                                  base + static_cast<std::size_t>(yy) * pw);
+          if (c1 == f1)
+            std::copy(base + static_cast<std::size_t>(ph - D - 1) * pw, base + static_cast<std::size_t>(ph - D) * pw,
+                      base + static_cast<std::size_t>(ph - 1 - yy) * pw);
+        }
       std::atomic<bool> any{false};
       core::parallel_for(
           b.m1 - b.m0,
           [&](int r0, int r1) {
             bool found = false;
+            std::vector<float>& sum = st.row_tmp.local();
+            sum.resize(static_cast<std::size_t>(cw) * 5);
             for (int Y = b.m0 + r0; Y < b.m0 + r1; ++Y) {
               if (Y < f0 || Y >= f1) continue;
-              const float* all = b.mrow(kMAll, Y);
-              for (int X = g.margin; X < g.margin + g.frame_w; ++X) {
-                if (all[X] <= 0.0f) continue;
-                float sum[5] = {0, 0, 0, 0, 0};
-                for (int tt = 0; tt < pattern.count(); ++tt) {
-                  const int bx = g.margin + round_clamp(X - g.margin + pattern.x(tt) * r, g.frame_w - 1);
-                  const int by = g.margin + round_clamp(Y - g.margin + pattern.y(tt) * r, g.frame_h - 1);
-                  const std::size_t o = static_cast<std::size_t>(by - c0) * gw + bx;
-                  for (int c = 0; c < 5; ++c) sum[c] += behind[c * bp + o];
-                }
-                if (sum[4] <= 0.0f) continue;
-                for (int c = 0; c < 4; ++c) b.erow(c, Y)[X] = sum[c] / sum[4] * all[X];
-                b.erow(4, Y)[X] = all[X];
+              const float* all = b.mrow(kMAll, Y) + g.margin;
+              int xa = x0c, xb = x1c;
+              while (xa <= xb && !(all[xa] > 0.0f)) ++xa;
+              while (xb >= xa && !(all[xb] > 0.0f)) --xb;
+              if (xa > xb) continue;
+              const int cn = xb - xa + 1;
+              for (int c = 0; c < 5; ++c) std::fill(sum.begin() + c * cw, sum.begin() + c * cw + cn, 0.0f);
+              for (int tt = 0; tt < pattern.count(); ++tt) {
+                const std::size_t o =
+                    static_cast<std::size_t>(Y - c0 + D + ox[2 * tt + 1]) * pw + (xa - x0c + D + ox[2 * tt]);
+                for (int c = 0; c < 5; ++c) add_row(sum.data() + c * cw, st.padded.data() + c * pp + o, cn);
+              }
+              for (int X = xa; X <= xb; ++X) {
+                const float s4 = sum[4 * cw + (X - xa)];
+                if (!(all[X] > 0.0f) || !(s4 > 0.0f)) continue;
+                for (int c = 0; c < 4; ++c) b.erow(c, Y)[X + g.margin] = sum[c * cw + (X - xa)] / s4 * all[X];
+                b.erow(4, Y)[X + g.margin] = all[X];
                 found = true;
               }
             }
@@ -484,8 +723,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   if (cover) cover->resize(w, h, 4);
   InverseArea& inv_area = st.inv_area;
   inv_area.prepare(pr.rho_max + 1.0f);
-  const float r0 = opt.direct_px();
-  const int small_reach = reach(r0);
+  const int small_reach = reach(opt.direct_px());
   const int hreach = reach(pr.rho_max);
   const int tiles_x = (w + kTileCols - 1) / kTileCols, tiles_y = (h + kTileRows - 1) / kTileRows;
   int grid_w = 0;
@@ -504,37 +742,30 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
     ts.outp.resize(static_cast<std::size_t>(kStride) * 11);
     ts.rslice.resize(kPlane);
     ts.vrow.resize(static_cast<std::size_t>(grid_w + 32) * 5);
-    std::vector<float>& acc = ts.acc;
-    std::vector<float>& est = ts.est;
-    std::vector<float>& rcv = ts.rcv;
-    std::vector<float>& outp = ts.outp;
-    std::vector<std::int32_t>& rslice = ts.rslice;
-    std::vector<float>& vrow = ts.vrow;
+    float* const acc = ts.acc.data();
+    float* const est = ts.est.data();
+    float* const ru = ts.rcv.data();
+    float* const risu = ru + kPlane;
+    float* const rsharp = risu + kPlane;
+    float* const rt = rsharp + kPlane;
+    std::int32_t* const rslice = ts.rslice.data();
+    float* const vrow = ts.vrow.data();
+    const std::size_t vstride = static_cast<std::size_t>(grid_w + 32);
     for (int tile = t0; tile < t1; ++tile) {
       const int tx0 = (tile % tiles_x) * kTileCols, ty0 = (tile / tiles_x) * kTileRows;
       const int tw = std::min(kTileCols, w - tx0), th = std::min(kTileRows, h - ty0);
-      float* ru = rcv.data();
-      float* risu = ru + kPlane;
-      float* rsharp = risu + kPlane;
-      float* rt = rsharp + kPlane;
-      std::fill(rcv.begin(), rcv.end(), 0.0f);
-      std::fill(rslice.begin(), rslice.end(), -2);
+      const int planes = nf > 1 ? 15 : 10;
+      for (int c = 0; c < planes; ++c) std::fill(acc + c * kPlane, acc + c * kPlane + th * kStride, 0.0f);
+      // Receivers, and the visible in-focus sources into B.
       for (int y = ty0; y < ty0 + th; ++y) {
-        const float* z = src.depth[0]->row(0, y);
-        const float* coc = src.coc[0]->row(0, y);
-        const std::size_t row = static_cast<std::size_t>(y - ty0) * kStride;
-        for (int x = tx0; x < tx0 + tw; ++x) {
-          const std::size_t p = row + (x - tx0);
-          const float u = inv_depth(z[x]);
-          ru[p] = u;
-          risu[p] = u > 0 ? 1.0f / (soft * u) : 1e30f;
-          rsharp[p] = std::max(std::fabs(coc[x]) - 0.5f, 0.0f);
-          const std::size_t i = static_cast<std::size_t>(y) * w + x;
-          rslice[p] = pr.slice[i];
-          rt[p] = pr.t[i];
-        }
+        const std::size_t row = static_cast<std::size_t>(y - ty0) * kStride, i = static_cast<std::size_t>(y) * w + tx0;
+        setup_receivers(&pr.inv_z[i], src.coc[0]->row(0, y) + tx0, &pr.slice[i], &pr.t[i], &pr.flags[i],
+                        src.colour[0]->row(0, y) + tx0, src.colour[0]->row(1, y) + tx0,
+                        src.colour[0]->row(2, y) + tx0, src.colour[0]->row(3, y) + tx0, soft, tw, ru + row,
+                        risu + row, rsharp + row, rslice + row, rt + row, acc + 5 * kPlane + row,
+                        acc + 6 * kPlane + row, acc + 7 * kPlane + row, acc + 8 * kPlane + row,
+                        acc + 9 * kPlane + row);
       }
-      std::fill(acc.begin(), acc.end(), 0.0f);
       auto receivers = [&](int ty, int col, int count) {
         RowReceivers r;
         const std::size_t o = static_cast<std::size_t>(ty) * kStride + col;
@@ -542,10 +773,10 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
         r.u = ru + o;
         r.isu = risu + o;
         r.sharp = rsharp + o;
-        for (int c = 0; c < 15; ++c) r.acc[c] = acc.data() + c * kPlane + o;
+        for (int c = 0; c < 15; ++c) r.acc[c] = acc + c * kPlane + o;
         return r;
       };
-      // Direct sources: one exact footprint each.
+      // Direct sources with a footprint: exact pairs, row by row.
       auto direct = [&](int qx, int qy, std::size_t q) {
         const int f = static_cast<int>(q / n);
         const std::size_t i = q % n;
@@ -559,15 +790,6 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
         d.hidden = f > 0;
         d.ws = inv_area(d.rho);
         const int e = reach(d.rho);
-        if (e == 0) {  // in focus: the receiver under it only
-          if (qx < tx0 || qx >= tx0 + tw || qy < ty0 || qy >= ty0 + th) return;
-          const RowReceivers r = receivers(qy - ty0, qx - tx0, 1);
-          float a[15];
-          for (int c = 0; c < 15; ++c) a[c] = r.acc[c][0];
-          add_source_at(r.u[0], r.isu[0], r.sharp[0], d.hidden, {d.su, d.ssharp}, d.ws, d.c, a);
-          for (int c = 0; c < 15; ++c) r.acc[c][0] = a[c];
-          return;
-        }
         const float lim = d.rho + 0.5f;
         for (int py = std::max(ty0, qy - e); py <= std::min(ty0 + th - 1, qy + e); ++py) {
           d.dy = static_cast<float>(py - qy);
@@ -580,14 +802,12 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
       };
       for (int yp = std::max(-pad, ty0 - small_reach); yp < std::min(h + pad, ty0 + th + small_reach); ++yp) {
         const int y = mirror(yp, h);
+        if (pr.row_small[y] == 0) continue;
         for (int f = 0; f < nf; ++f) {
-          const float* coc = src.coc[f]->row(0, y);
           const std::uint8_t* fl = &pr.flags[f * n + static_cast<std::size_t>(y) * w];
           for (int xp = std::max(-pad, tx0 - small_reach); xp < std::min(w + pad, tx0 + tw + small_reach); ++xp) {
-            const int x = mirror(xp, w);
-            if ((fl[x] & (kExists | kDirect)) != (kExists | kDirect)) continue;
-            if (!(std::max(std::fabs(coc[x]), 0.5f) < r0)) continue;  // highlights below
-            direct(xp, yp, f * n + static_cast<std::size_t>(y) * w + x);
+            const int x = xp >= 0 && xp < w ? xp : mirror(xp, w);
+            if (fl[x] & kSmall) direct(xp, yp, f * n + static_cast<std::size_t>(y) * w + x);
           }
         }
       }
@@ -598,26 +818,23 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           direct(xp, yp, pr.hl_q[e]);
         }
       // A cell row interpolated vertically at fine row y: rows Y0, Y0 + 1 of `plane(c, Y)`
-      // (rows outside [r0, r1) are zero), columns [xa, xb].
+      // (rows outside [ra, rb) are zero), columns [xa, xb].
       auto vertical = [&](const Grid& g, int y, int ra, int rb, const auto& plane, int xa, int xb) {
         int x0, y0;
         float ax, ay;
         g.locate(tx0, y, x0, y0, ax, ay);
         for (int c = 0; c < 5; ++c) {
-          float* dst = vrow.data() + static_cast<std::size_t>(c) * (grid_w + 32);
+          float* dst = vrow + c * vstride;
           const float* a = y0 >= ra && y0 < rb ? plane(c, y0) : nullptr;
           const float* b = y0 + 1 >= ra && y0 + 1 < rb ? plane(c, y0 + 1) : nullptr;
-          for (int X = xa; X <= xb; ++X) {
-            const float va = a ? a[X] : 0.0f, vb = b ? b[X] : 0.0f;
-            dst[X] = va + ay * (vb - va);
-          }
+          lerp_rows(a ? a + xa : nullptr, b ? b + xa : nullptr, ay, dst + xa, xb - xa + 1);
         }
       };
       // Slices, read back bilinearly.
       for (int s = 0; s < 2; ++s)
         for (int j = 0; j < k; ++j) {
           const SliceBuf& b = sb[s][j];
-          if (!b.used) continue;
+          if (!b.used || !b.sliced) continue;
           const Grid& g = b.grid;
           int ya, yb, xa, xb;
           float ax, ay;
@@ -638,14 +855,14 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           fr.su = sd.u[j];
           fr.ssharp = sd.sharp[j];
           fr.hidden = s > 0;
-          for (int c = 0; c < 5; ++c) fr.row[c] = vrow.data() + static_cast<std::size_t>(c) * (grid_w + 32);
+          for (int c = 0; c < 5; ++c) fr.row[c] = vrow + c * vstride;
           for (int y = ty0; y < ty0 + th; ++y) {
             vertical(g, y, b.a0, b.a1, [&](int c, int Y) { return b.arow(c, Y); }, xa, xb);
             fold_row(fr, receivers(y - ty0, 0, tw));
           }
         }
       // Estimate: each receiver's two slices.
-      std::fill(est.begin(), est.end(), 0.0f);
+      for (int c = 0; c < 5; ++c) std::fill(est + c * kPlane, est + c * kPlane + th * kStride, 0.0f);
       if (opt.hidden) {
         int jlo = k, jhi = -1;
         for (int y = 0; y < th; ++y)
@@ -670,35 +887,34 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           er.level = g.level;
           er.margin = g.margin;
           er.j = j;
-          for (int c = 0; c < 5; ++c) er.row[c] = vrow.data() + static_cast<std::size_t>(c) * (grid_w + 32);
+          for (int c = 0; c < 5; ++c) er.row[c] = vrow + c * vstride;
           for (int y = ty0; y < ty0 + th; ++y) {
             const std::size_t o = static_cast<std::size_t>(y - ty0) * kStride;
             vertical(g, y, b.m0, b.m1, [&](int c, int Y) { return b.erow(c, Y); }, xa, xb);
             er.n = tw;
-            er.slice = rslice.data() + o;
+            er.slice = rslice + o;
             er.t = rt + o;
             er.sharp = rsharp + o;
-            for (int c = 0; c < 5; ++c) er.est[c] = est.data() + c * kPlane + o;
+            for (int c = 0; c < 5; ++c) er.est[c] = est + c * kPlane + o;
             est_row(er);
           }
         }
       }
       // Composite.
+      float* const srcrow = ts.outp.data();
+      float* const res = srcrow + 4 * kStride;
+      float* const cov = srcrow + 8 * kStride;
       for (int y = ty0; y < ty0 + th; ++y) {
         const std::size_t o = static_cast<std::size_t>(y - ty0) * kStride;
         CompositeRow cr;
         cr.n = tw;
-        for (int c = 0; c < 15; ++c) cr.acc[c] = acc.data() + c * kPlane + o;
-        for (int c = 0; c < 5; ++c) cr.est[c] = est.data() + c * kPlane + o;
-        float* srcrow = outp.data();  // the receivers' own colour, padded
+        for (int c = 0; c < 15; ++c) cr.acc[c] = acc + c * kPlane + o;
+        for (int c = 0; c < 5; ++c) cr.est[c] = est + c * kPlane + o;
         for (int c = 0; c < 4; ++c) {
           std::memcpy(srcrow + c * kStride, src.colour[0]->row(c, y) + tx0, sizeof(float) * tw);
           cr.src[c] = srcrow + c * kStride;
-          cr.out[c] = srcrow + (4 + c) * kStride - (c == 3 ? 0 : 0);
+          cr.out[c] = res + c * kStride;
         }
-        float* res = outp.data() + 4 * kStride;
-        for (int c = 0; c < 4; ++c) cr.out[c] = res + c * kStride;
-        float* cov = outp.data() + 8 * kStride;
         if (cover)
           for (int c = 0; c < 3; ++c) cr.cover[c] = cov + c * kStride;
         composite_row(cr);

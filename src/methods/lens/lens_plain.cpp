@@ -153,8 +153,11 @@ void render_plain(const Sources& src, const SlicePlan& plan, const LensOptions& 
           if (c[kMAll] <= 0.0f) continue;
           float sum[5] = {0, 0, 0, 0, 0};
           for (int t = 0; t < pattern.count(); ++t) {
-            const int bx = gr.margin + round_clamp(qx - gr.margin + pattern.x(t) * r, gr.frame_w - 1);
-            const int by = gr.margin + round_clamp(qy - gr.margin + pattern.y(t) * r, gr.frame_h - 1);
+            // The sample as a whole-cell offset (the same for every cell), clamped to the frame.
+            const int dx = static_cast<int>(std::floor(pattern.x(t) * r + 0.5f));
+            const int dy = static_cast<int>(std::floor(pattern.y(t) * r + 0.5f));
+            const int bx = gr.margin + std::clamp(qx - gr.margin + dx, 0, gr.frame_w - 1);
+            const int by = gr.margin + std::clamp(qy - gr.margin + dy, 0, gr.frame_h - 1);
             const float* b = &behind[(static_cast<std::size_t>(by) * gr.w + bx) * 5];
             for (int ch = 0; ch < 5; ++ch) sum[ch] += b[ch];
           }

@@ -44,7 +44,20 @@ SlicePlan plan_slices(float near_max, float far_max, const LensOptions& opt) {
     if (a < 0 && j > 0) inner = std::max(0.0f, -p.anchor[j - 1]);
     p.level[j] = level_of(std::max(inner, opt.direct_px()), opt);
   }
+  p.build_lookup();
   return p;
+}
+
+void SlicePlan::build_lookup() {
+  const int k = count();
+  const int bins = static_cast<int>((anchor[0] - anchor[k - 1]) * kBins) + 2;
+  lookup_.assign(bins, 0);
+  for (int b = 0; b < bins; ++b) {
+    const float r = anchor[0] - static_cast<float>(b) / kBins;  // the bin's nearest CoC
+    int j = 0;
+    while (j + 1 < k && anchor[j + 1] >= r) ++j;
+    lookup_[b] = std::min(j, k - 1);
+  }
 }
 
 void SlicePlan::member(float r, int& j, float& t) const {

@@ -44,6 +44,29 @@ struct SlicePlan {
   /// The slice j that a CoC r falls in and the weight t of slice j + 1 (r between anchors j
   /// and j + 1; beyond the outermost anchors the nearest one takes everything, t = 0).
   void member(float r, int& j, float& t) const;
+  /// member() through a table of 1/8 px bins (the same j and t): build_lookup() first.
+  void build_lookup();
+  void member_fast(float r, int& j, float& t) const {
+    const int k = count();
+    if (!(r < anchor[0])) {
+      j = 0;
+      t = 0.0f;
+      return;
+    }
+    if (!(r > anchor[k - 1])) {
+      j = k - 1;
+      t = 0.0f;
+      return;
+    }
+    j = lookup_[static_cast<std::size_t>((anchor[0] - r) * kBins)];
+    while (j > 0 && anchor[j] < r) --j;
+    while (j + 1 < k && anchor[j + 1] >= r) ++j;
+    t = (anchor[j] - r) / (anchor[j] - anchor[j + 1]);
+  }
+
+ private:
+  static constexpr float kBins = 8.0f;
+  std::vector<int> lookup_;
 };
 
 /// Anchors covering the CoC range [−far_max, near_max] of the frame.

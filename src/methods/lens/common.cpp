@@ -1,5 +1,6 @@
 #include "methods/lens/common.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/parallel.hpp"
@@ -11,44 +12,57 @@ void mark_direct(const Image& colour, const Image& coc, const float* trans, cons
                  std::uint8_t* flags, std::uint8_t bit, std::vector<std::vector<double>>* scratch) {
   const int w = colour.width(), h = colour.height();
   const float r0 = opt.direct_px();
-  auto lum_at = [&](std::size_t i) {
-    const float s = trans ? trans[i] : 1.0f;
-    return luminance(colour.plane(0)[i] * s, colour.plane(1)[i] * s, colour.plane(2)[i] * s);
-  };
-  // Small radii, and the highest block level a highlight candidate needs (0: none).
-  std::vector<int> row_need(h, 0);
-  core::parallel_for(
-      h,
-      [&](int y0, int y1) {
-        for (int y = y0; y < y1; ++y) {
-          int need = 0;
-          for (int x = 0; x < w; ++x) {
-            const std::size_t i = static_cast<std::size_t>(y) * w + x;
-            const float rho = std::max(std::fabs(coc.plane(0)[i]), 0.5f);
-            if (rho < r0) {
-              flags[i] |= bit;
-              continue;
-            }
-            if (!(lum_at(i) > opt.highlight_abs)) continue;
-            need = std::max(need, block_level(rho));
-          }
-          row_need[y] = need;
-        }
-      },
-      8);
-  const int top = *std::max_element(row_need.begin(), row_need.end());
-  if (top == 0) return;
-  // Block sums of the luminance, level m from level m − 1 (children (0,0), (1,0), (0,1),
-  // (1,1) in that order).
   std::vector<std::vector<double>> own;
   std::vector<std::vector<double>>& sum = scratch ? *scratch : own;
+  if (sum.size() < 2) sum.resize(2);
+  // Block sums of the luminance, level m from level m − 1 (children (0,0), (1,0), (0,1),
+  // (1,1) in that order, in double): level 1 here, in the pass that reads the colour once.
+  std::vector<int> bw(1, w), bh(1, h);
+  bw.push_back((w + 1) / 2);
+  bh.push_back((h + 1) / 2);
+  sum[1].resize(static_cast<std::size_t>(bw[1]) * bh[1]);
+  // Highlight candidates (radius >= r0, luminance above highlight_abs) per pair of rows.
+  struct Candidate {
+    int x, y, m;
+    float lum;
+  };
+  std::vector<std::vector<Candidate>> cand(bh[1]);
+  core::parallel_for(
+      bh[1],
+      [&](int p0, int p1) {
+        for (int yy = p0; yy < p1; ++yy) {
+          double* s1 = &sum[1][static_cast<std::size_t>(yy) * bw[1]];
+          std::fill(s1, s1 + bw[1], 0.0);
+          cand[yy].clear();
+          for (int y = 2 * yy; y < std::min(h, 2 * yy + 2); ++y) {
+            const float* r = colour.row(0, y);
+            const float* g = colour.row(1, y);
+            const float* b = colour.row(2, y);
+            const float* c = coc.row(0, y);
+            const float* tr = trans ? trans + static_cast<std::size_t>(y) * w : nullptr;
+            std::uint8_t* fl = flags + static_cast<std::size_t>(y) * w;
+            for (int x = 0; x < w; ++x) {
+              const float sc = tr ? tr[x] : 1.0f;
+              const float l = luminance(r[x] * sc, g[x] * sc, b[x] * sc);
+              s1[x >> 1] += static_cast<double>(l);
+              const float rho = std::max(std::fabs(c[x]), 0.5f);
+              if (rho < r0)
+                fl[x] |= bit;
+              else if (l > opt.highlight_abs)
+                cand[yy].push_back({x, y, block_level(rho), l});
+            }
+          }
+        }
+      },
+      4);
+  int top = 0;
+  for (const auto& c : cand)
+    for (const Candidate& k : c) top = std::max(top, k.m);
+  if (top == 0) return;
   if (static_cast<int>(sum.size()) < top + 1) sum.resize(top + 1);
-  std::vector<int> bw(top + 1), bh(top + 1);
-  bw[0] = w;
-  bh[0] = h;
-  for (int m = 1; m <= top; ++m) {
-    bw[m] = (bw[m - 1] + 1) / 2;
-    bh[m] = (bh[m - 1] + 1) / 2;
+  for (int m = 2; m <= top; ++m) {
+    bw.push_back((bw[m - 1] + 1) / 2);
+    bh.push_back((bh[m - 1] + 1) / 2);
     sum[m].resize(static_cast<std::size_t>(bw[m]) * bh[m]);  // every element written below
     core::parallel_for(
         bh[m],
@@ -58,34 +72,30 @@ void mark_direct(const Image& colour, const Image& coc, const float* trans, cons
               double v = 0.0;
               for (int cy = 2 * y; cy < std::min(2 * y + 2, bh[m - 1]); ++cy)
                 for (int cx = 2 * x; cx < std::min(2 * x + 2, bw[m - 1]); ++cx)
-                  v += m == 1 ? static_cast<double>(lum_at(static_cast<std::size_t>(cy) * w + cx))
-                              : sum[m - 1][static_cast<std::size_t>(cy) * bw[m - 1] + cx];
+                  v += sum[m - 1][static_cast<std::size_t>(cy) * bw[m - 1] + cx];
               sum[m][static_cast<std::size_t>(y) * bw[m] + x] = v;
             }
         },
         8);
   }
   core::parallel_for(
-      h,
-      [&](int y0, int y1) {
-        for (int y = y0; y < y1; ++y) {
-          if (row_need[y] == 0) continue;
-          for (int x = 0; x < w; ++x) {
-            const std::size_t i = static_cast<std::size_t>(y) * w + x;
-            const float rho = std::max(std::fabs(coc.plane(0)[i]), 0.5f);
-            if (rho < r0) continue;
-            const float l = lum_at(i);
-            if (!(l > opt.highlight_abs)) continue;
-            const int m = block_level(rho);
-            const int bx = x >> m, by = y >> m, side = 1 << m;
+      bh[1],
+      [&](int p0, int p1) {
+        for (int yy = p0; yy < p1; ++yy)
+          for (const Candidate& k : cand[yy]) {
+            const int m = k.m;
+            if (m == 0) {  // a one-pixel block: the pixel itself
+              if (k.lum > opt.highlight_rel * k.lum) flags[static_cast<std::size_t>(k.y) * w + k.x] |= bit;
+              continue;
+            }
+            const int bx = k.x >> m, by = k.y >> m, side = 1 << m;
             const double count = static_cast<double>(std::min(w, (bx + 1) * side) - bx * side) *
                                  static_cast<double>(std::min(h, (by + 1) * side) - by * side);
             const double mean = sum[m][static_cast<std::size_t>(by) * bw[m] + bx] / count;
-            if (l > opt.highlight_rel * static_cast<float>(mean)) flags[i] |= bit;
+            if (k.lum > opt.highlight_rel * static_cast<float>(mean)) flags[static_cast<std::size_t>(k.y) * w + k.x] |= bit;
           }
-        }
       },
-      8);
+      16);
 }
 
 Fragments::Fragments(const Sources& s, const SlicePlan& plan, const LensOptions& opt) : src(s) {

@@ -1,6 +1,8 @@
 // lens's row kernels (kernels.hpp), one copy per SIMD target (Highway, run-time dispatch).
 #include "methods/lens/kernels.hpp"
 
+#include "methods/lens/common.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -151,14 +153,71 @@ void DirectRowImpl(const DirectRow& s, const RowReceivers& r) {
   }
 }
 
+// Spans of up to 8 receivers (most footprint rows of small sources) take 8-lane vectors.
+template <class D>
+HWY_INLINE void DirectSpan(D d, const DirectSource& s, const TileReceivers& r, int row, int px0, int px1, float dy) {
+  using V = hn::Vec<D>;
+  const int lanes = static_cast<int>(hn::Lanes(d));
+  V cv[5];
+  for (int c = 0; c < 5; ++c) cv[c] = hn::Set(d, s.c[c]);
+  const V dy2 = hn::Set(d, dy * dy), lim = hn::Set(d, s.rho + 0.5f), ws = hn::Set(d, s.ws);
+  const V step = hn::Iota(d, 0.0f);
+  const std::size_t o = static_cast<std::size_t>(row) * r.stride + px0;
+  RowReceivers rr;
+  rr.n = px1 - px0 + 1;
+  rr.u = r.u + o;
+  rr.isu = r.isu + o;
+  rr.sharp = r.sharp + o;
+  for (int c = 0; c < 15; ++c) rr.acc[c] = r.acc[c] + o;
+  const float dx0 = static_cast<float>(px0 - s.qx);
+  for (int i = 0; i < rr.n; i += lanes) {
+    const V dx = hn::Add(step, hn::Set(d, dx0 + static_cast<float>(i)));
+    const V cov = Sat(d, hn::Sub(lim, hn::Sqrt(hn::MulAdd(dx, dx, dy2))));
+    AddRule(d, rr, i, s.su, s.ssharp, s.hidden, hn::Mul(cov, ws), cv);
+  }
+}
+
+void DirectSourceImpl(const DirectSource& s, const TileReceivers& r) {
+  const hn::ScalableTag<float> d;
+  const hn::CappedTag<float, 8> d8;
+  const int e = static_cast<int>(std::ceil(s.rho + 0.5f)) - 1;
+  const float lim = s.rho + 0.5f;
+  for (int py = std::max(0, s.qy - e); py <= std::min(r.rows - 1, s.qy + e); ++py) {
+    const float dy = static_cast<float>(py - s.qy);
+    const int hw = static_cast<int>(std::sqrt(std::max(0.0f, lim * lim - dy * dy)));
+    const int px0 = std::max(0, s.qx - hw), px1 = std::min(r.cols - 1, s.qx + hw);
+    if (px0 > px1) continue;
+    if (px1 - px0 < 8)
+      DirectSpan(d8, s, r, py, px0, px1, dy);
+    else
+      DirectSpan(d, s, r, py, px0, px1, dy);
+  }
+}
+
 void CompositeRowImpl(const CompositeRow& c) {
   const hn::ScalableTag<float> d;
   const int lanes = static_cast<int>(hn::Lanes(d));
   using V = hn::Vec<decltype(d)>;
   const V zero = hn::Zero(d), one = hn::Set(d, 1.0f);
-  for (int i = 0; i < c.n; i += lanes) {
+  // Whole vectors here (src and out are the frame's rows); the last n % lanes receivers with
+  // the scalar composite (common.hpp).
+  const int full = c.n - c.n % lanes;
+  for (int i = full; i < c.n; ++i) {
+    float a[15], e[5], o[4];
+    for (int k = 0; k < 10; ++k) a[k] = c.acc[k][i];
+    for (int k = 10; k < 15; ++k) a[k] = c.hidden ? c.acc[k][i] : 0.0f;
+    for (int k = 0; k < 5; ++k) e[k] = c.est[k][i];
+    const float m = composite(a, e, a + 10, c.src[0][i], c.src[1][i], c.src[2][i], c.src[3][i], o);
+    for (int k = 0; k < 4; ++k) c.out[k][i] = o[k];
+    if (c.cover[0]) {
+      c.cover[0][i] = a[4];
+      c.cover[1][i] = a[9];
+      c.cover[2][i] = m;
+    }
+  }
+  for (int i = 0; i < full; i += lanes) {
     const V fw = hn::LoadU(d, c.acc[4] + i), bw = hn::LoadU(d, c.acc[9] + i);
-    const V hw = hn::LoadU(d, c.acc[14] + i), ew = hn::LoadU(d, c.est[4] + i);
+    const V hw = c.hidden ? hn::LoadU(d, c.acc[14] + i) : zero, ew = hn::LoadU(d, c.est[4] + i);
     const auto has_est = hn::Gt(ew, hn::Set(d, 1e-6f)), has_hid = hn::Gt(hw, zero);
     const V missing = hn::IfThenElseZero(hn::Or(has_est, has_hid), hn::Max(zero, hn::Sub(hn::Sub(one, fw), bw)));
     // Fill: the hidden fragments where they cover, the estimate for the rest.
@@ -175,7 +234,8 @@ void CompositeRowImpl(const CompositeRow& c) {
     const V inv_fw = hn::Div(one, hn::IfThenElse(front_only, fw, one));
     for (int ch = 0; ch < 4; ++ch) {
       const V f = hn::LoadU(d, c.acc[ch] + i), b = hn::LoadU(d, c.acc[5 + ch] + i);
-      const V fill = hn::Mul(hn::MulAdd(est_scale, hn::LoadU(d, c.est[ch] + i), hn::LoadU(d, c.acc[10 + ch] + i)), inv);
+      const V hid = c.hidden ? hn::LoadU(d, c.acc[10 + ch] + i) : zero;
+      const V fill = hn::Mul(hn::MulAdd(est_scale, hn::LoadU(d, c.est[ch] + i), hid), inv);
       const V back = hn::Mul(hn::MulAdd(missing, fill, b), inv_bm);
       const V with_back = hn::MulAdd(keep, back, hn::Mul(f, fs));
       const V v = hn::IfThenElse(back_on, with_back, hn::IfThenElse(front_only, hn::Mul(f, inv_fw), hn::LoadU(d, c.src[ch] + i)));
@@ -200,11 +260,13 @@ HWY_EXPORT(FoldRowImpl);
 HWY_EXPORT(EstRowImpl);
 HWY_EXPORT(DirectRowImpl);
 HWY_EXPORT(CompositeRowImpl);
+HWY_EXPORT(DirectSourceImpl);
 
 void fold_row(const FoldRow& f, const RowReceivers& r) { HWY_DYNAMIC_DISPATCH(FoldRowImpl)(f, r); }
 void est_row(const EstRow& e) { HWY_DYNAMIC_DISPATCH(EstRowImpl)(e); }
 void direct_row(const DirectRow& d, const RowReceivers& r) { HWY_DYNAMIC_DISPATCH(DirectRowImpl)(d, r); }
 void composite_row(const CompositeRow& c) { HWY_DYNAMIC_DISPATCH(CompositeRowImpl)(c); }
+void direct_source(const DirectSource& d, const TileReceivers& r) { HWY_DYNAMIC_DISPATCH(DirectSourceImpl)(d, r); }
 
 }  // namespace dofkit::detail::lens
 #endif  // HWY_ONCE

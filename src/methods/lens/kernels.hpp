@@ -4,6 +4,7 @@
 // the rounding of fused multiply-adds and the order of the sums (tests/lens/ compare the
 // whole fast path with the plain form).
 #pragma once
+#include <cstddef>
 #include <cstdint>
 
 namespace dofkit::detail::lens {
@@ -55,10 +56,34 @@ struct DirectRow {
 };
 void direct_row(const DirectRow& d, const RowReceivers& r);
 
-/// The composite of a segment: acc (15 planes), est (5 planes), the receivers' own colour
-/// (4 planes) → out (4 planes); cover (4 planes, may be null): F weight, B weight, filled share.
+/// The receivers of a tile: planes of `stride` floats per row (rows 0 … rows − 1, columns
+/// 0 … cols − 1; kernels may run up to 16 lanes past a row's end).
+struct TileReceivers {
+  int rows = 0, cols = 0;
+  std::size_t stride = 0;
+  const float* u = nullptr;
+  const float* isu = nullptr;
+  const float* sharp = nullptr;
+  float* acc[15] = {};
+};
+
+/// One direct source over the receivers of a tile: its exact footprint (the reference's disc,
+/// row spans as the reference computes them), centred at tile column qx, row qy.
+struct DirectSource {
+  int qx = 0, qy = 0;
+  float rho = 0.5f, ws = 1.0f;  // radius and 1 / area
+  float c[5] = {};              // rgba, weight
+  float su = 0.0f, ssharp = 0.0f;
+  bool hidden = false;
+};
+void direct_source(const DirectSource& d, const TileReceivers& r);
+
+/// The composite of a segment: acc (15 planes; 10 unless `hidden`), est (5 planes), the
+/// receivers' own colour (4 planes) → out (4 planes); cover (3 planes, may be null): F weight,
+/// B weight, filled share. src and out may be the frame's rows (nothing past n is touched).
 struct CompositeRow {
   int n = 0;
+  bool hidden = false;
   const float* acc[15] = {};
   const float* est[5] = {};
   const float* src[4] = {};

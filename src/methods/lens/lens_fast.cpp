@@ -16,6 +16,8 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <vector>
 
@@ -29,6 +31,7 @@
 namespace dofkit::detail::lens {
 
 namespace {
+std::atomic<long> g_folds{0}, g_direct{0}, g_direct_rows{0}, g_est{0};
 
 constexpr std::uint8_t kExists = 1, kDirect = 2, kHighlight = 4, kSmall = 8;
 constexpr int kTileRows = 16, kTileCols = 256;
@@ -123,6 +126,10 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
   pr.row_hl.assign(h, 0);
   pr.row_small.assign(h, 0);
   core::parallel_for(blocks, [&](int b0, int b1) {
+    // Per row and slice: hat mass and mass · inverse depth (float over one row, then added to
+    // the block's doubles), and the columns touched.
+    std::vector<float> rm(k), ru(k);
+    std::vector<int> rx0(k), rx1(k);
     for (int b = b0; b < b1; ++b) {
       double* ms = &bmass[static_cast<std::size_t>(b) * k];
       double* us = &bu[static_cast<std::size_t>(b) * k];
@@ -132,49 +139,67 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
           const float* coc = src.coc[f]->row(0, y);
           const float* z = src.depth[f]->row(0, y);
           const int s = f > 0;
-          int* ylo = &b_ylo[s][static_cast<std::size_t>(b) * k];
-          int* yhi = &b_yhi[s][static_cast<std::size_t>(b) * k];
-          int* xlo = &b_xlo[s][static_cast<std::size_t>(b) * k];
-          int* xhi = &b_xhi[s][static_cast<std::size_t>(b) * k];
+          std::fill(rm.begin(), rm.end(), 0.0f);
+          std::fill(ru.begin(), ru.end(), 0.0f);
+          std::fill(rx0.begin(), rx0.end(), w);
+          std::fill(rx1.begin(), rx1.end(), -1);
           std::uint8_t* sl = &b_sliced[s][static_cast<std::size_t>(b) * k];
+          const std::size_t row = static_cast<std::size_t>(y) * w;
+          std::int16_t* slice = &pr.slice[f * n + row];
+          float* tt = &pr.t[f * n + row];
+          std::uint8_t* flags = &pr.flags[f * n + row];
+          const float* wt = f > 0 ? &pr.weight[(f - 1) * n + row] : nullptr;
+          int hl = 0, small = 0;
           for (int x = 0; x < w; ++x) {
-            const std::size_t i = static_cast<std::size_t>(y) * w + x, q = f * n + i;
             int j;
-            float tt;
-            plan.member_fast(coc[x], j, tt);
-            pr.slice[q] = static_cast<std::int16_t>(j);
-            pr.t[q] = tt;
+            float t;
+            plan.member_fast(coc[x], j, t);
+            slice[x] = static_cast<std::int16_t>(j);
+            tt[x] = t;
             const float u = inv_depth(z[x]);
-            if (f == 0) pr.inv_z[i] = u;
-            if (f > 0 && !(pr.weight[q - n] > 0.0f)) {
-              pr.flags[q] = 0;
+            if (f == 0) pr.inv_z[row + x] = u;
+            if (wt && !(wt[x] > 0.0f)) {
+              flags[x] = 0;
               continue;
             }
-            std::uint8_t fl = pr.flags[q] | kExists;
+            std::uint8_t fl = flags[x] | kExists;
             const float rho = std::max(std::fabs(coc[x]), 0.5f);
             rmax = std::max(rmax, rho);
             if (fl & kDirect) {
               if (!(rho < r0)) {
                 fl |= kHighlight;
-                ++pr.row_hl[y];
+                ++hl;
               } else if (rho > 0.5f || f > 0) {
                 fl |= kSmall;
-                ++pr.row_small[y];
+                ++small;
               }
             }
-            pr.flags[q] = fl;
-            for (int part = 0; part < 2; ++part) {
-              const int jj = j + part;
-              const float hw = part ? tt : 1.0f - tt;
-              if (jj >= k || hw <= 0.0f) continue;
-              ms[jj] += hw;
-              us[jj] += static_cast<double>(hw) * u;
-              ylo[jj] = std::min(ylo[jj], y);
-              yhi[jj] = std::max(yhi[jj], y);
-              xlo[jj] = std::min(xlo[jj], x);
-              xhi[jj] = std::max(xhi[jj], x);
-              if (!(fl & kDirect)) sl[jj] = 1;
+            flags[x] = fl;
+            const float h0 = 1.0f - t;
+            rm[j] += h0;
+            ru[j] += h0 * u;
+            rx0[j] = std::min(rx0[j], x);
+            rx1[j] = x;
+            if (!(fl & kDirect)) sl[j] = 1;
+            if (t > 0.0f && j + 1 < k) {
+              rm[j + 1] += t;
+              ru[j + 1] += t * u;
+              rx0[j + 1] = std::min(rx0[j + 1], x);
+              rx1[j + 1] = x;
+              if (!(fl & kDirect)) sl[j + 1] = 1;
             }
+          }
+          pr.row_hl[y] += hl;
+          pr.row_small[y] += small;
+          for (int j = 0; j < k; ++j) {
+            if (rx1[j] < 0) continue;
+            ms[j] += rm[j];
+            us[j] += ru[j];
+            const std::size_t bj = static_cast<std::size_t>(b) * k + j;
+            b_ylo[s][bj] = std::min(b_ylo[s][bj], y);
+            b_yhi[s][bj] = y;
+            b_xlo[s][bj] = std::min(b_xlo[s][bj], rx0[j]);
+            b_xhi[s][bj] = std::max(b_xhi[s][bj], rx1[j]);
           }
         }
       brho[b] = rmax;
@@ -384,6 +409,43 @@ void setup_receivers(const float* __restrict u, const float* __restrict coc, con
   }
 }
 
+// A run of n pixels of one slice: sums of h·colour·trans (4), h·weight, h with h = t (part 1)
+// or 1 − t (part 0); trans, weight null: 1.
+DOFKIT_CLONES
+void run_sums(const float* __restrict t, const float* __restrict c0, const float* __restrict c1,
+              const float* __restrict c2, const float* __restrict c3, const float* __restrict trans,
+              const float* __restrict weight, int n, bool part1, float* out) {
+  float s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, s5 = 0;
+  if (!trans) {
+    for (int x = 0; x < n; ++x) {
+      const float hw = part1 ? t[x] : 1.0f - t[x];
+      s0 += hw * c0[x];
+      s1 += hw * c1[x];
+      s2 += hw * c2[x];
+      s3 += hw * c3[x];
+      s5 += hw;
+    }
+    s4 = s5;
+  } else {
+    for (int x = 0; x < n; ++x) {
+      const float hw = part1 ? t[x] : 1.0f - t[x];
+      const float ht = hw * trans[x];
+      s0 += ht * c0[x];
+      s1 += ht * c1[x];
+      s2 += ht * c2[x];
+      s3 += ht * c3[x];
+      s4 += hw * weight[x];
+      s5 += hw;
+    }
+  }
+  out[0] = s0;
+  out[1] = s1;
+  out[2] = s2;
+  out[3] = s3;
+  out[4] = s4;
+  out[5] = s5;
+}
+
 // acc[x] += src[x] for x in [0, n).
 DOFKIT_CLONES
 void add_row(float* __restrict acc, const float* __restrict src, int n) {
@@ -521,6 +583,47 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
     const int rows = h + 2 * origin;
     const int blocks = (rows + unit - 1) / unit;
     core::parallel_for(blocks, [&](int b0, int b1) {
+      // The cells being filled, summed in registers while the pixels of a row run through
+      // the same cells (a few slots; the oldest is written out when another cell comes).
+      struct Open {
+        const Target* tg = nullptr;
+        std::size_t off = 0;
+        int row = 0, X = 0;
+        float v[6] = {};
+        bool sliced = false;
+      };
+      constexpr int kSlots = 4;
+      Open open[kSlots];
+      int victim = 0;
+      auto flush = [&](Open& o) {
+        if (!o.tg) return;
+        const Target& tg = *o.tg;
+        if (o.sliced) {
+          for (int c = 0; c < 4; ++c) tg.plane[c][o.off] += o.v[c];
+          tg.plane[kMMass][o.off] += o.v[4];
+          tg.mlo[o.row] = std::min(tg.mlo[o.row], o.X);
+          tg.mhi[o.row] = std::max(tg.mhi[o.row], o.X);
+        }
+        if (tg.plane[kMAll]) tg.plane[kMAll][o.off] += o.v[5];
+        o.tg = nullptr;
+      };
+      auto slot = [&](const Target* tg, int yp, int xp) -> Open& {
+        const int L = tg->level;
+        const int Y = (yp + origin) >> L, X = (xp + origin) >> L;
+        const std::size_t off = static_cast<std::size_t>(Y - tg->m0) * tg->gw + X;
+        for (Open& o : open)
+          if (o.tg == tg && o.off == off) return o;
+        Open& o = open[victim];
+        victim = (victim + 1) % kSlots;
+        flush(o);
+        o.tg = tg;
+        o.off = off;
+        o.row = Y - tg->m0;
+        o.X = X;
+        for (float& v : o.v) v = 0.0f;
+        o.sliced = false;
+        return o;
+      };
       for (int b = b0; b < b1; ++b)
         for (int yp = -origin + b * unit; yp < -origin + (b + 1) * unit; ++yp) {
           if (yp < -pad || yp >= h + pad) continue;
@@ -536,8 +639,57 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
             const float* tr = &pr.t[rowq];
             const float* wr = f > 0 ? &pr.weight[rowq - n] : nullptr;
             const float* trr = f > 0 ? &pr.trans[rowq - n] : nullptr;
+            // The frame's columns in runs of pixels of one slice (neither direct nor missing):
+            // per cell of each of the two slices' levels, the run's sums in one loop.
+            const bool all_row = f == 0 && real_row;
+            for (int x = 0; x < w;) {
+              const std::uint8_t fl = flr[x];
+              if ((fl & (kExists | kDirect)) != kExists) {
+                if ((fl & kExists) && all_row) {  // a direct source: only the receivers' mass
+                  for (int part = 0; part < 2; ++part) {
+                    const int jj = slr[x] + part;
+                    const float hw = part ? tr[x] : 1.0f - tr[x];
+                    if (jj >= k || hw <= 0.0f || !tset[jj].plane[kMAll]) continue;
+                    slot(&tset[jj], yp, x).v[5] += hw;
+                  }
+                }
+                ++x;
+                continue;
+              }
+              const int j = slr[x];
+              int e = x + 1;
+              while (e < w && slr[e] == j && (flr[e] & (kExists | kDirect)) == kExists) ++e;
+              for (int part = 0; part < 2; ++part) {
+                const int jj = j + part;
+                if (jj >= k) continue;
+                const Target* tg = &tset[jj];
+                const bool want_all = all_row && tg->plane[kMAll];
+                if (!tg->plane[kMR] && !want_all) continue;
+                const int L = tg->level;
+                for (int xa = x; xa < e;) {
+                  const int X = (xa + origin) >> L;
+                  const int xb = std::min(e, ((X + 1) << L) - origin);
+                  float sum[6];
+                  run_sums(tr + xa, col[0] + xa, col[1] + xa, col[2] + xa, col[3] + xa, trr ? trr + xa : nullptr,
+                           wr ? wr + xa : nullptr, xb - xa, part == 1, sum);
+                  if (sum[5] > 0.0f) {
+                    Open& o = slot(tg, yp, xa);
+                    if (tg->plane[kMR]) {
+                      for (int c = 0; c < 5; ++c) o.v[c] += sum[c];
+                      o.sliced = true;
+                    }
+                    if (want_all) o.v[5] += sum[5];
+                  }
+                  xa = xb;
+                }
+              }
+              x = e;
+            }
+            // The padding's columns, pixel by pixel.
             for (int xp = -pad; xp < w + pad; ++xp) {
-              const int x = xp >= 0 && xp < w ? xp : mirror(xp, w);
+              if (xp == 0) xp = w;
+              if (xp >= w + pad) break;
+              const int x = mirror(xp, w);
               const std::uint8_t fl = flr[x];
               if (!(fl & kExists)) continue;
               const int j = slr[x];
@@ -546,24 +698,27 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
               const bool direct = fl & kDirect;
               if (direct && !all) continue;
               const float tw = trr ? trr[x] : 1.0f, wt = wr ? wr[x] : 1.0f;
+              const float c0 = col[0][x] * tw, c1 = col[1][x] * tw, c2 = col[2][x] * tw, c3 = col[3][x] * tw;
               for (int part = 0; part < 2; ++part) {
                 const int jj = j + part;
                 const float hw = part ? tt : 1.0f - tt;
                 if (jj >= k || hw <= 0.0f) continue;
-                const Target& tg = tset[jj];
-                const int L = tg.level;
-                const int Y = (yp + origin) >> L, X = (xp + origin) >> L;
-                const std::size_t off = static_cast<std::size_t>(Y - tg.m0) * tg.gw + X;
-                if (all && tg.plane[kMAll]) tg.plane[kMAll][off] += hw;
-                if (direct || !tg.plane[kMR]) continue;
-                for (int c = 0; c < 4; ++c) tg.plane[c][off] += hw * col[c][x] * tw;
-                tg.plane[kMMass][off] += hw * wt;
-                int& lo = tg.mlo[Y - tg.m0];
-                int& hi = tg.mhi[Y - tg.m0];
-                lo = std::min(lo, X);
-                hi = std::max(hi, X);
+                const Target* tg = &tset[jj];
+                const bool want_all = all && tg->plane[kMAll];
+                const bool want_src = !direct && tg->plane[kMR];
+                if (!want_all && !want_src) continue;
+                Open& o = slot(tg, yp, xp);
+                if (want_all) o.v[5] += hw;
+                if (!want_src) continue;
+                o.v[0] += hw * c0;
+                o.v[1] += hw * c1;
+                o.v[2] += hw * c2;
+                o.v[3] += hw * c3;
+                o.v[4] += hw * wt;
+                o.sliced = true;
               }
             }
+            for (Open& o : open) flush(o);
           }
         }
     });
@@ -734,6 +889,8 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   constexpr int kStride = kTileCols + 32;
   constexpr std::size_t kPlane = static_cast<std::size_t>(kTileRows) * kStride;
   core::PassScope pass("tiles");
+  g_folds = 0; g_direct = 0; g_direct_rows = 0; g_est = 0;
+  struct Report { ~Report() { if (getenv("LENS_DEBUG")) fprintf(stderr, "folds %ld direct %ld rows %ld est %ld\n", g_folds.load(), g_direct.load(), g_direct_rows.load(), g_est.load()); } } report;
   core::parallel_for(tiles_x * tiles_y, [&](int t0, int t1) {
     TileScratch& ts = st.scratch.local();
     ts.acc.resize(kPlane * 15);
@@ -776,29 +933,30 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
         for (int c = 0; c < 15; ++c) r.acc[c] = acc + c * kPlane + o;
         return r;
       };
-      // Direct sources with a footprint: exact pairs, row by row.
+      // Direct sources with a footprint: exact pairs.
+      TileReceivers tr;
+      tr.rows = th;
+      tr.cols = tw;
+      tr.stride = kStride;
+      tr.u = ru;
+      tr.isu = risu;
+      tr.sharp = rsharp;
+      for (int c = 0; c < 15; ++c) tr.acc[c] = acc + c * kPlane;
       auto direct = [&](int qx, int qy, std::size_t q) {
         const int f = static_cast<int>(q / n);
         const std::size_t i = q % n;
-        DirectRow d;
+        DirectSource d;
+        d.qx = qx - tx0;
+        d.qy = qy - ty0;
         d.rho = std::max(std::fabs(src.coc[f]->plane(0)[i]), 0.5f);
-        const float tr = pr.trans_of(q);
-        for (int c = 0; c < 4; ++c) d.c[c] = src.colour[f]->plane(c)[i] * tr;
+        const float trn = pr.trans_of(q);
+        for (int c = 0; c < 4; ++c) d.c[c] = src.colour[f]->plane(c)[i] * trn;
         d.c[4] = pr.weight_of(q);
         d.su = inv_depth(src.depth[f]->plane(0)[i]);
         d.ssharp = std::max(d.rho - 0.5f, 0.0f);
         d.hidden = f > 0;
         d.ws = inv_area(d.rho);
-        const int e = reach(d.rho);
-        const float lim = d.rho + 0.5f;
-        for (int py = std::max(ty0, qy - e); py <= std::min(ty0 + th - 1, qy + e); ++py) {
-          d.dy = static_cast<float>(py - qy);
-          const int hw = static_cast<int>(std::sqrt(std::max(0.0f, lim * lim - d.dy * d.dy)));
-          const int px0 = std::max(tx0, qx - hw), px1 = std::min(tx0 + tw - 1, qx + hw);
-          if (px0 > px1) continue;
-          d.dx0 = static_cast<float>(px0 - qx);
-          direct_row(d, receivers(py - ty0, px0 - tx0, px1 - px0 + 1));
-        }
+        direct_source(d, tr);
       };
       for (int yp = std::max(-pad, ty0 - small_reach); yp < std::min(h + pad, ty0 + th + small_reach); ++yp) {
         const int y = mirror(yp, h);
@@ -847,6 +1005,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           for (int Y = std::max(ya, b.a0); Y <= std::min(yb, b.a1 - 1); ++Y)
             any |= b.alo[Y - b.a0] <= xb && b.ahi[Y - b.a0] >= xa;
           if (!any) continue;
+          g_folds.fetch_add(1, std::memory_order_relaxed);
           FoldRow fr;
           fr.x0 = tx0;
           fr.level = g.level;
@@ -882,6 +1041,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           ++xb;
           ++yb;
           if (yb < b.m0 || ya >= b.m1) continue;
+          g_est.fetch_add(1, std::memory_order_relaxed);
           EstRow er;
           er.x0 = tx0;
           er.level = g.level;
@@ -900,25 +1060,22 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           }
         }
       }
-      // Composite.
-      float* const srcrow = ts.outp.data();
-      float* const res = srcrow + 4 * kStride;
-      float* const cov = srcrow + 8 * kStride;
+      // Composite, straight into the frame's rows.
+      float* const cov = ts.outp.data();
       for (int y = ty0; y < ty0 + th; ++y) {
         const std::size_t o = static_cast<std::size_t>(y - ty0) * kStride;
         CompositeRow cr;
         cr.n = tw;
+        cr.hidden = nf > 1;
         for (int c = 0; c < 15; ++c) cr.acc[c] = acc + c * kPlane + o;
         for (int c = 0; c < 5; ++c) cr.est[c] = est + c * kPlane + o;
         for (int c = 0; c < 4; ++c) {
-          std::memcpy(srcrow + c * kStride, src.colour[0]->row(c, y) + tx0, sizeof(float) * tw);
-          cr.src[c] = srcrow + c * kStride;
-          cr.out[c] = res + c * kStride;
+          cr.src[c] = src.colour[0]->row(c, y) + tx0;
+          cr.out[c] = out.row(c, y) + tx0;
         }
         if (cover)
           for (int c = 0; c < 3; ++c) cr.cover[c] = cov + c * kStride;
         composite_row(cr);
-        for (int c = 0; c < 4; ++c) std::memcpy(out.row(c, y) + tx0, res + c * kStride, sizeof(float) * tw);
         if (cover) {
           for (int c = 0; c < 3; ++c) std::memcpy(cover->row(c, y) + tx0, cov + c * kStride, sizeof(float) * tw);
           std::fill(cover->row(3, y) + tx0, cover->row(3, y) + tx0 + tw, 1.0f);

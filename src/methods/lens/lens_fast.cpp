@@ -911,8 +911,12 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
     for (int tile = t0; tile < t1; ++tile) {
       const int tx0 = (tile % tiles_x) * kTileCols, ty0 = (tile / tiles_x) * kTileRows;
       const int tw = std::min(kTileCols, w - tx0), th = std::min(kTileRows, h - ty0);
-      const int planes = nf > 1 ? 15 : 10;
-      for (int c = 0; c < planes; ++c) std::fill(acc + c * kPlane, acc + c * kPlane + th * kStride, 0.0f);
+      // F and the fill start at zero; B starts with the visible in-focus sources
+      // (setup_receivers writes it).
+      for (int c = 0; c < (nf > 1 ? 15 : 5); ++c) {
+        if (c == 5) c = 10;
+        std::fill(acc + c * kPlane, acc + c * kPlane + th * kStride, 0.0f);
+      }
       // Receivers, and the visible in-focus sources into B.
       for (int y = ty0; y < ty0 + th; ++y) {
         const std::size_t row = static_cast<std::size_t>(y - ty0) * kStride, i = static_cast<std::size_t>(y) * w + tx0;

@@ -39,7 +39,7 @@ struct RenderArgs {
   std::string frames;
   std::string compression;
   int png_level = -1;
-  std::string method = "reference";
+  std::string method = "lens";
   std::string debug_view;
   std::vector<std::string> sets;
   int threads = 0;
@@ -471,7 +471,7 @@ void add_render_command(CLI::App& app) {
       ->group(in);
   args->depth_flags.add(cmd);
   args->camera.add(cmd);
-  cmd->add_option("--method", args->method, "technique (default reference; see `dofkit methods`)")->group(meth);
+  cmd->add_option("--method", args->method, "technique (default lens; see `dofkit methods`)")->group(meth);
   cmd->add_option("--set", args->sets, "KEY=VALUE method parameter, repeatable (see `dofkit methods`)")
       ->allow_extra_args(false)
       ->group(meth);

@@ -14,9 +14,10 @@ namespace dofkit {
 
 /// Everything a render needs besides the frame.
 struct RenderSettings {
-  /// Technique: "reference" (exact single-layer scatter, the default), "mcguire", "sterna",
-  /// "starcraft", "layered", … — see methods().
-  std::string method = "reference";
+  /// Technique: "lens" (the default: the reference's picture, fast), "reference" (exact
+  /// single-layer scatter, the oracle), "mcguire", "sterna", "starcraft", "layered", … — see
+  /// methods().
+  std::string method = "lens";
   /// The camera: CoC model, reference width, clamp.
   CameraModel camera;
   /// Method parameters as key → value text (the CLI's `--set k=v`). Unknown keys and

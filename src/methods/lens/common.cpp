@@ -8,8 +8,8 @@
 
 namespace dofkit::detail::lens {
 
-void mark_direct(const Image& colour, const Image& coc, const float* trans, const LensOptions& opt,
-                 std::uint8_t* flags, std::uint8_t bit, std::vector<std::vector<double>>* scratch) {
+void mark_direct(const Image& colour, const Image& coc, const float* trans, const LensOptions& opt, std::uint8_t* flags,
+                 std::uint8_t bit, std::vector<std::vector<double>>* scratch) {
   const int w = colour.width(), h = colour.height();
   const float r0 = opt.direct_px();
   std::vector<std::vector<double>> own;
@@ -92,7 +92,8 @@ void mark_direct(const Image& colour, const Image& coc, const float* trans, cons
             const double count = static_cast<double>(std::min(w, (bx + 1) * side) - bx * side) *
                                  static_cast<double>(std::min(h, (by + 1) * side) - by * side);
             const double mean = sum[m][static_cast<std::size_t>(by) * bw[m] + bx] / count;
-            if (k.lum > opt.highlight_rel * static_cast<float>(mean)) flags[static_cast<std::size_t>(k.y) * w + k.x] |= bit;
+            if (k.lum > opt.highlight_rel * static_cast<float>(mean))
+              flags[static_cast<std::size_t>(k.y) * w + k.x] |= bit;
           }
       },
       16);
@@ -165,8 +166,8 @@ Receivers::Receivers(const Fragments& fr) {
   for (std::size_t i = 0; i < fr.n; ++i) isu[i] = inv_z[i] > 0 ? 1.0f / (fr.soft * inv_z[i]) : 1e30f;
 }
 
-HiddenPattern::HiddenPattern(int count) {
-  const int g = count >= 64 ? 8 : 4;
+HiddenPattern::HiddenPattern() {
+  constexpr int g = 8;
   for (int j = 0; j < g; ++j)
     for (int i = 0; i < g; ++i) {
       double dx, dy;

@@ -28,8 +28,8 @@ inline int block_level(float rho) {
 /// times trans[i] where trans is given (hidden layers); coc: signed px. Rows in parallel; the
 /// block sums are doubles added in a fixed order, so the flags never depend on the threads.
 /// scratch: the block sums' storage (kept by the caller from frame to frame; may be null).
-void mark_direct(const Image& colour, const Image& coc, const float* trans, const LensOptions& opt,
-                 std::uint8_t* flags, std::uint8_t bit, std::vector<std::vector<double>>* scratch = nullptr);
+void mark_direct(const Image& colour, const Image& coc, const float* trans, const LensOptions& opt, std::uint8_t* flags,
+                 std::uint8_t bit, std::vector<std::vector<double>>* scratch = nullptr);
 
 /// The radius index (footprint.hpp) of the footprints of slice j's merged sources: its
 /// anchor's radius at the slice's level (a source between two anchors is the hat-weighted mix
@@ -82,9 +82,7 @@ struct Fragments {
   float rho_max = 0.5f;
   int pad = 1;  // mirror padding of the frame, px: more than any footprint reaches
   float soft = 0.05f;
-  float colour(std::size_t q, int ch) const {
-    return src.colour[q / n]->plane(ch)[q % n] * trans[q];
-  }
+  float colour(std::size_t q, int ch) const { return src.colour[q / n]->plane(ch)[q % n] * trans[q]; }
 };
 
 /// A slice's depth as the fold sees it: the mean inverse depth of its members and the
@@ -176,11 +174,30 @@ inline void add_source(const Receivers& rc, std::size_t p, bool hidden, const So
   add_source_at(rc.inv_z[p], rc.isu[p], rc.sharp[p], hidden, s, wt, c, a);
 }
 
+/// The parts of composite() for the debug views: front = F · fs (what lies in front, composited
+/// over), back = (B + m · fill) / (B weight + m) (the receiver's surface and behind), est = the
+/// estimate's colour (zero where none).
+inline void composite_parts(const float* a, const float* est, const float* hid, float* front, float* back,
+                            float* est_out) {
+  const bool has_est = est[4] > 1e-6f, has_hid = hid[4] > 0.0f;
+  const float fw = a[4], bw = a[9];
+  const float missing = has_est || has_hid ? std::max(0.0f, 1.0f - fw - bw) : 0.0f;
+  const float rest = has_est ? std::max(0.0f, 1.0f - hid[4]) : 0.0f;
+  const float fs = fw > 1.0f ? 1.0f / fw : 1.0f;
+  for (int ch = 0; ch < 4; ++ch) {
+    float fill = 0.0f;
+    if (missing > 0.0f) fill = (hid[ch] + (has_est ? rest / est[4] : 0.0f) * est[ch]) / (hid[4] + rest);
+    front[ch] = a[ch] * fs;
+    back[ch] = bw + missing > 0.0f ? (a[5 + ch] + missing * fill) / (bw + missing) : 0.0f;
+    est_out[ch] = has_est ? est[ch] / est[4] : 0.0f;
+  }
+}
+
 /// Fixed sample offsets in the unit disc for the hidden-background estimate: the concentric
-/// map of a g × g grid (g = 4 or 8).
+/// map of an 8 × 8 grid (the reference's).
 class HiddenPattern {
  public:
-  explicit HiddenPattern(int count);
+  HiddenPattern();
   int count() const { return static_cast<int>(x_.size()); }
   float x(int i) const { return x_[static_cast<std::size_t>(i)]; }
   float y(int i) const { return y_[static_cast<std::size_t>(i)]; }

@@ -9,7 +9,8 @@ double area_of(double rho) {
   const int n = reach(static_cast<float>(rho));
   double sum = 0;
   for (int dy = -n; dy <= n; ++dy)
-    for (int dx = -n; dx <= n; ++dx) sum += coverage(static_cast<float>(rho), static_cast<float>(dx), static_cast<float>(dy));
+    for (int dx = -n; dx <= n; ++dx)
+      sum += coverage(static_cast<float>(rho), static_cast<float>(dx), static_cast<float>(dy));
   return sum;
 }
 }  // namespace

@@ -35,7 +35,8 @@ HWY_INLINE void AddRule(D d, const RowReceivers& r, int i, float su, float sshar
     // show = sp > 0 ? behind · sat(2 (sp − ssharp) / sp) : 0
     const V safe = hn::IfThenElse(sharp_receiver, sp, one);
     const V show = hn::IfThenElseZero(
-        sharp_receiver, hn::Mul(behind, Sat(d, hn::Div(hn::Mul(hn::Set(d, 2.0f), hn::Sub(sp, hn::Set(d, ssharp))), safe))));
+        sharp_receiver,
+        hn::Mul(behind, Sat(d, hn::Div(hn::Mul(hn::Set(d, 2.0f), hn::Sub(sp, hn::Set(d, ssharp))), safe))));
     const V wf = hn::Mul(wt, front), wb = hn::Mul(wt, hn::Sub(hn::Sub(one, front), behind)), wh = hn::Mul(wt, show);
     for (int c = 0; c < 5; ++c) {
       hn::StoreU(hn::MulAdd(wf, cv[c], hn::LoadU(d, r.acc[c] + i)), d, r.acc[c] + i);
@@ -45,7 +46,8 @@ HWY_INLINE void AddRule(D d, const RowReceivers& r, int i, float su, float sshar
     return;
   }
   // pass = ssharp > 0 ? min(sp / ssharp, 1) : (sp > 0 ? 1 : 0)
-  const V pass = ssharp > 0.0f ? hn::Min(hn::Div(sp, hn::Set(d, ssharp)), one) : hn::IfThenElseZero(sharp_receiver, one);
+  const V pass =
+      ssharp > 0.0f ? hn::Min(hn::Div(sp, hn::Set(d, ssharp)), one) : hn::IfThenElseZero(sharp_receiver, one);
   const V v = hn::Mul(wt, hn::NegMulAdd(behind, hn::Sub(one, pass), one));
   const V wf = hn::Mul(v, front), wb = hn::Mul(v, hn::Sub(one, front));
   for (int c = 0; c < 5; ++c) {
@@ -238,7 +240,8 @@ void CompositeRowImpl(const CompositeRow& c) {
       const V fill = hn::Mul(hn::MulAdd(est_scale, hn::LoadU(d, c.est[ch] + i), hid), inv);
       const V back = hn::Mul(hn::MulAdd(missing, fill, b), inv_bm);
       const V with_back = hn::MulAdd(keep, back, hn::Mul(f, fs));
-      const V v = hn::IfThenElse(back_on, with_back, hn::IfThenElse(front_only, hn::Mul(f, inv_fw), hn::LoadU(d, c.src[ch] + i)));
+      const V v = hn::IfThenElse(back_on, with_back,
+                                 hn::IfThenElse(front_only, hn::Mul(f, inv_fw), hn::LoadU(d, c.src[ch] + i)));
       hn::StoreU(v, d, c.out[ch] + i);
     }
     if (c.cover[0]) {

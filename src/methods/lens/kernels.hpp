@@ -23,13 +23,13 @@ struct RowReceivers {
 /// horizontally at each receiver's bilinear position.
 struct FoldRow {
   const float* row[5] = {};
-  int x0 = 0;            // frame column of the segment's first receiver
-  int level = 1;         // cells of 2^level px
-  int margin = 0;        // cell columns left of the frame
-  float norm = 1.0f;     // 1 / 4^level (energy per cell → per pixel)
-  float su = 0.0f;       // the slice's inverse depth
-  float ssharp = 0.0f;   // its sharpness
-  bool hidden = false;   // a hidden-fragment slice (fill rule)
+  int x0 = 0;           // frame column of the segment's first receiver
+  int level = 1;        // cells of 2^level px
+  int margin = 0;       // cell columns left of the frame
+  float norm = 1.0f;    // 1 / 4^level (energy per cell → per pixel)
+  float su = 0.0f;      // the slice's inverse depth
+  float ssharp = 0.0f;  // its sharpness
+  bool hidden = false;  // a hidden-fragment slice (fill rule)
 };
 void fold_row(const FoldRow& f, const RowReceivers& r);
 

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
+#include <utility>
 
 #include "core/coc_range.hpp"
 #include "core/parallel.hpp"
@@ -19,7 +21,8 @@ void render_lens(const MethodContext& ctx, Image& out) {
   opt.slice_rel = static_cast<float>(ctx.params.get_double("slice_rel", 0.15, 0.0, 4.0));
   opt.level_px = static_cast<float>(ctx.params.get_double("level_px", 3.0, 1.0, 1e6));
   opt.hidden = ctx.params.get_bool("hidden", true);
-  opt.hidden_samples = ctx.params.get_int("hidden_samples", 64, 16, 64);
+  opt.highlight_abs = static_cast<float>(ctx.params.get_double("highlight_abs", 1.0, 0.0, 1e30));
+  opt.highlight_rel = static_cast<float>(ctx.params.get_double("highlight_rel", 4.0, 1.0, 1e30));
   opt.simd = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
   core::CocRange range = ctx.coc_range ? *ctx.coc_range : core::coc_range(ctx.coc);
   lens::Sources src;
@@ -47,12 +50,29 @@ void render_lens(const MethodContext& ctx, Image& out) {
     src.coc.push_back(&ctx.coc);
   }
   const lens::SlicePlan plan = lens::plan_slices(range.near_max, range.far_max, opt);
-  Image cover;
-  if (opt.simd)
-    lens::render_fast(src, plan, opt, ctx.workspace, out, ctx.debug.wants("coverage") ? &cover : nullptr);
-  else
-    lens::render_plain(src, plan, opt, out, ctx.debug.wants("coverage") ? &cover : nullptr);
-  ctx.debug.offer("coverage", cover);
+  // Debug views come from the fast form (with impl=plain it runs once more for them).
+  Image view;
+  lens::Views views;
+  for (const auto& [name, slot] :
+       std::initializer_list<std::pair<const char*, Image * lens::Views::*>>{{"coverage", &lens::Views::coverage},
+                                                                             {"front", &lens::Views::front},
+                                                                             {"back", &lens::Views::back},
+                                                                             {"estimate", &lens::Views::estimate},
+                                                                             {"slices", &lens::Views::slices},
+                                                                             {"direct", &lens::Views::direct},
+                                                                             {"tiles", &lens::Views::tiles}})
+    if (ctx.debug.wants(name)) views.*slot = &view;
+  if (opt.simd) {
+    lens::render_fast(src, plan, opt, ctx.workspace, out, views);
+  } else {
+    lens::render_plain(src, plan, opt, out);
+    if (views.any()) {
+      Image scratch;
+      lens::render_fast(src, plan, opt, ctx.workspace, scratch, views);
+    }
+  }
+  for (const char* name : {"coverage", "front", "back", "estimate", "slices", "direct", "tiles"})
+    ctx.debug.offer(name, view);
 }
 
 }  // namespace
@@ -62,17 +82,31 @@ const MethodDef& lens_method() {
       "lens",
       "the reference's picture fast: depth slices of per-pixel discs scattered as row spans at reduced resolution "
       "for large blur, composited in depth order with the hidden-background estimate",
-      {{"depth_softness", "0.05",
-        "relative inverse-depth difference over which a source becomes 'in front' (0.001-1)"},
+      {{"depth_softness", "0.05", "relative inverse-depth difference over which a source becomes 'in front' (0.001-1)"},
        {"slice_px", "1", "depth-slice spacing near focus, px of CoC (0.25-64)"},
        {"slice_rel", "0.15", "depth-slice spacing as a fraction of the CoC radius, beyond slice_px (0-4)"},
        {"level_px", "3",
         "a slice is scattered at 1/2^L resolution when its smallest radius is >= level_px * 2^L px (1-1e6; large = "
         "full resolution everywhere)"},
+       {"highlight_abs", "1",
+        "a source brighter than this luminance (linear) and than highlight_rel times its neighbourhood is scattered "
+        "at full resolution (0-1e30)"},
+       {"highlight_rel", "4", "see highlight_abs: times the mean luminance of the area its footprint covers (1-1e30)"},
        {"hidden", "on", "hidden-background estimate behind blurred near objects: on/off"},
-       {"hidden_samples", "64", "(experiment) 16 or 64"},
        {"impl", "fast", "fast (SIMD, tiled) or plain (the straightforward form, the test oracle)"}},
-      {{"coverage", "R: front weight (sources in front of the pixel), G: back weight, B: uncovered share filled by the hidden-background estimate"}},
+      {{"coverage",
+        "R: weight of the sources in front of each pixel (F), G: of its own surface and behind (B), B: the uncovered "
+        "share filled by hidden fragments or the hidden-background estimate"},
+       {"front", "F: what lies in front of each pixel, composited over it (premultiplied RGBA)"},
+       {"back", "the pixel's own surface and what lies behind it, normalised, with the fill (premultiplied RGBA)"},
+       {"estimate", "the hidden-background estimate where a pixel has one (premultiplied RGBA; 0 elsewhere)"},
+       {"slices",
+        "R: the pixel's depth slice (j + t) / (K - 1), near = 0; G: the slice's resolution level / the coarsest; "
+        "B: 1 where the pixel is scattered directly at full resolution"},
+       {"direct", "R: sources scattered directly for their small radius (in focus included), G: highlights"},
+       {"tiles",
+        "per tile of 256x16 px: R = slices read back / K, G = 1 if any direct source with a footprint reaches it, B = "
+        "estimates read / K"}},
       render_lens};
   return def;
 }

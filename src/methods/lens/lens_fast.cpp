@@ -31,7 +31,6 @@
 namespace dofkit::detail::lens {
 
 namespace {
-std::atomic<long> g_folds{0}, g_direct{0}, g_direct_rows{0}, g_est{0};
 
 constexpr std::uint8_t kExists = 1, kDirect = 2, kHighlight = 4, kSmall = 8;
 constexpr int kTileRows = 16, kTileCols = 256;
@@ -45,10 +44,10 @@ struct Prep {
   std::size_t n = 0;
   std::vector<std::int16_t> slice;
   std::vector<float> t;
-  std::vector<std::uint8_t> flags;   // kExists, kDirect, kHighlight (direct, radius >= direct_px),
-                                     // kSmall (direct, 0.5 < radius < direct_px, or hidden)
-  std::vector<float> weight, trans;  // layers >= 1 only: index (f − 1)·n + i
-  std::vector<float> inv_z;          // layer 0's inverse depth
+  std::vector<std::uint8_t> flags;     // kExists, kDirect, kHighlight (direct, radius >= direct_px),
+                                       // kSmall (direct, 0.5 < radius < direct_px, or hidden)
+  std::vector<float> weight, trans;    // layers >= 1 only: index (f − 1)·n + i
+  std::vector<float> inv_z;            // layer 0's inverse depth
   std::vector<int> row_hl, row_small;  // per frame row: highlights, small direct sources (every layer)
   float rho_max = 0.5f;
   int pad = 1;
@@ -106,8 +105,8 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
         8);
   }
   for (int f = 0; f < nf; ++f)
-    mark_direct(*src.colour[f], *src.coc[f], f > 0 ? &pr.trans[(f - 1) * n] : nullptr, opt, &pr.flags[f * n],
-                kDirect, &pr.block_sums);
+    mark_direct(*src.colour[f], *src.coc[f], f > 0 ? &pr.trans[(f - 1) * n] : nullptr, opt, &pr.flags[f * n], kDirect,
+                &pr.block_sums);
   // Slices, existence, per-block sums and extents (combined in block order: deterministic).
   const int blocks = (h + kRowBlock - 1) / kRowBlock;
   const std::size_t bk = static_cast<std::size_t>(blocks) * k;
@@ -126,9 +125,10 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
   pr.row_hl.assign(h, 0);
   pr.row_small.assign(h, 0);
   core::parallel_for(blocks, [&](int b0, int b1) {
-    // Per row and slice: hat mass and mass · inverse depth (float over one row, then added to
-    // the block's doubles), and the columns touched.
-    std::vector<float> rm(k), ru(k);
+    // Per row and slice: hat mass and mass · inverse depth (in double, as the plain form sums
+    // them: the slice's depth decides which pixels are "clearly behind" it, and a whole row of
+    // a receding surface shares one depth), and the columns touched.
+    std::vector<double> rm(k), ru(k);
     std::vector<int> rx0(k), rx1(k);
     for (int b = b0; b < b1; ++b) {
       double* ms = &bmass[static_cast<std::size_t>(b) * k];
@@ -139,8 +139,8 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
           const float* coc = src.coc[f]->row(0, y);
           const float* z = src.depth[f]->row(0, y);
           const int s = f > 0;
-          std::fill(rm.begin(), rm.end(), 0.0f);
-          std::fill(ru.begin(), ru.end(), 0.0f);
+          std::fill(rm.begin(), rm.end(), 0.0);
+          std::fill(ru.begin(), ru.end(), 0.0);
           std::fill(rx0.begin(), rx0.end(), w);
           std::fill(rx1.begin(), rx1.end(), -1);
           std::uint8_t* sl = &b_sliced[s][static_cast<std::size_t>(b) * k];
@@ -177,13 +177,13 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
             flags[x] = fl;
             const float h0 = 1.0f - t;
             rm[j] += h0;
-            ru[j] += h0 * u;
+            ru[j] += static_cast<double>(h0) * u;
             rx0[j] = std::min(rx0[j], x);
             rx1[j] = x;
             if (!(fl & kDirect)) sl[j] = 1;
             if (t > 0.0f && j + 1 < k) {
               rm[j + 1] += t;
-              ru[j + 1] += t * u;
+              ru[j + 1] += static_cast<double>(t) * u;
               rx0[j + 1] = std::min(rx0[j + 1], x);
               rx1[j + 1] = x;
               if (!(fl & kDirect)) sl[j + 1] = 1;
@@ -323,10 +323,10 @@ struct SliceBuf {
 // L, the run starting at a cell boundary): cells[c][x >> L] += m · colour[c][x],
 // cells[4][x >> L] += m, with m = (u[x] < limit). tmp: 5 (n + 1) floats of scratch. The pixels
 // of a cell are summed pairwise.
-DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH
-void behind_row(const float* __restrict u, float limit, const float* __restrict c0, const float* __restrict c1,
-                const float* __restrict c2, const float* __restrict c3, int n, int level, float* __restrict tmp,
-                float* const* cells) {
+DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH void behind_row(const float* __restrict u, float limit,
+                                                      const float* __restrict c0, const float* __restrict c1,
+                                                      const float* __restrict c2, const float* __restrict c3, int n,
+                                                      int level, float* __restrict tmp, float* const* cells) {
   const std::size_t s = static_cast<std::size_t>(n) + 1;
   float* t0 = tmp;
   float* t1 = tmp + s;
@@ -386,13 +386,13 @@ void lerp_rows(const float* __restrict a, const float* __restrict b, float ay, f
 // A tile row's receivers: inverse depth, 1 / (softness · it), sharpness, slice and hat weight;
 // and the visible in-focus sources under them (radius 0.5, only their own pixel: rel = 0,
 // weight 1 / area(0.5) = 1, all to B), which need no footprint.
-DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH
-void setup_receivers(const float* __restrict u, const float* __restrict coc, const std::int16_t* __restrict slice,
-                     const float* __restrict t, const std::uint8_t* __restrict flags, const float* __restrict c0,
-                     const float* __restrict c1, const float* __restrict c2, const float* __restrict c3, float soft,
-                     int n, float* __restrict ru, float* __restrict risu, float* __restrict rsharp,
-                     std::int32_t* __restrict rslice, float* __restrict rt, float* __restrict b0,
-                     float* __restrict b1, float* __restrict b2, float* __restrict b3, float* __restrict bw) {
+DOFKIT_CLONES DOFKIT_NO_TRAPPING_MATH void setup_receivers(
+    const float* __restrict u, const float* __restrict coc, const std::int16_t* __restrict slice,
+    const float* __restrict t, const std::uint8_t* __restrict flags, const float* __restrict c0,
+    const float* __restrict c1, const float* __restrict c2, const float* __restrict c3, float soft, int n,
+    float* __restrict ru, float* __restrict risu, float* __restrict rsharp, std::int32_t* __restrict rslice,
+    float* __restrict rt, float* __restrict b0, float* __restrict b1, float* __restrict b2, float* __restrict b3,
+    float* __restrict bw) {
   for (int x = 0; x < n; ++x) {
     ru[x] = u[x];
     risu[x] = u[x] > 0.0f ? 1.0f / (soft * u[x]) : 1e30f;
@@ -477,7 +477,8 @@ struct State {
 }  // namespace
 
 void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& opt, Workspace& ws, Image& out,
-                 Image* cover) {
+                 const Views& views) {
+  Image* const cover = views.coverage;
   const int w = src.width(), h = src.height(), nf = src.count(), k = plan.count();
   const float soft = opt.depth_softness;
   State& st = ws.object<State>("lens.state");
@@ -488,6 +489,32 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   }
   const std::size_t n = pr.n;
   const SliceDepth sd(plan, pr.mass, pr.u_sum);
+  if (views.slices || views.direct) {
+    int top = 1;
+    for (int j = 0; j < k; ++j) top = std::max(top, plan.level[j]);
+    if (views.slices) views.slices->resize(w, h, 4);
+    if (views.direct) views.direct->resize(w, h, 4);
+    core::parallel_for(h, [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y)
+        for (int x = 0; x < w; ++x) {
+          const std::size_t i = static_cast<std::size_t>(y) * w + x;
+          const std::uint8_t fl = pr.flags[i];
+          if (views.slices) {
+            const int j = pr.slice[i];
+            views.slices->at(x, y, 0) = k > 1 ? (static_cast<float>(j) + pr.t[i]) / static_cast<float>(k - 1) : 0.0f;
+            views.slices->at(x, y, 1) = static_cast<float>(plan.level[j]) / static_cast<float>(top);
+            views.slices->at(x, y, 2) = (fl & kDirect) ? 1.0f : 0.0f;
+            views.slices->at(x, y, 3) = 1.0f;
+          }
+          if (views.direct) {
+            views.direct->at(x, y, 0) = (fl & kDirect) && !(fl & kHighlight) ? 1.0f : 0.0f;
+            views.direct->at(x, y, 1) = (fl & kHighlight) ? 1.0f : 0.0f;
+            views.direct->at(x, y, 2) = 0.0f;
+            views.direct->at(x, y, 3) = 1.0f;
+          }
+        }
+    });
+  }
   int lmax = 1;
   for (int j = 0; j < k; ++j) lmax = std::max(lmax, plan.level[j]);
   // A common origin of every level's cells, −origin px, a multiple of the coarsest cell.
@@ -508,7 +535,8 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
       b.grid = Grid(w, h, L, origin >> L);
       b.sliced = pr.sliced[s][j];
       // The estimate of a slice whose receivers are blurred (radius > 0.5 cell at its level).
-      b.estimate = s == 0 && opt.hidden && std::max(std::fabs(plan.anchor[j]), 0.5f) / static_cast<float>(1 << L) > 0.5f;
+      b.estimate =
+          s == 0 && opt.hidden && std::max(std::fabs(plan.anchor[j]), 0.5f) / static_cast<float>(1 << L) > 0.5f;
       if (!b.sliced && !b.estimate) continue;
       b.used = true;
       int lo, hi;
@@ -748,8 +776,10 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
                 }
                 b.alo[Y - b.a0] = lo;
                 b.ahi[Y - b.a0] = hi;
+                // The whole row: the tiles' bilinear read-back takes whole column ranges of a
+                // row that has sums anywhere in them (the arena is kept from frame to frame).
+                for (int c = 0; c < 5; ++c) std::fill(b.arow(c, Y), b.arow(c, Y) + gw, 0.0f);
                 if (lo > hi) continue;
-                for (int c = 0; c < 5; ++c) std::fill(b.arow(c, Y) + lo, b.arow(c, Y) + hi + 1, 0.0f);
                 for (int dy = -tp.n; dy <= tp.n; ++dy) {
                   const int ys = Y - dy;
                   if (ys < b.m0 || ys >= b.m1) continue;
@@ -774,7 +804,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   // 3b. Hidden-background estimate of every visible slice's frame cells.
   if (opt.hidden) {
     core::PassScope pass("estimate");
-    const HiddenPattern pattern(opt.hidden_samples);
+    const HiddenPattern pattern;
     std::vector<float>& behind = st.behind;
     for (int j = 0; j < k; ++j) {
       SliceBuf& b = sb[0][j];
@@ -813,7 +843,8 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
             tmp.resize(static_cast<std::size_t>(pn + 1) * 5);
             for (int Y = c0 + r0; Y < c0 + r1; ++Y) {
               float* prow[5];
-              for (int c = 0; c < 5; ++c) prow[c] = st.padded.data() + c * pp + static_cast<std::size_t>(Y - c0 + D) * pw + D;
+              for (int c = 0; c < 5; ++c)
+                prow[c] = st.padded.data() + c * pp + static_cast<std::size_t>(Y - c0 + D) * pw + D;
               for (int y = ((Y - g.margin) << L); y < std::min(h, (Y - g.margin + 1) << L); ++y)
                 behind_row(&pr.inv_z[static_cast<std::size_t>(y) * w + px0], limit, src.colour[0]->row(0, y) + px0,
                            src.colour[0]->row(1, y) + px0, src.colour[0]->row(2, y) + px0,
@@ -831,8 +862,9 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
       for (int yy = 0; yy < D; ++yy)
         for (int c = 0; c < 5; ++c) {
           float* base = st.padded.data() + c * pp;
-          if (c0 == f0) std::copy(base + static_cast<std::size_t>(D) * pw, base + static_cast<std::size_t>(D + 1) * pw,
-                                  base + static_cast<std::size_t>(yy) * pw);
+          if (c0 == f0)
+            std::copy(base + static_cast<std::size_t>(D) * pw, base + static_cast<std::size_t>(D + 1) * pw,
+                      base + static_cast<std::size_t>(yy) * pw);
           if (c1 == f1)
             std::copy(base + static_cast<std::size_t>(ph - D - 1) * pw, base + static_cast<std::size_t>(ph - D) * pw,
                       base + static_cast<std::size_t>(ph - 1 - yy) * pw);
@@ -889,8 +921,8 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   constexpr int kStride = kTileCols + 32;
   constexpr std::size_t kPlane = static_cast<std::size_t>(kTileRows) * kStride;
   core::PassScope pass("tiles");
-  g_folds = 0; g_direct = 0; g_direct_rows = 0; g_est = 0;
-  struct Report { ~Report() { if (getenv("LENS_DEBUG")) fprintf(stderr, "folds %ld direct %ld rows %ld est %ld\n", g_folds.load(), g_direct.load(), g_direct_rows.load(), g_est.load()); } } report;
+  for (Image* v : {views.front, views.back, views.estimate, views.tiles})
+    if (v) v->resize(w, h, 4);
   core::parallel_for(tiles_x * tiles_y, [&](int t0, int t1) {
     TileScratch& ts = st.scratch.local();
     ts.acc.resize(kPlane * 15);
@@ -909,6 +941,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
     float* const vrow = ts.vrow.data();
     const std::size_t vstride = static_cast<std::size_t>(grid_w + 32);
     for (int tile = t0; tile < t1; ++tile) {
+      int tile_folds = 0, tile_direct = 0, tile_est = 0;
       const int tx0 = (tile % tiles_x) * kTileCols, ty0 = (tile / tiles_x) * kTileRows;
       const int tw = std::min(kTileCols, w - tx0), th = std::min(kTileRows, h - ty0);
       // F and the fill start at zero; B starts with the visible in-focus sources
@@ -921,11 +954,10 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
       for (int y = ty0; y < ty0 + th; ++y) {
         const std::size_t row = static_cast<std::size_t>(y - ty0) * kStride, i = static_cast<std::size_t>(y) * w + tx0;
         setup_receivers(&pr.inv_z[i], src.coc[0]->row(0, y) + tx0, &pr.slice[i], &pr.t[i], &pr.flags[i],
-                        src.colour[0]->row(0, y) + tx0, src.colour[0]->row(1, y) + tx0,
-                        src.colour[0]->row(2, y) + tx0, src.colour[0]->row(3, y) + tx0, soft, tw, ru + row,
-                        risu + row, rsharp + row, rslice + row, rt + row, acc + 5 * kPlane + row,
-                        acc + 6 * kPlane + row, acc + 7 * kPlane + row, acc + 8 * kPlane + row,
-                        acc + 9 * kPlane + row);
+                        src.colour[0]->row(0, y) + tx0, src.colour[0]->row(1, y) + tx0, src.colour[0]->row(2, y) + tx0,
+                        src.colour[0]->row(3, y) + tx0, soft, tw, ru + row, risu + row, rsharp + row, rslice + row,
+                        rt + row, acc + 5 * kPlane + row, acc + 6 * kPlane + row, acc + 7 * kPlane + row,
+                        acc + 8 * kPlane + row, acc + 9 * kPlane + row);
       }
       auto receivers = [&](int ty, int col, int count) {
         RowReceivers r;
@@ -961,6 +993,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
         d.hidden = f > 0;
         d.ws = inv_area(d.rho);
         direct_source(d, tr);
+        ++tile_direct;
       };
       for (int yp = std::max(-pad, ty0 - small_reach); yp < std::min(h + pad, ty0 + th + small_reach); ++yp) {
         const int y = mirror(yp, h);
@@ -1009,7 +1042,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           for (int Y = std::max(ya, b.a0); Y <= std::min(yb, b.a1 - 1); ++Y)
             any |= b.alo[Y - b.a0] <= xb && b.ahi[Y - b.a0] >= xa;
           if (!any) continue;
-          g_folds.fetch_add(1, std::memory_order_relaxed);
+          ++tile_folds;
           FoldRow fr;
           fr.x0 = tx0;
           fr.level = g.level;
@@ -1020,7 +1053,8 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           fr.hidden = s > 0;
           for (int c = 0; c < 5; ++c) fr.row[c] = vrow + c * vstride;
           for (int y = ty0; y < ty0 + th; ++y) {
-            vertical(g, y, b.a0, b.a1, [&](int c, int Y) { return b.arow(c, Y); }, xa, xb);
+            vertical(
+                g, y, b.a0, b.a1, [&](int c, int Y) { return b.arow(c, Y); }, xa, xb);
             fold_row(fr, receivers(y - ty0, 0, tw));
           }
         }
@@ -1045,7 +1079,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           ++xb;
           ++yb;
           if (yb < b.m0 || ya >= b.m1) continue;
-          g_est.fetch_add(1, std::memory_order_relaxed);
+          ++tile_est;
           EstRow er;
           er.x0 = tx0;
           er.level = g.level;
@@ -1054,7 +1088,8 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
           for (int c = 0; c < 5; ++c) er.row[c] = vrow + c * vstride;
           for (int y = ty0; y < ty0 + th; ++y) {
             const std::size_t o = static_cast<std::size_t>(y - ty0) * kStride;
-            vertical(g, y, b.m0, b.m1, [&](int c, int Y) { return b.erow(c, Y); }, xa, xb);
+            vertical(
+                g, y, b.m0, b.m1, [&](int c, int Y) { return b.erow(c, Y); }, xa, xb);
             er.n = tw;
             er.slice = rslice + o;
             er.t = rt + o;
@@ -1063,6 +1098,29 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
             est_row(er);
           }
         }
+      }
+      // Debug views of the tile.
+      if (views.front || views.back || views.estimate)
+        for (int y = ty0; y < ty0 + th; ++y)
+          for (int x = tx0; x < tx0 + tw; ++x) {
+            const std::size_t p = static_cast<std::size_t>(y - ty0) * kStride + (x - tx0);
+            float a[15], e[5], fr4[4], bk[4], es[4];
+            for (int c = 0; c < 15; ++c) a[c] = c < 10 || nf > 1 ? acc[c * kPlane + p] : 0.0f;
+            for (int c = 0; c < 5; ++c) e[c] = est[c * kPlane + p];
+            composite_parts(a, e, a + 10, fr4, bk, es);
+            for (int c = 0; c < 4; ++c) {
+              if (views.front) views.front->at(x, y, c) = fr4[c];
+              if (views.back) views.back->at(x, y, c) = bk[c];
+              if (views.estimate) views.estimate->at(x, y, c) = es[c];
+            }
+          }
+      if (views.tiles) {
+        const float v[4] = {static_cast<float>(tile_folds) / static_cast<float>(std::max(k, 1)),
+                            tile_direct > 0 ? 1.0f : 0.0f,
+                            static_cast<float>(tile_est) / static_cast<float>(std::max(k, 1)), 1.0f};
+        for (int c = 0; c < 4; ++c)
+          for (int y = ty0; y < ty0 + th; ++y)
+            std::fill(&views.tiles->at(tx0, y, c), &views.tiles->at(tx0, y, c) + tw, v[c]);
       }
       // Composite, straight into the frame's rows.
       float* const cov = ts.outp.data();

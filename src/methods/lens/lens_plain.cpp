@@ -129,7 +129,7 @@ void render_plain(const Sources& src, const SlicePlan& plan, const LensOptions& 
   // Hidden-background estimate per slice and cell (visible set): the mean colour of the
   // visible pixels clearly behind the slice, summed per cell, at fixed samples within the
   // members' mean radius of the cell.
-  const HiddenPattern pattern(opt.hidden_samples);
+  const HiddenPattern pattern;
   if (opt.hidden)
     for (int j = 0; j < k; ++j) {
       SliceGrid& s = g[0][j];
@@ -207,8 +207,7 @@ void render_plain(const Sources& src, const SlicePlan& plan, const LensOptions& 
           if (s.acc.empty()) continue;
           float v[5];
           sample(s.grid, s.acc, 5, x, y, v);
-          add_source(rc, p, set > 0, {sd.u[j], sd.sharp[j]}, 1.0f / static_cast<float>(1 << (2 * s.grid.level)), v,
-                     a);
+          add_source(rc, p, set > 0, {sd.u[j], sd.sharp[j]}, 1.0f / static_cast<float>(1 << (2 * s.grid.level)), v, a);
         }
       float est[5] = {0, 0, 0, 0, 0};
       if (opt.hidden && fr.sharp[p] > 0.0f)

@@ -29,7 +29,6 @@ struct LensOptions {
   float highlight_rel = 4.0f;
   /// The hidden-background estimate (partial occlusion of a near blurred object).
   bool hidden = true;
-  int hidden_samples = 64;  // (experiment: 16 or 64)
   /// The SIMD / tiled path (default) or the plain one (the test oracle).
   bool simd = true;
 };

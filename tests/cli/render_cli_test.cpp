@@ -111,6 +111,7 @@ TEST_F(RenderCli, ExactCallMatchesLibraryRender) {
   const Image out = io::read_color(dir_ / "out.exr");
   Frame f{color_, depth_, {}, {}};
   RenderSettings s;
+  s.method = "reference";
   s.camera.model = BlurAtInfinity{4.0, 24.0};
   s.camera.max_coc_px = 40;
   const RenderResult want = render(f, s);
@@ -437,6 +438,7 @@ TEST_F(RenderCli, MaskedRender) {
   // The command passes the mask and its depth through to the library unchanged.
   Frame f{color_, depth_, {}, {}};
   RenderSettings st;
+  st.method = "reference";  // the call's --method
   st.camera.model = BlurAtInfinity{4.0, 24.0};
   st.camera.max_coc_px = 40;
   const RenderResult want = render_masked(f, m, Image(W, H, 1, 4.0f), st);

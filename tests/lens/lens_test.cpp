@@ -109,8 +109,7 @@ TEST(LensFast, MatchesPlainSingleLayer) {
         const Image plain = render(f, rs).image;
         rs.params["impl"] = "fast";
         const Image fast = render(f, rs).image;
-        EXPECT_LE(max_rel_diff(fast, plain), kFastTolerance)
-            << w << "x" << h << " K " << k_px << " hidden " << hidden;
+        EXPECT_LE(max_rel_diff(fast, plain), kFastTolerance) << w << "x" << h << " K " << k_px << " hidden " << hidden;
       }
 }
 
@@ -132,9 +131,13 @@ TEST(LensFast, MatchesPlainDeepInput) {
 // branches of both forms.
 TEST(LensFast, MatchesPlainWithOtherParameters) {
   const Frame f = test_frame(200, 70, 1, 3);
-  for (const auto& [key, value] :
-       {std::pair{"level_px", "1"}, {"level_px", "1e6"}, {"slice_rel", "0"}, {"slice_px", "8"},
-        {"highlight_abs", "0"}, {"highlight_rel", "1e30"}, {"depth_softness", "0.5"}}) {
+  for (const auto& [key, value] : {std::pair{"level_px", "1"},
+                                   {"level_px", "1e6"},
+                                   {"slice_rel", "0"},
+                                   {"slice_px", "8"},
+                                   {"highlight_abs", "0"},
+                                   {"highlight_rel", "1e30"},
+                                   {"depth_softness", "0.5"}}) {
     RenderSettings rs = settings("plain", 1, 16.0);
     rs.params[key] = value;
     const Image plain = render(f, rs).image;
@@ -207,10 +210,16 @@ TEST(Lens, DebugViews) {
 
 TEST(Lens, BadParametersAreUsageErrorsNamingTheKey) {
   const Frame f = test_frame(16, 8, 1, 1);
-  for (const auto& [key, value] :
-       {std::pair{"slice_px", "0"}, {"slice_px", "nan"}, {"slice_rel", "-1"}, {"level_px", "0.5"},
-        {"depth_softness", "2"}, {"highlight_rel", "0.5"}, {"highlight_abs", "-1"}, {"hidden", "maybe"},
-        {"impl", "gpu"}, {"hidden_samples", "64"}}) {
+  for (const auto& [key, value] : {std::pair{"slice_px", "0"},
+                                   {"slice_px", "nan"},
+                                   {"slice_rel", "-1"},
+                                   {"level_px", "0.5"},
+                                   {"depth_softness", "2"},
+                                   {"highlight_rel", "0.5"},
+                                   {"highlight_abs", "-1"},
+                                   {"hidden", "maybe"},
+                                   {"impl", "gpu"},
+                                   {"hidden_samples", "64"}}) {
     RenderSettings rs = settings("fast", 1);
     rs.params[key] = value;
     try {

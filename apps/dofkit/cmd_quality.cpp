@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "cli_common.hpp"
 #include "quality_run.hpp"
 
 namespace dofkit::cli {
@@ -14,6 +15,7 @@ void add_quality_command(CLI::App& app) {
     std::string scenes, methods, size = "320x180", out = "dofkit-quality";
     std::vector<std::string> set;
     int samples = 0, threads = 0, layers = 0;
+    std::string backend = "cpu";
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -35,6 +37,9 @@ void add_quality_command(CLI::App& app) {
   cmd->add_option("--out", opts->out, "output folder (default ./dofkit-quality)");
   cmd->add_option("--threads", opts->threads, "worker threads (default: all hardware threads)");
   cmd->add_option("--set", opts->set, "method.key=value for every row of that method (repeatable)");
+  cmd->add_option("--backend", opts->backend,
+                  "cpu (default) or vulkan: run the methods on the GPU (give --methods from mcguire, sterna, "
+                  "starcraft, and input)");
   cmd->callback([opts] {
     QualityOptions q;
     if (!opts->scenes.empty()) {
@@ -48,6 +53,7 @@ void add_quality_command(CLI::App& app) {
     q.samples = opts->samples;
     q.layers = opts->layers;
     q.threads = opts->threads;
+    q.backend = parse_backend(opts->backend);
     q.out_dir = opts->out;
     q.command_line = "dofkit quality";
     if (!opts->scenes.empty()) q.command_line += " --scenes " + opts->scenes;
@@ -57,6 +63,7 @@ void add_quality_command(CLI::App& app) {
     if (opts->layers) q.command_line += " --layers " + std::to_string(opts->layers);
     for (const auto& s : opts->set) q.command_line += " --set " + s;
     if (opts->threads) q.command_line += " --threads " + std::to_string(opts->threads);
+    if (q.backend != Backend::cpu) q.command_line += " --backend " + opts->backend;
     const QualityResult r = run_quality(q);
     std::cout << metrics::markdown_table(r.rows);
     std::cerr << "wrote:";

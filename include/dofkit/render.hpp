@@ -12,6 +12,10 @@
 
 namespace dofkit {
 
+/// Where a method's passes run: the CPU (default), or Vulkan compute shaders on a GPU
+/// (methods mcguire, sterna, starcraft; see docs/gpu.md).
+enum class Backend { cpu, vulkan };
+
 /// Everything a render needs besides the frame.
 struct RenderSettings {
   /// Technique: "lens" (the default: the reference's picture, fast), "reference" (exact
@@ -28,6 +32,9 @@ struct RenderSettings {
   /// Name of an intermediate buffer to return in RenderResult::debug ("" = none).
   /// See MethodInfo::debug_views.
   std::string debug_view;
+  /// cpu, or vulkan (GPU compute shaders; a build or machine without Vulkan throws
+  /// Error(internal) naming the reason when a Renderer is made).
+  Backend backend = Backend::cpu;
 };
 
 /// The result of a render.
@@ -36,6 +43,10 @@ struct RenderResult {
   Image coc;    ///< signed CoC radius in pixels used for the render (1 plane)
   Image debug;  ///< the requested debug view (empty if none was requested)
 };
+
+namespace detail {
+struct RendererAccess;  // the GPU backend's timings (src/gpu/gpu.hpp)
+}
 
 /// Renders depth of field. Throws dofkit::Error on bad input or settings.
 /// (One-shot convenience; for sequences use Renderer, which keeps its buffers.)
@@ -61,9 +72,10 @@ class Renderer {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  friend struct detail::RendererAccess;
 };
 
-/// Transparency (StarCraft II, algorithms.md §4.4): renders `frame` as usual, then
+/// Transparency (StarCraft II, docs/methods/starcraft.md): renders `frame` as usual, then
 /// re-applies depth of field over the region where `mask` (1 plane, 0..1, same size) is
 /// non-zero using `mask_depth` (1 plane, z) as the depth there — e.g. the depth of a key
 /// transparency that did not write depth — and blends the second result in by the mask.

@@ -1,6 +1,6 @@
 // Sterna gather-based bokeh (GPU Zen, "Practical Gather-based Bokeh Depth of Field") with
 // Sousa 2013's polygonal kernel and Karis firefly weighting — the passes of
-// algorithms.md §3.3, one file each. All buffers are float planes; colour is RGBA
+// docs/methods/sterna.md, one file each. All buffers are float planes; colour is RGBA
 // premultiplied and alpha is filtered exactly like R, G and B.
 #pragma once
 #include <cstdint>
@@ -53,6 +53,9 @@ struct HalfRes {
   /// Per tile: 1 when some nearBlur_h or far_h in it is > 0 (gather and fill run there).
   std::vector<std::uint8_t> tile_active;
 };
+
+/// The frame's settings from --set and the camera (sterna.cpp; the GPU backend uses it too).
+Settings read_settings(const MethodContext& ctx);
 
 /// P1: near/far blend factors at full resolution. NearFarBlend cameras use their own planes
 /// (native); every other model maps the signed CoC r to near = saturate((r − ½)/(R − ½)),

@@ -44,7 +44,8 @@ struct RenderArgs {
   std::string frames;
   std::string compression;
   int png_level = -1;
-  std::string method = "reference";
+  std::string method = "lens";
+  CLI::Option* method_opt = nullptr;  // to tell the default from a --method given
   std::string debug_view;
   std::vector<std::string> sets;
   int threads = 0;
@@ -594,6 +595,19 @@ void run_render(RenderArgs& a) {
   // The aperture (its image is an input too) and highlight recovery, whose default depends on
   // whether the colour is display-referred (an 8/16-bit file).
   settings.aperture = a.aperture.build();
+  // lens, the default, draws a circle: a shaped aperture with neither --method nor --set
+  // goes to reference, the accurate method that draws every aperture.
+  if (!settings.aperture.is_circle() && a.method_opt && a.method_opt->count() == 0 && a.sets.empty() &&
+      a.debug_view.empty()) {
+    for (const auto& m : methods())
+      if (m.name == a.method && m.aperture.empty()) {
+        std::cerr << "dofkit: note: " << a.method
+                  << " (the default method) draws a circular aperture; rendering with reference, which draws this "
+                     "one (--method chooses)\n";
+        a.method = settings.method = "reference";
+        break;
+      }
+  }
   for (const auto& m : methods())
     if (m.name == a.method && m.aperture.empty() && !settings.aperture.is_circle())
       std::cerr << "dofkit: note: method " << a.method
@@ -675,7 +689,10 @@ void add_render_command(CLI::App& app) {
   args->camera.add(cmd);
   args->aperture.add(cmd);
   args->highlights.add(cmd);
-  cmd->add_option("--method", args->method, "technique (default reference; see `dofkit methods`)")->group(meth);
+  args->method_opt = cmd->add_option("--method", args->method,
+                                     "technique (default lens; with a non-circular aperture and no --method or "
+                                     "--set: reference; see `dofkit methods`)")
+                         ->group(meth);
   cmd->add_option("--set", args->sets, "KEY=VALUE method parameter, repeatable (see `dofkit methods`)")
       ->allow_extra_args(false)
       ->group(meth);

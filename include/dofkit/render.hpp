@@ -20,9 +20,10 @@ enum class Backend { cpu, vulkan };
 
 /// Everything a render needs besides the frame.
 struct RenderSettings {
-  /// Technique: "reference" (exact single-layer scatter, the default), "mcguire", "sterna",
-  /// "starcraft", "layered", … — see methods().
-  std::string method = "reference";
+  /// Technique: "lens" (the default: the reference's picture, fast), "reference" (exact
+  /// single-layer scatter, the oracle), "mcguire", "sterna", "starcraft", "layered", … — see
+  /// methods().
+  std::string method = "lens";
   /// The camera: CoC model, reference width, clamp.
   CameraModel camera;
   /// The lens aperture (bokeh shape), for the methods that honour it (MethodInfo::aperture;

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <functional>
 #include <map>
+#include <memory>
 #include <set>
 #include <string>
 #include <vector>
@@ -77,10 +78,22 @@ class Workspace {
       img.resize(width, height, channels);
     return img;
   }
-  void clear() { images_.clear(); }
+  /// A persistent object of type T, default-constructed on first use (a method's own buffers
+  /// that are not images). The same key must always name the same type.
+  template <class T>
+  T& object(const std::string& key) {
+    std::shared_ptr<void>& p = objects_[key];
+    if (!p) p = std::make_shared<T>();
+    return *static_cast<T*>(p.get());
+  }
+  void clear() {
+    images_.clear();
+    objects_.clear();
+  }
 
  private:
   std::map<std::string, Image> images_;
+  std::map<std::string, std::shared_ptr<void>> objects_;
 };
 
 /// Everything a method gets.

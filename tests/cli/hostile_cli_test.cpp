@@ -184,7 +184,7 @@ TEST_F(HostileCli, Finding4_MemoryBudgetRefusesBeforeWork) {
   expect_refused(cli("scene occluder --out s --size 16384x16384 --layers 64", dir_), 3, {"by default 3/4"});
   // A render whose inputs are fine but too large for the budget.
   expect_refused(run("--focus 4 --blur-at-infinity 8 --max-memory 16 --output o.exr"), 3,
-                 {"rendering 64x48 with method reference needs about", "more than the limit of 16 MiB"});
+                 {"rendering 64x48 with method lens needs about", "more than the limit of 16 MiB"});
   // --max-pixels applies to the scene size.
   expect_refused(cli("scene occluder --out s --size 100x100 --max-pixels 5000", dir_), 2, {"--max-pixels"});
   expect_only({});
@@ -391,6 +391,7 @@ TEST(ScatterWork, MatchesTheDocumentedFormulaAndTheDefaultLimit) {
   f.color = Image(256, 128, 4, 0.5f);
   f.depth = Image(256, 128, 1, 1.0f);
   RenderSettings s;
+  s.method = "reference";
   s.camera.model = BlurAtInfinity{4.0, 1.0};  // r = 1 · (4/1 − 1) = 3 px everywhere
   s.max_work = 256 * 128 * 7 * 7;             // (2·⌈3.5⌉ − 1)² = 49 per source: exactly the work
   EXPECT_NO_THROW(render(f, s));

@@ -111,6 +111,7 @@ TEST_F(RenderCli, ExactCallMatchesLibraryRender) {
   const Image out = io::read_color(dir_ / "out.exr");
   Frame f{color_, depth_, {}, {}};
   RenderSettings s;
+  s.method = "reference";
   s.camera.model = BlurAtInfinity{4.0, 24.0};
   s.camera.max_coc_px = 40;
   const RenderResult want = render(f, s);
@@ -437,6 +438,7 @@ TEST_F(RenderCli, MaskedRender) {
   // The command passes the mask and its depth through to the library unchanged.
   Frame f{color_, depth_, {}, {}};
   RenderSettings st;
+  st.method = "reference";  // the call's --method
   st.camera.model = BlurAtInfinity{4.0, 24.0};
   st.camera.max_coc_px = 40;
   const RenderResult want = render_masked(f, m, Image(W, H, 1, 4.0f), st);
@@ -836,12 +838,31 @@ TEST_F(RenderCli, ApertureFlagsReachTheLibrary) {
   ASSERT_EQ(r.code, 0) << r.message;
   Frame f{color_, depth_, {}, {}};
   RenderSettings s;
+  s.method = "reference";
   s.camera.model = BlurAtInfinity{4.0, 24.0};
   s.camera.max_coc_px = 40;
   s.aperture.blades = 6;
   s.aperture.rotation_deg = 15;
   s.aperture.curvature = 0.2;
   s.aperture.anamorphic = 1.33;
+  EXPECT_EQ(io::read_color(dir_ / "out.exr").data(), render(f, s).image.data());
+}
+
+// lens (the default) draws a circle: a shaped aperture without --method renders with reference.
+TEST_F(RenderCli, ShapedApertureWithoutAMethodRendersWithReference) {
+  std::vector<std::string> args = exact_call();
+  const auto m = std::find(args.begin(), args.end(), std::string("--method"));
+  ASSERT_NE(m, args.end());
+  args.erase(m, m + 2);
+  for (const char* a : {"--blades", "6"}) args.push_back(a);
+  const CliResult r = run_render(args);
+  ASSERT_EQ(r.code, 0) << r.message;
+  Frame f{color_, depth_, {}, {}};
+  RenderSettings s;
+  s.method = "reference";
+  s.camera.model = BlurAtInfinity{4.0, 24.0};
+  s.camera.max_coc_px = 40;
+  s.aperture.blades = 6;
   EXPECT_EQ(io::read_color(dir_ / "out.exr").data(), render(f, s).image.data());
 }
 
@@ -920,7 +941,9 @@ TEST_F(RenderCli, EightBitColourGetsTheDefaultBoostAndEveryViewWorks) {
   float mx = 0;
   for (float v : mask.data()) mx = std::max(mx, v);
   EXPECT_GT(mx, 0.0f);
-  const CliResult a = call({"--blades", "5", "--debug-view", "aperture", "--debug-output", dir_ / "ap.exr"}, "a.exr");
+  const CliResult a =
+      call({"--method", "reference", "--blades", "5", "--debug-view", "aperture", "--debug-output", dir_ / "ap.exr"},
+           "a.exr");
   ASSERT_EQ(a.code, 0) << a.message;
   EXPECT_GT(io::read_color(dir_ / "ap.exr").width(), 10);
 }

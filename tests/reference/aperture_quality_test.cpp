@@ -21,6 +21,7 @@ TEST(ReferenceAperture, MatchingPolygonBeatsCircleAndWrongRotation) {
   const scene::SceneRender s = scene::render_scene("highlights", o);
   auto score = [&](const ApertureShape& a) {
     RenderSettings rs;
+    rs.method = "reference";
     rs.camera = s.camera;
     rs.aperture = a;
     return metrics::compare(s.ground_truth, render(s.pinhole, rs).image, &s.pinhole.depth);

@@ -771,7 +771,7 @@ MatteStats matte_layer_fast(const Fragments& frags, const LayerPlan& plan, int k
                 const float t = (1.0f - acc[3]) * wk;
                 for (int c = 0; c < 4; ++c) acc[c] += t * col.row(c, y)[x];
               }
-              if (f == 0 && r > near_limit) hv = 1;
+              hv = r > near_limit;  // the farthest fragment decides (matting.cpp)
             }
             for (int c = 0; c < 4; ++c) out[c][x] = acc[c];
             full |= acc[3] > 0;

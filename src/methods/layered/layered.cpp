@@ -74,9 +74,12 @@ void render_layered(const MethodContext& ctx, Image& out) {
   // auto: the disc for multi-layer input (it beats every single-layer method there, see
   // docs/methods/layered.md), the O(1)-per-pixel recursive Gaussian for one RGB-D frame.
   const bool disc = psf == "disc" || (psf == "auto" && multi);
-  // auto: push-pull for single input only (`under` is an option for multi-layer input).
+  // auto: push-pull for every input. A hole is a pixel whose fragments all lie in front of the
+  // layer (matting.cpp): nothing there is known, so for multi-layer input too it is filled
+  // rather than left transparent (a deep file holds hidden fragments only where something hid
+  // them; left transparent, the holes behind an in-focus subject blurred into a halo around it).
   const bool fill_under = fill == "under";
-  const bool do_fill = fill == "on" || fill_under || (fill == "auto" && !multi);
+  const bool do_fill = fill != "off";
 
   Fragments frags;
   std::vector<Image> owned_coc;

@@ -27,6 +27,10 @@ MatteStats matte_layer(const Fragments& frags, const LayerPlan& plan, int k, Ima
           std::uint8_t full = 0, holes = 0;
           for (int x = 0; x < w; ++x) {
             float acc[4] = {0, 0, 0, 0};
+            // The pixel's farthest fragment: the layer is unknown there (a hole) when even
+            // that one lies in front of the layer.
+            float r_last = 0.0f;
+            bool any = false;
             for (int f = 0; f < nf; ++f) {
               const Image& col = *frags.color[f];
               const float a = col.row(3, y)[x];
@@ -37,10 +41,12 @@ MatteStats matte_layer(const Fragments& frags, const LayerPlan& plan, int k, Ima
                 const float t = (1.0f - acc[3]) * wk;
                 for (int c = 0; c < 4; ++c) acc[c] += t * col.row(c, y)[x];
               }
-              if (f == 0 && hole && r > near_limit) {
-                (*hole)[static_cast<std::size_t>(y) * w + x] = 1;
-                holes = 1;
-              }
+              r_last = r;
+              any = true;
+            }
+            if (hole && any && r_last > near_limit) {
+              (*hole)[static_cast<std::size_t>(y) * w + x] = 1;
+              holes = 1;
             }
             for (int c = 0; c < 4; ++c) out[c][x] = acc[c];
             full |= acc[3] > 0;

@@ -22,6 +22,7 @@
 #include <optional>
 #include <set>
 
+#include "chunks.hpp"
 #include "cli_common.hpp"
 #include "commands.hpp"
 #include "dofkit/error.hpp"
@@ -49,6 +50,7 @@ struct RenderArgs {
   int bits = 0;
   CameraFlags camera;
   DepthFlags depth_flags;
+  FarmFlags farm;  // --chunk-index, --chunk-count, --chunk-from-env, --skip-existing (chunks.hpp)
 };
 
 const char* kFooter = R"(
@@ -72,6 +74,8 @@ Examples:
   # a sequence in one process (paths carry #### or %04d; one Renderer for all frames)
   dofkit render --color beauty.####.exr --depth depth.####.exr --frames 1001-1100 \
       --blur-at-infinity 24 --focus 4 --method sterna --output dof.####.exr
+  # the same shot as task 3 of a 10-task farm job (frames 1031-1040), resumable
+  dofkit render ... --frames 1001-1100 --chunk-index 3 --chunk-count 10 --skip-existing
 
 Exit codes: 0 success, 2 usage error, 3 bad input (missing, corrupt or inconsistent files),
 1 internal error. On any error no output file is created or changed (with --frames: none of
@@ -355,7 +359,15 @@ void run_render(RenderArgs& a) {
   // outputs need one (each frame its own files), and so does --color or --layers (else every
   // frame would render the same input); a depth, mask or mask depth without one serves every
   // frame.
-  const std::vector<int> frames = a.frames.empty() ? std::vector<int>{-1} : parse_frames(a.frames);
+  std::vector<int> frames = a.frames.empty() ? std::vector<int>{-1} : parse_frames(a.frames);
+  if (const auto chunk = resolve_chunk(a.farm, a.frames, a.frames.empty() ? 0 : frames.size())) {
+    const ChunkRange r = chunk_range(frames.size(), chunk->index, chunk->count);
+    std::cerr << "dofkit: chunk " << chunk->index << " of " << chunk->count << " (from 0): frames " << frames[r.begin]
+              << ".." << frames[r.end - 1] << ", " << r.end - r.begin << " of the " << frames.size() << " of --frames "
+              << a.frames << "\n";
+    frames = std::vector<int>(frames.begin() + static_cast<std::ptrdiff_t>(r.begin),
+                              frames.begin() + static_cast<std::ptrdiff_t>(r.end));
+  }
   const FramePaths given{a.color, a.depth, a.layers, a.mask, a.mask_depth, a.output, a.output_coc, a.debug_output};
   std::optional<FramePattern> pattern[std::size(kFrameFields)];
   if (!a.frames.empty()) {
@@ -406,6 +418,19 @@ void run_render(RenderArgs& a) {
   for (const auto& out : outputs_seen)
     if (inputs_seen.count(out))
       throw_usage("--frames " + a.frames + ": output " + out.string() + " is the input of another frame");
+  if (a.farm.skip_existing) {
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < frames.size(); ++i)
+      if (!outputs_exist(paths[i].outputs())) {
+        frames[kept] = frames[i];
+        paths[kept++] = paths[i];
+      }
+    std::cerr << "dofkit: --skip-existing: " << frames.size() - kept << " of " << frames.size()
+              << (frames.size() == 1 ? " frame" : " frames") << " already written, skipped\n";
+    frames.resize(kept);
+    paths.resize(kept);
+    if (frames.empty()) return;
+  }
   if (!a.frames.empty())
     for (std::size_t i = 0; i < frames.size(); ++i)
       for (const NamedPath& in : paths[i].inputs()) {
@@ -426,8 +451,13 @@ void run_render(RenderArgs& a) {
     auto read_async = [&](std::size_t i) {
       return std::async(std::launch::async, [&a, &depth_opt, &p = paths[i]] { return read_inputs(a, p, depth_opt); });
     };
+    const GracefulStop stop;
     std::future<FrameInputs> next = read_async(0);
     for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (i > 0)
+        GracefulStop::stop_if_requested("stopped by SIGTERM after " + std::to_string(i) + " of " +
+                                        std::to_string(frames.size()) + " frames; frame " + std::to_string(frames[i]) +
+                                        " on not rendered (rerun with --skip-existing to resume)");
       const FrameInputs in = next.get();
       if (i + 1 < frames.size()) next = read_async(i + 1);
       render_frame(a, paths[i], in, settings, renderer, out_opt, coc_opt, debug_opt);
@@ -473,6 +503,7 @@ void add_render_command(CLI::App& app) {
       ->group(in);
   args->depth_flags.add(cmd);
   args->camera.add(cmd);
+  args->farm.add(cmd);
   cmd->add_option("--method", args->method, "technique (default reference; see `dofkit methods`)")->group(meth);
   cmd->add_option("--set", args->sets, "KEY=VALUE method parameter, repeatable (see `dofkit methods`)")
       ->allow_extra_args(false)

@@ -36,8 +36,9 @@ namespace {
 // or variable in the message ("--chunk-index 1x" / "SLURM_ARRAY_TASK_ID=1x (--chunk-from-env)").
 long parse_count(const std::string& text, const std::string& what) {
   std::size_t i = (!text.empty() && (text[0] == '-' || text[0] == '+')) ? 1 : 0;
-  const bool digits = i < text.size() && std::all_of(text.begin() + static_cast<std::ptrdiff_t>(i), text.end(),
-                                                     [](char c) { return std::isdigit(static_cast<unsigned char>(c)); });
+  const bool digits =
+      i < text.size() && std::all_of(text.begin() + static_cast<std::ptrdiff_t>(i), text.end(),
+                                     [](char c) { return std::isdigit(static_cast<unsigned char>(c)); });
   if (!digits) throw_usage(what + ": not a whole number");
   long v = 0;
   for (; i < text.size(); ++i) {

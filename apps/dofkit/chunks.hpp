@@ -45,8 +45,9 @@ struct Chunk {
 /// gives the index): SLURM_ARRAY_TASK_ID (count: SLURM_ARRAY_TASK_COUNT), JOB_COMPLETION_INDEX,
 /// AWS_BATCH_JOB_ARRAY_INDEX (count: --chunk-count). Throws Error(usage), one line naming the
 /// flag or variable, for a missing, malformed or out-of-range value.
-std::optional<Chunk> resolve_chunk(const FarmFlags& flags, const std::string& frames_flag, std::size_t frame_count,
-                                   const EnvLookup& env = [](const char* name) { return std::getenv(name); });
+std::optional<Chunk> resolve_chunk(
+    const FarmFlags& flags, const std::string& frames_flag, std::size_t frame_count,
+    const EnvLookup& env = [](const char* name) { return std::getenv(name); });
 
 /// List positions [begin, end) of chunk `index` of `count` over `frame_count` frames
 /// (requires 1 <= count <= frame_count, 0 <= index < count).

@@ -102,18 +102,19 @@ TEST(ChunkFlags, BadIndexOrCountIsAUsageErrorNamingTheFlag) {
   struct Case {
     std::string index, count, expect;
   };
-  for (const Case& c : std::vector<Case>{{"-1", "4", "--chunk-index -1: must be 0..3 (chunks count from 0"},
-                                         {"4", "4", "--chunk-index 4: must be 0..3"},
-                                         {"0", "0", "--chunk-count 0: must be at least 1"},
-                                         {"0", "-2", "--chunk-count -2: must be at least 1"},
-                                         {"0", "13", "--chunk-count 13: more chunks than the 12 frames of --frames 1-12"},
-                                         {"x", "4", "--chunk-index x: not a whole number"},
-                                         {"1.5", "4", "--chunk-index 1.5: not a whole number"},
-                                         {" 1", "4", "--chunk-index  1: not a whole number"},
-                                         {"1", "4k", "--chunk-count 4k: not a whole number"},
-                                         {"1", "99999999999", "--chunk-count 99999999999: out of range"},
-                                         {"1", "", "--chunk-index 1: needs --chunk-count N"},
-                                         {"", "4", "--chunk-count 4: needs --chunk-index I"}}) {
+  for (const Case& c :
+       std::vector<Case>{{"-1", "4", "--chunk-index -1: must be 0..3 (chunks count from 0"},
+                         {"4", "4", "--chunk-index 4: must be 0..3"},
+                         {"0", "0", "--chunk-count 0: must be at least 1"},
+                         {"0", "-2", "--chunk-count -2: must be at least 1"},
+                         {"0", "13", "--chunk-count 13: more chunks than the 12 frames of --frames 1-12"},
+                         {"x", "4", "--chunk-index x: not a whole number"},
+                         {"1.5", "4", "--chunk-index 1.5: not a whole number"},
+                         {" 1", "4", "--chunk-index  1: not a whole number"},
+                         {"1", "4k", "--chunk-count 4k: not a whole number"},
+                         {"1", "99999999999", "--chunk-count 99999999999: out of range"},
+                         {"1", "", "--chunk-index 1: needs --chunk-count N"},
+                         {"", "4", "--chunk-count 4: needs --chunk-index I"}}) {
     const std::string e = resolve_error(flags(c.index, c.count), 12);
     EXPECT_TRUE(contains(e, c.expect)) << "got: " << e << "\nwant: " << c.expect;
     EXPECT_FALSE(contains(e, "\n")) << e;
@@ -164,7 +165,9 @@ TEST(ChunkFlags, MissingOrMalformedVariableIsAUsageErrorNamingIt) {
            {{{"JOB_COMPLETION_INDEX", "1"}}, "", "JOB_COMPLETION_INDEX (--chunk-from-env): gives only the index"},
            {{{"JOB_COMPLETION_INDEX", "-1"}}, "4", "JOB_COMPLETION_INDEX=-1 (--chunk-from-env): must be 0..3"},
            {{{"AWS_BATCH_JOB_ARRAY_INDEX", "1"}}, "", "AWS_BATCH_JOB_ARRAY_INDEX (--chunk-from-env): gives only"},
-           {{{"AWS_BATCH_JOB_ARRAY_INDEX", "9"}}, "4", "AWS_BATCH_JOB_ARRAY_INDEX=9 (--chunk-from-env): must be 0..3"}}) {
+           {{{"AWS_BATCH_JOB_ARRAY_INDEX", "9"}},
+            "4",
+            "AWS_BATCH_JOB_ARRAY_INDEX=9 (--chunk-from-env): must be 0..3"}}) {
     const std::string e = resolve_error(flags("", c.count, true), 12, c.env);
     EXPECT_TRUE(contains(e, c.expect)) << "got: " << e << "\nwant: " << c.expect;
     EXPECT_FALSE(contains(e, "\n")) << e;
@@ -255,14 +258,26 @@ class RenderChunks : public ::testing::Test {
   std::vector<std::string> call(const std::string& frames, const std::string& out, std::vector<std::string> extra = {},
                                 const std::string& blur_px = "6") const {
     fs::create_directories(dir_.path() / out);
-    std::vector<std::string> a = {"--color",  dir_ / "in/c.####.exr", "--depth",          dir_ / "in/z.####.exr",
-                                  "--frames", frames,                 "--focus",          "2",
-                                  "--blur-at-infinity", blur_px,      "--method",         "reference",
-                                  "--output", dir_ / (out + "/o.####.exr")};
+    std::vector<std::string> a = {"--color",
+                                  dir_ / "in/c.####.exr",
+                                  "--depth",
+                                  dir_ / "in/z.####.exr",
+                                  "--frames",
+                                  frames,
+                                  "--focus",
+                                  "2",
+                                  "--blur-at-infinity",
+                                  blur_px,
+                                  "--method",
+                                  "reference",
+                                  "--output",
+                                  dir_ / (out + "/o.####.exr")};
     a.insert(a.end(), extra.begin(), extra.end());
     return a;
   }
-  std::string bytes(const std::string& out, int frame) const { return read_bytes(dir_ / (out + "/" + frame_name(frame))); }
+  std::string bytes(const std::string& out, int frame) const {
+    return read_bytes(dir_ / (out + "/" + frame_name(frame)));
+  }
 
   ScratchDir dir_;
 };
@@ -278,7 +293,8 @@ TEST_F(RenderChunks, EveryChunkWritesExactlyItsFramesAndTheSamePictures) {
   std::size_t total = 0;
   for (int i = 0; i < 4; ++i) {
     const std::string out = "chunk" + std::to_string(i);
-    const Result r = render(call("1-12", out, {"--chunk-index", std::to_string(i), "--chunk-count", "4", "--threads", "1"}));
+    const Result r =
+        render(call("1-12", out, {"--chunk-index", std::to_string(i), "--chunk-count", "4", "--threads", "1"}));
     ASSERT_EQ(r.code, 0) << r.message;
     const std::set<std::string> got = files_in(dir_.path() / out);
     std::set<std::string> want;
@@ -320,9 +336,9 @@ TEST_F(RenderChunks, BadChunkIsAUsageErrorWithNoOutput) {
     EXPECT_TRUE(files_in(dir_.path() / "bad").empty()) << c.second;
   }
   // Without --frames there is no list to cut.
-  const Result r = render({"--color", dir_ / "in/c.0001.exr", "--depth", dir_ / "in/z.0001.exr", "--focus", "2",
-                           "--blur-at-infinity", "6", "--output", dir_ / "bad/one.exr", "--chunk-index", "0",
-                           "--chunk-count", "1"});
+  const Result r =
+      render({"--color", dir_ / "in/c.0001.exr", "--depth", dir_ / "in/z.0001.exr", "--focus", "2",
+              "--blur-at-infinity", "6", "--output", dir_ / "bad/one.exr", "--chunk-index", "0", "--chunk-count", "1"});
   EXPECT_EQ(r.code, 2);
   EXPECT_TRUE(contains(r.message, "--chunk-index: needs --frames")) << r.message;
   EXPECT_TRUE(files_in(dir_.path() / "bad").empty());

@@ -9,7 +9,8 @@ if(TARGET test_cli)
   target_sources(test_cli PRIVATE
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cmd_render.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/chunks.cpp
-    ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cli_common.cpp)
+    ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cli_common.cpp
+    ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/budget.cpp)
   target_include_directories(test_cli PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit)
 endif()
 # Tests that run the built `dofkit` and parse its `--json` (bench_cli_test.cpp; the GPU

@@ -8,6 +8,7 @@
 #include <limits>
 #include <sstream>
 
+#include "budget.hpp"
 #include "dofkit/error.hpp"
 #include "dofkit/render.hpp"
 
@@ -19,6 +20,8 @@ namespace {
 
 bool given(const CLI::Option* o) { return o && o->count() > 0; }
 
+const std::vector<std::string> kStarcraftRows = {"--starcraft", "--starcraft", "--starcraft", "--starcraft AMOUNT"};
+
 std::string trim(const std::string& s) {
   const auto b = s.find_first_not_of(" \t");
   const auto e = s.find_last_not_of(" \t");
@@ -28,8 +31,8 @@ std::string trim(const std::string& s) {
 }  // namespace
 
 std::vector<double> parse_numbers(const std::string& text, std::size_t count, const std::string& flag,
-                                  const std::string& form) {
-  std::vector<double> v;
+                                  const std::string& form, const std::vector<std::string>& rows) {
+  std::vector<std::string> parts;
   std::stringstream ss(text);
   std::string part;
   auto fail = [&] {
@@ -39,15 +42,58 @@ std::vector<double> parse_numbers(const std::string& text, std::size_t count, co
   while (std::getline(ss, part, ',')) {
     part = trim(part);
     if (part.empty()) fail();
-    errno = 0;
-    char* end = nullptr;
-    const double d = std::strtod(part.c_str(), &end);
-    if (end != part.c_str() + part.size() || errno == ERANGE || std::isnan(d)) fail();
-    v.push_back(d);
+    parts.push_back(part);
   }
   if (!text.empty() && text.back() == ',') fail();
-  if (v.size() != count) fail();
+  if (parts.size() != count) fail();
+  std::vector<double> v;
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::string& row = rows.size() == 1 ? rows[0] : rows.at(i);
+    try {
+      v.push_back(parse_number(row, parts[i]));
+    } catch (const Error& e) {
+      // The range's message, said of the flag and the whole value.
+      const std::string m = e.what(), after = m.substr(m.find(": ") + 2);
+      if (m.find("not a number") != std::string::npos) fail();
+      throw_usage(flag + " " + text + ": " +
+                  (count > 1 ? "value " + std::to_string(i + 1) + " (" + parts[i] + ") " : "") + after);
+    }
+  }
   return v;
+}
+
+CLI::Validator range_check(const std::string& row) {
+  // Throws dofkit's own usage error (CLI11 lets it through) so that the message is the
+  // table's: "--f-number 1e-320: must be 0.1 to 10000". The value is handed on to CLI11 in
+  // a form its own conversion reads the same (it would read "010" as octal).
+  return CLI::Validator(
+      [row](std::string& value) -> std::string {
+        const double v = parse_number(row, value);
+        if (numeric_range(row).integer) {
+          value = std::to_string(static_cast<long long>(v));
+        } else {
+          char buf[40];
+          std::snprintf(buf, sizeof buf, "%.17g", v);
+          value = buf;
+        }
+        return {};
+      },
+      "", "range " + row);
+}
+
+void BudgetFlags::add(CLI::App* cmd, bool pixels) {
+  if (pixels)
+    add_number(cmd, "--max-pixels", max_pixels,
+               "refuse input files whose header declares more than this many pixels (width x height), checked "
+               "before any pixel memory is allocated (default 268435456 = 2^28)");
+  add_number(cmd, "--max-memory", max_memory_mib,
+             "refuse work whose estimated peak memory is above this many MiB, before any pixel is read or made "
+             "(default: 3/4 of the machine's memory; see docs/robustness.md)");
+}
+
+void BudgetFlags::apply() const {
+  io::set_pixel_budget(max_pixels);
+  set_memory_budget_mib(max_memory_mib);
 }
 
 std::map<std::string, std::string> parse_sets(const std::vector<std::string>& sets) {
@@ -65,38 +111,37 @@ std::map<std::string, std::string> parse_sets(const std::vector<std::string>& se
 // --- camera --------------------------------------------------------------------------------
 
 void CameraFlags::add(CLI::App* cmd, const std::string& group) {
-  focus_ = cmd->add_option("--focus", focus_m_,
-                           "focus distance, metres (scene units): the depth that is sharp. Used with --f-number and "
-                           "--blur-at-infinity")
+  focus_ = add_number(cmd, "--focus", focus_m_,
+                      "focus distance, metres (scene units): the depth that is sharp. Used with --f-number and "
+                      "--blur-at-infinity")
                ->group(group);
   focus_at_ = cmd->add_option("--focus-at", focus_at_text_,
                               "X,Y: focus on the median depth of the 7x7 pixels around pixel (X, Y) (pixels from the "
                               "top-left corner); replaces --focus, and refocuses --planes/--starcraft/--near-far")
                   ->group(group);
-  f_number_ = cmd->add_option("--f-number", f_number_v_,
-                              "MODEL physical thin lens: aperture f-number N (> 0), e.g. 2.8. With --focus, "
-                              "--focal-length, --sensor-width")
+  f_number_ = add_number(cmd, "--f-number", f_number_v_,
+                         "MODEL physical thin lens: aperture f-number N (> 0), e.g. 2.8. With --focus, "
+                         "--focal-length, --sensor-width")
                   ->group(group);
   focal_length_ =
-      cmd->add_option("--focal-length", focal_length_mm_, "thin lens focal length, millimetres (default 50)")
+      add_number(cmd, "--focal-length", focal_length_mm_, "thin lens focal length, millimetres (default 50)")
           ->group(group);
-  sensor_width_ =
-      cmd->add_option("--sensor-width", sensor_width_mm_,
-                      "thin lens sensor width, millimetres (default 36, full frame); the image width spans it")
-          ->group(group);
-  blur_inf_ = cmd->add_option("--blur-at-infinity", blur_inf_px_,
-                              "MODEL thin lens given by K, the blur radius of a point at infinity, pixels (>= 0): "
-                              "r(z) = K (focus/z - 1). With --focus")
+  sensor_width_ = add_number(cmd, "--sensor-width", sensor_width_mm_,
+                             "thin lens sensor width, millimetres (default 36, full frame); the image width spans it")
+                      ->group(group);
+  blur_inf_ = add_number(cmd, "--blur-at-infinity", blur_inf_px_,
+                         "MODEL thin lens given by K, the blur radius of a point at infinity, pixels (>= 0): "
+                         "r(z) = K (focus/z - 1). With --focus")
                   ->group(group);
   planes_ =
       cmd->add_option("--planes", planes_text_,
                       "MODEL four-plane artist model NB,NS,FS,FB, metres, 0 < NB < NS <= FS < FB (FB may be inf): "
                       "blur ramps from --near-radius at NB to 0 at NS, and from 0 at FS to --far-radius at FB")
           ->group(group);
-  near_radius_ = cmd->add_option("--near-radius", near_radius_px_, "--planes: maximum near blur radius, pixels (>= 0)")
+  near_radius_ = add_number(cmd, "--near-radius", near_radius_px_, "--planes: maximum near blur radius, pixels (>= 0)")
                      ->group(group);
   far_radius_ =
-      cmd->add_option("--far-radius", far_radius_px_, "--planes: maximum far blur radius, pixels (>= 0)")->group(group);
+      add_number(cmd, "--far-radius", far_radius_px_, "--planes: maximum far blur radius, pixels (>= 0)")->group(group);
   planes_ramp_ =
       cmd->add_option("--planes-ramp", planes_ramp_v_,
                       "--planes: ramps linear in z (default, as in the sources) or in inverse-z (follows the "
@@ -113,20 +158,18 @@ void CameraFlags::add(CLI::App* cmd, const std::string& group) {
                               "near-blurred at NB, sharp from NE to FB, fully far-blurred from FE; blend 1 = "
                               "--max-radius pixels")
                   ->group(group);
-  max_radius_ = cmd->add_option("--max-radius", max_radius_px_,
-                                "--starcraft / --near-far: radius of full blur, pixels (>= 0; default 16 for "
-                                "--starcraft, 12 for --near-far)")
+  max_radius_ = add_number(cmd, "--max-radius", max_radius_px_,
+                           "--starcraft / --near-far: radius of full blur, pixels (>= 0; default 16 for "
+                           "--starcraft, 12 for --near-far)")
                     ->group(group);
-  max_coc_ =
-      cmd->add_option("--max-coc", max_coc_px_,
-                      "clamp every CoC radius to this many pixels (> 0; default: none). Radii are also capped at a "
-                      "quarter of the image width (at least 8 px)")
-          ->group(group);
-  reference_width_ =
-      cmd->add_option("--reference-width", reference_width_px_,
-                      "image width, pixels, at which pixel radii are given (default: the input's width); "
-                      "radii scale with the input width / this")
-          ->group(group);
+  max_coc_ = add_number(cmd, "--max-coc", max_coc_px_,
+                        "clamp every CoC radius to this many pixels (> 0; default: none). Radii are also capped at a "
+                        "quarter of the image width (at least 8 px)")
+                 ->group(group);
+  reference_width_ = add_number(cmd, "--reference-width", reference_width_px_,
+                                "image width, pixels, at which pixel radii are given (default: the input's width); "
+                                "radii scale with the input width / this")
+                         ->group(group);
 }
 
 bool CameraFlags::model_given() const {
@@ -135,10 +178,7 @@ bool CameraFlags::model_given() const {
 
 std::optional<std::pair<int, int>> CameraFlags::focus_at() const {
   if (!given(focus_at_)) return std::nullopt;
-  const std::vector<double> v = parse_numbers(focus_at_text_, 2, "--focus-at", "X,Y pixel coordinates");
-  for (double c : v)
-    if (c != std::floor(c) || c < 0 || c > 1e9)
-      throw_usage("--focus-at " + focus_at_text_ + ": X and Y must be whole pixels >= 0");
+  const std::vector<double> v = parse_numbers(focus_at_text_, 2, "--focus-at", "X,Y pixel coordinates", {"--focus-at"});
   return std::make_pair(static_cast<int>(v[0]), static_cast<int>(v[1]));
 }
 
@@ -179,13 +219,11 @@ void CameraFlags::check() const {
     throw_usage(model + ": needs --focus M (focus distance in metres) or --focus-at X,Y");
   if (model == "--planes" && (!given(near_radius_) || !given(far_radius_)))
     throw_usage("--planes: needs --near-radius PX and --far-radius PX");
-  if (model == "--planes") parse_numbers(planes_text_, 4, "--planes", "NB,NS,FS,FB in metres");
-  if (model == "--starcraft") parse_numbers(starcraft_text_, 4, "--starcraft", "FOCUS,FULL,NONE,AMOUNT");
-  if (model == "--near-far") parse_numbers(near_far_text_, 4, "--near-far", "NB,NE,FB,FE in metres");
+  if (model == "--planes") parse_numbers(planes_text_, 4, "--planes", "NB,NS,FS,FB in metres", {"--planes"});
+  if (model == "--starcraft")
+    parse_numbers(starcraft_text_, 4, "--starcraft", "FOCUS,FULL,NONE,AMOUNT", kStarcraftRows);
+  if (model == "--near-far") parse_numbers(near_far_text_, 4, "--near-far", "NB,NE,FB,FE in metres", {"--near-far"});
   focus_at();  // syntax
-  if (given(max_coc_) && !(max_coc_px_ > 0)) throw_usage("--max-coc: must be > 0 pixels");
-  if (given(reference_width_) && !(reference_width_px_ > 0 && std::isfinite(reference_width_px_)))
-    throw_usage("--reference-width: must be > 0 pixels");
   validate(assemble());
 }
 
@@ -207,7 +245,7 @@ CameraModel CameraFlags::assemble() const {
   } else if (given(blur_inf_)) {
     cam.model = BlurAtInfinity{focus, blur_inf_px_};
   } else if (given(planes_)) {
-    const auto v = parse_numbers(planes_text_, 4, "--planes", "NB,NS,FS,FB in metres");
+    const auto v = parse_numbers(planes_text_, 4, "--planes", "NB,NS,FS,FB in metres", {"--planes"});
     FourPlane p;
     p.near_blurry_m = v[0];
     p.near_sharp_m = v[1];
@@ -218,7 +256,7 @@ CameraModel CameraFlags::assemble() const {
     p.linear_in_inverse_depth = planes_ramp_v_ == "inverse-z";
     cam.model = p;
   } else if (given(starcraft_)) {
-    const auto v = parse_numbers(starcraft_text_, 4, "--starcraft", "FOCUS,FULL,NONE,AMOUNT");
+    const auto v = parse_numbers(starcraft_text_, 4, "--starcraft", "FOCUS,FULL,NONE,AMOUNT", kStarcraftRows);
     StarCraft s;
     s.focus_distance_m = v[0];
     s.full_focus_range_m = v[1];
@@ -227,7 +265,7 @@ CameraModel CameraFlags::assemble() const {
     if (given(max_radius_)) s.max_radius_px = max_radius_px_;
     cam.model = s;
   } else {
-    const auto v = parse_numbers(near_far_text_, 4, "--near-far", "NB,NE,FB,FE in metres");
+    const auto v = parse_numbers(near_far_text_, 4, "--near-far", "NB,NE,FB,FE in metres", {"--near-far"});
     NearFarBlend b;
     b.near_begin_m = v[0];
     b.near_end_m = v[1];
@@ -270,10 +308,10 @@ void DepthFlags::add(CLI::App* cmd, const std::string& group) {
          "files: normalised, bright = near), ndc or ndc-reversed (window depth in [0,1]; needs --clip)")
       ->check(CLI::IsMember({"z", "distance", "disparity", "ndc", "ndc-reversed"}))
       ->group(group);
-  fov_ = cmd->add_option("--fov-deg", fov_deg_, "horizontal field of view, degrees (0..180), for --depth-kind distance")
+  fov_ = add_number(cmd, "--fov-deg", fov_deg_, "horizontal field of view, degrees, for --depth-kind distance")
              ->group(group);
-  scale_ = cmd->add_option("--disparity-scale", disparity_scale_,
-                           "z = SCALE / disparity, scene units (> 0; default 1), for --depth-kind disparity")
+  scale_ = add_number(cmd, "--disparity-scale", disparity_scale_,
+                      "z = SCALE / disparity, scene units (> 0; default 1), for --depth-kind disparity")
                ->group(group);
   clip_ = cmd->add_option("--clip", clip_text_,
                           "NEAR,FAR clip distances, scene units (FAR may be inf), for --depth-kind ndc / ndc-reversed "
@@ -298,18 +336,14 @@ io::DepthOptions DepthFlags::build() const {
   o.fov_deg = fov_deg_;
   o.disparity_scale = disparity_scale_;
   if (given(clip_)) {
-    const auto v = parse_numbers(clip_text_, 2, "--clip", "NEAR,FAR in scene units (FAR may be inf)");
+    const auto v = parse_numbers(clip_text_, 2, "--clip", "NEAR,FAR in scene units (FAR may be inf)", {"--clip"});
     o.clip_near = v[0];
     o.clip_far = v[1];
   }
   if (o.kind == io::DepthKind::distance && !given(fov_))
     throw_usage("--depth-kind distance: needs --fov-deg (horizontal field of view in degrees)");
-  if (o.kind == io::DepthKind::distance && !(o.fov_deg > 0 && o.fov_deg < 180))
-    throw_usage("--fov-deg: must be between 0 and 180 degrees");
-  if (o.kind == io::DepthKind::disparity && !(o.disparity_scale > 0 && std::isfinite(o.disparity_scale)))
-    throw_usage("--disparity-scale: must be > 0");
-  if (ndc && !(o.clip_near > 0 && std::isfinite(o.clip_near) && o.clip_far > o.clip_near))
-    throw_usage("--clip: need 0 < NEAR < FAR (FAR may be inf)");
+  if (ndc && !(std::isfinite(o.clip_near) && o.clip_far > o.clip_near))
+    throw_usage("--clip " + clip_text_ + ": need NEAR < FAR (FAR may be inf)");
   o.invalid_as_far = invalid_ == "far";
   return o;
 }
@@ -360,15 +394,20 @@ void OutputWriter::add_file(const std::string& path, const std::function<void(co
 
 void OutputWriter::commit() { set_.commit(); }
 
+CLI::Option* add_threads(CLI::App* cmd, int& threads, const std::string& help) {
+  return add_number(cmd, "--threads", threads, help);
+}
+
+void out_of_memory(const std::string& what) {
+  throw_bad_input("out of memory while " + what +
+                  " (the machine has less free memory than --max-memory allowed for: lower --max-memory or the "
+                  "image size)");
+}
+
 Backend parse_backend(const std::string& text) {
   if (text == "cpu") return Backend::cpu;
   if (text == "vulkan") return Backend::vulkan;
   throw_usage("--backend " + text + ": must be cpu or vulkan");
-}
-
-int check_threads(int threads) {
-  if (threads < 0) throw_usage("--threads: must be >= 0 (0 = all hardware threads), got " + std::to_string(threads));
-  return threads;
 }
 
 }  // namespace dofkit::cli

@@ -11,22 +11,45 @@
 #include <CLI/CLI.hpp>
 
 #include <map>
+#include <new>
+#include <stdexcept>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "dofkit/coc.hpp"
 #include "dofkit/image.hpp"
+#include "dofkit/ranges.hpp"
 #include "dofkit/render.hpp"
 #include "io/atomic_write.hpp"
 #include "io/image_io.hpp"
 
 namespace dofkit::cli {
 
-/// Parses "a,b,c" into exactly `count` numbers (each may be `inf`). Throws Error(usage):
-/// "<flag>: expected <form> (<count> comma-separated numbers), got '<text>'".
+/// Parses "a,b,c" into exactly `count` numbers, each checked against the range table's row
+/// (dofkit/ranges.hpp) `rows[i]` (one row for all when `rows` has one). Throws Error(usage):
+/// "<flag>: expected <form> (<count> comma-separated numbers), got '<text>'", or the row's
+/// range message naming the value.
 std::vector<double> parse_numbers(const std::string& text, std::size_t count, const std::string& flag,
-                                  const std::string& form);
+                                  const std::string& form, const std::vector<std::string>& rows);
+
+/// Registers a numeric option whose value must lie in the range table's row `row` (default:
+/// the flag itself; dofkit/ranges.hpp): the value is parsed strictly when the command line
+/// is parsed (a bad one throws Error(usage) naming the flag and its range) and the help
+/// shows the range. Works for double and int variables.
+template <typename T>
+CLI::Option* add_number(CLI::App* cmd, const std::string& flag, T& var, const std::string& help, std::string row = "");
+/// The CLI11 check behind add_number (for options registered otherwise).
+CLI::Validator range_check(const std::string& row);
+
+/// --max-pixels and --max-memory (the budgets of docs/robustness.md): registered on a
+/// command by add(), put in force by apply() when the command runs (before any file is read).
+struct BudgetFlags {
+  long long max_pixels = io::kMaxPixels;
+  long long max_memory_mib = 0;  ///< 0 = the default (budget.hpp)
+  void add(CLI::App* cmd, bool pixels = true);
+  void apply() const;
+};
 
 /// Parses repeated `--set key=value` into a map. Throws Error(usage) for a missing '=', an
 /// empty key or a key given twice.
@@ -107,8 +130,31 @@ class OutputWriter {
   io::OutputSet set_;
 };
 
-/// Parses --threads (>= 0; 0 = all hardware threads). Throws Error(usage).
-int check_threads(int threads);
+/// --threads on `cmd` (0 = all hardware threads, at most 1024).
+CLI::Option* add_threads(CLI::App* cmd, int& threads, const std::string& help);
+
+/// Runs `fn`; an allocation that fails inside it (std::bad_alloc, std::length_error) becomes
+/// Error(bad_input) "out of memory while <what>" (exit 3), never an internal error.
+template <typename F>
+auto while_doing(const std::string& what, F&& fn) -> decltype(fn());
+[[noreturn]] void out_of_memory(const std::string& what);
+
+template <typename F>
+auto while_doing(const std::string& what, F&& fn) -> decltype(fn()) {
+  try {
+    return fn();
+  } catch (const std::bad_alloc&) {
+    out_of_memory(what);
+  } catch (const std::length_error&) {
+    out_of_memory(what);
+  }
+}
+
+template <typename T>
+CLI::Option* add_number(CLI::App* cmd, const std::string& flag, T& var, const std::string& help, std::string row) {
+  if (row.empty()) row = flag;
+  return cmd->add_option(flag, var, help + " [" + range_text(numeric_range(row)) + "]")->transform(range_check(row));
+}
 
 /// Parses --backend cpu|vulkan. Throws Error(usage).
 Backend parse_backend(const std::string& text);

@@ -214,12 +214,19 @@ nlohmann::json spawn_child(const std::string& method, Size size, int threads, in
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
-  int fds[2];
+  int fds[2], errs[2];
   if (pipe(fds) != 0) throw_internal("bench: pipe failed");
+  if (pipe(errs) != 0) {
+    close(fds[0]);
+    close(fds[1]);
+    throw_internal("bench: pipe failed");
+  }
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_adddup2(&fa, fds[1], 1);
+  posix_spawn_file_actions_adddup2(&fa, errs[1], 2);  // the child's error line, for ours
   posix_spawn_file_actions_addclose(&fa, fds[0]);
+  posix_spawn_file_actions_addclose(&fa, errs[0]);
   pid_t pid;
   char exe[4096];
   const ssize_t n = readlink(self.c_str(), exe, sizeof(exe) - 1);
@@ -228,15 +235,31 @@ nlohmann::json spawn_child(const std::string& method, Size size, int threads, in
   if (posix_spawn(&pid, exe, &fa, nullptr, argv.data(), environ) != 0) throw_internal("bench: spawn failed");
   posix_spawn_file_actions_destroy(&fa);
   close(fds[1]);
-  std::string out;
+  close(errs[1]);
+  std::string out, err;
   char buf[4096];
   ssize_t k;
   while ((k = read(fds[0], buf, sizeof buf)) > 0) out.append(buf, k);
   close(fds[0]);
+  while ((k = read(errs[0], buf, sizeof buf)) > 0) err.append(buf, k);
+  close(errs[0]);
   int status = 0;
   waitpid(pid, &status, 0);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw_internal("bench: method " + method + " failed at " + std::to_string(size.w) + "x" + std::to_string(size.h));
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    // The child's own one-line error, with its kind (a bad parameter is the user's, exit 2).
+    std::string line = err.substr(0, err.find('\n'));
+    for (const char* prefix : {"dofkit: error: ", "dofkit: internal error: ", "dofkit: "})
+      if (line.rfind(prefix, 0) == 0) {
+        line = line.substr(std::strlen(prefix));
+        break;
+      }
+    const std::string where = "bench: method " + method + " at " + std::to_string(size.w) + "x" +
+                              std::to_string(size.h) + ": " + (line.empty() ? "failed" : line);
+    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 1;
+    if (code == 2) throw_usage(where);
+    if (code == 3) throw_bad_input(where);
+    throw_internal(where + (WIFSIGNALED(status) ? " (killed by signal " + std::to_string(WTERMSIG(status)) + ")" : ""));
+  }
   return nlohmann::json::parse(out);
 }
 
@@ -311,9 +334,9 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--size", opts->sizes, "frame size WxH (repeatable; default 1920x1080 and 3840x2160)");
   cmd->add_option("--methods", opts->methods,
                   "comma-separated methods, optionally with parameters as name:key=value,key=value (default: all)");
-  cmd->add_option("--threads", opts->threads, "worker threads (default: all hardware threads)");
-  cmd->add_option("--iterations", opts->iterations, "timed runs per method after one warm-up (default 7)")
-      ->check(CLI::Range(1, 1000));
+  add_threads(cmd, opts->threads, "worker threads (default: all hardware threads)");
+  add_number(cmd, "--iterations", opts->iterations, "timed runs per method after one warm-up (default 7)",
+             "bench --iterations");
   cmd->add_flag("--json", opts->json, "print a JSON list instead of a table");
   cmd->add_option("--write-frame", opts->write_frame,
                   "write the synthetic frame of the first --size (default 1920x1080) as DIR/color.exr and "
@@ -338,7 +361,6 @@ void add_bench_command(CLI::App& app) {
       sizes.push_back(z);
     }
     if (sizes.empty()) sizes = {{1920, 1080}, {3840, 2160}};
-    if (opts->threads < 0) throw_usage("--threads: must be >= 0");
     const int threads = opts->threads > 0 ? opts->threads : core::hardware_threads();
     const std::vector<std::string> targets = core::simd_targets();
     std::string target_list;
@@ -380,6 +402,15 @@ void add_bench_command(CLI::App& app) {
         if (spec.name == "input") throw_usage("--methods: 'input' is not a method to time");
         names.push_back(spec.label);
       }
+    }
+    // Every method and its parameters are checked here, on a tiny frame, before the first
+    // child is spawned: a bad value is the user's error (exit 2), said once.
+    for (const std::string& m : names) {
+      const RenderSettings probe_settings = bench_settings(m, 16, 1, Backend::cpu);
+      Frame probe;
+      probe.color = Image(16, 16, 4, 0.5f);
+      probe.depth = Image(16, 16, 1, 2.0f);
+      (void)render(probe, probe_settings);
     }
     if (backend == Backend::vulkan) {
       if (opts->methods.empty()) names = gpu::supported_methods();

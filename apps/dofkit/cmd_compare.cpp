@@ -9,6 +9,8 @@
 #include <fmt/core.h>
 #include <nlohmann/json.hpp>
 
+#include "budget.hpp"
+#include "cli_common.hpp"
 #include "commands.hpp"
 #include "dofkit/error.hpp"
 #include "io/image_io.hpp"
@@ -36,6 +38,7 @@ void add_compare_command(CLI::App& app) {
   struct Opts {
     std::string ref, test, depth, crop;
     bool json = false;
+    BudgetFlags budget;
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd =
@@ -52,7 +55,25 @@ void add_compare_command(CLI::App& app) {
       "score only the region X0,Y0,X1,Y1 (pixels; X1, Y1 exclusive); the edge band is found on the whole depth map");
   cmd->add_flag("--json", opts->json,
                 "print one JSON object (PSNR inf as the string \"inf\", undefined values as null)");
+  opts->budget.add(cmd);
   cmd->callback([opts] {
+    opts->budget.apply();
+    // Sizes before pixels: the headers first, compared, and the memory of the scores.
+    const io::ImageInfo ri = io::probe_image(opts->ref, "colour"), ti = io::probe_image(opts->test, "colour");
+    if (ri.width != ti.width || ri.height != ti.height)
+      throw_bad_input(fmt::format("compare: {} is {}x{} but {} is {}x{}", opts->ref, ri.width, ri.height, opts->test,
+                                  ti.width, ti.height));
+    if (!opts->depth.empty()) {
+      const io::ImageInfo di = io::probe_image(opts->depth, "depth");
+      if (di.width != ri.width || di.height != ri.height)
+        throw_bad_input(fmt::format("compare: depth {} is {}x{} but {} is {}x{}", opts->depth, di.width, di.height,
+                                    opts->ref, ri.width, ri.height));
+    }
+    // Two RGBA float images, the depth, the edge band, and the metrics' planes (~96 B/px).
+    check_memory(96u * 1024 * 1024 + static_cast<std::uint64_t>(ri.width) * ri.height * 160,
+                 fmt::format("comparing {}x{} images", ri.width, ri.height),
+                 "compare smaller images (--crop does not "
+                 "lower it: the whole images are read)");
     Image ref = io::read_color(opts->ref);
     Image test = io::read_color(opts->test);
     if (!ref.same_size(test))

@@ -6,7 +6,9 @@
 #include <iostream>
 #include <memory>
 
+#include "cli_common.hpp"
 #include "commands.hpp"
+#include "dofkit/error.hpp"
 #include "quality_run.hpp"
 
 namespace dofkit::cli {
@@ -19,6 +21,7 @@ void add_demo_command(CLI::App& app) {
     std::string out = "dofkit-demo", size = "480x270";
     int samples = 0, threads = 0;
     int layers = 4;  // the layered method gets the hidden surfaces it is designed for
+    BudgetFlags budget;
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd =
@@ -27,10 +30,14 @@ void add_demo_command(CLI::App& app) {
                          "writes contact sheets and the quality table to ./dofkit-demo/");
   cmd->add_option("--out", opts->out, "output folder (default ./dofkit-demo)");
   cmd->add_option("--size", opts->size, "scene size WxH in pixels (default 480x270)");
-  cmd->add_option("--samples", opts->samples, "ground-truth lens samples per pixel (default: the scene's own)");
-  cmd->add_option("--layers", opts->layers, "fragments per pixel in the input frames (default 4; 0 = plain RGB-D)");
-  cmd->add_option("--threads", opts->threads, "worker threads (default: all hardware threads)");
+  add_number(cmd, "--samples", opts->samples, "ground-truth lens samples per pixel (default: the scene's own)",
+             "demo --samples");
+  add_number(cmd, "--layers", opts->layers, "fragments per pixel in the input frames (default 4; 0 = plain RGB-D)",
+             "demo --layers");
+  add_threads(cmd, opts->threads, "worker threads (default: all hardware threads)");
+  opts->budget.add(cmd, false);
   cmd->callback([opts] {
+    opts->budget.apply();
     QualityOptions q;
     parse_size(opts->size, "--size", q.width, q.height);
     q.samples = opts->samples;
@@ -40,6 +47,10 @@ void add_demo_command(CLI::App& app) {
     q.command_line = "dofkit demo --size " + opts->size;
     if (opts->samples) q.command_line += " --samples " + std::to_string(opts->samples);
     q.command_line += " --layers " + std::to_string(opts->layers);
+    // A folder the tour cannot write is refused before its banner.
+    std::error_code ec;
+    if (std::filesystem::exists(opts->out, ec) && !std::filesystem::is_directory(opts->out, ec))
+      throw_bad_input("--out " + opts->out + ": exists and is not a folder");
     std::cerr << "dofkit demo: rendering the built-in scenes at " << opts->size
               << ", their thin-lens ground truth, and every method (this takes a minute or two)\n";
     const QualityResult r = run_quality(q);

@@ -4,6 +4,7 @@
 #include <memory>
 #include <sstream>
 
+#include "cli_common.hpp"
 #include "commands.hpp"
 #include "cli_common.hpp"
 #include "quality_run.hpp"
@@ -15,6 +16,7 @@ void add_quality_command(CLI::App& app) {
     std::string scenes, methods, size = "320x180", out = "dofkit-quality";
     std::vector<std::string> set;
     int samples = 0, threads = 0, layers = 0;
+    BudgetFlags budget;
     std::string backend = "cpu";
   };
   auto opts = std::make_shared<Opts>();
@@ -29,18 +31,22 @@ void add_quality_command(CLI::App& app) {
                   "with parameters name:key=value,key=value; input_layers=N sets that row's input layers "
                   "(default: input and every method)");
   cmd->add_option("--size", opts->size, "scene size WxH in pixels (default 320x180)");
-  cmd->add_option("--samples", opts->samples,
-                  "ground-truth lens samples per pixel (default: the scene's own, >= 45 dB noise floor)");
-  cmd->add_option("--layers", opts->layers,
-                  "fragments per pixel in the input frames (front to back; 0 = plain RGB-D, the default); "
-                  "a row may override it: layered:input_layers=4");
+  add_number(cmd, "--samples", opts->samples,
+             "ground-truth lens samples per pixel (default: the scene's own, >= 45 dB noise floor)",
+             "quality --samples");
+  add_number(cmd, "--layers", opts->layers,
+             "fragments per pixel in the input frames (front to back; 0 = plain RGB-D, the default); "
+             "a row may override it: layered:input_layers=4",
+             "quality --layers");
   cmd->add_option("--out", opts->out, "output folder (default ./dofkit-quality)");
-  cmd->add_option("--threads", opts->threads, "worker threads (default: all hardware threads)");
+  add_threads(cmd, opts->threads, "worker threads (default: all hardware threads)");
+  opts->budget.add(cmd, false);
   cmd->add_option("--set", opts->set, "method.key=value for every row of that method (repeatable)");
   cmd->add_option("--backend", opts->backend,
                   "cpu (default) or vulkan: run the methods on the GPU (give --methods from mcguire, sterna, "
                   "starcraft, and input)");
   cmd->callback([opts] {
+    opts->budget.apply();
     QualityOptions q;
     if (!opts->scenes.empty()) {
       std::istringstream in(opts->scenes);

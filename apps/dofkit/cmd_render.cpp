@@ -10,6 +10,10 @@
 // An error at any step leaves every output path of the frame as it was; with --frames,
 // steps 2–4 run frame by frame (one Renderer, its buffers reused), so the frames before a
 // failing one stay written.
+#include <sys/stat.h>
+
+#include <climits>
+
 #include <algorithm>
 #include <cctype>
 #include <chrono>
@@ -22,6 +26,7 @@
 #include <optional>
 #include <set>
 
+#include "budget.hpp"
 #include "chunks.hpp"
 #include "cli_common.hpp"
 #include "commands.hpp"
@@ -46,8 +51,9 @@ struct RenderArgs {
   int threads = 0;
   std::string backend = "cpu";
   int max_layers = 8;
-  long long max_pixels = io::kMaxPixels;
   int bits = 0;
+  double max_work = 0;  // 0 = the library's default
+  BudgetFlags budget;
   CameraFlags camera;
   DepthFlags depth_flags;
   FarmFlags farm;  // --chunk-index, --chunk-count, --chunk-from-env, --skip-existing (chunks.hpp)
@@ -82,75 +88,125 @@ Exit codes: 0 success, 2 usage error, 3 bad input (missing, corrupt or inconsist
 the failing frame's; the frames before it stay written).
 See docs/cli.md for the full reference.)";
 
-// --frames and the frame patterns of the paths. A pattern is a run of '#' (the frame number
-// zero-padded to the run's length: shot.####.exr → shot.0012.exr) or printf's %d / %0Nd.
+// --frames and the frame patterns of the paths (with --frames only; without it a path is
+// taken as written). A pattern is a run of '#' (the frame number zero-padded to the run's
+// length: shot.####.exr → shot.0012.exr), printf's %d (no padding) or %0Nd (zero-padded to N
+// digits); "%%" stands for one '%', as in printf. Any other '%' is a usage error, and so is a
+// width above kMaxFrameWidth (frame numbers have at most 9 digits).
+constexpr int kMaxFrameWidth = 16;
+constexpr long kMaxFrames = 100000;  // frames in one --frames range
+constexpr long kMaxFrameNumber = 999999999;
+
 struct FramePattern {
   std::size_t pos = 0, len = 0;  // the pattern's characters in the path
   int width = 0;                 // zero-padded to this many digits
 };
 
-std::optional<FramePattern> find_frame_pattern(const std::string& flag, const std::string& path) {
+// The pattern of `path` (none: nullopt) and the path with every "%%" made one '%'
+// (`unescaped`; positions in FramePattern refer to it).
+std::optional<FramePattern> find_frame_pattern(const std::string& flag, const std::string& path,
+                                               std::string& unescaped) {
   std::optional<FramePattern> found;
+  unescaped.clear();
   auto add = [&](FramePattern p) {
     if (found) throw_usage(flag + " " + path + ": more than one frame pattern (#### or %04d)");
+    if (p.width > kMaxFrameWidth)
+      throw_usage(flag + " " + path + ": a frame number padded to " + std::to_string(p.width) + " digits (at most " +
+                  std::to_string(kMaxFrameWidth) + ")");
     found = p;
   };
   for (std::size_t i = 0; i < path.size();) {
     if (path[i] == '#') {
       std::size_t j = i;
       while (j < path.size() && path[j] == '#') ++j;
-      add({i, j - i, static_cast<int>(j - i)});
+      add({unescaped.size(), j - i, static_cast<int>(j - i)});
+      unescaped.append(path, i, j - i);
       i = j;
     } else if (path[i] == '%') {
+      if (i + 1 < path.size() && path[i + 1] == '%') {  // "%%": a literal '%'
+        unescaped += '%';
+        i += 2;
+        continue;
+      }
       std::size_t j = i + 1;
       int width = 0;
+      bool zero = false;
       if (j < path.size() && path[j] == '0') {
+        zero = true;
         ++j;
-        while (j < path.size() && std::isdigit(static_cast<unsigned char>(path[j])) && width < 10)
-          width = width * 10 + (path[j++] - '0');
+        while (j < path.size() && std::isdigit(static_cast<unsigned char>(path[j]))) {
+          width = std::min(width * 10 + (path[j++] - '0'), 1000);
+        }
       }
-      if (j < path.size() && path[j] == 'd') {
-        add({i, j + 1 - i, width});
-        i = j + 1;
-      } else {
-        ++i;  // a literal '%'
-      }
+      if (j >= path.size() || path[j] != 'd' || (zero && width == 0))
+        throw_usage(flag + " " + path + ": '" + path.substr(i, std::min<std::size_t>(j + 1, path.size()) - i) +
+                    "' is not a frame pattern; use %d, %0Nd (N digits, zero-padded) or ####, and %% for a literal %");
+      add({unescaped.size(), j + 1 - i, width});
+      unescaped.append(path, i, j + 1 - i);
+      i = j + 1;
     } else {
-      ++i;
+      unescaped += path[i++];
     }
   }
   return found;
 }
 
-std::string expand_frame(const std::string& path, const FramePattern& p, int frame) {
+std::string expand_frame(const std::string& path, const FramePattern& p, long frame) {
   std::string n = std::to_string(frame);
   if (static_cast<int>(n.size()) < p.width) n.insert(0, static_cast<std::size_t>(p.width) - n.size(), '0');
   return path.substr(0, p.pos) + n + path.substr(p.pos + p.len);
 }
 
-// FIRST-LAST or FIRST-LASTxSTEP (inclusive, FIRST >= 0), or one frame number.
-std::vector<int> parse_frames(const std::string& text) {
+// A path the system can take: no name longer than NAME_MAX, the whole below PATH_MAX.
+void check_path_length(const std::string& flag, const std::string& path, long frame) {
+  std::size_t name = 0;
+  for (const char c : path) {
+    name = c == '/' ? 0 : name + 1;
+    if (name > NAME_MAX)
+      throw_usage(flag + " " + path + ": a name in frame " + std::to_string(frame) + "'s path is longer than " +
+                  std::to_string(NAME_MAX) + " bytes");
+  }
+  if (path.size() >= PATH_MAX)
+    throw_usage(flag + ": frame " + std::to_string(frame) + "'s path is longer than " + std::to_string(PATH_MAX - 1) +
+                " bytes");
+}
+
+// FIRST-LAST or FIRST-LASTxSTEP (inclusive, FIRST >= 0), or one frame number: digits only.
+struct FrameRange {
+  long first = 0, last = 0, step = 1;
+  long count() const { return (last - first) / step + 1; }
+  long at(long i) const { return first + i * step; }
+};
+FrameRange parse_frames(const std::string& text) {
   auto bad = [&] {
     throw_usage("--frames " + text +
-                ": expected FIRST-LAST or FIRST-LASTxSTEP (e.g. 1001-1100, 1-99x2), frame numbers >= 0");
+                ": expected FIRST-LAST or FIRST-LASTxSTEP (e.g. 1001-1100, 1-99x2), frame numbers 0 to " +
+                std::to_string(kMaxFrameNumber));
   };
-  long first = 0, last = 0, step = 1;
-  char dash = 0, x = 0;
-  int used = 0;
-  const char* s = text.c_str();
-  if (std::sscanf(s, "%ld%n", &first, &used) == 1 && s[used] == '\0') {
-    last = first;
-  } else if (std::sscanf(s, "%ld%c%ld%n", &first, &dash, &last, &used) == 3 && dash == '-' && s[used] == '\0') {
-  } else if (std::sscanf(s, "%ld%c%ld%c%ld%n", &first, &dash, &last, &x, &step, &used) == 5 && dash == '-' &&
-             x == 'x' && s[used] == '\0') {
-  } else {
-    bad();
+  std::size_t i = 0;
+  auto number = [&](long& out) {
+    const std::size_t start = i;
+    out = 0;
+    while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i])) && i - start < 10)
+      out = out * 10 + (text[i++] - '0');
+    if (i == start || i - start >= 10 || out > kMaxFrameNumber) bad();
+  };
+  FrameRange r;
+  number(r.first);
+  r.last = r.first;
+  if (i < text.size()) {
+    if (text[i++] != '-') bad();
+    number(r.last);
+    if (i < text.size()) {
+      if (text[i++] != 'x') bad();
+      number(r.step);
+    }
   }
-  if (first < 0 || last < first || step < 1 || last > 999999999) bad();
-  if ((last - first) / step + 1 > 1000000) throw_usage("--frames " + text + ": more than 1000000 frames");
-  std::vector<int> frames;
-  for (long f = first; f <= last; f += step) frames.push_back(static_cast<int>(f));
-  return frames;
+  if (i != text.size() || r.last < r.first || r.step < 1) bad();
+  if (r.count() > kMaxFrames)
+    throw_usage("--frames " + text + ": " + std::to_string(r.count()) + " frames, more than the limit of " +
+                std::to_string(kMaxFrames) + " in one run (split the range)");
+  return r;
 }
 
 void list_debug_views(const std::string& method) {
@@ -201,6 +257,11 @@ struct FramePaths {
   std::string color, depth, layers, mask, mask_depth, output, output_coc, debug_output;
   std::vector<NamedPath> inputs() const { return named(false); }
   std::vector<NamedPath> outputs() const { return named(true); }
+  std::vector<NamedPath> named_all() const {
+    std::vector<NamedPath> v = inputs(), o = outputs();
+    v.insert(v.end(), o.begin(), o.end());
+    return v;
+  }
 
  private:
   std::vector<NamedPath> named(bool outputs) const;
@@ -226,12 +287,92 @@ std::vector<NamedPath> FramePaths::named(bool outputs) const {
   return v;
 }
 
+// File identity for the overlap checks of a sequence: an existing file by its device and
+// inode (so symlinks and hard links match), a new one by its folder's canonical path (cached
+// per folder) and its name. An output's folder must exist and the output must not be one.
+class FileKeys {
+ public:
+  std::string of(const std::string& path, const NamedPath* output = nullptr) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0) {
+      if (output && S_ISDIR(st.st_mode)) throw_bad_input(output->flag + " " + path + ": is a folder");
+      return "i:" + std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino);
+    }
+    // Not there (yet): its folder, as written, canonicalised once, and its name.
+    const auto slash = path.rfind('/');
+    const std::string dir = slash == std::string::npos ? "." : path.substr(0, slash == 0 ? 1 : slash);
+    const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+    auto it = dirs_.find(dir);
+    if (it == dirs_.end()) {
+      std::error_code ec;
+      const std::filesystem::path c = std::filesystem::canonical(dir, ec);
+      it = dirs_.emplace(dir, ec || !std::filesystem::is_directory(c, ec) ? std::string() : c.string()).first;
+    }
+    if (it->second.empty() && output)
+      throw_bad_input(output->flag + " " + path + ": folder " + dir + " does not exist");
+    return "p:" + (it->second.empty() ? dir : it->second) + "/" + name;
+  }
+
+ private:
+  std::map<std::string, std::string> dirs_;
+};
+
 // Step 2 for one frame: the inputs, read and validated.
 struct FrameInputs {
   Frame frame;
   Image mask, mask_depth;
 };
-FrameInputs read_inputs(const RenderArgs& a, const FramePaths& p, const io::DepthOptions& depth_opt) {
+// Sizes before pixels: every input's header (no pixel decoded), their sizes compared, and
+// the frame's estimated memory held to --max-memory. A mismatch, a bomb or a request too large
+// for the machine is refused here, at the cost of reading a few headers.
+void check_frame_headers(const RenderArgs& a, const FramePaths& p, const RenderSettings& settings, bool sequence) {
+  struct Seen {
+    std::string path;
+    const char* what;
+    io::ImageInfo info;
+  };
+  std::vector<Seen> seen;
+  if (!p.color.empty()) seen.push_back({p.color, "colour", io::probe_image(p.color, "colour")});
+  if (!p.layers.empty()) seen.push_back({p.layers, "layers", io::probe_image(p.layers, "layered input")});
+  if (!p.depth.empty()) seen.push_back({p.depth, "depth", io::probe_image(p.depth, "depth")});
+  if (!p.mask.empty()) seen.push_back({p.mask, "mask", io::probe_image(p.mask, "mask")});
+  if (!p.mask_depth.empty()) seen.push_back({p.mask_depth, "mask depth", io::probe_image(p.mask_depth, "mask depth")});
+  const Seen& first = seen.front();
+  for (const Seen& s : seen)
+    if (s.info.width != first.info.width || s.info.height != first.info.height)
+      throw_bad_input(s.path + ": " + s.what + " is " + std::to_string(s.info.width) + "x" +
+                      std::to_string(s.info.height) + " but " + first.what + " " + first.path + " is " +
+                      std::to_string(first.info.width) + "x" + std::to_string(first.info.height));
+  FrameShape shape;
+  shape.width = first.info.width;
+  shape.height = first.info.height;
+  shape.mask = !p.mask.empty();
+  if (!p.layers.empty()) {
+    const io::ImageInfo& l = seen[p.color.empty() ? 0 : 1].info;
+    // Deep: as many layers as the deepest pixel has samples, at most --max-layers (not known
+    // before the samples are read: the most); layered EXR: five channels per layer.
+    shape.layers = l.deep || l.channels <= 0 ? a.max_layers : std::min(a.max_layers, (l.channels + 4) / 5);
+    shape.deep_sample_bytes = l.deep_sample_bytes;
+    if (!l.deep) shape.layer_file_channels = l.channels;
+  }
+  check_memory(render_frame_bytes(settings, shape, sequence),
+               "rendering " + std::to_string(shape.width) + "x" + std::to_string(shape.height) +
+                   (shape.layers ? " with " + std::to_string(shape.layers) + " layers" : std::string()) +
+                   " with method " + settings.method,
+               "use a smaller image" + std::string(shape.layers ? " or fewer --max-layers" : "") +
+                   ", or raise --max-memory if the machine has the memory");
+}
+
+FrameInputs read_inputs_checked(const RenderArgs& a, const FramePaths& p, const io::DepthOptions& depth_opt);
+
+FrameInputs read_inputs(const RenderArgs& a, const FramePaths& p, const io::DepthOptions& depth_opt,
+                        const RenderSettings& settings, bool sequence) {
+  check_frame_headers(a, p, settings, sequence);
+  return while_doing("reading " + (p.color.empty() ? p.layers : p.color) + " and the frame's other inputs",
+                     [&] { return read_inputs_checked(a, p, depth_opt); });
+}
+
+FrameInputs read_inputs_checked(const RenderArgs& a, const FramePaths& p, const io::DepthOptions& depth_opt) {
   FrameInputs in;
   Frame& frame = in.frame;
   if (p.layers.empty()) {
@@ -268,11 +409,23 @@ FrameInputs read_inputs(const RenderArgs& a, const FramePaths& p, const io::Dept
   return in;
 }
 
+void render_and_write(const RenderArgs& a, const FramePaths& p, const FrameInputs& in, RenderSettings& settings,
+                      std::optional<Renderer>& renderer, const io::WriteOptions& out_opt,
+                      const io::WriteOptions& coc_opt, const io::WriteOptions& debug_opt);
+
 // Steps 3–4 for one frame. `renderer` (kept across the frames of a sequence) is made on the
 // first call; masked renders go through render_masked.
 void render_frame(const RenderArgs& a, const FramePaths& p, const FrameInputs& in, RenderSettings& settings,
                   std::optional<Renderer>& renderer, const io::WriteOptions& out_opt, const io::WriteOptions& coc_opt,
                   const io::WriteOptions& debug_opt) {
+  while_doing("rendering " + std::to_string(in.frame.width()) + "x" + std::to_string(in.frame.height()) +
+                  " with method " + a.method + " and writing " + p.output,
+              [&] { render_and_write(a, p, in, settings, renderer, out_opt, coc_opt, debug_opt); });
+}
+
+void render_and_write(const RenderArgs& a, const FramePaths& p, const FrameInputs& in, RenderSettings& settings,
+                      std::optional<Renderer>& renderer, const io::WriteOptions& out_opt,
+                      const io::WriteOptions& coc_opt, const io::WriteOptions& debug_opt) {
   const Frame& frame = in.frame;
   settings.camera = a.camera.build(&frame.depth);
 
@@ -315,9 +468,7 @@ void run_render(RenderArgs& a) {
   if (a.debug_view.empty() && !a.debug_output.empty()) throw_usage("--debug-output: needs --debug-view NAME");
   if (a.mask.empty() != a.mask_depth.empty()) throw_usage("--mask and --mask-depth: give both or neither");
   if (!a.mask.empty() && !a.layers.empty()) throw_usage("--mask and --layers: cannot be combined");
-  if (a.max_layers < 1 || a.max_layers > 64) throw_usage("--max-layers: must be 1..64");
-  io::set_pixel_budget(a.max_pixels);
-  check_threads(a.threads);
+  a.budget.apply();
   a.camera.check();
   const io::DepthOptions depth_opt = a.depth_flags.build();
   RenderSettings settings;
@@ -325,6 +476,7 @@ void run_render(RenderArgs& a) {
   settings.params = params;
   settings.threads = a.threads;
   settings.debug_view = a.debug_view;
+  settings.max_work = a.max_work;
   settings.backend = parse_backend(a.backend);
 
   // --compression: every EXR output of the run (at least one must be EXR).
@@ -359,26 +511,30 @@ void run_render(RenderArgs& a) {
   // outputs need one (each frame its own files), and so does --color or --layers (else every
   // frame would render the same input); a depth, mask or mask depth without one serves every
   // frame.
-  std::vector<int> frames = a.frames.empty() ? std::vector<int>{-1} : parse_frames(a.frames);
-  if (const auto chunk = resolve_chunk(a.farm, a.frames, a.frames.empty() ? 0 : frames.size())) {
-    const ChunkRange r = chunk_range(frames.size(), chunk->index, chunk->count);
-    std::cerr << "dofkit: chunk " << chunk->index << " of " << chunk->count << " (from 0): frames " << frames[r.begin]
-              << ".." << frames[r.end - 1] << ", " << r.end - r.begin << " of the " << frames.size() << " of --frames "
-              << a.frames << "\n";
-    frames = std::vector<int>(frames.begin() + static_cast<std::ptrdiff_t>(r.begin),
-                              frames.begin() + static_cast<std::ptrdiff_t>(r.end));
+  const bool sequence = !a.frames.empty();
+  FrameRange range = sequence ? parse_frames(a.frames) : FrameRange{-1, -1, 1};
+  // A farm task's chunk of the list (chunks.hpp): a contiguous slice, so again a FrameRange.
+  if (const auto chunk = resolve_chunk(a.farm, a.frames, sequence ? static_cast<std::size_t>(range.count()) : 0)) {
+    const ChunkRange r = chunk_range(static_cast<std::size_t>(range.count()), chunk->index, chunk->count);
+    const long total = range.count();
+    range = FrameRange{range.at(static_cast<long>(r.begin)), range.at(static_cast<long>(r.end) - 1), range.step};
+    std::cerr << "dofkit: chunk " << chunk->index << " of " << chunk->count << " (from 0): frames " << range.first
+              << ".." << range.last << ", " << range.count() << " of the " << total << " of --frames " << a.frames
+              << "\n";
   }
-  const FramePaths given{a.color, a.depth, a.layers, a.mask, a.mask_depth, a.output, a.output_coc, a.debug_output};
+  FramePaths given{a.color, a.depth, a.layers, a.mask, a.mask_depth, a.output, a.output_coc, a.debug_output};
   std::optional<FramePattern> pattern[std::size(kFrameFields)];
-  if (!a.frames.empty()) {
+  if (sequence) {
     for (std::size_t k = 0; k < std::size(kFrameFields); ++k) {
       const FrameField& f = kFrameFields[k];
-      const std::string& path = given.*f.path;
+      std::string& path = given.*f.path;
       if (path.empty()) continue;
-      pattern[k] = find_frame_pattern(f.flag, path);
+      std::string unescaped;
+      pattern[k] = find_frame_pattern(f.flag, path, unescaped);
       if (f.output && !pattern[k])
         throw_usage(std::string(f.flag) + " " + path +
                     ": needs a frame pattern (#### or %04d) with --frames, so that every frame has its own file");
+      path = unescaped;
     }
     auto has_pattern = [&](std::string FramePaths::*path) {
       for (std::size_t k = 0; k < std::size(kFrameFields); ++k)
@@ -389,85 +545,97 @@ void run_render(RenderArgs& a) {
       throw_usage(std::string(a.layers.empty() ? "--color " + a.color : "--layers " + a.layers) +
                   ": needs a frame pattern (#### or %04d) with --frames");
   }
-  auto paths_of = [&](int frame) {
+  auto paths_of = [&](long frame) {
     FramePaths p = given;
     for (std::size_t k = 0; k < std::size(kFrameFields); ++k)
       if (pattern[k]) p.*kFrameFields[k].path = expand_frame(given.*kFrameFields[k].path, *pattern[k], frame);
     return p;
   };
-  std::vector<FramePaths> paths;
-  paths.reserve(frames.size());
-  for (const int f : frames) paths.push_back(paths_of(f));
   // Every frame's paths are checked before the first frame is read: no output may be an
   // input or another output of any frame (usage errors first), and with --frames every input
   // must exist (so a missing frame stops the run before anything is written).
-  std::set<std::filesystem::path> inputs_seen, outputs_seen;
-  auto canonical = [](const std::string& path) {
-    std::error_code ec;
-    return std::filesystem::weakly_canonical(std::filesystem::absolute(path), ec);
-  };
-  for (const FramePaths& p : paths) {
-    check_paths(p.inputs(), p.outputs());
-    if (a.frames.empty()) continue;
-    for (const NamedPath& in : p.inputs())
-      if (!in.path.empty()) inputs_seen.insert(canonical(in.path));
-    for (const NamedPath& out : p.outputs())
-      if (!out.path.empty() && !outputs_seen.insert(canonical(out.path)).second)
-        throw_usage(out.flag + " " + out.path + ": is also an output of another frame of --frames " + a.frames);
-  }
-  for (const auto& out : outputs_seen)
-    if (inputs_seen.count(out))
-      throw_usage("--frames " + a.frames + ": output " + out.string() + " is the input of another frame");
-  if (a.farm.skip_existing) {
-    std::size_t kept = 0;
-    for (std::size_t i = 0; i < frames.size(); ++i)
-      if (!outputs_exist(paths[i].outputs())) {
-        frames[kept] = frames[i];
-        paths[kept++] = paths[i];
+  if (!sequence) {
+    check_paths(given.inputs(), given.outputs());
+  } else {
+    // The longest numbers make the longest paths: the first and the last frame.
+    for (const long f : {range.first, range.at(range.count() - 1)})
+      for (const NamedPath& np : paths_of(f).named_all()) check_path_length(np.flag, np.path, f);
+    check_paths(paths_of(range.first).inputs(), paths_of(range.first).outputs());
+    // The overlaps of all frames, by file identity (cheap enough for 100,000 frames).
+    FileKeys keys;
+    std::map<std::string, std::pair<NamedPath, long>> inputs_seen, outputs_seen;
+    // (An input without a pattern is the same file in every frame: keyed once.)
+    for (std::size_t k = 0; k < std::size(kFrameFields); ++k) {
+      const FrameField& f = kFrameFields[k];
+      if (f.output || (given.*f.path).empty()) continue;
+      for (long i = 0; i < (pattern[k] ? range.count() : 1); ++i) {
+        const long frame = range.at(i);
+        const std::string path = pattern[k] ? expand_frame(given.*f.path, *pattern[k], frame) : given.*f.path;
+        inputs_seen.emplace(keys.of(path), std::make_pair(NamedPath{f.flag, path}, frame));
       }
-    std::cerr << "dofkit: --skip-existing: " << frames.size() - kept << " of " << frames.size()
-              << (frames.size() == 1 ? " frame" : " frames") << " already written, skipped\n";
-    frames.resize(kept);
-    paths.resize(kept);
+    }
+    for (long i = 0; i < range.count(); ++i)
+      for (const NamedPath& out : paths_of(range.at(i)).outputs()) {
+        if (out.path.empty()) continue;
+        const std::string key = keys.of(out.path, &out);
+        if (const auto it = inputs_seen.find(key); it != inputs_seen.end())
+          throw_usage(out.flag + " " + out.path + ": is the same file as " + it->second.first.flag + " " +
+                      it->second.first.path + " (frame " + std::to_string(it->second.second) +
+                      "; refusing to overwrite an input)");
+        if (!outputs_seen.emplace(key, std::make_pair(out, range.at(i))).second)
+          throw_usage(out.flag + " " + out.path + ": is also an output of another frame of --frames " + a.frames);
+      }
+  }
+  // The frames to render: all, or with --skip-existing those whose outputs do not all exist.
+  std::vector<long> frames;
+  for (long i = 0; i < range.count(); ++i)
+    if (!a.farm.skip_existing || !outputs_exist(paths_of(range.at(i)).outputs())) frames.push_back(range.at(i));
+  if (a.farm.skip_existing) {
+    std::cerr << "dofkit: --skip-existing: " << range.count() - static_cast<long>(frames.size()) << " of "
+              << range.count() << (range.count() == 1 ? " frame" : " frames") << " already written, skipped\n";
     if (frames.empty()) return;
   }
-  if (!a.frames.empty())
-    for (std::size_t i = 0; i < frames.size(); ++i)
-      for (const NamedPath& in : paths[i].inputs()) {
-        std::error_code ec;
-        if (!in.path.empty() && !std::filesystem::exists(in.path, ec))
-          throw_bad_input(in.flag + " " + in.path + ": does not exist (frame " + std::to_string(frames[i]) +
+  if (sequence) {
+    // Then the first missing input, in frame order, before any frame is read.
+    for (const long frame : frames)
+      for (const NamedPath& in : paths_of(frame).inputs()) {
+        struct stat st {};
+        if (!in.path.empty() && ::stat(in.path.c_str(), &st) != 0)
+          throw_bad_input(in.flag + " " + in.path + ": does not exist (frame " + std::to_string(frame) +
                           " of --frames " + a.frames + ")");
       }
+  }
 
   // 2–4, frame by frame. In a sequence the next frame's inputs are read on another thread
   // while this frame renders and is written; a read error is reported when that frame's turn
   // comes, after the frames before it are written.
   std::optional<Renderer> renderer;
   const auto t0 = std::chrono::steady_clock::now();
-  if (a.frames.empty()) {
-    render_frame(a, paths[0], read_inputs(a, paths[0], depth_opt), settings, renderer, out_opt, coc_opt, debug_opt);
+  if (!sequence) {
+    const FramePaths p = paths_of(-1);
+    render_frame(a, p, read_inputs(a, p, depth_opt, settings, false), settings, renderer, out_opt, coc_opt, debug_opt);
   } else {
-    auto read_async = [&](std::size_t i) {
-      return std::async(std::launch::async, [&a, &depth_opt, &p = paths[i]] { return read_inputs(a, p, depth_opt); });
+    auto read_async = [&](long frame) {
+      return std::async(std::launch::async, [&a, &depth_opt, s = settings, p = paths_of(frame)] {
+        return read_inputs(a, p, depth_opt, s, true);
+      });
     };
     const GracefulStop stop;
-    std::future<FrameInputs> next = read_async(0);
+    std::future<FrameInputs> next = read_async(frames[0]);
     for (std::size_t i = 0; i < frames.size(); ++i) {
       if (i > 0)
         GracefulStop::stop_if_requested("stopped by SIGTERM after " + std::to_string(i) + " of " +
                                         std::to_string(frames.size()) + " frames; frame " + std::to_string(frames[i]) +
                                         " on not rendered (rerun with --skip-existing to resume)");
       const FrameInputs in = next.get();
-      if (i + 1 < frames.size()) next = read_async(i + 1);
-      render_frame(a, paths[i], in, settings, renderer, out_opt, coc_opt, debug_opt);
+      if (i + 1 < frames.size()) next = read_async(frames[i + 1]);
+      render_frame(a, paths_of(frames[i]), in, settings, renderer, out_opt, coc_opt, debug_opt);
     }
-  }
-  if (!a.frames.empty())
     std::cerr << "dofkit: " << frames.size() << " frames in "
               << static_cast<long>(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1000 +
                                    0.5)
               << " ms\n";
+  }
 }
 
 }  // namespace
@@ -489,10 +657,8 @@ void add_render_command(CLI::App& app) {
          "multi-fragment input for the layered method: deep EXR or the layered EXR of `dofkit scene --layers`; "
          "without --color its front-to-back composite is the colour")
       ->group(in);
-  cmd->add_option("--max-pixels", args->max_pixels,
-                  "refuse input files whose header declares more than this many pixels (width x height), "
-                  "checked before any pixel memory is allocated (default 268435456 = 2^28)");
-  cmd->add_option("--max-layers", args->max_layers, "--layers: keep at most this many fragments per pixel (default 8)")
+  args->budget.add(cmd);
+  add_number(cmd, "--max-layers", args->max_layers, "--layers: keep at most this many fragments per pixel (default 8)")
       ->group(in);
   cmd->add_option("--mask", args->mask,
                   "transparency coverage 0..1 (single channel, or the alpha of a multi-channel file): re-render there "
@@ -508,9 +674,12 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--set", args->sets, "KEY=VALUE method parameter, repeatable (see `dofkit methods`)")
       ->allow_extra_args(false)
       ->group(meth);
-  cmd->add_option("--threads", args->threads,
-                  "worker threads, 0 = all hardware threads (default); output is identical "
-                  "for every count")
+  add_threads(cmd, args->threads,
+              "worker threads, 0 = all hardware threads (default); output is identical for every count")
+      ->group(meth);
+  add_number(cmd, "--max-work", args->max_work,
+             "reference / scatter: refuse a frame whose discs need more pixel visits than this (default 2e11, about "
+             "half a minute on two cores); see docs/robustness.md")
       ->group(meth);
   cmd->add_option("--backend", args->backend,
                   "cpu (default) or vulkan: run the method's passes as Vulkan compute shaders on the GPU "
@@ -522,17 +691,17 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--output", args->output,
                   "result image: .exr (float, linear, premultiplied RGBA), .png/.tif (sRGB, straight alpha), .jpg")
       ->group(outg);
-  cmd->add_option("--bits", args->bits,
-                  "bits per channel of --output: EXR 32 (default) or 16 (half); PNG/TIFF 8 (default) or 16; TIFF 32 "
-                  "(float)")
+  add_number(cmd, "--bits", args->bits,
+             "bits per channel of --output: EXR 32 (default) or 16 (half); PNG/TIFF 8 (default) or 16; TIFF 32 "
+             "(float)")
       ->group(outg);
   cmd->add_option("--compression", args->compression,
                   "compression of every .exr output: none, rle, zips, zip (default), piz, or the lossy pxr24, b44, "
                   "b44a, dwaa, dwab. none writes a 1080p float frame ~4x faster than zip and ~40 % larger")
       ->group(outg);
-  cmd->add_option("--png-level", args->png_level,
-                  "zlib level of every .png output, 0 (stored, fastest) to 9 (smallest); default 6. A 1080p call with "
-                  "a PNG out takes ~0.34 s at level 1 against ~0.63 s at 6, for a ~16 % larger file")
+  add_number(cmd, "--png-level", args->png_level,
+             "zlib level of every .png output, 0 (stored, fastest) to 9 (smallest); default 6. A 1080p call with "
+             "a PNG out takes ~0.34 s at level 1 against ~0.63 s at 6, for a ~16 % larger file")
       ->group(outg);
   cmd->add_option("--output-coc", args->output_coc,
                   "also write the signed CoC radius used, pixels (> 0 near, < 0 far), as a single-channel float EXR")
@@ -542,8 +711,14 @@ void add_render_command(CLI::App& app) {
                   "FIRST-LAST[xSTEP]: render a numbered sequence in one process (one Renderer, buffers reused); "
                   "the frame number replaces a #### run (zero-padded to its length) or %d / %04d in the paths. "
                   "--output (and --output-coc, --debug-output) and --color or --layers need one; a path without one "
-                  "serves every frame. Every frame's inputs must exist before the first is rendered; an error stops "
-                  "the run and keeps the frames written before it")
+                  "serves every frame; %% is a literal %. At most 100000 frames. Every frame's inputs must exist "
+                  "before the first is rendered; an error stops the run and keeps the frames written before it")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            if (v.empty()) throw_usage("--frames: empty (expected FIRST-LAST or FIRST-LASTxSTEP)");
+            return {};
+          },
+          "", "non-empty"))
       ->group(in);
   cmd->callback([args] { run_render(*args); });
 }

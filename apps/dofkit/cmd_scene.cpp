@@ -14,10 +14,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "budget.hpp"
+#include "cli_common.hpp"
 #include "commands.hpp"
 #include "quality_run.hpp"
 #include "dofkit/error.hpp"
 #include "io/image_io.hpp"
+#include "io/atomic_write.hpp"
 #include "io/layers_io.hpp"
 #include "scene/scene.hpp"
 
@@ -38,6 +41,7 @@ struct SceneArgs {
   std::uint64_t seed = 1;
   int threads = 0;
   bool list = false;
+  BudgetFlags budget;
 };
 
 // Shortest decimal that reads back as the same double (for flags that must reproduce exactly).
@@ -57,8 +61,7 @@ void run_scene(const SceneArgs& a) {
   }
   if (a.name.empty()) throw_usage("scene: a scene NAME is required (see dofkit scene --list)");
   if (a.out.empty()) throw_usage("scene: --out DIR is required");
-  if (a.layers < 0 || a.layers > 64) throw_usage("--layers: must be 0..64");
-  if (a.threads < 0) throw_usage("--threads: must be >= 0");
+  a.budget.apply();
 
   scene::SceneOptions opt;
   parse_size(a.size, "--size", opt.width, opt.height);
@@ -72,8 +75,20 @@ void run_scene(const SceneArgs& a) {
   opt.threads = a.threads;
   // Validates the name and every option before anything is rendered or written.
   const scene::SceneDefaults d = scene::scene_defaults(a.name, opt);
+  // The size is an image like any other: within --max-pixels and, with its layers, the memory.
+  const long long px = static_cast<long long>(opt.width) * opt.height;
+  if (px > io::pixel_budget())
+    throw_usage("--size " + a.size + ": " + std::to_string(px) + " pixels, more than the limit of " +
+                std::to_string(io::pixel_budget()) + " (--max-pixels)");
+  check_memory(scene_bytes(opt.width, opt.height, opt.layers),
+               "scene " + a.name + " at " + a.size +
+                   (a.layers ? " with " + std::to_string(a.layers) + " layers" : std::string()),
+               "use a smaller --size or fewer --layers");
 
   std::error_code ec;
+  const std::filesystem::path out_dir(a.out);
+  if (std::filesystem::exists(out_dir, ec) && !std::filesystem::is_directory(out_dir, ec))
+    throw_bad_input("--out " + a.out + ": exists and is not a folder");
   std::filesystem::create_directories(a.out, ec);
   if (ec || !std::filesystem::is_directory(a.out))
     throw_bad_input("--out: cannot create directory '" + a.out + "': " + ec.message());
@@ -127,20 +142,16 @@ void run_scene(const SceneArgs& a) {
   j["ground_truth_seconds"] = seconds;
   j["files"] = {{"color", "color.exr"}, {"depth", "depth.exr"}, {"ground_truth", "ground_truth.exr"}};
   if (a.layers > 0) j["files"]["layers"] = "layers.exr";
-  // Written through a temporary file + rename like every other output.
-  const auto tmp = dir / ".params.json.tmp";
-  {
-    std::FILE* f = std::fopen(tmp.string().c_str(), "wb");
-    if (!f) throw_bad_input("--out: cannot write '" + tmp.string() + "'");
+  // Written through a temporary file + rename like every other output (atomic_write.hpp: an
+  // unpredictable name created with O_EXCL, never through a symlink planted in the folder).
+  const std::string params_path = (dir / "params.json").string();
+  io::write_atomically(params_path, [&](const std::string& temp) {
+    std::FILE* f = std::fopen(temp.c_str(), "wb");
+    if (!f) throw_bad_input("--out: cannot write '" + params_path + "'");
     const std::string s = j.dump(2) + "\n";
     const bool ok = std::fwrite(s.data(), 1, s.size(), f) == s.size();
-    if (std::fclose(f) != 0 || !ok) {
-      std::filesystem::remove(tmp, ec);
-      throw_bad_input("--out: cannot write '" + tmp.string() + "'");
-    }
-  }
-  std::filesystem::rename(tmp, dir / "params.json", ec);
-  if (ec) throw_bad_input("--out: cannot write '" + (dir / "params.json").string() + "': " + ec.message());
+    if (std::fclose(f) != 0 || !ok) throw_bad_input("--out: cannot write '" + params_path + "'");
+  });
   std::cout << "wrote " << a.out << "/{color,depth" << (a.layers > 0 ? ",layers" : "")
             << ",ground_truth}.exr and params.json; reproduce the camera with: dofkit render " << flags.str() << "\n";
 }
@@ -156,20 +167,23 @@ void add_scene_command(CLI::App& app) {
   cmd->add_option("name", args->name, "scene name (see --list)");
   cmd->add_flag("--list", args->list, "list the built-in scenes with a description");
   cmd->add_option("--out", args->out, "output directory (created if missing)");
-  cmd->add_option("--size", args->size, "image size WIDTHxHEIGHT in px (default 640x360)");
-  cmd->add_option("--samples", args->samples,
-                  "lens samples per pixel for the ground truth (default: the scene's, enough for >= 45 dB "
-                  "between two seeds at 640x360)");
-  cmd->add_option("--focus", args->focus_m, "focus distance z_F in metres (default: the scene's)");
-  cmd->add_option("--blur-at-infinity", args->blur_px,
-                  "blur radius K of a point at infinity, px at the rendered width (default: the scene's, "
-                  "scaled from 640 px wide)");
-  cmd->add_option("--layers", args->layers,
-                  "surfaces per pixel written to layers.exr, front to back (0 = none; default 4)");
-  cmd->add_option("--blades", args->blades, "aperture blades: 0 = circular, >= 3 = regular polygon");
-  cmd->add_option("--rotation", args->rotation_deg, "aperture polygon rotation in degrees");
+  cmd->add_option("--size", args->size, "image size WIDTHxHEIGHT in px (default 640x360; each 1 to 16384)");
+  add_number(cmd, "--samples", args->samples,
+             "lens samples per pixel for the ground truth (default: the scene's, enough for >= 45 dB "
+             "between two seeds at 640x360)",
+             "scene --samples");
+  add_number(cmd, "--focus", args->focus_m, "focus distance z_F in metres (default: the scene's)", "scene --focus");
+  add_number(cmd, "--blur-at-infinity", args->blur_px,
+             "blur radius K of a point at infinity, px at the rendered width (default: the scene's, "
+             "scaled from 640 px wide)",
+             "scene --blur-at-infinity");
+  add_number(cmd, "--layers", args->layers,
+             "surfaces per pixel written to layers.exr, front to back (0 = none; default 4)", "scene --layers");
+  add_number(cmd, "--blades", args->blades, "aperture blades: 0 = circular, >= 3 = regular polygon", "scene --blades");
+  add_number(cmd, "--rotation", args->rotation_deg, "aperture polygon rotation in degrees", "scene --rotation");
   cmd->add_option("--seed", args->seed, "lens sampling seed (default 1)");
-  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)");
+  add_threads(cmd, args->threads, "worker threads (0 = all cores)");
+  args->budget.add(cmd);
   cmd->callback([args] { run_scene(*args); });
 }
 

@@ -17,8 +17,10 @@
 #include <fmt/core.h>
 #include <nlohmann/json.hpp>
 
+#include "budget.hpp"
 #include "core/parallel.hpp"
 #include "dofkit/error.hpp"
+#include "dofkit/ranges.hpp"
 #include "dofkit/render.hpp"
 #include "io/atomic_write.hpp"
 #include "io/image_io.hpp"
@@ -201,7 +203,7 @@ QualityResult run_quality(const QualityOptions& opt) {
   const std::vector<MethodSpec> specs = opt.methods.empty() ? default_method_list() : opt.methods;
   const std::vector<std::string> scenes = opt.scenes.empty() ? scene::scene_names() : opt.scenes;
   if (opt.out_dir.empty()) throw_usage("--out: no output folder given");
-  if (opt.threads < 0) throw_usage("--threads: must be >= 0");
+  check_number("--threads", opt.threads);
   if (opt.samples < 0) throw_usage("--samples: must be >= 0");
   const auto known_scenes = scene::scene_names();
   for (const auto& s : scenes)
@@ -229,14 +231,26 @@ QualityResult run_quality(const QualityOptions& opt) {
     render(probe, s);
   }
 
-  std::error_code ec;
-  fs::create_directories(opt.out_dir, ec);
-  if (ec || !fs::is_directory(opt.out_dir))
-    throw_bad_input("--out " + opt.out_dir + ": cannot create the folder (" + ec.message() + ")");
-
   if (opt.layers < 0 || opt.layers > 16) throw_usage("--layers: expected 0..16");
   int max_layers = opt.layers;
   for (const auto& m : specs) max_layers = std::max(max_layers, m.input_layers);
+  // The memory of the largest step: one scene (its frame, layers and ground truth) and the
+  // costliest row's render of it, with the contact sheet's tiles.
+  std::uint64_t render_peak = 0;
+  for (std::size_t i = 0; i < specs.size(); ++i)
+    if (specs[i].name != "input")
+      render_peak = std::max(render_peak, render_memory_bytes(settings[i], opt.width, opt.height, max_layers));
+  check_memory(scene_bytes(opt.width, opt.height, max_layers) + render_peak +
+                   static_cast<std::uint64_t>(opt.width) * opt.height * 16 * (specs.size() + 2),
+               "scoring at " + std::to_string(opt.width) + "x" + std::to_string(opt.height), "use a smaller --size");
+
+  // Nothing is created before every option is known to be good.
+  std::error_code ec;
+  if (fs::exists(opt.out_dir, ec) && !fs::is_directory(opt.out_dir, ec))
+    throw_bad_input("--out " + opt.out_dir + ": exists and is not a folder");
+  fs::create_directories(opt.out_dir, ec);
+  if (ec || !fs::is_directory(opt.out_dir))
+    throw_bad_input("--out " + opt.out_dir + ": cannot create the folder (" + ec.message() + ")");
 
   QualityResult result;
   Progress progress;

@@ -1,5 +1,6 @@
 // dofkit — rendering depth of field.
 #pragma once
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <string>
@@ -26,15 +27,28 @@ struct RenderSettings {
   /// Method parameters as key → value text (the CLI's `--set k=v`). Unknown keys and
   /// out-of-range values throw Error(usage) naming the key.
   std::map<std::string, std::string> params;
-  /// Worker threads; 0 = all hardware threads. Output is identical for every count.
+  /// Worker threads; 0 = all hardware threads, at most kMaxThreads. Output is identical for
+  /// every count.
   int threads = 0;
   /// Name of an intermediate buffer to return in RenderResult::debug ("" = none).
   /// See MethodInfo::debug_views.
   std::string debug_view;
+  /// The most work the disc scatter of `reference` and `scatter` may take, in pixel visits
+  /// (a source's disc covers about (2r + 1)² receivers): a frame whose CoC map implies more is
+  /// refused with Error(usage) before it is scattered (the CLI's --max-work). 0 = the
+  /// default, kDefaultMaxWork. The gather methods cost a bounded number of samples per pixel
+  /// and have no such limit.
+  double max_work = 0;
   /// cpu, or vulkan (GPU compute shaders; a build or machine without Vulkan throws
   /// Error(internal) naming the reason when a Renderer is made).
   Backend backend = Backend::cpu;
 };
+
+/// --threads' maximum.
+inline constexpr int kMaxThreads = 1024;
+/// The default RenderSettings::max_work: about half a minute of the reference method on two
+/// cores (it visits ~7e9 pixels a second there).
+inline constexpr double kDefaultMaxWork = 2e11;
 
 /// The result of a render.
 struct RenderResult {
@@ -80,6 +94,11 @@ class Renderer {
 /// transparency that did not write depth — and blends the second result in by the mask.
 RenderResult render_masked(const Frame& frame, const Image& mask, const Image& mask_depth,
                            const RenderSettings& settings);
+
+/// An upper estimate of the memory render() allocates for a frame of `width` × `height`
+/// pixels with `layers` extra layers (bytes): the result and the CoC map, a sanitised copy
+/// of the colour, the method's scratch buffers (measured per method; docs/robustness.md).
+std::uint64_t render_memory_bytes(const RenderSettings& settings, int width, int height, int layers = 0);
 
 /// Computes the signed, clamped CoC map (pixels) of a depth map for a camera.
 Image compute_coc(const Image& depth, const CameraModel& camera, int threads = 0);

@@ -7,6 +7,7 @@
 
 #include "core/clones.hpp"
 #include "dofkit/error.hpp"
+#include "dofkit/ranges.hpp"
 
 namespace dofkit {
 
@@ -65,48 +66,44 @@ BlurAtInfinity to_blur_at_infinity(const ThinLens& lens, double image_width_px) 
 }
 
 void validate(const CameraModel& camera) {
-  require(!(camera.max_coc_px <= 0) && !std::isnan(camera.max_coc_px),
-          "--max-coc: must be > 0 pixels (got " + num(camera.max_coc_px) + ")");
-  require(camera.reference_width_px >= 0 && std::isfinite(camera.reference_width_px),
-          "reference width must be >= 0 pixels");
+  // Each value in its documented range (dofkit/ranges.hpp), then the rules between them.
+  if (!(std::isinf(camera.max_coc_px) && camera.max_coc_px > 0)) check_number("--max-coc", camera.max_coc_px);
+  if (camera.reference_width_px != 0) check_number("--reference-width", camera.reference_width_px);
   std::visit(
       [](const auto& m) {
         using T = std::decay_t<decltype(m)>;
-        auto finite_pos = [](double v) { return std::isfinite(v) && v > 0; };
         if constexpr (std::is_same_v<T, ThinLens>) {
-          require(finite_pos(m.f_number), "--f-number: must be > 0 (got " + num(m.f_number) + ")");
-          require(finite_pos(m.focal_length_mm), "--focal-length: must be > 0 mm (got " + num(m.focal_length_mm) + ")");
-          require(finite_pos(m.sensor_width_mm), "--sensor-width: must be > 0 mm (got " + num(m.sensor_width_mm) + ")");
-          require(std::isfinite(m.focus_distance_m) && m.focus_distance_m * 1000.0 > m.focal_length_mm,
-                  "--focus: must be farther than the focal length (" + num(m.focal_length_mm) + " mm); got " +
-                      num(m.focus_distance_m) + " m");
+          check_number("--f-number", m.f_number);
+          check_number("--focal-length", m.focal_length_mm);
+          check_number("--sensor-width", m.sensor_width_mm);
+          check_number("--focus", m.focus_distance_m);
+          require(m.focus_distance_m * 1000.0 > m.focal_length_mm,
+                  "--focus " + num(m.focus_distance_m) + ": must be farther than the focal length (--focal-length " +
+                      num(m.focal_length_mm) + " mm)");
         } else if constexpr (std::is_same_v<T, BlurAtInfinity>) {
-          require(finite_pos(m.focus_distance_m), "--focus: must be > 0 m (got " + num(m.focus_distance_m) + ")");
-          require(std::isfinite(m.blur_at_infinity_px) && m.blur_at_infinity_px >= 0,
-                  "--blur-at-infinity: must be >= 0 px (got " + num(m.blur_at_infinity_px) + ")");
+          check_number("--focus", m.focus_distance_m);
+          check_number("--blur-at-infinity", m.blur_at_infinity_px);
         } else if constexpr (std::is_same_v<T, FourPlane>) {
-          require(finite_pos(m.near_blurry_m) && m.near_blurry_m < m.near_sharp_m && m.near_sharp_m <= m.far_sharp_m &&
+          for (double v : {m.near_blurry_m, m.near_sharp_m, m.far_sharp_m, m.far_blurry_m}) check_number("--planes", v);
+          require(m.near_blurry_m < m.near_sharp_m && m.near_sharp_m <= m.far_sharp_m &&
                       m.far_sharp_m < m.far_blurry_m && std::isfinite(m.far_sharp_m),
                   "--planes: need 0 < NB < NS <= FS < FB (got " + num(m.near_blurry_m) + "," + num(m.near_sharp_m) +
                       "," + num(m.far_sharp_m) + "," + num(m.far_blurry_m) + ")");
-          require(std::isfinite(m.near_radius_px) && m.near_radius_px >= 0,
-                  "--near-radius: must be >= 0 px (got " + num(m.near_radius_px) + ")");
-          require(std::isfinite(m.far_radius_px) && m.far_radius_px >= 0,
-                  "--far-radius: must be >= 0 px (got " + num(m.far_radius_px) + ")");
+          check_number("--near-radius", m.near_radius_px);
+          check_number("--far-radius", m.far_radius_px);
         } else if constexpr (std::is_same_v<T, StarCraft>) {
-          require(finite_pos(m.focus_distance_m), "--starcraft: FOCUS must be > 0 m");
-          require(std::isfinite(m.full_focus_range_m) && m.full_focus_range_m >= 0, "--starcraft: FULL must be >= 0 m");
-          require(std::isfinite(m.no_focus_range_m) && m.no_focus_range_m > m.full_focus_range_m,
-                  "--starcraft: NONE must be greater than FULL");
-          require(std::isfinite(m.amount) && m.amount >= 0, "--starcraft: AMOUNT must be >= 0");
-          require(std::isfinite(m.max_radius_px) && m.max_radius_px >= 0,
-                  "--starcraft: the maximum radius must be >= 0 px");
+          for (double v : {m.focus_distance_m, m.full_focus_range_m, m.no_focus_range_m})
+            check_number("--starcraft", v);
+          check_number("--starcraft AMOUNT", m.amount);
+          require(m.focus_distance_m > 0, "--starcraft: FOCUS must be > 0 m");
+          require(m.no_focus_range_m > m.full_focus_range_m, "--starcraft: NONE must be greater than FULL");
+          check_number("--max-radius", m.max_radius_px);
         } else if constexpr (std::is_same_v<T, NearFarBlend>) {
-          require(m.near_begin_m >= 0 && m.near_begin_m < m.near_end_m && m.near_end_m <= m.far_begin_m &&
-                      m.far_begin_m < m.far_end_m && std::isfinite(m.far_begin_m),
-                  "near/far blend: need 0 <= nb < ne <= fb < fe");
-          require(std::isfinite(m.max_radius_px) && m.max_radius_px >= 0,
-                  "near/far blend: the maximum radius must be >= 0 px");
+          for (double v : {m.near_begin_m, m.near_end_m, m.far_begin_m, m.far_end_m}) check_number("--near-far", v);
+          require(m.near_begin_m < m.near_end_m && m.near_end_m <= m.far_begin_m && m.far_begin_m < m.far_end_m,
+                  "--near-far: need 0 <= NB < NE <= FB < FE (got " + num(m.near_begin_m) + "," + num(m.near_end_m) +
+                      "," + num(m.far_begin_m) + "," + num(m.far_end_m) + ")");
+          check_number("--max-radius", m.max_radius_px);
         }
       },
       camera.model);
@@ -128,6 +125,9 @@ CocFunction::CocFunction(const CameraModel& camera, int image_width_px) : model_
     k_ = b->blur_at_infinity_px * scale_;
     focus_ = b->focus_distance_m;
   }
+  // validate() keeps K finite; a camera that bypassed it must still never give a NaN radius
+  // (inf · 0 at the focus depth): K beyond 1e300 px is the same as the clamp anyway.
+  if (!(k_ <= 1e300)) k_ = std::isnan(k_) ? 0.0 : 1e300;
 }
 
 float CocFunction::operator()(float zf) const noexcept {

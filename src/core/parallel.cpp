@@ -1,10 +1,13 @@
 #include "core/parallel.hpp"
 
 #include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 #include <unistd.h>
+
+#include <optional>
 
 namespace dofkit::core {
 
@@ -24,6 +27,11 @@ void with_threads(int threads, const std::function<void()>& fn) {
     fn();
     return;
   }
+  // More threads than the machine has: oneTBB caps its workers at the hardware's count and
+  // prints a multi-line warning on stderr unless the cap is raised for the call (the callers
+  // check threads <= kMaxThreads = 1024). The output is the same for any count.
+  std::optional<tbb::global_control> cap;
+  if (threads > hardware_threads()) cap.emplace(tbb::global_control::max_allowed_parallelism, threads);
   tbb::task_arena arena(threads);
   arena.execute(fn);
 }

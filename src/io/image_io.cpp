@@ -150,15 +150,12 @@ bool open_direct(OpenedFile& f, const std::string& path, std::string& broken) {
     return true;
   };
   return taken(f.exr = exr::ScanlineReader::open(path)) || taken(f.png = png::Reader::open(path, &broken)) ||
-         (broken.empty() && (taken(f.jpg = jpeg::Reader::open(path)) || taken(f.tif = tiff::Reader::open(path))));
+         (broken.empty() && taken(f.jpg = jpeg::Reader::open(path, &broken))) ||
+         (broken.empty() && taken(f.tif = tiff::Reader::open(path)));
 }
 
 OpenedFile open_checked(const std::string& path, const char* role) {
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (ec || !fs::exists(st)) throw_bad_input(path + ": " + role + " file does not exist");
-  if (fs::is_directory(st)) throw_bad_input(path + ": " + role + " path is a folder, not an image");
-  check_file_header(path, role);
+  check_file_header(path, role);  // a regular file, its structure and declared sizes sound
   OpenedFile f;
   std::string broken;
   if (open_direct(f, path, broken)) {
@@ -201,7 +198,7 @@ std::vector<float> read_channels(OpenedFile& f, const std::string& path, const c
     std::string broken;  // set by the PNG and TIFF readers for data no reader can decode
     const auto read_by = [&](const auto& reader) { return reader && reader->read(cb, ce, buf.data()); };
     const auto read_or_refuse = [&](const auto& reader) { return reader && reader->read(cb, ce, buf.data(), &broken); };
-    if (read_by(f.exr) || read_or_refuse(f.png) || read_by(f.jpg) || read_or_refuse(f.tif)) return buf;
+    if (read_by(f.exr) || read_or_refuse(f.png) || read_or_refuse(f.jpg) || read_or_refuse(f.tif)) return buf;
     if (!broken.empty()) throw_bad_input(path + ": cannot read " + role + " pixels: " + broken);
     fall_back_to_oiio(f, path, role);
   }
@@ -548,8 +545,48 @@ Image read_mask(const std::string& path) {
   return m;
 }
 
+ImageInfo probe_image(const std::string& path, const char* role) {
+  HeaderFacts facts;
+  check_file_header(path, role, &facts);
+  ImageInfo info;
+  if (facts.width > 0 && facts.height > 0) {
+    info.width = static_cast<int>(facts.width);
+    info.height = static_cast<int>(facts.height);
+    info.channels = facts.channels;
+    info.deep = facts.deep;
+    info.deep_sample_bytes = facts.deep_sample_bytes;
+    return info;
+  }
+  OpenedFile f;
+  std::string broken;
+  if (!open_direct(f, path, broken)) {
+    if (!broken.empty()) throw_bad_input(path + ": cannot read " + role + " image: " + broken);
+    std::string error;
+    auto in = oiio::module().open(path, /*straight_alpha=*/true, error);
+    if (!in) throw_bad_input(path + ": cannot read " + role + " image: " + error);
+    f.spec = in->spec();
+    info.deep = f.spec.deep;
+    if (f.spec.deep && f.spec.full_width > 0 && f.spec.full_height > 0) {
+      f.spec.width = f.spec.full_width;
+      f.spec.height = f.spec.full_height;
+    }
+  }
+  check_declared_size(f.spec, path, role);
+  info.width = f.spec.width;
+  info.height = f.spec.height;
+  info.channels = f.spec.nchannels;
+  return info;
+}
+
 Frame load_frame(const std::string& color_path, const std::string& depth_path, const DepthOptions& opt) {
   check_depth_options(opt);
+  // Sizes before pixels: a depth map of another size is refused from the headers alone.
+  if (!depth_path.empty()) {
+    const ImageInfo c = probe_image(color_path, "colour"), d = probe_image(depth_path, "depth");
+    if (c.width != d.width || c.height != d.height)
+      throw_bad_input(depth_path + ": depth is " + std::to_string(d.width) + "x" + std::to_string(d.height) +
+                      " but colour " + color_path + " is " + std::to_string(c.width) + "x" + std::to_string(c.height));
+  }
   Frame frame;
   frame.color = read_color(color_path);
   if (depth_path.empty()) {

@@ -7,6 +7,7 @@
 // none). Writes go to a temporary file in the target folder that is renamed into place, so
 // a failed write never leaves a partial or clobbered file.
 #pragma once
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -113,8 +114,22 @@ inline constexpr int kMaxChannels = 64;
 void set_pixel_budget(long long pixels);
 long long pixel_budget();
 
+/// An image as its file's header declares it, found without decoding a pixel: the
+/// regular-file check and the header walk (header_check.hpp), and for a format the walk does
+/// not read, the header as its reader opens it. Throws Error(bad_input) like the readers (a
+/// missing, special, damaged or oversized file). Lets a command compare its inputs' sizes and
+/// estimate its memory before it reads any of them.
+struct ImageInfo {
+  int width = 0, height = 0;  ///< what read_color / read_depth / read_layers return
+  int channels = 0;           ///< 0 if the header walk does not say
+  bool deep = false;          ///< a deep EXR (read_layers: the display window)
+  std::uint64_t deep_sample_bytes = 0;
+};
+ImageInfo probe_image(const std::string& path, const char* role);
+
 /// Loads a frame from colour + optional depth file (depth from the colour EXR's Z channel
-/// when depth_path is empty) and validates it (sizes, invalid depth per opt).
+/// when depth_path is empty) and validates it (sizes, invalid depth per opt). Both headers are
+/// read first: sizes that differ are refused before a pixel is decoded.
 Frame load_frame(const std::string& color_path, const std::string& depth_path, const DepthOptions& opt);
 
 }  // namespace dofkit::io

@@ -3,7 +3,8 @@
 // libjpeg reports a fatal error by calling error_exit, which must not return: here it
 // longjmps back to the function that set the jump (the libjpeg convention; everything with a
 // destructor is created before setjmp, and nothing the error path uses is changed after it).
-// Warnings (corrupt data that libjpeg decodes anyway) are counted, not printed.
+// Warnings (corrupt data that libjpeg decodes anyway) are counted, not printed; the first
+// message (error or warning) is kept for the caller's one-line error.
 #include "io/jpeg_direct.hpp"
 
 #include <tbb/blocked_range.h>
@@ -37,7 +38,11 @@ extern "C" void on_error(j_common_ptr cinfo) {
   std::longjmp(e->jump, 1);
 }
 
-extern "C" void on_output_message(j_common_ptr) {}  // warnings: counted in num_warnings only
+// Warnings: counted in num_warnings by libjpeg; the first one's text kept (nothing printed).
+extern "C" void on_output_message(j_common_ptr cinfo) {
+  auto* e = reinterpret_cast<ErrorManager*>(cinfo->err);
+  if (e->message[0] == 0) (*cinfo->err->format_message)(cinfo, e->message);
+}
 
 void install(ErrorManager& e) {
   jpeg_std_error(&e.pub);
@@ -61,8 +66,10 @@ struct Header {
 // The one place that sets libjpeg's jump. Reads the header of `path` into `got`; with
 // `samples`, also decodes every sample into it (W·H·C, RGB or grey) provided the header is
 // still `expect`. False on a file this reader does not take and on any libjpeg error or
-// warning (corrupt data that libjpeg would decode anyway: OpenImageIO decides then).
-bool decode(const std::string& path, Header& got, JSAMPLE* samples = nullptr, const Header* expect = nullptr) {
+// warning (corrupt data that libjpeg would decode anyway); `damage` then receives libjpeg's
+// first message, if there was one (empty: a file of another kind).
+bool decode(const std::string& path, Header& got, std::string& damage, JSAMPLE* samples = nullptr,
+            const Header* expect = nullptr) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) return false;
   jpeg_decompress_struct cinfo;
@@ -70,6 +77,7 @@ bool decode(const std::string& path, Header& got, JSAMPLE* samples = nullptr, co
   install(err);
   cinfo.err = &err.pub;
   if (setjmp(err.jump)) {
+    damage = err.message;
     jpeg_destroy_decompress(&cinfo);
     std::fclose(f);
     return false;
@@ -94,7 +102,10 @@ bool decode(const std::string& path, Header& got, JSAMPLE* samples = nullptr, co
       if (ok) jpeg_finish_decompress(&cinfo);
     }
   }
-  ok = ok && err.pub.num_warnings == 0;
+  if (err.pub.num_warnings != 0) {
+    ok = false;
+    damage = err.message[0] ? err.message : "libjpeg warned about corrupt data";
+  }
   jpeg_destroy_decompress(&cinfo);
   std::fclose(f);
   return ok;
@@ -102,7 +113,7 @@ bool decode(const std::string& path, Header& got, JSAMPLE* samples = nullptr, co
 
 }  // namespace
 
-std::unique_ptr<Reader> Reader::open(const std::string& path) {
+std::unique_ptr<Reader> Reader::open(const std::string& path, std::string* broken) {
   unsigned char magic[3] = {0, 0, 0};
   if (std::FILE* f = std::fopen(path.c_str(), "rb")) {
     const std::size_t got = std::fread(magic, 1, 3, f);
@@ -111,7 +122,11 @@ std::unique_ptr<Reader> Reader::open(const std::string& path) {
   }
   if (magic[0] != 0xff || magic[1] != 0xd8 || magic[2] != 0xff) return nullptr;  // no JPEG start of image
   Header h;
-  if (!decode(path, h)) return nullptr;
+  std::string damage;
+  if (!decode(path, h, damage)) {
+    if (broken && !damage.empty()) *broken = "libjpeg: " + damage;
+    return nullptr;
+  }
   std::unique_ptr<Reader> r(new Reader());
   r->path_ = path;
   r->width_ = h.width;
@@ -120,14 +135,18 @@ std::unique_ptr<Reader> Reader::open(const std::string& path) {
   return r;
 }
 
-bool Reader::read(int cb, int ce, float* out) const {
+bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
   const int C = static_cast<int>(names_.size());
   if (cb < 0 || ce > C || cb >= ce) return false;
   const std::size_t W = static_cast<std::size_t>(width_), H = static_cast<std::size_t>(height_);
   std::vector<JSAMPLE> samples(W * H * C);
   const Header expect{width_, height_, C};
   Header got;
-  if (!decode(path_, got, samples.data(), &expect)) return false;
+  std::string damage;
+  if (!decode(path_, got, damage, samples.data(), &expect)) {
+    if (broken) *broken = damage.empty() ? std::string("the file changed while it was read") : "libjpeg: " + damage;
+    return false;
+  }
   const int n = ce - cb;
   const float scale = 1.0f / 255.0f;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, H), [&](const tbb::blocked_range<std::size_t>& r) {

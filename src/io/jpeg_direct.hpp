@@ -8,9 +8,10 @@
 // with baseline tables, 4:2:0 chroma, the float samples quantised with OpenImageIO's rule — so
 // the pixels are the ones OpenImageIO gave (tested against it).
 //
-// Files libjpeg cannot read as 8-bit grey / YCbCr / RGB (CMYK, YCCK, 12-bit), and any file
-// whose decoding raises a libjpeg error or warning (corrupt or truncated data), go to
-// OpenImageIO, which then also gives the error message.
+// Files libjpeg cannot read as 8-bit grey / YCbCr / RGB (CMYK, YCCK, 12-bit) go to
+// OpenImageIO. A file this reader takes whose decoding raises a libjpeg error *or warning*
+// (corrupt or truncated data, which libjpeg would decode anyway: grey rows for the missing
+// part of a truncated file) is refused with libjpeg's message; it is not handed on.
 #pragma once
 #include <memory>
 #include <string>
@@ -28,9 +29,10 @@ void write(const std::string& file, const std::string& display_path, int width, 
 /// A JPEG this reader takes (see above), its header read.
 class Reader {
  public:
-  /// nullptr if `path` is not such a file (the caller then uses OpenImageIO). Never throws
-  /// for a bad file.
-  static std::unique_ptr<Reader> open(const std::string& path);
+  /// nullptr if `path` is not such a file (the caller then uses OpenImageIO); then `broken`
+  /// (when given) holds libjpeg's message if its header is damaged. Never throws for a bad
+  /// file.
+  static std::unique_ptr<Reader> open(const std::string& path, std::string* broken = nullptr);
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -38,8 +40,9 @@ class Reader {
   const std::vector<std::string>& names() const { return names_; }
 
   /// Reads channels [cb, ce) as float (code · (1 / 255), as OpenImageIO gives them),
-  /// pixel-interleaved: W·H·(ce − cb) values. False on any libjpeg error or warning.
-  bool read(int cb, int ce, float* out) const;
+  /// pixel-interleaved: W·H·(ce − cb) values. False on any libjpeg error or warning; then
+  /// `broken` (when given) holds libjpeg's first message.
+  bool read(int cb, int ce, float* out, std::string* broken = nullptr) const;
 
  private:
   Reader() = default;

@@ -8,6 +8,7 @@
 #include "io/layers_io.hpp"
 
 #include "io/header_check.hpp"
+#include "io/image_io.hpp"
 
 #include "io/atomic_write.hpp"
 #include "io/exr_direct.hpp"
@@ -116,6 +117,14 @@ void read_deep(oiio::Input& in, const std::string& path, Frame& frame, int max_l
   // The frame covers the display window; the deep data window may be a part of it.
   const int fw = spec.full_width > 0 ? spec.full_width : spec.width;
   const int fh = spec.full_height > 0 ? spec.full_height : spec.height;
+  // The frame is the display window: its size is what gets allocated (per kept layer), so it
+  // is held to the pixel budget like any image (a 608-byte file with a 2x2 data window in a
+  // 4000x4000 display window took 2 GB). The header walk checked it already; OpenImageIO's
+  // reading of the header is checked too.
+  if (static_cast<long long>(fw) * fh > pixel_budget() || fw > pixel_budget() || fh > pixel_budget())
+    throw_bad_input(path + ": layered input image declares " + std::to_string(fw) + "x" + std::to_string(fh) +
+                    " pixels (its display window), more than the limit of " + std::to_string(pixel_budget()) +
+                    " (--max-pixels)");
   const int ox = spec.x - (spec.full_width > 0 ? spec.full_x : spec.x);
   const int oy = spec.y - (spec.full_height > 0 ? spec.full_y : spec.y);
   int most = 0;

@@ -281,49 +281,53 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, std::string* broke
   std::uint8_t sig[8];
   if (!f.read(reinterpret_cast<char*>(sig), 8) || std::memcmp(sig, kSignature, 8) != 0) return nullptr;
   std::unique_ptr<Reader> r(new Reader());
-  bool header = false, ended = false, idat_done = false, other = false;
+  bool header = false, ended = false, idat_done = false, have_palette = false;
   std::vector<std::uint8_t> data;
+  std::string trns;  // the tRNS chunk's data, checked once the header and palette are known
+  bool have_trns = false;
   while (!ended) {
     std::uint8_t head[8];
-    if (!f.read(reinterpret_cast<char*>(head), 8)) return nullptr;  // no IEND
+    if (!f.read(reinterpret_cast<char*>(head), 8)) return refuse("it ends before its IEND chunk (truncated)");
     const std::uint32_t n = get32(head);
-    if (n > 0x7fffffffu) return nullptr;
+    if (n > 0x7fffffffu) return refuse("a chunk declares " + std::to_string(n) + " bytes (more than 2^31 - 1)");
     char type[5] = {static_cast<char>(head[4]), static_cast<char>(head[5]), static_cast<char>(head[6]),
                     static_cast<char>(head[7]), 0};
     for (int i = 0; i < 4; ++i)
-      if (!std::isalpha(static_cast<unsigned char>(type[i]))) return nullptr;
+      if (!std::isalpha(static_cast<unsigned char>(type[i]))) return refuse("a chunk type is not four letters");
     const std::string t(type);
     const bool critical = std::isupper(static_cast<unsigned char>(type[0])) != 0;
     // IHDR first (libpng refuses any other chunk there, before it looks at the CRC).
     if (!header && t != "IHDR") return refuse("the first chunk is '" + t + "', not IHDR");
-    // Chunk data: IDAT straight into the stream, the others into `data` (small ones only;
-    // a large ancillary chunk is left to OpenImageIO, which skips or reads it).
+    // Chunk data: IDAT straight into the stream, the others into `data`. A large ancillary
+    // chunk (text, a profile) is skipped unread: it cannot change the pixels.
     std::uint8_t* dst;
     if (t == "IDAT") {
-      if (!header || idat_done) return nullptr;  // IDAT chunks must be consecutive
+      if (idat_done) return refuse("its IDAT chunks are not consecutive");
       const std::size_t at = r->stream_.size();
       r->stream_.resize(at + n);
       dst = r->stream_.data() + at;
     } else {
       if (!r->stream_.empty()) idat_done = true;
-      if (n > (1u << 20)) return nullptr;
+      if (!critical && n > (1u << 20)) {
+        f.seekg(static_cast<std::streamoff>(n) + 4, std::ios::cur);
+        if (!f) return refuse("it ends before its IEND chunk (truncated)");
+        continue;
+      }
       data.resize(n);
       dst = data.data();
     }
     std::uint8_t crc_bytes[4];
     if ((n && !f.read(reinterpret_cast<char*>(dst), n)) || !f.read(reinterpret_cast<char*>(crc_bytes), 4))
-      return nullptr;
+      return refuse("it ends inside chunk '" + t + "' (truncated)");
     const uLong crc = crc32(crc32(0, head + 4, 4), dst, n);
     if (static_cast<std::uint32_t>(crc) != get32(crc_bytes)) {
       // libpng's default: an error for a critical chunk, a warning (the chunk is dropped) for
-      // an ancillary one. OpenImageIO may never reach IEND, so that one is left to it.
+      // an ancillary one, which cannot change the pixels.
       if (!critical) continue;
-      if (t == "IEND") return nullptr;
       return refuse("chunk '" + t + "' fails its CRC check");
     }
     if (!header) {
-      // IHDR within the PNG rules (libpng refuses the file otherwise); this reader takes
-      // 8 / 16-bit grey, grey + alpha, RGB and RGBA without interlacing.
+      // IHDR within the PNG rules (libpng refuses the file otherwise).
       if (n != 13) return refuse("its IHDR chunk is " + std::to_string(n) + " bytes long, not 13");
       const std::uint32_t w = get32(dst), h = get32(dst + 4);
       const int depth = dst[8], ctype = dst[9];
@@ -341,67 +345,81 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, std::string* broke
       if (!valid)
         return refuse("its IHDR declares colour type " + std::to_string(ctype) + " with bit depth " +
                       std::to_string(depth) + ", which PNG does not allow");
-      if ((depth != 8 && depth != 16) || ctype == 3 || dst[12] != 0) return nullptr;  // OpenImageIO's
-      switch (ctype) {
-        case 0:
-          r->names_ = {"Y"};
-          break;
-        case 4:
-          r->names_ = {"Y", "A"};
-          break;
-        case 2:
-          r->names_ = {"R", "G", "B"};
-          break;
-        default:
-          r->names_ = {"R", "G", "B", "A"};
-          break;
-      }
       r->width_ = static_cast<int>(w);
       r->height_ = static_cast<int>(h);
-      r->bits_ = depth;
-      r->channels_ = static_cast<int>(r->names_.size());
+      r->depth_ = depth;
+      r->ctype_ = ctype;
+      r->interlaced_ = dst[12] == 1;
       header = true;
     } else if (t == "IEND") {
       ended = true;
-    } else if (t != "IDAT" && (t == "tRNS" || t == "sBIT" || critical)) {
-      // transparency (libpng expands it into alpha), significant bits, a palette, a second
-      // header or an unknown critical chunk: OpenImageIO's business (checked to the end, so
-      // a broken critical chunk after it is still reported here)
-      other = true;
+    } else if (t == "IHDR") {
+      return refuse("it has a second IHDR chunk");
+    } else if (t == "PLTE") {
+      if (have_palette) return refuse("it has a second PLTE chunk");
+      if (!r->stream_.empty()) return refuse("its PLTE chunk follows the image data");
+      if (r->ctype_ == 0 || r->ctype_ == 4) return refuse("a grey image with a PLTE chunk");
+      if (n == 0 || n % 3 != 0 || n > 768) return refuse("its PLTE chunk is " + std::to_string(n) + " bytes long");
+      have_palette = true;
+      // Only a palette image uses it (for RGB it is a suggestion); libpng keeps at most
+      // 2^depth entries.
+      if (r->ctype_ == 3) {
+        r->palette_.assign(data.begin(), data.end());
+        r->palette_.resize(std::min<std::size_t>(r->palette_.size(), std::size_t{3} << r->depth_));
+      }
+    } else if (t == "tRNS") {
+      if (have_trns) return refuse("it has a second tRNS chunk");
+      if (!r->stream_.empty()) return refuse("its tRNS chunk follows the image data");
+      have_trns = true;
+      trns.assign(data.begin(), data.end());
+      if (r->ctype_ == 3 && !have_palette) return refuse("its tRNS chunk comes before its palette");
+    } else if (critical && t != "IDAT") {
+      return refuse("unknown critical chunk '" + t + "'");
     }
   }
-  if (other || !header || r->stream_.empty()) return nullptr;
-  char extra;
-  if (f.read(&extra, 1)) return nullptr;  // bytes after IEND
+  if (r->stream_.empty()) return refuse("it has no image data (no IDAT chunk)");
+  if (r->ctype_ == 3 && r->palette_.empty()) return refuse("a palette image without a PLTE chunk");
+  if (have_trns) {
+    // Transparency: per palette entry, or one key colour that becomes alpha 0 (libpng
+    // expands it into an alpha channel, as OpenImageIO asks it to).
+    const std::size_t len = trns.size();
+    if (r->ctype_ == 3) {
+      if (len == 0 || len > r->palette_.size() / 3)
+        return refuse("its tRNS chunk has " + std::to_string(len) + " entries for a palette of " +
+                      std::to_string(r->palette_.size() / 3));
+      r->palette_alpha_.assign(trns.begin(), trns.end());
+    } else if (r->ctype_ == 0 || r->ctype_ == 2) {
+      const std::size_t want = r->ctype_ == 0 ? 2 : 6;
+      if (len != want)
+        return refuse("its tRNS chunk is " + std::to_string(len) + " bytes long, not " + std::to_string(want));
+      for (std::size_t i = 0; i < want / 2; ++i)
+        r->key_[i] = static_cast<std::uint16_t>((static_cast<unsigned char>(trns[2 * i]) << 8) |
+                                                static_cast<unsigned char>(trns[2 * i + 1]));
+    } else {
+      return refuse("a tRNS chunk in an image that has an alpha channel");
+    }
+    r->key_alpha_ = true;
+  }
+  // What the file expands to (OpenImageIO has libpng expand palette, low bit depths and tRNS).
+  const bool alpha = r->ctype_ == 4 || r->ctype_ == 6 || have_trns;
+  const bool colour = r->ctype_ == 2 || r->ctype_ == 3 || r->ctype_ == 6;
+  r->channels_ = (colour ? 3 : 1) + (alpha ? 1 : 0);
+  r->bits_ = r->depth_ == 16 ? 16 : 8;
+  r->names_ = colour ? std::vector<std::string>{"R", "G", "B"} : std::vector<std::string>{"Y"};
+  if (alpha) r->names_.push_back("A");
   return r;
 }
 
-bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
-  if (cb < 0 || ce > channels_ || cb >= ce) return false;
-  const std::size_t W = static_cast<std::size_t>(width_), H = static_cast<std::size_t>(height_);
-  const std::size_t bps = bits_ / 8, bpp = channels_ * bps, row_bytes = W * bpp, stride = row_bytes + 1;
-  std::vector<std::uint8_t> rows(H * stride);
-  {
-    std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> d(libdeflate_alloc_decompressor(),
-                                                                                   libdeflate_free_decompressor);
-    if (!d) return false;
-    // Exactly the declared rows, Adler-32 checked. A stream that ends early is an error for
-    // libpng too ("Not enough image data"); a bad Adler-32 or data past the rows only a warning.
-    std::size_t got = 0;
-    if (libdeflate_zlib_decompress(d.get(), stream_.data(), stream_.size(), rows.data(), rows.size(), &got) !=
-        LIBDEFLATE_SUCCESS)
-      return false;
-    if (got != rows.size()) {
-      if (broken)
-        *broken = "its image data inflates to " + std::to_string(got) + " of the " + std::to_string(rows.size()) +
-                  " bytes its rows need (truncated or corrupt)";
-      return false;
-    }
-  }
-  // Unfilter in place (each row depends on the one above, already unfiltered).
-  for (std::size_t y = 0; y < H; ++y) {
-    std::uint8_t* cur = rows.data() + y * stride + 1;
-    const std::uint8_t* up = y ? rows.data() + (y - 1) * stride + 1 : nullptr;
+namespace {
+
+// Undoes the filters of `rows` rows of `row_bytes` bytes (each after its filter-type byte),
+// `bpp` bytes per complete pixel (at least 1); false (and `why`) on an unknown filter type.
+bool unfilter(std::uint8_t* data, std::size_t rows, std::size_t row_bytes, std::size_t bpp, std::size_t first_row,
+              std::string* why) {
+  const std::size_t stride = row_bytes + 1;
+  for (std::size_t y = 0; y < rows; ++y) {
+    std::uint8_t* cur = data + y * stride + 1;
+    const std::uint8_t* up = y ? data + (y - 1) * stride + 1 : nullptr;
     const std::size_t head = std::min(bpp, row_bytes);
     switch (cur[-1]) {
       case 0:
@@ -424,26 +442,166 @@ bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
           cur[i] = static_cast<std::uint8_t>(cur[i] + (up ? paeth(cur[i - bpp], up[i], up[i - bpp]) : cur[i - bpp]));
         break;
       default:
-        if (broken)
-          *broken = "row " + std::to_string(y) + " has filter type " + std::to_string(cur[-1]) + " (only 0-4 exist)";
+        if (why)
+          *why = "row " + std::to_string(first_row + y) + " has filter type " + std::to_string(cur[-1]) +
+                 " (only 0-4 exist)";
         return false;
     }
   }
-  // Samples → float as OpenImageIO gives them: code · (1 / max).
+  return true;
+}
+
+// Adam7: the seven passes' first pixel and spacing (x0, y0, dx, dy).
+constexpr int kAdam7[7][4] = {{0, 0, 8, 8}, {4, 0, 8, 8}, {0, 4, 4, 8}, {2, 0, 4, 4},
+                              {0, 2, 2, 4}, {1, 0, 2, 2}, {0, 1, 1, 2}};
+
+}  // namespace
+
+bool Reader::read(int cb, int ce, float* out, std::string* broken) const {
+  if (cb < 0 || ce > channels_ || cb >= ce) return false;
+  const std::size_t W = static_cast<std::size_t>(width_), H = static_cast<std::size_t>(height_);
+  // The file's own samples per pixel and bits per pixel.
+  const int file_channels = ctype_ == 0 || ctype_ == 3 ? 1 : ctype_ == 4 ? 2 : ctype_ == 2 ? 3 : 4;
+  const std::size_t pixel_bits = static_cast<std::size_t>(file_channels) * depth_;
+  const std::size_t bpp = std::max<std::size_t>(1, pixel_bits / 8);
+  // The passes (one without interlacing): size and where their rows start in the stream.
+  struct Pass {
+    std::size_t x0, y0, dx, dy, w, h, row_bytes, at;
+  };
+  std::vector<Pass> passes;
+  std::size_t total = 0;
+  for (int p = 0; p < (interlaced_ ? 7 : 1); ++p) {
+    Pass s{0, 0, 1, 1, W, H, 0, 0};
+    if (interlaced_) {
+      s.x0 = kAdam7[p][0], s.y0 = kAdam7[p][1], s.dx = kAdam7[p][2], s.dy = kAdam7[p][3];
+      s.w = W > s.x0 ? (W - s.x0 + s.dx - 1) / s.dx : 0;
+      s.h = H > s.y0 ? (H - s.y0 + s.dy - 1) / s.dy : 0;
+    }
+    if (s.w == 0 || s.h == 0) continue;  // an empty pass has no rows, not even filter bytes
+    s.row_bytes = (s.w * pixel_bits + 7) / 8;
+    s.at = total;
+    total += s.h * (s.row_bytes + 1);
+    passes.push_back(s);
+  }
+  std::vector<std::uint8_t> rows(total);
+  {
+    std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> d(libdeflate_alloc_decompressor(),
+                                                                                   libdeflate_free_decompressor);
+    if (!d) return false;
+    // Exactly the declared rows, Adler-32 checked: a stream that ends early, does not inflate,
+    // fails its checksum or holds more than the rows is a damaged file (libpng would err or
+    // warn and decode what it could).
+    std::size_t got = 0;
+    const libdeflate_result res =
+        libdeflate_zlib_decompress(d.get(), stream_.data(), stream_.size(), rows.data(), rows.size(), &got);
+    if (res == LIBDEFLATE_SUCCESS && got != rows.size()) {
+      if (broken)
+        *broken = "its image data inflates to " + std::to_string(got) + " of the " + std::to_string(rows.size()) +
+                  " bytes its rows need (truncated or corrupt)";
+      return false;
+    }
+    if (res != LIBDEFLATE_SUCCESS) {
+      if (broken)
+        *broken = res == LIBDEFLATE_INSUFFICIENT_SPACE
+                      ? "its image data inflates to more bytes than its rows (corrupt)"
+                      : "its image data does not inflate (a corrupt zlib stream or checksum)";
+      return false;
+    }
+  }
+  // Unfilter in place, pass by pass (each row depends on the one above, already unfiltered).
+  for (const Pass& s : passes)
+    if (!unfilter(rows.data() + s.at, s.h, s.row_bytes, bpp, 0, broken)) return false;
+
   const int n = ce - cb;
   const float scale = 1.0f / (bits_ == 8 ? 255.0f : 65535.0f);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, H), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t y = r.begin(); y < r.end(); ++y) {
-      const std::uint8_t* s = rows.data() + y * stride + 1;
-      float* o = out + y * W * n;
-      for (std::size_t x = 0; x < W; ++x)
-        for (int c = 0; c < n; ++c) {
-          const std::uint8_t* p = s + x * bpp + (cb + c) * bps;
-          const unsigned code = bps == 1 ? p[0] : (static_cast<unsigned>(p[0]) << 8) | p[1];
-          o[x * n + c] = static_cast<float>(code) * scale;
+  if (!interlaced_ && (depth_ == 8 || depth_ == 16) && ctype_ != 3 && !key_alpha_) {
+    // The common case: samples as stored → float as OpenImageIO gives them: code · (1 / max).
+    const std::size_t bps = bits_ / 8, stride = passes[0].row_bytes + 1;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, H), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t y = r.begin(); y < r.end(); ++y) {
+        const std::uint8_t* s = rows.data() + y * stride + 1;
+        float* o = out + y * W * n;
+        for (std::size_t x = 0; x < W; ++x)
+          for (int c = 0; c < n; ++c) {
+            const std::uint8_t* p = s + x * bpp + (cb + c) * bps;
+            const unsigned code = bps == 1 ? p[0] : (static_cast<unsigned>(p[0]) << 8) | p[1];
+            o[x * n + c] = static_cast<float>(code) * scale;
+          }
+      }
+    });
+    return true;
+  }
+  // Everything else, as libpng expands it for OpenImageIO: grey of 1, 2 or 4 bits scaled to 8
+  // (v · 255 / (2^depth − 1)), palette indices to their RGB entry (and tRNS alpha, 255 past
+  // its entries), a tRNS key colour to alpha 0 (else the maximum); pixels of interlaced
+  // passes to their place.
+  const unsigned max_code = bits_ == 8 ? 255u : 65535u;
+  const unsigned low_mask = (1u << std::min(depth_, 8)) - 1;
+  const unsigned low_scale = depth_ < 8 ? 255u / low_mask : 1u;
+  const std::size_t palette_entries = palette_.size() / 3;
+  for (const Pass& s : passes) {
+    const std::size_t stride = s.row_bytes + 1;
+    for (std::size_t py = 0; py < s.h; ++py) {
+      const std::uint8_t* row = rows.data() + s.at + py * stride + 1;
+      const std::size_t y = s.y0 + py * s.dy;
+      for (std::size_t px = 0; px < s.w; ++px) {
+        // The file's samples of this pixel (raw codes).
+        unsigned raw[4] = {0, 0, 0, 0};
+        for (int k = 0; k < file_channels; ++k) {
+          const std::size_t bit = (px * file_channels + k) * depth_;
+          if (depth_ == 16) {
+            raw[k] = static_cast<unsigned>(row[bit / 8]) << 8 | row[bit / 8 + 1];
+          } else if (depth_ == 8) {
+            raw[k] = row[bit / 8];
+          } else {
+            raw[k] = (row[bit / 8] >> (8 - depth_ - bit % 8)) & low_mask;
+          }
         }
+        unsigned v[4] = {0, 0, 0, max_code};  // the expanded pixel: colour (or Y) then alpha
+        int count = 0;
+        switch (ctype_) {
+          case 3: {
+            const unsigned i = raw[0];
+            if (i >= palette_entries) {
+              if (broken)
+                *broken = "pixel (" + std::to_string(s.x0 + px * s.dx) + ", " + std::to_string(y) +
+                          ") has palette index " + std::to_string(i) + ", beyond its " +
+                          std::to_string(palette_entries) + " entries (corrupt)";
+              return false;
+            }
+            v[0] = palette_[3 * i], v[1] = palette_[3 * i + 1], v[2] = palette_[3 * i + 2];
+            v[3] = i < palette_alpha_.size() ? palette_alpha_[i] : 255u;
+            count = 3;
+            break;
+          }
+          case 0:
+            v[0] = depth_ < 8 ? raw[0] * low_scale : raw[0];
+            if (key_alpha_) v[3] = raw[0] == (key_[0] & (depth_ == 16 ? 0xffffu : low_mask)) ? 0 : max_code;
+            count = 1;
+            break;
+          case 2:
+            v[0] = raw[0], v[1] = raw[1], v[2] = raw[2];
+            if (key_alpha_) {
+              const unsigned m = depth_ == 16 ? 0xffffu : 0xffu;
+              v[3] = raw[0] == (key_[0] & m) && raw[1] == (key_[1] & m) && raw[2] == (key_[2] & m) ? 0 : max_code;
+            }
+            count = 3;
+            break;
+          case 4:
+            v[0] = raw[0], v[3] = raw[1];
+            count = 1;
+            break;
+          default:
+            v[0] = raw[0], v[1] = raw[1], v[2] = raw[2], v[3] = raw[3];
+            count = 3;
+            break;
+        }
+        // This reader's channels (count colour channels, then alpha if it has one).
+        float* o = out + ((y * W) + s.x0 + px * s.dx) * n;
+        for (int c = cb; c < ce; ++c) o[c - cb] = static_cast<float>(c < count ? v[c] : v[3]) * scale;
+      }
     }
-  });
+  }
   return true;
 }
 

@@ -12,12 +12,12 @@
 // against it, boundaries included): q = round(v·(2^bits − 1)) in float, halves away from
 // zero, clamped to the range; NaN stores 0.
 //
-// Reading: the common PNGs (8 / 16 bits, grey / grey + alpha / RGB / RGBA, not interlaced, no
-// palette or tRNS transparency) are read here too: the one zlib stream inflated by libdeflate
-// (~3× zlib's speed), the rows unfiltered, the samples converted as OpenImageIO converts them.
-// A file this reader does not take goes to OpenImageIO; a file libpng would refuse with an
-// error is refused here with the reason (see Reader); the point is a PNG-in call that never
-// loads OpenImageIO.
+// Reading: every PNG is read here, OpenImageIO never sees one: the one zlib stream inflated by
+// libdeflate (~3× zlib's speed), the rows unfiltered, and the samples expanded as libpng
+// expands them for OpenImageIO (palette → RGB, 1/2/4-bit grey → 8 bits, tRNS → alpha,
+// interlaced passes into place) and converted to float as OpenImageIO converts them. So a
+// damaged PNG is refused here with the reason, on dofkit's one line, and libpng never prints
+// its own "libpng error" line.
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -42,19 +42,18 @@ struct Layout {
 void write(const std::string& file, const std::string& display_path, const Layout& layout, const float* pixels,
            int level, bool srgb);
 
-/// A PNG this reader takes (see above), opened: the header parsed, every chunk's CRC checked.
+/// A PNG, opened: the header parsed, every critical chunk's CRC checked.
 ///
-/// A file that libpng (so OpenImageIO) would refuse with an error is refused here, with the
-/// reason, instead of being handed on: libpng also prints its own "libpng error: …" line to
-/// stderr, so the user saw two lines for one fault. These are a critical chunk whose CRC does
-/// not match, an IHDR that breaks the PNG rules, a stream that inflates to fewer bytes than
-/// the rows and an unknown row filter. Ancillary chunks with a bad CRC are skipped, as libpng
-/// skips them.
+/// A file that breaks the PNG rules is refused, with the reason: a critical chunk whose CRC
+/// does not match, an IHDR, PLTE or tRNS that breaks the rules, a missing IEND (truncated),
+/// unknown critical chunks, and (by read()) a stream that does not inflate to exactly the
+/// rows, fails its Adler-32 check, holds an unknown row filter or a palette index beyond the
+/// palette. Ancillary chunks with a bad CRC are skipped, as libpng skips them (they cannot
+/// change the pixels); so are bytes after IEND.
 class Reader {
  public:
-  /// nullptr if `path` is not such a file (the caller then uses OpenImageIO); then `broken`
-  /// (when given) holds the reason if the file is a broken PNG that no reader can take.
-  /// Never throws for a bad file.
+  /// nullptr if `path` is not a PNG (no PNG signature) or cannot be opened; a PNG that is
+  /// damaged gives nullptr with `broken` (when given) saying why. Never throws for a bad file.
   static std::unique_ptr<Reader> open(const std::string& path, std::string* broken = nullptr);
 
   int width() const { return width_; }
@@ -63,16 +62,20 @@ class Reader {
   const std::vector<std::string>& names() const { return names_; }
   int alpha_channel() const { return channels_ == 2 || channels_ == 4 ? channels_ - 1 : -1; }
 
-  /// Reads channels [cb, ce) as float (code / (2^bits − 1), as OpenImageIO gives them; alpha
-  /// straight, as stored), pixel-interleaved: W·H·(ce − cb) values. False if the stream does
-  /// not inflate to exactly the rows the header declares or a row has an unknown filter;
-  /// then `broken` (when given) says why if libpng would refuse the file too (else OpenImageIO
-  /// may read it: libpng only warns about a wrong Adler-32 or extra data after the rows).
+  /// Reads channels [cb, ce) as float (code / (2^bits − 1) after the expansion above, as
+  /// OpenImageIO gives them; alpha straight, as stored), pixel-interleaved: W·H·(ce − cb)
+  /// values. False, with `broken` (when given) saying why, if the data is damaged (above).
   bool read(int cb, int ce, float* out, std::string* broken = nullptr) const;
 
  private:
   Reader() = default;
-  int width_ = 0, height_ = 0, channels_ = 0, bits_ = 8;
+  int width_ = 0, height_ = 0, channels_ = 0, bits_ = 8;  // what the file expands to
+  int depth_ = 8, ctype_ = 0;                             // the file's own bit depth, colour type
+  bool interlaced_ = false;
+  std::vector<std::uint8_t> palette_;        // RGB per entry (palette images)
+  std::vector<std::uint8_t> palette_alpha_;  // tRNS alpha per entry (palette images)
+  std::uint16_t key_[3] = {0, 0, 0};         // tRNS key colour (grey / RGB images)
+  bool key_alpha_ = false;                   // tRNS present: the file expands to an alpha channel
   std::vector<std::string> names_;
   std::vector<std::uint8_t> stream_;  // the IDAT chunks' data, concatenated (one zlib stream)
 };

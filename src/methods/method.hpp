@@ -103,6 +103,8 @@ struct MethodContext {
   /// The largest near and far radius of the whole `coc` plane (core::coc_range(coc)), which
   /// render() takes while it writes the map; null: not known, the method computes it.
   const core::CocRange* coc_range = nullptr;
+  /// RenderSettings::max_work in force (the default filled in): the disc scatter's limit.
+  double max_work = kDefaultMaxWork;
 };
 
 /// One technique.

@@ -15,6 +15,7 @@
 #include "gpu/gpu.hpp"
 #include "methods/method.hpp"
 #include "render/sanitize.hpp"
+#include "dofkit/ranges.hpp"
 
 namespace dofkit {
 
@@ -221,7 +222,8 @@ const detail::MethodDef& checked_method(const RenderSettings& settings) {
                   (names.empty() ? std::string("it has none") : "known: " + detail::known_names(names)) + ")");
     }
   }
-  if (settings.threads < 0) throw_usage("--threads: must be >= 0");
+  check_number("--threads", settings.threads);
+  if (settings.max_work != 0) check_number("--max-work", settings.max_work);
   validate(settings.camera);
   return *method;
 }
@@ -287,6 +289,7 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     result.image.resize(frame.width(), frame.height(), 4);
     sink.emplace(settings.debug_view);
     core::PassScope pass(method.name.c_str());
+    const double max_work = settings.max_work > 0 ? settings.max_work : kDefaultMaxWork;
     if (impl_->gpu) {
       impl_->gpu->render(
           {frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr, &range},
@@ -294,7 +297,7 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
       return;
     }
     method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,
-                   deferred ? &dirty : nullptr, &range},
+                   deferred ? &dirty : nullptr, &range, max_work},
                   result.image);
     if (deferred && dirty.load()) {
       // Rare (hostile input): everything from the first try is discarded. The depth, and so
@@ -302,9 +305,9 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
       core::PassScope again("colour check + render again");
       const Frame& clean = detail::sanitized_frame(frame_in, impl_->sanitized);
       sink.emplace(settings.debug_view);
-      method.render(
-          {clean, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr, &range},
-          result.image);
+      method.render({clean, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr,
+                     &range, max_work},
+                    result.image);
     }
   });
   result.debug = Image();
@@ -319,6 +322,28 @@ RenderResult render(const Frame& frame, const RenderSettings& settings) {
   Renderer renderer(settings);
   // The renderer is discarded: move its result out instead of copying it.
   return std::move(const_cast<RenderResult&>(renderer.render(frame)));
+}
+
+std::uint64_t render_memory_bytes(const RenderSettings& settings, int width, int height, int layers) {
+  // Scratch bytes per pixel of each method (and per pixel of each extra layer): peak RSS of
+  // `dofkit render` on the 2048x1024 bench frame less the inputs, the result and the output's
+  // buffers, times 1.5 plus 16 (docs/robustness.md has the measurements). A method not listed
+  // gets 160.
+  struct Cost {
+    const char* method;
+    double per_px, per_layer_px;
+  };
+  static const Cost kCosts[] = {{"reference", 48, 0}, {"scatter", 32, 0},   {"mcguire", 40, 0},
+                                {"sterna", 48, 0},    {"starcraft", 32, 0}, {"layered", 112, 16}};
+  Cost cost{"", 160, 32};
+  for (const Cost& c : kCosts)
+    if (settings.method == c.method) cost = c;
+  const double px = static_cast<double>(std::max(width, 0)) * std::max(height, 0);
+  // The result (RGBA) and the CoC map; a sanitised copy of the colour and of every layer's
+  // colour (only made for a frame that needs it); a debug view.
+  const double fixed = 16 + 4 + 16 + 16.0 * layers + (settings.debug_view.empty() ? 0 : 16);
+  const double bytes = px * (fixed + cost.per_px + cost.per_layer_px * layers);
+  return bytes > 1.8e19 ? ~std::uint64_t{0} : static_cast<std::uint64_t>(bytes);
 }
 
 double focus_from_depth(const Image& depth, int x, int y, int radius) {

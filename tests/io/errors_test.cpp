@@ -5,9 +5,11 @@
 #include <OpenImageIO/deepdata.h>
 
 #include <cstdint>
+#include <functional>
 
 #include "dofkit/error.hpp"
 #include "io/image_io.hpp"
+#include "io/layers_io.hpp"
 #include "io/io_test_util.hpp"
 
 using namespace dofkit;
@@ -143,4 +145,49 @@ TEST(PixelBudget, IsConfigurableAndCheckedFromTheHeader) {
   EXPECT_EQ(dofkit::io::read_color(path).width(), 8);
   EXPECT_THROW(dofkit::io::set_pixel_budget(0), dofkit::Error);
   dofkit::io::set_pixel_budget(dofkit::io::kMaxPixels);
+}
+
+// Only EXR, PNG, JPEG and TIFF are read (issue 37): a BMP, GIF or Radiance HDR that
+// OpenImageIO would decode without dofkit's header checks is refused by its first bytes,
+// whatever its name; an empty file too.
+TEST(ReadErrors, OtherFormatsAreRefused) {
+  ScratchDir dir;
+  for (const char* name : {"a.bmp", "a.hdr", "a.tga"}) {
+    raw_write(dir / name, 4, 4, {"R", "G", "B"}, std::vector<float>(48, 0.5f), OIIO::TypeDesc::UINT8);
+    const std::string renamed = dir / (std::string(name) + ".exr");
+    std::filesystem::copy_file(dir / name, renamed);
+    for (const std::string& path : {dir / name, renamed}) {
+      const std::string m = bad_input_message([&] { io::read_color(path); });
+      EXPECT_TRUE(contains(m, path + ": cannot read colour image: not an EXR, PNG, JPEG or TIFF file")) << m;
+    }
+  }
+  write_bytes(dir / "empty.png", "");
+  EXPECT_TRUE(contains(bad_input_message([&] { io::read_depth(dir / "empty.png", {}); }), "(it is empty)"));
+}
+
+// A channel whose pixel type is not uint / half / float (fuzz_layers, issue 37's fuzzing):
+// OpenImageIO 2.4 aborted on an assertion ("Unknown Imf::PixelType 3") when it opened the
+// file; the header walk refuses it in one line, for every reader.
+TEST(ReadErrors, UnknownExrPixelTypeIsRefused) {
+  ScratchDir dir;
+  raw_write(dir / "ok.exr", 4, 4, {"R", "G", "B"}, std::vector<float>(48, 0.5f), OIIO::TypeDesc::FLOAT);
+  std::string bytes = read_bytes(dir / "ok.exr");
+  const std::size_t list = bytes.find(std::string("chlist\0", 7));
+  ASSERT_NE(list, std::string::npos);
+  // chlist\0, int32 size, then the first channel's name "B\0" and its int32 type.
+  const std::size_t type_at = list + 7 + 4 + 2;
+  ASSERT_EQ(bytes[type_at], 2);  // FLOAT
+  bytes[type_at] = 3;
+  write_bytes(dir / "bad.exr", bytes);
+  for (const auto& read : std::vector<std::function<void()>>{[&] { io::read_color(dir / "bad.exr"); },
+                                                             [&] { io::read_depth(dir / "bad.exr", {}); },
+                                                             [&] {
+                                                               Frame f;
+                                                               io::read_layers(dir / "bad.exr", f);
+                                                             }}) {
+    const std::string m = bad_input_message(read);
+    EXPECT_TRUE(contains(m, "bad.exr")) << m;
+    EXPECT_TRUE(contains(m, "malformed channel list")) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
 }

@@ -2,7 +2,8 @@
 // written by it, by OpenImageIO and by libjpeg with other settings (progressive, 4:4:4, grey)
 // read back bit for bit as OpenImageIO reads them; the writer's files decode to the pixels of
 // OpenImageIO's at the same quality; CMYK and non-JPEG files are left to OpenImageIO, and a
-// truncated file falls back to it and reads as it always did.
+// truncated or corrupt file is refused with libjpeg's message (issue 37: OpenImageIO read it
+// as grey below the cut, exit 0).
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
@@ -179,10 +180,11 @@ TEST(Jpeg, ReaderEqualsOpenImageIOBitForBit) {
     }
 }
 
-// CMYK (OpenImageIO converts it), non-JPEG and missing files are not taken; a truncated
-// file opens (its header is whole) but does not read here (libjpeg warns), and read_color
-// then gives what OpenImageIO gives for it: the decoded part and grey below, no error.
-TEST(Jpeg, LeavesOtherFilesToOpenImageIO) {
+// CMYK (OpenImageIO converts it), non-JPEG and missing files are not taken. A truncated file
+// is refused by the header walk (no end-of-image marker) before libjpeg sees it; one whose
+// entropy data is damaged but complete opens (its header is whole) and is refused by read()
+// with libjpeg's warning, on one line — never read as OpenImageIO read it (grey rows, exit 0).
+TEST(Jpeg, TruncatedOrDamagedFilesAreRefused) {
   ScratchDir dir;
   const int w = 64, h = 48;
   libjpeg_write(dir / "cmyk.jpg", w, h, 4, to_u8(picture(w, h, 4, 1)), JpegOptions{});
@@ -194,23 +196,32 @@ TEST(Jpeg, LeavesOtherFilesToOpenImageIO) {
   const std::vector<float> v = picture(640, 480, 3, 7);
   io::jpeg::write(dir / "whole.jpg", "whole.jpg", 640, 480, 3, v.data(), 95);
   const std::string bytes = slurp(dir / "whole.jpg");
-  std::ofstream(dir / "cut.jpg", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
-  const auto r = io::jpeg::Reader::open(dir / "cut.jpg");
+  // Cut anywhere after the header: every one of these is refused, naming the file.
+  for (std::size_t keep : {bytes.size() / 2, bytes.size() - 2, bytes.size() - 1, std::size_t{700}}) {
+    std::ofstream(dir / "cut.jpg", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(keep));
+    const std::string m = bad_input_message([&] { io::read_color(dir / "cut.jpg"); });
+    EXPECT_NE(m.find("cut.jpg"), std::string::npos) << m;
+    EXPECT_NE(m.find("truncated"), std::string::npos) << keep << ": " << m;
+  }
+  // Damage inside the entropy-coded data of a complete file: libjpeg decodes it with a
+  // warning ("Corrupt JPEG data: …"); read() fails and says so.
+  std::string damaged = bytes;
+  const std::size_t sos = damaged.find("\xff\xda");
+  ASSERT_NE(sos, std::string::npos);
+  for (std::size_t i = sos + 400; i < sos + 460; ++i)
+    if (static_cast<unsigned char>(damaged[i]) != 0xff && static_cast<unsigned char>(damaged[i - 1]) != 0xff)
+      damaged[i] = static_cast<char>(0xff), damaged[i + 1] = static_cast<char>(0xd3), ++i;  // stray restart markers
+  std::ofstream(dir / "damaged.jpg", std::ios::binary)
+      .write(damaged.data(), static_cast<std::streamsize>(damaged.size()));
+  const auto r = io::jpeg::Reader::open(dir / "damaged.jpg");
   ASSERT_TRUE(r);
   std::vector<float> px(640 * 480 * 3);
-  EXPECT_FALSE(r->read(0, 3, px.data()));
-  // OpenImageIO's decoding of the cut file, stored losslessly as an 8-bit PNG: read_color of
-  // both must agree bit for bit.
-  const std::vector<std::uint8_t> oiio_px = oiio_u8(dir / "cut.jpg");
-  std::vector<float> as_float(oiio_px.size());
-  for (std::size_t i = 0; i < oiio_px.size(); ++i) as_float[i] = oiio_px[i] / 255.0f;
-  raw_write(dir / "cut_decoded.png", 640, 480, {"R", "G", "B"}, as_float, OIIO::TypeDesc::UINT8);
-  const Image a = io::read_color(dir / "cut.jpg"), b = io::read_color(dir / "cut_decoded.png");
-  ASSERT_TRUE(a.same_size(b));
-  std::size_t diff = 0;
-  for (int k = 0; k < 4; ++k)
-    for (std::size_t i = 0; i < a.plane_size(); ++i) diff += bits_of(a.plane(k)[i]) != bits_of(b.plane(k)[i]);
-  EXPECT_EQ(diff, 0u);
+  std::string broken;
+  EXPECT_FALSE(r->read(0, 3, px.data(), &broken));
+  EXPECT_NE(broken.find("libjpeg: "), std::string::npos) << broken;
+  const std::string m = bad_input_message([&] { io::read_color(dir / "damaged.jpg"); });
+  EXPECT_NE(m.find("damaged.jpg: cannot read colour pixels: libjpeg: "), std::string::npos) << m;
+  EXPECT_EQ(m.find('\n'), std::string::npos) << m;
 }
 
 // A file that cannot be created is a one-line bad-input error naming the display path.

@@ -12,6 +12,7 @@
 
 #include "dofkit/error.hpp"
 #include "io/image_io.hpp"
+#include "io/layers_io.hpp"
 
 using namespace dofkit;
 namespace fs = std::filesystem;
@@ -81,6 +82,9 @@ TEST(BadCorpus, EachFileGivesItsErrorClassAndMessage) {
         io::load_frame(path, depth, {});
       } else if (c.op == "mask") {
         io::read_mask(path);
+      } else if (c.op == "layers") {
+        Frame frame;
+        io::read_layers(path, frame, 8);
       } else {
         FAIL() << "unknown op " << c.op;
       }

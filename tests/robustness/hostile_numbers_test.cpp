@@ -151,28 +151,34 @@ TEST_P(Hostile, ExtremeValidCameras) {
   };
   const double inf = std::numeric_limits<double>::infinity();
   const std::vector<CamCase> cases = {
-      {"f_number_1e-3", cam(ThinLens{50, 1e-3, 2.0, 36})},
-      {"f_number_1e6", cam(ThinLens{50, 1e6, 2.0, 36})},
+      // The edges of every documented range (dofkit/ranges.hpp) are valid.
+      {"f_number_0.1", cam(ThinLens{50, 0.1, 2.0, 36})},
+      {"f_number_1e4", cam(ThinLens{50, 1e4, 2.0, 36})},
       {"focus_just_past_focal_length", cam(ThinLens{50, 2.8, 0.0500001, 36})},
       {"focus_1e30_m", cam(ThinLens{50, 2.8, 1e30, 36})},
-      {"focal_length_1e-6_mm", cam(ThinLens{1e-6, 2.8, 2.0, 36})},
-      {"sensor_1e-9_mm", cam(ThinLens{50, 2.8, 2.0, 1e-9})},
-      {"blur_at_inf_1e30", cam(BlurAtInfinity{2.0, 1e30})},
+      {"focal_length_0.1_mm", cam(ThinLens{0.1, 2.8, 2.0, 36})},
+      {"focal_length_1e5_mm", cam(ThinLens{1e5, 0.1, 1e3, 0.1})},
+      {"sensor_0.1_mm", cam(ThinLens{50, 2.8, 2.0, 0.1})},
+      {"sensor_1e4_mm", cam(ThinLens{50, 2.8, 2.0, 1e4})},
+      {"smallest_thin_lens_k", cam(ThinLens{0.1, 1e4, 1e30, 1e4})},
+      {"largest_thin_lens_k", cam(ThinLens{1e5, 0.1, 100.0000001, 0.1}, inf, 1e9)},
+      {"blur_at_inf_1e9", cam(BlurAtInfinity{2.0, 1e9})},
       {"blur_at_inf_0", cam(BlurAtInfinity{2.0, 0.0})},
-      {"focus_1e-30", cam(BlurAtInfinity{1e-30, 8.0})},
+      {"focus_1e-6", cam(BlurAtInfinity{1e-6, 8.0})},
       {"focus_1e30", cam(BlurAtInfinity{1e30, 8.0})},
       {"planes_sharp_equal", cam(FourPlane{0.5, 2.0, 2.0, 20.0, 16, 8, false})},
       {"planes_far_blurry_inf", cam(FourPlane{0.5, 2.0, 4.0, inf, 16, 8, false})},
       {"planes_far_blurry_inf_inverse", cam(FourPlane{0.5, 2.0, 4.0, inf, 16, 8, true})},
       {"planes_nearly_equal", cam(FourPlane{1.0, 1.0000001, 1.0000001, 1.0000002, 1e6, 1e6, true})},
-      {"planes_radius_1e30", cam(FourPlane{0.5, 2.0, 4.0, 20.0, 1e30, 1e30, false})},
-      {"starcraft_amount_1e30", cam(StarCraft{2.0, 0.0, 1e-9, 1e30, 1e30})},
+      {"planes_radius_1e9", cam(FourPlane{0.5, 2.0, 4.0, 20.0, 1e9, 1e9, false})},
+      {"planes_1e-6_to_1e30", cam(FourPlane{1e-6, 2e-6, 1e29, 1e30, 16, 8, true})},
+      {"starcraft_amount_1e6", cam(StarCraft{2.0, 0.0, 1e-9, 1e6, 1e9})},
       {"starcraft_zero_amount", cam(StarCraft{2.0, 0.5, 5.0, 0.0, 16})},
-      {"near_far_degenerate", cam(NearFarBlend{0.0, 2.0, 2.0, 2.0000001, 1e30})},
-      {"max_coc_1e-6", cam(BlurAtInfinity{2.0, 8.0}, 1e-6)},
-      {"max_coc_1e30", cam(BlurAtInfinity{2.0, 1e30}, 1e30)},
-      {"reference_width_1e-30", cam(BlurAtInfinity{2.0, 8.0}, inf, 1e-30)},
-      {"reference_width_1e30", cam(BlurAtInfinity{2.0, 8.0}, inf, 1e30)},
+      {"near_far_degenerate", cam(NearFarBlend{0.0, 2.0, 2.0, 2.0000001, 1e9})},
+      {"max_coc_1e-3", cam(BlurAtInfinity{2.0, 8.0}, 1e-3)},
+      {"max_coc_1e9", cam(BlurAtInfinity{2.0, 1e9}, 1e9)},
+      {"reference_width_1", cam(BlurAtInfinity{2.0, 1e9}, inf, 1)},
+      {"reference_width_1e9", cam(BlurAtInfinity{2.0, 8.0}, inf, 1e9)},
   };
   for (const auto& cc : cases)
     for (auto [w, h] : {std::pair{1, 1}, {5, 5}, {33, 9}}) {
@@ -200,6 +206,21 @@ TEST_P(Hostile, InvalidCamerasAreUsageErrors) {
       {"planes_nan", FourPlane{nan, 2.0, 4.0, 20.0, 16, 8, false}},
       {"starcraft_none_eq_full", StarCraft{2.0, 1.0, 1.0, 1.0, 16}},
       {"near_far_nan_radius", NearFarBlend{1.0, 2.0, 2.0, 3.0, nan}},
+      // Issue 37, finding 1: subnormal and overflowing camera numbers (the reference and the
+      // scatter crashed, the other methods gave NaN radii).
+      {"f_number_1e-320", ThinLens{50, 1e-320, 4.0, 36}},
+      {"sensor_1e-320", ThinLens{50, 2.8, 4.0, 1e-320}},
+      {"focal_length_1e6", ThinLens{1e6, 2.8, 4.0, 36}},
+      {"focal_length_1e-320", ThinLens{1e-320, 2.8, 4.0, 36}},
+      {"k_1e300", BlurAtInfinity{4.0, 1e300}},
+      {"k_subnormal", BlurAtInfinity{4.0, 1e-320}},
+      {"focus_1e-320", BlurAtInfinity{1e-320, 8}},
+      {"focus_1e31", BlurAtInfinity{1e31, 8}},
+      {"f_number_just_below", ThinLens{50, 0.0999, 2.0, 36}},
+      {"f_number_just_above", ThinLens{50, 10001, 2.0, 36}},
+      {"planes_radius_1e10", FourPlane{0.5, 2.0, 4.0, 20.0, 1e10, 8, false}},
+      {"starcraft_amount_inf", StarCraft{2.0, 0.5, 5.0, inf, 16}},
+      {"near_far_radius_1e30", NearFarBlend{0.0, 2.0, 2.0, 3.0, 1e30}},
   };
   for (const auto& [name, model] : cases) {
     RenderSettings s = default_settings(GetParam());
@@ -208,13 +229,58 @@ TEST_P(Hostile, InvalidCamerasAreUsageErrors) {
     ASSERT_TRUE(o.error) << name << " was accepted";
     EXPECT_EQ(o.kind, ErrorKind::usage) << name << ": " << o.message;
   }
-  for (double max_coc : {0.0, -1.0, nan}) {
+  for (double max_coc : {0.0, -1.0, nan, 1e-320, 1e-6, 1e30}) {
     RenderSettings s = default_settings(GetParam());
     s.camera.max_coc_px = max_coc;
     const Outcome o = try_render(textured_frame(5, 5), s);
     ASSERT_TRUE(o.error) << "max_coc " << max_coc << " was accepted";
     EXPECT_EQ(o.kind, ErrorKind::usage) << o.message;
   }
+  // --reference-width 1e-300 with --blur-at-infinity 1e300 (K · W / ref overflowed, even
+  // with --max-coc 10), and every reference width outside [1, 1e9].
+  for (double ref : {1e-300, 1e-320, 0.5, 1e30, inf, -1.0, nan}) {
+    RenderSettings s = default_settings(GetParam());
+    s.camera.model = BlurAtInfinity{4.0, 8.0};
+    s.camera.reference_width_px = ref;
+    s.camera.max_coc_px = 10;
+    const Outcome o = try_render(textured_frame(5, 5), s);
+    ASSERT_TRUE(o.error) << "reference width " << ref << " was accepted";
+    EXPECT_EQ(o.kind, ErrorKind::usage) << o.message;
+    EXPECT_NE(o.message.find("--reference-width"), std::string::npos) << o.message;
+  }
+  // --threads beyond 1024 (12,000,000 crashed, 4,000,000 took 2.1 GB) and negative.
+  for (int threads : {-1, 1025, 100000, 12000000}) {
+    RenderSettings s = default_settings(GetParam());
+    s.threads = threads;
+    const Outcome o = try_render(textured_frame(5, 5), s);
+    ASSERT_TRUE(o.error) << threads << " threads were accepted";
+    EXPECT_EQ(o.kind, ErrorKind::usage) << o.message;
+    EXPECT_NE(o.message.find("--threads"), std::string::npos) << o.message;
+  }
+}
+
+// The first command of finding 1 as the library sees it: focus 4 m, f/1e-320 on a 64x48 frame
+// — a usage error naming --f-number, for every method (before: a crash in the disc scatter,
+// NaN radii in the other methods).
+TEST_P(Hostile, SubnormalFNumberIsRefusedByName) {
+  RenderSettings s = default_settings(GetParam());
+  s.camera.model = ThinLens{50, 1e-320, 4.0, 36};
+  const Outcome o = try_render(textured_frame(64, 48), s);
+  ASSERT_TRUE(o.error);
+  EXPECT_EQ(o.kind, ErrorKind::usage);
+  EXPECT_NE(o.message.find("--f-number 1e-320: must be 0.1 to 10000"), std::string::npos) << o.message;
+}
+
+// A camera made without validate() (CocFunction directly) still never gives a NaN radius: K
+// beyond 1e300 px is capped, so inf · 0 at the focus depth cannot happen.
+TEST(HostileCoc, NonFiniteThinLensGivesNoNaN) {
+  CameraModel c;
+  c.model = ThinLens{50, 1e-320, 4.0, 36};
+  const CocFunction f(c, 64);
+  for (float z : {0.5f, 4.0f, 100.0f, std::numeric_limits<float>::infinity()}) EXPECT_FALSE(std::isnan(f(z))) << z;
+  c.model = BlurAtInfinity{4.0, std::numeric_limits<double>::quiet_NaN()};
+  const CocFunction g(c, 64);
+  EXPECT_FALSE(std::isnan(g(4.0f)));
 }
 
 // Degenerate shapes: single pixels, single rows/columns, sizes below any tile or reduction

@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -82,6 +83,16 @@ TEST(SafeOutputChild, Run) {
     } catch (...) {
       ::_exit(22);
     }
+  }
+  if (job == "term" || job == "int" || job == "hup") {
+    // A terminating signal in the middle of writing, with the CLI's handlers installed.
+    io::install_signal_cleanup();
+    const int sig = job == "term" ? SIGTERM : job == "int" ? SIGINT : SIGHUP;
+    io::write_atomically(dir + "/out.png", [&](const std::string& temp) {
+      io::encode_image(temp, dir + "/out.png", noise(64, 64));
+      ::raise(sig);
+    });
+    ::_exit(31);  // the signal did not end the process
   }
   if (job == "kill") {
     io::write_atomically(dir + "/out.png", [&](const std::string& temp) {
@@ -165,4 +176,62 @@ TEST(SafeOutput, TargetThatIsAFolderIsRefused) {
   }
   EXPECT_EQ(get(dir / "out.exr/inside"), "x");
   EXPECT_EQ(dir.entries(), std::vector<std::string>{"out.exr"});
+}
+
+// SIGTERM, SIGINT or SIGHUP while a file is written (issue 37, finding 8: the temporary file,
+// up to 133 MB, stayed next to the target): the handler removes it and the process dies of
+// the same signal, so a shell reports 128 + signal; the target keeps its content.
+TEST(SafeOutput, TerminatingSignalsRemoveTheTemporary) {
+  for (const auto& [job, sig] : {std::pair<const char*, int>{"term", SIGTERM}, {"int", SIGINT}, {"hup", SIGHUP}}) {
+    SCOPED_TRACE(job);
+    Dir dir;
+    put(dir / "out.png", "previous result");
+    const int status = run_child(job, dir.path().string());
+    ASSERT_TRUE(WIFSIGNALED(status)) << "exit " << WEXITSTATUS(status);
+    EXPECT_EQ(WTERMSIG(status), sig);
+    EXPECT_EQ(get(dir / "out.png"), "previous result");
+    EXPECT_EQ(dir.entries(), std::vector<std::string>{"out.png"}) << "a temporary file was left behind";
+  }
+}
+
+// A temporary orphaned by SIGKILL (nothing can remove it then) is removed by the next write
+// of this user to the same folder, because the process its name records no longer exists.
+// Another process's live temporary and a file that only looks like one are left alone.
+TEST(SafeOutput, NextWriteRemovesTemporariesOfDeadProcesses) {
+  Dir dir;
+  put(dir / "out.png", "previous result");
+  const int status = run_child("kill", dir.path().string());
+  ASSERT_TRUE(WIFSIGNALED(status));
+  std::vector<std::string> orphans;
+  for (const auto& name : dir.entries())
+    if (name.find(".dofkit-tmp-") != std::string::npos) orphans.push_back(name);
+  ASSERT_EQ(orphans.size(), 1u) << "the killed write should leave its temporary";
+  // A live process's temporary (this test's parent shell: pid 1 always exists) and a user file.
+  put(dir / ".x.dofkit-tmp-1-abcdefghijklmnop.png", "live");
+  put(dir / "notes.dofkit-tmp-1-x.txt", "not hidden: not ours");
+  io::write_image(dir / "other.exr", noise(4, 4));
+  const std::vector<std::string> left = dir.entries();
+  EXPECT_EQ(std::count(left.begin(), left.end(), orphans[0]), 0) << "the orphan is still there";
+  EXPECT_EQ(std::count(left.begin(), left.end(), ".x.dofkit-tmp-1-abcdefghijklmnop.png"), 1);
+  EXPECT_EQ(std::count(left.begin(), left.end(), "notes.dofkit-tmp-1-x.txt"), 1);
+  EXPECT_EQ(get(dir / "out.png"), "previous result");
+}
+
+// The temporary's name: hidden, recognisable, short (a 255-byte target name still has one),
+// and different every time.
+TEST(SafeOutput, TemporaryNamesAreShortAndUnpredictable) {
+  Dir dir;
+  const std::string target = dir / (std::string(251, 'n') + ".exr");
+  std::vector<std::string> seen;
+  for (int i = 0; i < 3; ++i) {
+    io::AtomicFile f(target);
+    const std::string name = fs::path(f.temp_path()).filename().string();
+    EXPECT_EQ(name[0], '.');
+    EXPECT_NE(name.find(".dofkit-tmp-" + std::to_string(::getpid()) + "-"), std::string::npos) << name;
+    EXPECT_LE(name.size(), 88u) << name;
+    EXPECT_EQ(fs::path(name).extension(), ".exr");
+    EXPECT_EQ(std::count(seen.begin(), seen.end(), name), 0) << name;
+    seen.push_back(name);
+  }
+  EXPECT_TRUE(dir.entries().empty()) << "an uncommitted AtomicFile leaves nothing";
 }

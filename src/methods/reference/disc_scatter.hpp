@@ -15,7 +15,15 @@ struct DiscScatterOptions {
   float depth_softness = 0.05f;
   /// SIMD hot loop (default) or the plain scalar one (the test oracle).
   bool simd = true;
+  /// Refuse (Error(usage)) a frame whose discs need more pixel visits than this
+  /// (scatter_work); RenderSettings::max_work. 0 = no limit.
+  double max_work = 0;
 };
+
+/// The work of scattering a CoC map, in pixel visits: Σ over sources of the receivers their
+/// disc's bounding square holds, (2 ⌈ρ + 0.5⌉ − 1)² with ρ = max(|r|, 0.5). The scatter's time
+/// is proportional to it (the bands visit each disc's rows across its whole width).
+double scatter_work(const Image& coc);
 
 /// colour: RGBA premultiplied; depth: z; coc: signed px. Writes RGBA into `out`.
 void disc_scatter(const Image& colour, const Image& depth, const Image& coc, const DiscScatterOptions& opt, Image& out);

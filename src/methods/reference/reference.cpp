@@ -17,6 +17,7 @@ const MethodDef& reference_method() {
         DiscScatterOptions opt;
         opt.depth_order = true;
         opt.depth_softness = static_cast<float>(ctx.params.get_double("depth_softness", 0.05, 0.001, 1.0));
+        opt.max_work = ctx.max_work;
         disc_scatter(ctx.frame.color, ctx.frame.depth, ctx.coc, opt, out);
       }};
   return def;

@@ -15,6 +15,7 @@ const MethodDef& scatter_method() {
       [](const MethodContext& ctx, Image& out) {
         DiscScatterOptions opt;
         opt.depth_order = false;
+        opt.max_work = ctx.max_work;
         disc_scatter(ctx.frame.color, ctx.frame.depth, ctx.coc, opt, out);
       }};
   return def;

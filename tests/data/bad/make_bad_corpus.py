@@ -96,7 +96,8 @@ def png(width, height, colour_type=2, rows=None, ihdr_size=None, bad_crc=False):
 SHORT, LONG = 3, 4
 
 
-def tiff(width, height, spp=3, bits=8, declared=None, strip_offset=None, strip_bytes=None, pixels=None):
+def tiff(width, height, spp=3, bits=8, declared=None, strip_offset=None, strip_bytes=None, pixels=None,
+         compression=1):
     dw, dh = declared or (width, height)
     data = pixels if pixels is not None else bytes((i * 13) & 0xFF for i in range(width * height * spp * bits // 8))
     entries_n = 10
@@ -116,13 +117,79 @@ def tiff(width, height, spp=3, bits=8, declared=None, strip_offset=None, strip_b
     bps = e(258, SHORT, spp, bps_off) if spp > 2 else (
         struct.pack("<HHIHH", 258, SHORT, spp, bits, bits if spp == 2 else 0))
     ents = [
-        e(256, LONG, 1, dw), e(257, LONG, 1, dh), bps, e(259, SHORT, 1, 1),
+        e(256, LONG, 1, dw), e(257, LONG, 1, dh), bps, e(259, SHORT, 1, compression),
         e(262, SHORT, 1, 2 if spp >= 3 else 1), e(273, LONG, 1, so), e(277, SHORT, 1, spp),
         e(278, LONG, 1, dh), e(279, LONG, 1, sb), e(284, SHORT, 1, 1),
     ]
     assert len(ents) == entries_n
     ifd = struct.pack("<H", entries_n) + b"".join(ents) + struct.pack("<I", 0)
     return b"II*\0" + struct.pack("<I", ifd_off) + ifd + extra + data
+
+
+# --- BigTIFF (little-endian, one strip) ---------------------------------------------------
+# Header "II+\0", uint16 8 (offset size), uint16 0, uint64 offset of the first IFD; an IFD is
+# a uint64 entry count, 20-byte entries (tag, type, uint64 count, 8-byte value) and a uint64
+# next offset.
+LONG8 = 16
+
+
+def bigtiff(width, height, data, declared=None, compression=1, strip_offset=None):
+    dw, dh = declared or (width, height)
+    ents = [(256, LONG, dw), (257, LONG, dh), (258, SHORT, 8), (259, SHORT, compression), (262, SHORT, 1),
+            (273, LONG8, None), (277, SHORT, 1), (278, LONG, dh), (279, LONG8, len(data))]
+    ifd_off = 16
+    data_off = ifd_off + 8 + 20 * len(ents) + 8
+    out = b"II+\0" + struct.pack("<HHQ", 8, 0, ifd_off) + struct.pack("<Q", len(ents))
+    for tag, typ, value in ents:
+        if value is None:
+            value = data_off if strip_offset is None else strip_offset
+        out += struct.pack("<HHQQ", tag, typ, 1, value)
+    return out + struct.pack("<Q", 0) + data
+
+
+# --- JPEG (baseline or other frames, hand-made tables) --------------------------------------
+# SOI, APP0, a quantisation table, a frame header, Huffman tables of one 1-bit code each (DC
+# category 0, AC end-of-block: every 8x8 block costs 2 bits), one scan of `data`, EOI.
+def jpeg(width, height, data, comps=3, sof=0xC0, eoi=True):
+    out = b"\xff\xd8" + b"\xff\xe0" + struct.pack(">H", 16) + b"JFIF\0\x01\x01\0\0\x01\0\x01\0\0"
+    out += b"\xff\xdb" + struct.pack(">H", 67) + b"\0" + bytes(range(1, 65))
+    out += bytes([0xFF, sof]) + struct.pack(">HBHHB", 8 + 3 * comps, 8, height, width, comps)
+    out += b"".join(bytes([i + 1, 0x11, 0]) for i in range(comps))
+    one_code = bytes([1] + [0] * 15) + b"\0"
+    out += b"\xff\xc4" + struct.pack(">H", 2 + 2 * 17 + 2) + b"\x00" + one_code + b"\x10" + one_code
+    out += b"\xff\xda" + struct.pack(">HB", 6 + 2 * comps, comps) + b"".join(bytes([i + 1, 0]) for i in range(comps))
+    out += b"\x00\x3f\x00" + data
+    return out + (b"\xff\xd9" if eoi else b"")
+
+
+# --- deep EXR (scanline, header and chunk table only) --------------------------------------
+def deep_exr(dw, display, chunks):
+    """chunks: (packed table size, packed sample size, unpacked sample size) per chunk (ZIPS:
+    one scanline each); their data are zero bytes of the packed sizes."""
+    chl = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", FLOAT, 0, 1, 1) for n in "AZ") + b"\0"
+    hdr = b"".join([
+        attr("channels", "chlist", chl),
+        attr("chunkCount", "int", struct.pack("<i", len(chunks))),
+        attr("compression", "compression", bytes([2])),
+        attr("dataWindow", "box2i", struct.pack("<4i", *dw)),
+        attr("displayWindow", "box2i", struct.pack("<4i", *display)),
+        attr("lineOrder", "lineOrder", b"\0"),
+        attr("maxSamplesPerPixel", "int", struct.pack("<i", 4)),
+        attr("pixelAspectRatio", "float", struct.pack("<f", 1.0)),
+        attr("screenWindowCenter", "v2f", struct.pack("<2f", 0, 0)),
+        attr("screenWindowWidth", "float", struct.pack("<f", 1.0)),
+        attr("type", "string", b"deepscanline"),
+        attr("version", "int", struct.pack("<i", 1)),
+    ]) + b"\0"
+    head = b"\x76\x2f\x31\x01" + struct.pack("<i", 2 | 0x800) + hdr
+    pos = len(head) + 8 * len(chunks)
+    table, body = b"", b""
+    for y, (t, p, u) in enumerate(chunks):
+        table += struct.pack("<Q", pos)
+        c = struct.pack("<iQQQ", dw[1] + y, t, p, u) + b"\0" * (t + p)
+        body += c
+        pos += len(c)
+    return head + table + body
 
 
 # --- the corpus ----------------------------------------------------------------------------
@@ -229,6 +296,43 @@ def main():
     files["depth_rgb_not_grey.png"] = png(8, 6, 2)
     # A PNG misnamed .exr is still read (OIIO goes by content): not an error.
     files["png_named.exr"] = png(8, 6, 2)
+    # --- issue 37: formats and codecs the header walk did not cover -------------------------
+    # A 649-byte JPEG declaring 16000 x 16000: 7 GB and 24 s before it failed on the depth's
+    # size. Every 8x8 block costs at least 2 bits (DC + end of block): refused by the walk.
+    files["jpeg_16000.jpg"] = jpeg(16000, 16000, b"\0" * 480)
+    files["jpeg_arithmetic.jpg"] = jpeg(64, 48, b"\0" * 64, sof=0xC9)
+    files["jpeg_no_eoi.jpg"] = jpeg(16, 16, b"\0" * 8, eoi=False)
+    seed = open(os.path.join(HERE, "..", "..", "..", "fuzz", "corpus", "load_render", "jpeg_rgb"), "rb").read()[8:]
+    files["jpeg_truncated.jpg"] = seed[: len(seed) // 2]
+    # A 16 KB CCITT-G4 TIFF of 16000 x 16000 (5 GB, 15-19 s): G4 codes a blank row in a bit,
+    # so no ratio bounds it; refused by codec. Unknown codes rendered all black.
+    files["tiff_g4_16000.tif"] = tiff(128, 128, spp=1, bits=1, declared=(16000, 16000), compression=4)
+    files["tiff_compression_34712.tif"] = tiff(4, 4, compression=34712)
+    files["tiff_compression_99.tif"] = tiff(4, 4, compression=99)
+    # BigTIFF had no header walk: a 1.2 KB file of 16000 x 16000 took 1.2 GB.
+    files["bigtiff_16000.tif"] = bigtiff(16, 16, b"\x78\x9c" + b"\0" * 1200, declared=(16000, 16000), compression=8)
+    files["bigtiff_huge.tif"] = bigtiff(4, 4, bytes(16), declared=(1000000, 1000000))
+    files["bigtiff_strip_past_eof.tif"] = bigtiff(4, 4, bytes(16), strip_offset=1000000)
+    files["bigtiff_ok.tif"] = bigtiff(4, 4, bytes(range(0, 160, 10)))
+    # PIZ, B44 and DWAA had no bound: 8000 x 8000 half RGB headers with no pixel data.
+    files["piz_too_short.exr"] = huge_exr(8000, 8000, compression=4, lines=32)
+    files["b44_too_short.exr"] = huge_exr(8000, 8000, compression=6, lines=32)
+    files["dwaa_too_short.exr"] = huge_exr(8000, 8000, compression=8, lines=32)
+    # Deep EXR: a 2x2 data window in a 32768 x 32768 display window (the frame the layers
+    # reader fills: out of memory after 8.9 GB and 40 s), and a chunk whose samples claim 1 TB.
+    files["deep_display_huge.exr"] = deep_exr((0, 0, 1, 1), (0, 0, 32767, 32767), [(20, 10, 40), (20, 10, 40)])
+    files["deep_samples_lie.exr"] = deep_exr((0, 0, 1, 1), (0, 0, 1, 1), [(20, 10, 10 ** 12), (20, 10, 40)])
+    # A palette PNG with a damaged image stream (it went to OpenImageIO, whose libpng printed
+    # its own line), and an unknown critical chunk.
+    plte = b"\x10\x20\x30\x80\x90\xa0"
+    ihdr = struct.pack(">IIBBBBB", 4, 4, 8, 3, 0, 0, 0)
+    idat = bytearray(zlib.compress(b"\0\0\1\0\1" * 4))
+    idat[4] ^= 0xFF
+    files["palette_bad_idat.png"] = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"PLTE", plte) +
+                                     chunk(b"IDAT", bytes(idat)) + chunk(b"IEND", b""))
+    files["png_unknown_critical.png"] = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"PLTE", plte) +
+                                         chunk(b"ABCD", b"x") + chunk(b"IDAT", zlib.compress(b"\0\0\1\0\1" * 4)) +
+                                         chunk(b"IEND", b""))
     for name, data in sorted(files.items()):
         with open(os.path.join(HERE, name), "wb") as f:
             f.write(data)

@@ -8,6 +8,7 @@
 if(TARGET test_cli)
   target_sources(test_cli PRIVATE
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cmd_render.cpp
+    ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/chunks.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cli_common.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/budget.cpp)
   target_include_directories(test_cli PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit)

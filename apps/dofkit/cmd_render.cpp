@@ -27,6 +27,7 @@
 #include <set>
 
 #include "budget.hpp"
+#include "chunks.hpp"
 #include "cli_common.hpp"
 #include "commands.hpp"
 #include "dofkit/error.hpp"
@@ -58,6 +59,7 @@ struct RenderArgs {
   DepthFlags depth_flags;
   ApertureFlags aperture;
   HighlightFlags highlights;
+  FarmFlags farm;  // --chunk-index, --chunk-count, --chunk-from-env, --skip-existing (chunks.hpp)
 };
 
 const char* kFooter = R"(
@@ -81,6 +83,8 @@ Examples:
   # a sequence in one process (paths carry #### or %04d; one Renderer for all frames)
   dofkit render --color beauty.####.exr --depth depth.####.exr --frames 1001-1100 \
       --blur-at-infinity 24 --focus 4 --method sterna --output dof.####.exr
+  # the same shot as task 3 of a 10-task farm job (frames 1031-1040), resumable
+  dofkit render ... --frames 1001-1100 --chunk-index 3 --chunk-count 10 --skip-existing
 
 Exit codes: 0 success, 2 usage error, 3 bad input (missing, corrupt or inconsistent files),
 1 internal error. On any error no output file is created or changed (with --frames: none of
@@ -513,7 +517,16 @@ void run_render(RenderArgs& a) {
   // frame would render the same input); a depth, mask or mask depth without one serves every
   // frame.
   const bool sequence = !a.frames.empty();
-  const FrameRange range = sequence ? parse_frames(a.frames) : FrameRange{-1, -1, 1};
+  FrameRange range = sequence ? parse_frames(a.frames) : FrameRange{-1, -1, 1};
+  // A farm task's chunk of the list (chunks.hpp): a contiguous slice, so again a FrameRange.
+  if (const auto chunk = resolve_chunk(a.farm, a.frames, sequence ? static_cast<std::size_t>(range.count()) : 0)) {
+    const ChunkRange r = chunk_range(static_cast<std::size_t>(range.count()), chunk->index, chunk->count);
+    const long total = range.count();
+    range = FrameRange{range.at(static_cast<long>(r.begin)), range.at(static_cast<long>(r.end) - 1), range.step};
+    std::cerr << "dofkit: chunk " << chunk->index << " of " << chunk->count << " (from 0): frames " << range.first
+              << ".." << range.last << ", " << range.count() << " of the " << total << " of --frames " << a.frames
+              << "\n";
+  }
   FramePaths given{a.color, a.depth, a.layers, a.mask, a.mask_depth, a.output, a.output_coc, a.debug_output};
   std::optional<FramePattern> pattern[std::size(kFrameFields)];
   if (sequence) {
@@ -582,12 +595,23 @@ void run_render(RenderArgs& a) {
         if (!outputs_seen.emplace(key, std::make_pair(out, range.at(i))).second)
           throw_usage(out.flag + " " + out.path + ": is also an output of another frame of --frames " + a.frames);
       }
+  }
+  // The frames to render: all, or with --skip-existing those whose outputs do not all exist.
+  std::vector<long> frames;
+  for (long i = 0; i < range.count(); ++i)
+    if (!a.farm.skip_existing || !outputs_exist(paths_of(range.at(i)).outputs())) frames.push_back(range.at(i));
+  if (a.farm.skip_existing) {
+    std::cerr << "dofkit: --skip-existing: " << range.count() - static_cast<long>(frames.size()) << " of "
+              << range.count() << (range.count() == 1 ? " frame" : " frames") << " already written, skipped\n";
+    if (frames.empty()) return;
+  }
+  if (sequence) {
     // Then the first missing input, in frame order, before any frame is read.
-    for (long i = 0; i < range.count(); ++i)
-      for (const NamedPath& in : paths_of(range.at(i)).inputs()) {
+    for (const long frame : frames)
+      for (const NamedPath& in : paths_of(frame).inputs()) {
         struct stat st {};
         if (!in.path.empty() && ::stat(in.path.c_str(), &st) != 0)
-          throw_bad_input(in.flag + " " + in.path + ": does not exist (frame " + std::to_string(range.at(i)) +
+          throw_bad_input(in.flag + " " + in.path + ": does not exist (frame " + std::to_string(frame) +
                           " of --frames " + a.frames + ")");
       }
   }
@@ -642,14 +666,19 @@ void run_render(RenderArgs& a) {
         return read_inputs(a, p, depth_opt, s, true);
       });
     };
-    std::future<FrameInputs> next = read_async(range.first);
-    for (long i = 0; i < range.count(); ++i) {
+    const GracefulStop stop;
+    std::future<FrameInputs> next = read_async(frames[0]);
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (i > 0)
+        GracefulStop::stop_if_requested("stopped by SIGTERM after " + std::to_string(i) + " of " +
+                                        std::to_string(frames.size()) + " frames; frame " + std::to_string(frames[i]) +
+                                        " on not rendered (rerun with --skip-existing to resume)");
       const FrameInputs in = next.get();
       note_highlights();
-      if (i + 1 < range.count()) next = read_async(range.at(i + 1));
-      render_frame(a, paths_of(range.at(i)), in, settings, renderer, out_opt, coc_opt, debug_opt);
+      if (i + 1 < frames.size()) next = read_async(frames[i + 1]);
+      render_frame(a, paths_of(frames[i]), in, settings, renderer, out_opt, coc_opt, debug_opt);
     }
-    std::cerr << "dofkit: " << range.count() << " frames in "
+    std::cerr << "dofkit: " << frames.size() << " frames in "
               << static_cast<long>(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1000 +
                                    0.5)
               << " ms\n";
@@ -689,6 +718,7 @@ void add_render_command(CLI::App& app) {
   args->camera.add(cmd);
   args->aperture.add(cmd);
   args->highlights.add(cmd);
+  args->farm.add(cmd);
   args->method_opt = cmd->add_option("--method", args->method,
                                      "technique (default lens; with a non-circular aperture and no --method or "
                                      "--set: reference; see `dofkit methods`)")

@@ -45,7 +45,8 @@ set(DOFKIT_SIMD_TEST_FILTERS
     "sterna|SternaFast.*:SternaColourCheck.*:Sterna.SameOutputForOneAndTwoThreads"
     "starcraft|StarcraftFast.*:StarcraftFinal.*:WeightedGaussian.*:Starcraft.SameOutputForAnyThreadCount"
     "layered|LayeredFast.*:LayeredColourCheck.*"
-    "reference|Reference.SimdLoop*")
+    "reference|Reference.SimdLoop*"
+    "ssao|Ao.FastPathsMatchThePlainOracles:Ao.BlurKernelsMatchTheOracleBitForBit:Ao.SameOutputForAnyThreadCount")
 foreach(simd_target ${DOFKIT_TEST_SIMD_TARGETS})
   foreach(entry ${DOFKIT_SIMD_TEST_FILTERS})
     string(REPLACE "|" ";" entry "${entry}")

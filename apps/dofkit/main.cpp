@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   dofkit::cli::add_compare_command(app);
   dofkit::cli::add_quality_command(app);
   dofkit::cli::add_bench_command(app);
+  dofkit::cli::add_ssao_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

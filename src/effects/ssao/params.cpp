@@ -143,9 +143,10 @@ std::vector<MethodInfo> method_infos() {
   MethodInfo gtao;
   gtao.name = "gtao";
   gtao.summary =
-      "ground-truth-based AO after Jimenez et al. 2016: per pixel, screen slices through the view vector; in each "
-      "the two horizons within the radius are searched on the full-res depth and the cosine-weighted visibility "
-      "between them is integrated in closed form; same smart blur";
+      "ground-truth-based AO after Jimenez et al. 2016: per pixel, screen slices through the view vector, each "
+      "searched on the full-res depth for what occludes within the radius, the cosine-weighted visibility "
+      "integrated per slice in closed form; by default every depth sample is a 0.2 m thick occluder marking "
+      "sectors of the slice (occluder_thickness_m=0: the paper's horizons); same smart blur";
   gtao.params = {
       {"slices", num(g.slices), "screen directions per pixel, 1..16 (rotated per pixel by the noise tile)"},
       {"steps", num(g.steps), "depth samples per slice side, 1..32"},

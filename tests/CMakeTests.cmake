@@ -10,13 +10,18 @@ if(TARGET test_cli)
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cmd_render.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cli_common.cpp)
   target_include_directories(test_cli PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit)
-  # bench_cli_test.cpp parses `dofkit bench --json`.
-  find_package(nlohmann_json REQUIRED)
-  target_link_libraries(test_cli PRIVATE nlohmann_json::nlohmann_json)
-  if(TARGET dofkit_cli)
-    add_dependencies(test_cli dofkit_cli)
-  endif()
 endif()
+# Tests that run the built `dofkit` and parse its `--json` (bench_cli_test.cpp; the GPU
+# backend's tests/gpu_cli/).
+foreach(t test_cli test_gpu_cli)
+  if(TARGET ${t})
+    find_package(nlohmann_json REQUIRED)
+    target_link_libraries(${t} PRIVATE nlohmann_json::nlohmann_json)
+    if(TARGET dofkit_cli)
+      add_dependencies(${t} dofkit_cli)
+    endif()
+  endif()
+endforeach()
 
 # Library users (issue 2 item 8): install this build into a scratch prefix, then configure,
 # build and run a tiny project that does find_package(dofkit) and links dofkit::dofkit.
@@ -59,3 +64,15 @@ foreach(simd_target ${DOFKIT_TEST_SIMD_TARGETS})
     endif()
   endforeach()
 endforeach()
+
+
+# scripts/gpu-check's copy of the GPU parity and validation tests (tests/gpu/), linked without
+# the IO stack so that it can run on a machine that has only a Vulkan driver (the binary and
+# the few libraries it needs travel there; see scripts/gpu-check --pack). Not a CTest test
+# (test_gpu runs the same tests); built only on request.
+if(TARGET test_gpu)
+  file(GLOB _gpu_check_sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/tests/gpu/*.cpp)
+  add_executable(gpu_check_tests EXCLUDE_FROM_ALL ${_gpu_check_sources})
+  target_include_directories(gpu_check_tests PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src ${CMAKE_CURRENT_SOURCE_DIR}/tests)
+  target_link_libraries(gpu_check_tests PRIVATE dofkit dofkit_scene GTest::gtest GTest::gtest_main TBB::tbb)
+endif()

@@ -360,6 +360,12 @@ void OutputWriter::add_file(const std::string& path, const std::function<void(co
 
 void OutputWriter::commit() { set_.commit(); }
 
+Backend parse_backend(const std::string& text) {
+  if (text == "cpu") return Backend::cpu;
+  if (text == "vulkan") return Backend::vulkan;
+  throw_usage("--backend " + text + ": must be cpu or vulkan");
+}
+
 int check_threads(int threads) {
   if (threads < 0) throw_usage("--threads: must be >= 0 (0 = all hardware threads), got " + std::to_string(threads));
   return threads;

@@ -17,6 +17,7 @@
 
 #include "dofkit/coc.hpp"
 #include "dofkit/image.hpp"
+#include "dofkit/render.hpp"
 #include "io/atomic_write.hpp"
 #include "io/image_io.hpp"
 
@@ -108,5 +109,8 @@ class OutputWriter {
 
 /// Parses --threads (>= 0; 0 = all hardware threads). Throws Error(usage).
 int check_threads(int threads);
+
+/// Parses --backend cpu|vulkan. Throws Error(usage).
+Backend parse_backend(const std::string& text);
 
 }  // namespace dofkit::cli

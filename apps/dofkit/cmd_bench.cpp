@@ -22,10 +22,12 @@
 #include <fmt/core.h>
 #include <nlohmann/json.hpp>
 
+#include "cli_common.hpp"
 #include "commands.hpp"
 #include "core/parallel.hpp"
 #include "core/pass_profile.hpp"
 #include "core/simd_target.hpp"
+#include "gpu/gpu.hpp"
 #include "io/image_io.hpp"
 #include "quality_run.hpp"
 #include "scene/bench_frame.hpp"
@@ -44,7 +46,7 @@ struct Size {
   int w = 0, h = 0;
 };
 
-RenderSettings bench_settings(const std::string& method_spec, int w, int threads) {
+RenderSettings bench_settings(const std::string& method_spec, int w, int threads, Backend backend) {
   // Same syntax as `dofkit quality --methods`: name or name:key=value,key=value.
   const std::vector<MethodSpec> specs = parse_method_list(method_spec);
   if (specs.size() != 1 || specs[0].name == "input") throw_usage("--methods " + method_spec + ": expected one method");
@@ -53,7 +55,69 @@ RenderSettings bench_settings(const std::string& method_spec, int w, int threads
   s.params = specs[0].params;
   s.camera = scene::bench_camera(w);
   s.threads = threads;
+  s.backend = backend;
   return s;
+}
+
+// The GPU rows (--backend vulkan): GPU time per frame from the backend's timestamp queries —
+// the method's passes, without the uploads and the download (reported beside them) — and the
+// GPU time of one frame copy on the device (RGBA16F and RGBA32F images, vkCmdCopyImage).
+void run_gpu_child(const std::string& method, Size size, int iterations, bool passes) {
+  const gpu::DeviceInfo dev = gpu::selected_device();
+  nlohmann::json j;
+  j["method"] = method;
+  j["width"] = size.w;
+  j["height"] = size.h;
+  j["backend"] = "vulkan";
+  j["device"] = dev.name;
+  j["device_type"] = dev.type;
+  j["driver"] = dev.driver;
+  auto put = [&](std::vector<double> v, const char* median, const char* min) {
+    std::sort(v.begin(), v.end());
+    j[median] = v[v.size() / 2];
+    if (min) j[min] = v.front();
+  };
+  if (method == "copy-rgba16f" || method == "copy-rgba32f") {
+    put(gpu::time_frame_copy(size.w, size.h, method == "copy-rgba16f", iterations), "median_ms", "min_ms");
+  } else {
+    const Frame frame = scene::bench_frame(size.w, size.h);
+    Renderer renderer(bench_settings(method, size.w, 0, Backend::vulkan));
+    const gpu::MethodRenderer* g = detail::RendererAccess::gpu(renderer);
+    std::vector<double> ms, wall, up, down;
+    std::vector<std::pair<std::string, std::vector<double>>> pass_ms;
+    for (int i = 0; i < iterations + 1; ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      renderer.render(frame);
+      const auto t1 = std::chrono::steady_clock::now();
+      if (i == 0) continue;  // warm-up
+      const gpu::FrameTimes& t = g->last_times();
+      ms.push_back(t.passes_ms);
+      up.push_back(t.upload_ms);
+      down.push_back(t.download_ms);
+      wall.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      for (const gpu::FrameTimes::Pass& p : t.passes) {
+        auto it = std::find_if(pass_ms.begin(), pass_ms.end(), [&](const auto& q) { return q.first == p.name; });
+        if (it == pass_ms.end()) it = pass_ms.insert(pass_ms.end(), {p.name, {}});
+        it->second.push_back(p.ms);
+      }
+    }
+    put(ms, "median_ms", "min_ms");
+    put(up, "upload_ms", nullptr);
+    put(down, "download_ms", nullptr);
+    // The whole render() call on the host: CoC map and colour check on the CPU, uploads,
+    // passes, download, waits.
+    put(wall, "call_ms", nullptr);
+    if (passes) {
+      nlohmann::json list = nlohmann::json::array();
+      for (auto& [path, v] : pass_ms) {
+        std::sort(v.begin(), v.end());
+        list.push_back({{"pass", path}, {"median_ms", v[v.size() / 2]}, {"min_ms", v.front()}});
+      }
+      j["passes"] = list;
+    }
+  }
+  j["mpix_per_s"] = size.w * double(size.h) / 1e6 / (j["median_ms"].get<double>() / 1000.0);
+  std::cout << j.dump() << std::endl;
 }
 
 // CPU time of this process so far (user + system, all threads), ms.
@@ -125,7 +189,7 @@ void run_child(const std::string& method, Size size, int threads, int iterations
     time_runs([&] { renderer.render(g.z, &g.normal); });
   } else {
     // A Renderer, as a game loop would use it: buffers are kept between frames.
-    Renderer renderer(bench_settings(method, size.w, threads));
+    Renderer renderer(bench_settings(method, size.w, threads, Backend::cpu));
     time_runs([&] { renderer.render(frame); });
   }
   std::sort(ms.begin(), ms.end());
@@ -144,6 +208,7 @@ void run_child(const std::string& method, Size size, int threads, int iterations
   j["mpix_per_s"] = size.w * double(size.h) / 1e6 / (ms[ms.size() / 2] / 1000.0);
   j["peak_rss_mb"] = peak_rss_mb();
   j["simd"] = core::simd_target();
+  j["backend"] = "cpu";
   if (passes) {
     // A pass that ran in only some frames counts 0 ms in the others.
     nlohmann::json list = nlohmann::json::array();
@@ -158,7 +223,7 @@ void run_child(const std::string& method, Size size, int threads, int iterations
 }
 
 nlohmann::json spawn_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd,
-                           bool passes, bool ao = false) {
+                           bool passes, const std::string& backend = "cpu", bool ao = false) {
   const std::string self = "/proc/self/exe";
   std::vector<std::string> args = {"dofkit",       "bench",
                                    "--child",      method,
@@ -167,6 +232,7 @@ nlohmann::json spawn_child(const std::string& method, Size size, int threads, in
                                    "--iterations", std::to_string(iterations)};
   if (!simd.empty()) args.insert(args.end(), {"--simd", simd});
   if (passes) args.push_back("--passes");
+  if (backend != "cpu") args.insert(args.end(), {"--backend", backend});
   if (ao) args.insert(args.end(), {"--effect", "ao"});
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
@@ -197,6 +263,54 @@ nlohmann::json spawn_child(const std::string& method, Size size, int threads, in
   return nlohmann::json::parse(out);
 }
 
+void run_gpu_bench(const std::vector<std::string>& names, const std::vector<Size>& sizes, int iterations, bool passes,
+                   bool json) {
+  const gpu::DeviceInfo dev = gpu::selected_device();  // a one-line error when there is none
+  if (!json) std::cerr << fmt::format("device: {} ({}, {})\n", dev.name, dev.type, dev.driver);
+  nlohmann::json rows = nlohmann::json::array();
+  for (const Size& size : sizes) {
+    nlohmann::json copy16 = spawn_child("copy-rgba16f", size, 0, std::max(iterations, 15), "", false, "vulkan");
+    nlohmann::json copy32 = spawn_child("copy-rgba32f", size, 0, std::max(iterations, 15), "", false, "vulkan");
+    const double base = copy16["median_ms"].get<double>();
+    copy16["ratio_to_copy"] = 1.0;
+    copy32["ratio_to_copy"] = copy32["median_ms"].get<double>() / base;
+    rows.push_back(copy16);
+    rows.push_back(copy32);
+    for (const auto& m : names) {
+      nlohmann::json r = spawn_child(m, size, 0, iterations, "", passes, "vulkan");
+      r["ratio_to_copy"] = r["median_ms"].get<double>() / base;  // × the RGBA16F copy
+      if (!json) std::cerr << fmt::format("{}x{}: {} {:.3f} GPU ms\n", size.w, size.h, m, r["median_ms"].get<double>());
+      rows.push_back(r);
+    }
+  }
+  if (json) {
+    std::cout << rows.dump(2) << "\n";
+    return;
+  }
+  std::cout << "| method | size | device | GPU median ms | GPU min ms | × RGBA16F copy | upload ms | download ms | "
+               "call ms |\n|---|---|---|---:|---:|---:|---:|---:|---:|\n";
+  for (const auto& r : rows) {
+    auto opt = [&](const char* k) {
+      return r.contains(k) ? fmt::format("{:.3f}", r[k].get<double>()) : std::string("—");
+    };
+    std::cout << fmt::format("| {} | {}x{} | {} | {:.4f} | {:.4f} | {:.2f} | {} | {} | {} |\n",
+                             r["method"].get<std::string>(), r["width"].get<int>(), r["height"].get<int>(),
+                             r["device"].get<std::string>(), r["median_ms"].get<double>(), r["min_ms"].get<double>(),
+                             r["ratio_to_copy"].get<double>(), opt("upload_ms"), opt("download_ms"), opt("call_ms"));
+  }
+  if (!passes) return;
+  for (const auto& r : rows) {
+    if (!r.contains("passes")) continue;
+    std::cout << fmt::format(
+        "\n{} {}x{} on {}: {:.4f} GPU ms per frame\n\n| pass | median ms | min ms |\n|---|---:|---:|\n",
+        r["method"].get<std::string>(), r["width"].get<int>(), r["height"].get<int>(), r["device"].get<std::string>(),
+        r["median_ms"].get<double>());
+    for (const auto& p : r["passes"])
+      std::cout << fmt::format("| {} | {:.4f} | {:.4f} |\n", p["pass"].get<std::string>(), p["median_ms"].get<double>(),
+                               p["min_ms"].get<double>());
+  }
+}
+
 }  // namespace
 
 void add_bench_command(CLI::App& app) {
@@ -211,6 +325,7 @@ void add_bench_command(CLI::App& app) {
     std::string simd;
     bool passes = false;
     std::string effect = "dof";
+    std::string backend = "cpu";
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("bench",
@@ -238,6 +353,10 @@ void add_bench_command(CLI::App& app) {
                   "dof (depth of field, default) or ao: time the AO methods (--methods sc2,gtao by default, with "
                   "parameters as name:key=value) on the built-in scene ao_corner's depth and normals at --size")
       ->check(CLI::IsMember({"dof", "ao"}));
+  cmd->add_option("--backend", opts->backend,
+                  "cpu (default) or vulkan: time the methods' compute shaders on the GPU by timestamp queries "
+                  "(median and min GPU ms per frame of the passes; rows name the device) against the GPU time "
+                  "of one RGBA16F and one RGBA32F frame copy on the device, measured in the same run");
   cmd->add_option("--child", opts->child, "internal: run one measurement")->group("");
   cmd->callback([opts] {
     std::vector<Size> sizes;
@@ -254,6 +373,11 @@ void add_bench_command(CLI::App& app) {
     for (const std::string& t : targets) target_list += (target_list.empty() ? "" : ", ") + t;
     if (!opts->simd.empty() && std::find(targets.begin(), targets.end(), opts->simd) == targets.end())
       throw_usage("--simd " + opts->simd + ": not a SIMD target this machine runs (it runs " + target_list + ")");
+    const Backend backend = parse_backend(opts->backend);
+    if (!opts->child.empty() && backend == Backend::vulkan) {
+      run_gpu_child(opts->child, sizes.front(), opts->iterations, opts->passes);
+      return;
+    }
     if (!opts->child.empty()) {
       run_child(opts->child, sizes.front(), threads, opts->iterations, opts->simd, opts->passes, opts->effect == "ao");
       return;
@@ -289,6 +413,12 @@ void add_bench_command(CLI::App& app) {
         names.push_back(spec.label);
       }
     }
+    if (backend == Backend::vulkan) {
+      if (ao) throw_usage("--effect ao: runs on --backend cpu only");
+      if (opts->methods.empty()) names = gpu::supported_methods();
+      if (!opts->simd.empty()) throw_usage("--simd: applies to --backend cpu only");
+      return run_gpu_bench(names, sizes, opts->iterations, opts->passes, opts->json);
+    }
     nlohmann::json rows = nlohmann::json::array();
     if (!opts->json)
       std::cerr << fmt::format("SIMD target: {} (this machine runs {})\n",
@@ -300,7 +430,7 @@ void add_bench_command(CLI::App& app) {
       if (!opts->json)
         std::cerr << fmt::format("{}x{}: copy {:.2f} ms\n", size.w, size.h, copy["median_ms"].get<double>());
       for (const auto& m : names) {
-        nlohmann::json r = spawn_child(m, size, threads, opts->iterations, opts->simd, opts->passes, ao);
+        nlohmann::json r = spawn_child(m, size, threads, opts->iterations, opts->simd, opts->passes, "cpu", ao);
         r["ratio_to_copy"] = r["median_ms"].get<double>() / copy["median_ms"].get<double>();
         if (!opts->json)
           std::cerr << fmt::format("{}x{}: {} {:.2f} ms\n", size.w, size.h, m, r["median_ms"].get<double>());

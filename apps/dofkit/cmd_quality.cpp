@@ -23,6 +23,7 @@ void add_quality_command(CLI::App& app) {
     std::vector<std::string> external;
     int ao_rays = 4096;
     bool fit = false, no_normals = false;
+    std::string backend = "cpu";
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -66,6 +67,9 @@ void add_quality_command(CLI::App& app) {
       ->group(ao);
   cmd->add_flag("--no-normals", opts->no_normals, "give the AO methods the depth only (normals reconstructed)")
       ->group(ao);
+  cmd->add_option("--backend", opts->backend,
+                  "cpu (default) or vulkan: run the methods on the GPU (give --methods from mcguire, sterna, "
+                  "starcraft, and input)");
   cmd->callback([opts, cmd] {
     if (opts->effect == "ao") {
       AoQualityOptions q;
@@ -80,8 +84,8 @@ void add_quality_command(CLI::App& app) {
         for (double r : parse_numbers(opts->radii, std::count(opts->radii.begin(), opts->radii.end(), ',') + 1,
                                       "--radii", "radii in metres"))
           q.radii.push_back(r);
-      if (!opts->set.empty() || opts->samples || opts->layers)
-        throw_usage("--set, --samples, --layers: only with --effect dof");
+      if (!opts->set.empty() || opts->samples || opts->layers || opts->backend != "cpu")
+        throw_usage("--set, --samples, --layers, --backend: only with --effect dof");
       q.rays = opts->ao_rays;
       q.cache_dir = opts->ao_cache;
       if (!q.cache_dir.empty()) std::filesystem::create_directories(q.cache_dir);
@@ -117,6 +121,7 @@ void add_quality_command(CLI::App& app) {
     q.samples = opts->samples;
     q.layers = opts->layers;
     q.threads = opts->threads;
+    q.backend = parse_backend(opts->backend);
     q.out_dir = opts->out;
     q.command_line = "dofkit quality";
     if (!opts->scenes.empty()) q.command_line += " --scenes " + opts->scenes;
@@ -126,6 +131,7 @@ void add_quality_command(CLI::App& app) {
     if (opts->layers) q.command_line += " --layers " + std::to_string(opts->layers);
     for (const auto& s : opts->set) q.command_line += " --set " + s;
     if (opts->threads) q.command_line += " --threads " + std::to_string(opts->threads);
+    if (q.backend != Backend::cpu) q.command_line += " --backend " + opts->backend;
     const QualityResult r = run_quality(q);
     std::cout << metrics::markdown_table(r.rows);
     std::cerr << "wrote:";

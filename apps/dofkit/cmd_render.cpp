@@ -43,6 +43,7 @@ struct RenderArgs {
   std::string debug_view;
   std::vector<std::string> sets;
   int threads = 0;
+  std::string backend = "cpu";
   int max_layers = 8;
   long long max_pixels = io::kMaxPixels;
   int bits = 0;
@@ -320,6 +321,7 @@ void run_render(RenderArgs& a) {
   settings.params = params;
   settings.threads = a.threads;
   settings.debug_view = a.debug_view;
+  settings.backend = parse_backend(a.backend);
 
   // --compression: every EXR output of the run (at least one must be EXR).
   if (!a.compression.empty() && !io::is_exr_path(a.output) && !io::is_exr_path(a.output_coc) &&
@@ -478,6 +480,10 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--threads", args->threads,
                   "worker threads, 0 = all hardware threads (default); output is identical "
                   "for every count")
+      ->group(meth);
+  cmd->add_option("--backend", args->backend,
+                  "cpu (default) or vulkan: run the method's passes as Vulkan compute shaders on the GPU "
+                  "(mcguire, sterna, starcraft; DOFKIT_VK_DEVICE=<index|name> picks the device)")
       ->group(meth);
   cmd->add_option("--debug-view", args->debug_view,
                   "NAME of an intermediate buffer to save with --debug-output; `list` prints the method's views")

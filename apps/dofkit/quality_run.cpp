@@ -221,6 +221,7 @@ QualityResult run_quality(const QualityOptions& opt) {
     if (auto it = opt.set.find(s.method); it != opt.set.end()) s.params = it->second;
     for (const auto& [k, v] : specs[i].params) s.params[k] = v;
     s.threads = opt.threads;
+    s.backend = opt.backend;
     Frame probe;
     probe.color = Image(16, 16, 4, 0.5f);
     probe.depth = Image(16, 16, 1, 2.0f);

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "dofkit/render.hpp"
 #include "metrics/report.hpp"
 
 namespace dofkit::cli {
@@ -39,8 +40,9 @@ struct QualityOptions {
   /// Fragments per pixel (front to back) in the input frames' layer_* (0 = single-layer
   /// RGB-D). Methods that do not use layers ignore them; the layered method uses them.
   int layers = 0;
-  std::string out_dir;  ///< where sheets and tables go (created if missing)
-  int threads = 0;      ///< worker threads (0 = all)
+  std::string out_dir;             ///< where sheets and tables go (created if missing)
+  int threads = 0;                 ///< worker threads (0 = all)
+  Backend backend = Backend::cpu;  ///< where the methods run (--backend)
   /// --set method.key=value: parameters for every row of that method.
   std::map<std::string, std::map<std::string, std::string>> set;
   std::string command_line;  ///< recorded in the Markdown and JSON (how to regenerate)

@@ -12,6 +12,10 @@
 
 namespace dofkit {
 
+/// Where a method's passes run: the CPU (default), or Vulkan compute shaders on a GPU
+/// (methods mcguire, sterna, starcraft; see docs/gpu.md).
+enum class Backend { cpu, vulkan };
+
 /// Everything a render needs besides the frame.
 struct RenderSettings {
   /// Technique: "reference" (exact single-layer scatter, the default), "mcguire", "sterna",
@@ -27,6 +31,9 @@ struct RenderSettings {
   /// Name of an intermediate buffer to return in RenderResult::debug ("" = none).
   /// See MethodInfo::debug_views.
   std::string debug_view;
+  /// cpu, or vulkan (GPU compute shaders; a build or machine without Vulkan throws
+  /// Error(internal) naming the reason when a Renderer is made).
+  Backend backend = Backend::cpu;
 };
 
 /// The result of a render.
@@ -35,6 +42,10 @@ struct RenderResult {
   Image coc;    ///< signed CoC radius in pixels used for the render (1 plane)
   Image debug;  ///< the requested debug view (empty if none was requested)
 };
+
+namespace detail {
+struct RendererAccess;  // the GPU backend's timings (src/gpu/gpu.hpp)
+}
 
 /// Renders depth of field. Throws dofkit::Error on bad input or settings.
 /// (One-shot convenience; for sequences use Renderer, which keeps its buffers.)
@@ -60,6 +71,7 @@ class Renderer {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  friend struct detail::RendererAccess;
 };
 
 /// Transparency (StarCraft II, algorithms.md §4.4): renders `frame` as usual, then

@@ -12,6 +12,7 @@
 #include "core/coc_range.hpp"
 #include "core/parallel.hpp"
 #include "core/pass_profile.hpp"
+#include "gpu/gpu.hpp"
 #include "methods/method.hpp"
 #include "render/sanitize.hpp"
 
@@ -232,13 +233,17 @@ struct Renderer::Impl {
   const detail::MethodDef* method = nullptr;
   detail::Workspace workspace;
   RenderResult result;
-  Frame sanitized;  // colour-sanitised copy of the input, used only when the input needs it
+  Frame sanitized;                           // colour-sanitised copy of the input, used only when the input needs it
+  std::unique_ptr<gpu::MethodRenderer> gpu;  // backend = vulkan: the method's shaders
 };
 
 Renderer::Renderer(RenderSettings settings) : impl_(std::make_unique<Impl>()) {
   impl_->method = &checked_method(settings);
+  if (settings.backend == Backend::vulkan) impl_->gpu = gpu::make_renderer(settings);
   impl_->settings = std::move(settings);
 }
+
+const gpu::MethodRenderer* detail::RendererAccess::gpu(const Renderer& r) { return r.impl_->gpu.get(); }
 Renderer::~Renderer() = default;
 Renderer::Renderer(Renderer&&) noexcept = default;
 Renderer& Renderer::operator=(Renderer&&) noexcept = default;
@@ -265,7 +270,8 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     // anyway checks them there (checks_colour); otherwise, or when it found a bad sample,
     // the colour is checked here and sanitised into a copy where needed.
     std::atomic<bool> dirty{false};
-    const bool deferred = method.checks_colour && frame_in.layer_color.empty();
+    // The GPU passes get sanitised colour (the check is not made in their shaders).
+    const bool deferred = method.checks_colour && frame_in.layer_color.empty() && !impl_->gpu;
     const Frame& frame = [&]() -> const Frame& {
       if (deferred) return frame_in;
       core::PassScope pass("colour check");
@@ -281,6 +287,12 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     result.image.resize(frame.width(), frame.height(), 4);
     sink.emplace(settings.debug_view);
     core::PassScope pass(method.name.c_str());
+    if (impl_->gpu) {
+      impl_->gpu->render(
+          {frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr, &range},
+          result.image);
+      return;
+    }
     method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,
                    deferred ? &dirty : nullptr, &range},
                   result.image);

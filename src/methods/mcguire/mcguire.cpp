@@ -26,17 +26,7 @@
 
 namespace dofkit::detail {
 
-namespace {
-
-using mcguire::Constants;
-using mcguire::Rect;
-using mcguire::Variant;
-
-struct Setup {
-  Constants k;
-  int guard = 0;
-  bool guard_taps = true;
-};
+namespace mcguire {
 
 Setup read_setup(const MethodContext& ctx, float max_near, float max_far) {
   const Params& p = ctx.params;
@@ -83,7 +73,7 @@ Setup read_setup(const MethodContext& ctx, float max_near, float max_far) {
   return st;
 }
 
-void render_mcguire(const MethodContext& ctx, Image& out) {
+FrameSetup frame_setup(const MethodContext& ctx) {
   const Image& colour = ctx.frame.color;
   const int W = colour.width(), H = colour.height();
   const int g_req = ctx.params.get_int("guard_band_px", 0, 0, 1 << 20);
@@ -91,20 +81,41 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     throw_usage("--set guard_band_px=" + std::to_string(g_req) + ": leaves no inner image in a " + std::to_string(W) +
                 "x" + std::to_string(H) + " frame (method mcguire)");
   const bool taps_req = ctx.params.get_bool("guard_band_taps", true);
+  FrameSetup fs;
   // Region whose pixels the passes read: whole image, or the inner rect if the guard band
   // must not be read at all.
-  const Rect src = taps_req ? Rect{0, 0, W, H} : Rect{g_req, g_req, W - 2 * g_req, H - 2 * g_req};
-
+  fs.src = taps_req ? Rect{0, 0, W, H} : Rect{g_req, g_req, W - 2 * g_req, H - 2 * g_req};
   // render() took the whole map's range while writing it; a smaller `src` needs its own.
+  const Rect& src = fs.src;
   const bool whole = src.x == 0 && src.y == 0 && src.w == W && src.h == H;
   const core::CocRange range =
       whole && ctx.coc_range ? *ctx.coc_range : core::coc_range(ctx.coc, src.x, src.y, src.w, src.h);
-  const float max_near = range.near_max, max_far = range.far_max;
-  const Setup st = read_setup(ctx, max_near, max_far);
-  const Constants& k = st.k;
-  const int g = st.guard;
-  const Rect inner{g, g, W - 2 * g, H - 2 * g};
-  const int ox = inner.x - src.x, oy = inner.y - src.y;  // inner origin inside the packed buffer
+  fs.st = read_setup(ctx, range.near_max, range.far_max);
+  const int g = fs.st.guard;
+  fs.inner = Rect{g, g, W - 2 * g, H - 2 * g};
+  fs.ox = fs.inner.x - src.x;
+  fs.oy = fs.inner.y - src.y;
+  fs.wo = std::max(1, fs.inner.w / fs.st.k.f);
+  fs.ho = std::max(1, fs.inner.h / fs.st.k.f);
+  return fs;
+}
+
+}  // namespace mcguire
+
+namespace {
+
+using mcguire::Constants;
+using mcguire::Rect;
+using mcguire::Variant;
+
+void render_mcguire(const MethodContext& ctx, Image& out) {
+  const Image& colour = ctx.frame.color;
+  const mcguire::FrameSetup fs = mcguire::frame_setup(ctx);
+  const Rect& src = fs.src;
+  const Constants& k = fs.st.k;
+  const int g = fs.st.guard;
+  const Rect& inner = fs.inner;
+  const int ox = fs.ox, oy = fs.oy;  // inner origin inside the packed buffer
 
   Workspace& ws = ctx.workspace;
   // impl=plain runs the obviously-correct passes (the test oracle); fast runs the SIMD /
@@ -144,7 +155,7 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
   // Guard band pixels are context, not picture: transparent black in the output.
   if (g > 0) std::fill(out.data().begin(), out.data().end(), 0.0f);
 
-  const int wo = std::max(1, inner.w / k.f), ho = std::max(1, inner.h / k.f);
+  const int wo = fs.wo, ho = fs.ho;
   Image& t_blur = ws.image("mcguire.t_blur", wo, src.h, 5);
   Image& t_near = ws.image("mcguire.t_near", wo, src.h, 5);
   Image& blur = ws.image("mcguire.blur", wo, ho, 4);

@@ -9,6 +9,10 @@
 
 #include "dofkit/image.hpp"
 
+namespace dofkit::detail {
+struct MethodContext;
+}
+
 namespace dofkit::detail::mcguire {
 
 /// book = GPU Pro 4 chapter (2x, Gaussian table, far occlusion test);
@@ -37,6 +41,26 @@ struct Constants {
 struct Rect {
   int x = 0, y = 0, w = 0, h = 0;
 };
+
+/// Parameters read from --set and the frame's CoC range (mcguire.cpp).
+struct Setup {
+  Constants k;
+  int guard = 0;
+  bool guard_taps = true;
+};
+Setup read_setup(const MethodContext& ctx, float max_near, float max_far);
+
+/// Everything one frame's passes need besides the buffers, shared by the CPU passes and the
+/// GPU backend (src/gpu/methods/mcguire.cpp): the setup, the rectangle the passes read
+/// (`src`: the image, or the inner rectangle when the guard band is not read), the rendered
+/// rectangle `inner`, its origin (ox, oy) inside `src`, and the reduced buffer size wo × ho.
+struct FrameSetup {
+  Setup st;
+  Rect src, inner;
+  int ox = 0, oy = 0, wo = 1, ho = 1;
+};
+/// Throws Error(usage) for a guard band that leaves no inner image.
+FrameSetup frame_setup(const MethodContext& ctx);
 
 // Buffer layouts (planar float):
 //   packed  5 planes: R, G, B, A (premultiplied colour), s = clamp(r / R_max, -1, 1)

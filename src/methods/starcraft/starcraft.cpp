@@ -11,6 +11,19 @@
 
 namespace dofkit::detail {
 
+starcraft::Settings starcraft::read_settings(const MethodContext& ctx) {
+  Settings s;
+  s.large_radius_px = ctx.params.get_double("large_radius_px", 0.0, 0.0, 4096.0);
+  s.medium_fraction = ctx.params.get_double("medium_fraction", s.medium_fraction, 0.05, 0.95);
+  s.sigma_per_radius = ctx.params.get_double("sigma_per_radius", s.sigma_per_radius, 0.1, 2.0);
+  s.depth_blur = ctx.params.get_double("depth_blur", s.depth_blur, 0.1, 4.0);
+  s.medium_boxes = ctx.params.get_int("medium_boxes", s.medium_boxes, 1, 3);
+  s.keep_own_blur = ctx.params.get_bool("keep_own_blur", s.keep_own_blur);
+  s.coc_reduce_max = ctx.params.get_choice("coc_reduce", "mean", {"mean", "max"}) == "max";
+  s.plain = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
+  return s;
+}
+
 namespace {
 
 using namespace starcraft;
@@ -22,15 +35,7 @@ Image quarter_plane(const Image& src, int plane) {
 }
 
 void render_starcraft(const MethodContext& ctx, Image& out) {
-  Settings s;
-  s.large_radius_px = ctx.params.get_double("large_radius_px", 0.0, 0.0, 4096.0);
-  s.medium_fraction = ctx.params.get_double("medium_fraction", s.medium_fraction, 0.05, 0.95);
-  s.sigma_per_radius = ctx.params.get_double("sigma_per_radius", s.sigma_per_radius, 0.1, 2.0);
-  s.depth_blur = ctx.params.get_double("depth_blur", s.depth_blur, 0.1, 4.0);
-  s.medium_boxes = ctx.params.get_int("medium_boxes", s.medium_boxes, 1, 3);
-  s.keep_own_blur = ctx.params.get_bool("keep_own_blur", s.keep_own_blur);
-  s.coc_reduce_max = ctx.params.get_choice("coc_reduce", "mean", {"mean", "max"}) == "max";
-  s.plain = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
+  const Settings s = read_settings(ctx);
 
   const LevelGeometry g = make_geometry(ctx, s);
   const Image& color = ctx.frame.color;

@@ -82,6 +82,9 @@ struct Settings {
   bool plain = false;             ///< impl=plain: the straightforward passes (test oracle)
 };
 
+/// The --set parameters (starcraft.cpp; the GPU backend uses it too).
+Settings read_settings(const MethodContext& ctx);
+
 LevelGeometry make_geometry(const MethodContext& ctx, const Settings& s);
 
 /// Quarter-resolution size of a full-resolution extent.

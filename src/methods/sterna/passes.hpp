@@ -54,6 +54,9 @@ struct HalfRes {
   std::vector<std::uint8_t> tile_active;
 };
 
+/// The frame's settings from --set and the camera (sterna.cpp; the GPU backend uses it too).
+Settings read_settings(const MethodContext& ctx);
+
 /// P1: near/far blend factors at full resolution. NearFarBlend cameras use their own planes
 /// (native); every other model maps the signed CoC r to near = saturate((r − ½)/(R − ½)),
 /// far = saturate((−r − ½)/(R − ½)) with R = settings.blend_radius_px.

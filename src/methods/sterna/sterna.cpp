@@ -34,9 +34,9 @@
 
 namespace dofkit::detail {
 
-namespace {
+namespace sterna {
 
-using namespace sterna;
+namespace {
 
 // Pixel radius (full res, this width) that a blend factor of 1 stands for, and the kernel
 // scale that gives that ring radius: 12 full-res px per unit of kernel_scale.
@@ -82,13 +82,9 @@ void choose_kernel(const MethodContext& ctx, Settings& s) {
   s.dilate_radius = std::max(1, static_cast<int>(std::lround(kOuterRadius * s.kernel_scale)));
 }
 
-Image plane_copy(const Image& img, int c) {
-  Image out(img.width(), img.height(), 1);
-  std::copy(img.plane(c), img.plane(c) + img.plane_size(), out.plane(0));
-  return out;
-}
+}  // namespace
 
-void render_sterna(const MethodContext& ctx, Image& out) {
+Settings read_settings(const MethodContext& ctx) {
   const Params& p = ctx.params;
   Settings s;
   choose_kernel(ctx, s);
@@ -101,6 +97,24 @@ void render_sterna(const MethodContext& ctx, Image& out) {
   shape.rotation_deg = p.get_double("rotation_deg", 0.0, -360.0, 360.0);
   shape.anamorphic = p.get_double("anamorphic", 1.0, 0.5, 2.0);
   s.offsets = make_offsets(shape);
+  return s;
+}
+
+}  // namespace sterna
+
+namespace {
+
+using namespace sterna;
+
+Image plane_copy(const Image& img, int c) {
+  Image out(img.width(), img.height(), 1);
+  std::copy(img.plane(c), img.plane(c) + img.plane_size(), out.plane(0));
+  return out;
+}
+
+void render_sterna(const MethodContext& ctx, Image& out) {
+  const Params& p = ctx.params;
+  const Settings s = read_settings(ctx);
   const bool fast = p.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
 
   const bool want_view = ctx.debug.wants("near_coc") || ctx.debug.wants("far_coc") ||

@@ -76,3 +76,21 @@ if(TARGET test_gpu)
   target_include_directories(gpu_check_tests PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src ${CMAKE_CURRENT_SOURCE_DIR}/tests)
   target_link_libraries(gpu_check_tests PRIVATE dofkit dofkit_scene GTest::gtest GTest::gtest_main TBB::tbb)
 endif()
+
+# The README's Quick start, command by command, in a temporary folder (tests/readme/).
+if(TARGET dofkit_cli)
+  find_package(Python3 COMPONENTS Interpreter)
+  if(Python3_Interpreter_FOUND)
+    add_test(NAME QuickStart.ReadmeCommands
+      COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/tests/readme/quickstart_test.py
+        --readme ${CMAKE_CURRENT_SOURCE_DIR}/README.md --dofkit $<TARGET_FILE:dofkit_cli>)
+    set_tests_properties(QuickStart.ReadmeCommands PROPERTIES TIMEOUT 900)
+  endif()
+endif()
+
+# The parameter tables of docs/methods/*.md against `dofkit methods --json` (tests/docs/).
+if(TARGET dofkit_cli AND Python3_Interpreter_FOUND)
+  add_test(NAME Docs.ParameterTablesMatchTheMethods
+    COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/tests/docs/params_doc_test.py
+      --dofkit $<TARGET_FILE:dofkit_cli> --docs ${CMAKE_CURRENT_SOURCE_DIR}/docs/methods)
+endif()

@@ -110,7 +110,7 @@ double focus_distance_m(const CocModelKind& model);
 /// same ratio; Sterna planes shift by the same offset).
 CocModelKind with_focus(const CocModelKind& model, double focus_m);
 
-// Conversions of algorithms.md §1.5. Pixel radii stay at the same reference width.
+// Conversions of docs/coc.md. Pixel radii stay at the same reference width.
 /// Thin lens (as BlurAtInfinity) → four planes with maxima R_n, R_f and ramps linear in 1/z,
 /// sharp planes at the focus distance: reproduces the physical curve exactly up to the
 /// blurry planes (z_fb = +inf if R_f >= K).

@@ -74,7 +74,7 @@ class Renderer {
   friend struct detail::RendererAccess;
 };
 
-/// Transparency (StarCraft II, algorithms.md §4.4): renders `frame` as usual, then
+/// Transparency (StarCraft II, docs/methods/starcraft.md): renders `frame` as usual, then
 /// re-applies depth of field over the region where `mask` (1 plane, 0..1, same size) is
 /// non-zero using `mask_depth` (1 plane, z) as the depth there — e.g. the depth of a key
 /// transparency that did not write depth — and blends the second result in by the mask.

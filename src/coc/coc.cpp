@@ -1,4 +1,4 @@
-// CoC models and conversions (algorithms.md §1).
+// CoC models and conversions (docs/coc.md).
 #include "dofkit/coc.hpp"
 
 #include <algorithm>

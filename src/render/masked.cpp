@@ -1,4 +1,4 @@
-// render_masked(): depth of field for key transparencies (StarCraft II, algorithms.md §4.4).
+// render_masked(): depth of field for key transparencies (StarCraft II, docs/methods/starcraft.md).
 //
 // A deferred renderer runs its depth-dependent post effects on the opaque scene, so a
 // translucent object drawn afterwards is either left sharp (it never wrote depth) or its

@@ -86,7 +86,7 @@ struct SobolSet {
 using core::concentric_disc;  // src/core/sampling.hpp
 
 /// Regular n-gon inscribed in the unit circle, vertices at angles (2k+1)π/n + rot (the
-/// Sousa/MJP convention of algorithms.md §3.4). [0,1)² → polygon, area preserving:
+/// Sousa/MJP convention of docs/methods/sterna.md). [0,1)² → polygon, area preserving:
 /// u picks the triangle fan sector k = ⌊n u⌋ and the position t = n u − k along its outer
 /// edge V_k → V_{k+1}; v the radial position s = √v. The point s·lerp(V_k, V_{k+1}, t) has
 /// Jacobian |V_k × V_{k+1}|·s/(2 n), constant in t and proportional to s ds = dv/2, so the

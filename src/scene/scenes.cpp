@@ -1,5 +1,5 @@
 // The built-in scenes. Each one stresses a known failure of post-process depth of field
-// (algorithms.md lists them per technique); docs/scenes.md shows what each contains and why.
+// (each method page in docs/methods/ lists its own); docs/scenes.md shows what each contains and why.
 //
 // All scenes use the camera convention of raytracer.hpp (x right, y down, z forward, metres).
 // Radiances are emissive and mostly within [0.03, 0.9] so that the sRGB-encoded, clipped

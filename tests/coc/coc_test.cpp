@@ -11,7 +11,7 @@
 using namespace dofkit;
 
 TEST(ThinLens, WorkedExample) {
-  // algorithms.md §1.1: f = 50 mm, N = 2.8, z_F = 5 m, S_w = 36 mm, W = 1920 → K = 4.81 px.
+  // docs/coc.md: f = 50 mm, N = 2.8, z_F = 5 m, S_w = 36 mm, W = 1920 → K = 4.81 px.
   ThinLens lens{50, 2.8, 5.0, 36};
   EXPECT_NEAR(thin_lens_k_px(lens, 1920), 4.81, 0.005);
   CocFunction f(CameraModel{lens}, 1920);

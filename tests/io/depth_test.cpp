@@ -1,4 +1,4 @@
-// Depth files: channel selection and the depth-kind conversions of algorithms.md §0.
+// Depth files: channel selection and the depth-kind conversions of docs/cli.md "Depth".
 #include <gtest/gtest.h>
 
 #include <limits>

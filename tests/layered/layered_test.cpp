@@ -1,4 +1,4 @@
-// Properties of the layered method (algorithms.md §5): mattes, anchors, the Gaussian
+// Properties of the layered method (docs/methods/layered.md): mattes, anchors, the Gaussian
 // semigroup the recursion relies on, in-focus identity, hole filling and partial occlusion.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Properties of the McGuire method (algorithms.md §2, design.md "Testing").
+// Properties of the McGuire method (docs/methods/mcguire.md).
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,7 +1,7 @@
 // Measurement harness (not part of the normal run): scores parameter sets of the mcguire
 // method against the thin-lens ground truth of the built-in scenes, caching the ground truth
-// in $MCGUIRE_CACHE (default /tmp/mcguire_gt). Used to resolve algorithms.md §8 items 2 and 5
-// and to fill the quality table in docs/methods/mcguire.md. Run with
+// in $MCGUIRE_CACHE (default /tmp/mcguire_gt). Used to resolve the items of docs/methods/mcguire.md "Resolved uncertain
+// items" and to fill the quality table in docs/methods/mcguire.md. Run with
 //   MCGUIRE_CONFIGS="variant=demo;variant=demo,double_coc=on" \
 //   test_mcguire --gtest_also_run_disabled_tests --gtest_filter=*Measure*
 #include <gtest/gtest.h>

@@ -148,7 +148,7 @@ TEST(McguireQuality, NoFarHaloOverSharpMidObject) {
   }
 }
 
-// Known failure of the G3D 10 rules as specified (algorithms.md 2.7), kept visible: g3d on
+// Known failure of the G3D 10 rules as specified (docs/methods/mcguire.md), kept visible: g3d on
 // `fence` scores 15.71 dB against the input's 18.61 dB. Measured causes: the coverage curve
 // t = sat(1 - 0.025/(fov a)) lifts the thin bars' blurred coverage (~0.1..0.5) to ~0.7..1
 // (without the curve, a' = a: 20.34 dB); and the composite saturate(-12 s) never blurs a

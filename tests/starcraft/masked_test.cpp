@@ -1,4 +1,4 @@
-// render_masked(): the transparency entry point (algorithms.md §4.4).
+// render_masked(): the transparency entry point (docs/methods/starcraft.md).
 #include <gtest/gtest.h>
 
 #include <cmath>

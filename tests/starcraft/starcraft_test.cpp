@@ -1,4 +1,4 @@
-// Property tests of the StarCraft II method (algorithms.md §4, design.md "Testing").
+// Property tests of the StarCraft II method (docs/methods/starcraft.md).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -54,7 +54,7 @@ TEST(StarcraftWeights, SumToOneAndFollowBreakpoints) {
     EXPECT_GE(w.small, 0.0f);
     EXPECT_GE(w.medium, 0.0f);
     EXPECT_GE(w.large, 0.0f);
-    // Piecewise-linear segments with breakpoints 0.5 and 0.75 (algorithms.md §4.3 step 4).
+    // Piecewise-linear segments with breakpoints 0.5 and 0.75 (docs/methods/starcraft.md step 4).
     if (c <= 0.5f) {
       EXPECT_NEAR(w.source, 1 - 2 * c, 1e-5f);
       EXPECT_NEAR(w.small, 2 * c, 1e-5f);

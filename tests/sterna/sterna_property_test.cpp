@@ -1,4 +1,4 @@
-// Property tests of the `sterna` method (algorithms.md §3, design.md "Testing").
+// Property tests of the `sterna` method (docs/methods/sterna.md).
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -55,7 +55,7 @@ LayerPlan plan_layers(double near_px, double far_px, int max_layers, double c, d
   return p;
 }
 
-// Matte (our resolution of S4's ω / ω̂, algorithms.md §5.3 [uncertain]): a fragment between
+// Matte (our resolution of S4's ω / ω̂, docs/methods/layered.md): a fragment between
 // two neighbouring anchors a_{k+1} < r < a_k is put *fully* into the farther layer k + 1 and
 // with weight u = (r − a_{k+1}) / (a_k − a_{k+1}) into the nearer layer k. Composited
 // front to back with "over", the copies cover u + (1 − u)·1 = 1, so an unblurred stack

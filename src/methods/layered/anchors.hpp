@@ -1,4 +1,4 @@
-// Layer plan of the layered method (algorithms.md §5.2, §5.4): how many layers, where their
+// Layer plan of the layered method (docs/methods/layered.md): how many layers, where their
 // anchors lie, and which Gaussian each recursion step applies.
 //
 // Everything is in *signed CoC space* (r px, near > 0) instead of depth: for a thin lens

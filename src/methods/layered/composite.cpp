@@ -33,7 +33,7 @@ void over(const Image& front, const Image& back, Image& dst) {
       4);
 }
 
-// Half resolution (algorithms.md §5.7 [our choice]): 2×2 box down (per-axis variance
+// Half resolution (docs/methods/layered.md): 2×2 box down (per-axis variance
 // (2² − 1)/12 = 1/4 px²), blur, bilinear up (a tent of half-width 2 px: variance 2²/6 =
 // 2/3 px²), so 4 σ'² + 1/4 + 2/3 = σ² and the total variance is exact; the blur costs a
 // quarter. Quarter resolution, the same construction one octave down: 4×4 box (per-axis

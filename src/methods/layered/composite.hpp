@@ -1,4 +1,4 @@
-// Blurring and composition of the layer stack (algorithms.md §5.5).
+// Blurring and composition of the layer stack (docs/methods/layered.md).
 #pragma once
 #include "dofkit/image.hpp"
 

@@ -1,5 +1,5 @@
 // `layered`: Schedl & Wimmer, "Simulating Partial Occlusion in Post-Processing Depth-of-Field
-// Methods" (GPU Pro 4 ch. 2; algorithms.md §5). The fragments (one per pixel for an RGB-D
+// Methods" (GPU Pro 4 ch. 2; docs/methods/layered.md). The fragments (one per pixel for an RGB-D
 // frame, several front to back for deep / layered input) are matted into K layers at anchor
 // CoCs; the layers are blurred with Gaussians recursively from the outermost layers toward
 // the focus layer and composited front (F) over focus over back (B). Hidden fragments in the

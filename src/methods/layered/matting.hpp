@@ -1,4 +1,4 @@
-// Matting of the input fragments into one depth layer (algorithms.md §5.3).
+// Matting of the input fragments into one depth layer (docs/methods/layered.md).
 #pragma once
 #include <cstdint>
 #include <vector>

@@ -1,4 +1,4 @@
-// P2/P3 of the McGuire method (algorithms.md §2.4, §2.6, §2.7): the dual separable blur.
+// P2/P3 of the McGuire method (docs/methods/mcguire.md): the dual separable blur.
 //
 // Each 1-D pass reads taps B = A + δ·e, δ ∈ [−R_max, R_max] (full-resolution spacing, clamped
 // to the buffer), around a point-decimated centre A, and accumulates two results at once:

@@ -1,4 +1,4 @@
-// Tap weights of the McGuire dual blur (algorithms.md §2.4, §2.6, §2.7), shared by the plain
+// Tap weights of the McGuire dual blur (docs/methods/mcguire.md), shared by the plain
 // and the fast blur passes so both evaluate exactly the same formulas.
 #pragma once
 #include <algorithm>

@@ -1,4 +1,4 @@
-// P1 of the McGuire method (algorithms.md §2.3): colour and signed CoC packed into one buffer.
+// P1 of the McGuire method (docs/methods/mcguire.md): colour and signed CoC packed into one buffer.
 //
 // The signed radius r (px, near > 0) is normalised by R_max: s = clamp(r / R_max, −1, 1).
 // Because r decreases monotonically with depth, one value per pixel tells field (sign),

@@ -1,4 +1,4 @@
-// P4 of the McGuire method (algorithms.md §2.5, §2.7): full-resolution composite.
+// P4 of the McGuire method (docs/methods/mcguire.md): full-resolution composite.
 //
 //   out = lerp(sharp, blurry, |s|) · (1 − α_near) + near      (near premultiplied, "over")
 //

@@ -1,4 +1,4 @@
-// SIMD kernels of the g3d dual blur (algorithms.md §2.7), used by blur_horizontal /
+// SIMD kernels of the g3d dual blur (docs/methods/mcguire.md), used by blur_horizontal /
 // blur_vertical (blur.cpp) for Variant::g3d; blur_horizontal_plain / blur_vertical_plain
 // stay the oracle (tests/mcguire: G3dPassesMatchPlain, FastPathMatchesPlain).
 //

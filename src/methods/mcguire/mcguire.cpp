@@ -1,5 +1,5 @@
 // `mcguire`: Bukowski, Hennessy, Osman & McGuire, "The Skylanders SWAP Force Depth-of-Field
-// Shader" (GPU Pro 4), its 2013 web demo (VVDoF) and the G3D 10 version — algorithms.md §2.
+// Shader" (GPU Pro 4), its 2013 web demo (VVDoF) and the G3D 10 version — docs/methods/mcguire.md.
 //
 // Three full-screen passes, two at reduced resolution: P1 packs colour and normalised
 // signed CoC (coc_pack.cpp); P2/P3 blur horizontally then vertically, each producing a
@@ -232,7 +232,7 @@ const MethodDef& mcguire_method() {
       {
           {"variant", "demo",
            "book (GPU Pro 4: 2x, Gaussian far kernel, far occlusion test) | demo (2013 web demo: 4x, disc-like "
-           "far kernel, no far test, far-radius rescale) | g3d (G3D 10 rules, algorithms.md 2.7)"},
+           "far kernel, no far test, far-radius rescale) | g3d (G3D 10 rules, docs/methods/mcguire.md)"},
           {"reduction", "4 (demo), 2 (book, g3d)", "reduced-resolution factor per axis of the blur buffers (1-4)"},
           {"coverage_boost", "1 (demo), 1.5 (book)",
            "near-field alpha gain, dimensionless (>= 1; book/demo only): > 1 makes near objects more solid "

@@ -1,4 +1,4 @@
-// McGuire et al. depth of field (Skylanders SWAP Force / VVDoF / G3D), algorithms.md §2.
+// McGuire et al. depth of field (Skylanders SWAP Force / VVDoF / G3D), docs/methods/mcguire.md.
 // Internal interface shared by the four passes of the `mcguire` method:
 //   coc_pack.cpp   P1  colour + signed CoC → packed buffer (RGBA + s = r / R_max)
 //   blur.cpp       P2/P3 dual separable blur → blurry far/focus buffer + premultiplied near buffer
@@ -17,7 +17,7 @@ namespace dofkit::detail::mcguire {
 
 /// book = GPU Pro 4 chapter (2x, Gaussian table, far occlusion test);
 /// demo = 2013 web demo (4x, disc-like table, no far test, far-radius rescale, guard band);
-/// g3d  = G3D 10 (2019) rules of algorithms.md §2.7.
+/// g3d  = G3D 10 (2019) rules of docs/methods/mcguire.md.
 enum class Variant { book, demo, g3d };
 
 /// Everything the passes need, fixed for one frame. Radii are in full-resolution image pixels.

@@ -1,4 +1,4 @@
-// C5 — the final pass, per full-resolution pixel (chapter Listing 2, algorithms.md §4.3):
+// C5 — the final pass, per full-resolution pixel (chapter Listing 2, docs/methods/starcraft.md):
 //  1. own level c_own (C1, full resolution — the quarter-res one would not match the pixel);
 //  2. depth test (rule 3): if the blurred neighbourhood lies behind the pixel (blurred 1/z
 //     <= own 1/z) keep c_own, otherwise take the blurred CoC (rule 2), so blurry foreground

@@ -1,4 +1,4 @@
-// `starcraft`: StarCraft II depth of field (Filion & McNaughton 2008; algorithms.md §4).
+// `starcraft`: StarCraft II depth of field (Filion & McNaughton 2008; docs/methods/starcraft.md).
 // Pass order: C1 levels → C2 medium → C3 large + blurred CoC → C4 blurred depth → C5 final.
 // See starcraft.hpp for the rules and the deviations, docs/methods/starcraft.md for the
 // parameters' measured effect.

@@ -1,5 +1,5 @@
 // StarCraft II depth of field (Filion & McNaughton, SIGGRAPH 2008 course, §5.6;
-// algorithms.md §4): four fixed blur levels — sharp source, "small" 4-tap blur, "medium"
+// docs/methods/starcraft.md): four fixed blur levels — sharp source, "small" 4-tap blur, "medium"
 // full-resolution Gaussian, "large" W/4 × H/4 Gaussian — cross-faded by a per-pixel blur
 // level c ∈ [0, 1]. Three rules shape the level:
 //   1. sharp pixels do not leak into blurry neighbours: the medium and large blurs weight

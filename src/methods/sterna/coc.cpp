@@ -1,4 +1,4 @@
-// P1 (algorithms.md §3.3): separate near and far blend factors at full resolution.
+// P1 (docs/methods/sterna.md): separate near and far blend factors at full resolution.
 //
 // Sterna's near/far values are not radii: the gather kernel has one fixed size and the two
 // factors only say how much of the blurred field replaces the sharp pixel. A NearFarBlend

@@ -1,4 +1,4 @@
-// P9 (algorithms.md §3.3): upsample the two fields and blend them over the full-res colour,
+// P9 (docs/methods/sterna.md): upsample the two fields and blend them over the full-res colour,
 // far first, near last (the near field must end up on top).
 //
 // Footprint: full-res pixel q = (x, y) has its centre at (x + ½)/2 in half-res texel units,

@@ -1,4 +1,4 @@
-// P2 (algorithms.md §3.3): half-resolution colour, far-premultiplied colour and CoC.
+// P2 (docs/methods/sterna.md): half-resolution colour, far-premultiplied colour and CoC.
 //
 // Half-res texel (i, j) covers the full-res quad (2i..2i+1, 2j..2j+1); on an odd-sized image
 // the last column/row clamps to the edge (its quad repeats the edge pixel). Every quantity

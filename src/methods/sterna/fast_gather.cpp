@@ -1017,7 +1017,7 @@ inline float bilinear_at(const float* origin, const Lookup& l, std::ptrdiff_t pi
   return (1 - ty) * ((1 - tx) * r0[0] + tx * r0[1]) + ty * ((1 - tx) * r1[0] + tx * r1[1]);
 }
 
-// per_pixel_scale (algorithms.md §3.5, gather.cpp): the far field of texel p with its offsets
+// per_pixel_scale (docs/methods/sterna.md, gather.cpp): the far field of texel p with its offsets
 // scaled by kernel_scale · far_h(p), so every texel has its own bilinear splits. gather.cpp's
 // per-texel loop with the same sums in the same order (Σ over taps of each channel's lookup,
 // then num / den), except that a tap's position is split once for the five planes instead of

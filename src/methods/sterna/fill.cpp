@@ -1,4 +1,4 @@
-// P8 (algorithms.md §3.3): Sousa's 3×3 max "flood fill".
+// P8 (docs/methods/sterna.md): Sousa's 3×3 max "flood fill".
 //
 // The rings are 2 half-res px apart, so a bright source seen through the sparse kernel
 // leaves one-texel gaps between taps. A per-channel max over the 3×3 neighbourhood closes

@@ -1,4 +1,4 @@
-// P7 (algorithms.md §3.3, §3.8): the 49-tap gather of the near and far fields.
+// P7 (docs/methods/sterna.md): the 49-tap gather of the near and far fields.
 //
 // For a half-res texel p with centre c:
 //   near(p) = (1/49) Σ_k colour_h(c + s·o_k)                          if nearBlur_h(p) > 0

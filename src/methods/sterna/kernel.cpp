@@ -1,4 +1,4 @@
-// Sampling pattern of algorithms.md §3.4.
+// Sampling pattern of docs/methods/sterna.md.
 //
 // Sterna's rings are the Shirley–Chiu concentric map of a 7×7 grid: Chebyshev ring k of the
 // grid (8k points) lands on the circle of radius k/3 with 8k equally spaced angles. Scaling

@@ -1,4 +1,4 @@
-// Sterna's 49-tap sampling pattern (algorithms.md §3.4) and Sousa's n-gon modifier.
+// Sterna's 49-tap sampling pattern (docs/methods/sterna.md) and Sousa's n-gon modifier.
 #pragma once
 #include <vector>
 

@@ -1,4 +1,4 @@
-// P3–P6 (algorithms.md §3.3): the near CoC that only spreads outward.
+// P3–P6 (docs/methods/sterna.md): the near CoC that only spreads outward.
 //
 // A box blur alone would also pull the near factor *down* inside the silhouette of a near
 // object (its edge pixels would average with the in-focus background), so the blurred

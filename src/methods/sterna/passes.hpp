@@ -1,6 +1,6 @@
 // Sterna gather-based bokeh (GPU Zen, "Practical Gather-based Bokeh Depth of Field") with
 // Sousa 2013's polygonal kernel and Karis firefly weighting — the passes of
-// algorithms.md §3.3, one file each. All buffers are float planes; colour is RGBA
+// docs/methods/sterna.md, one file each. All buffers are float planes; colour is RGBA
 // premultiplied and alpha is filtered exactly like R, G and B.
 #pragma once
 #include <cstdint>

@@ -1,5 +1,5 @@
 // `sterna`: Sterna's gather-based bokeh depth of field (GPU Zen, 2017) with Sousa 2013's
-// polygonal kernel and Karis 2013's firefly weighting — algorithms.md §3.
+// polygonal kernel and Karis 2013's firefly weighting — docs/methods/sterna.md.
 //
 // Data flow (one file per pass):
 //   coc.cpp             P1   full-res near/far blend factors
@@ -70,7 +70,7 @@ void choose_kernel(const MethodContext& ctx, Settings& s) {
   radius_px = std::max(radius_px, 1.0);
   s.blend_radius_px = static_cast<float>(radius_px);
   const double ks_base = radius_px / (2.0 * kOuterRadius);
-  // Strength split of algorithms.md §3.1: shrink the kernel down to ¼, then fade the blend.
+  // Strength split of docs/methods/sterna.md: shrink the kernel down to ¼, then fade the blend.
   const double strength = p.get_double("strength", 1.0, 0.0, 1.0);
   double ks_mul = strength, blend = 1.0;
   if (strength < 0.25) {

@@ -217,23 +217,9 @@ double intersect(const Primitive& p, Vec3 o, Vec3 d) {
       return t > kEps ? t : kInf;
     }
     case Primitive::Kind::box: {
-      // Slab test: the entry is the largest of the per-axis entry parameters.
-      double t0 = -kInf, t1 = kInf;
       const double os[3] = {o.x, o.y, o.z}, ds[3] = {d.x, d.y, d.z};
       const double lo[3] = {p.p0.x, p.p0.y, p.p0.z}, hi[3] = {p.p1.x, p.p1.y, p.p1.z};
-      for (int a = 0; a < 3; ++a) {
-        if (ds[a] == 0) {
-          if (os[a] < lo[a] || os[a] > hi[a]) return kInf;
-          continue;
-        }
-        const double inv = 1.0 / ds[a];
-        double ta = (lo[a] - os[a]) * inv, tb = (hi[a] - os[a]) * inv;
-        if (ta > tb) std::swap(ta, tb);
-        t0 = std::max(t0, ta);
-        t1 = std::min(t1, tb);
-      }
-      if (t0 > t1) return kInf;
-      return first_positive(t0, t1);
+      return slab(os, ds, lo, hi);
     }
     case Primitive::Kind::sphere: {
       // |o + t d − c|² = R²: a t² + 2 b t + c = 0.

@@ -47,20 +47,11 @@ namespace dofkit::detail::ao {
 
 namespace {
 
-std::uint32_t mix32(std::uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352dU;
-  x ^= x >> 15;
-  x *= 0x846ca68bU;
-  x ^= x >> 16;
-  return x;
-}
-
 // A permutation of 0 … n − 1 (Fisher–Yates driven by a fixed hash).
 std::vector<int> shuffled(int n, std::uint32_t salt) {
   std::vector<int> v(n);
   for (int i = 0; i < n; ++i) v[i] = i;
-  for (int i = n - 1; i > 0; --i) std::swap(v[i], v[mix32(salt + 977u * i) % (i + 1)]);
+  for (int i = n - 1; i > 0; --i) std::swap(v[i], v[hash32(salt + 977u * i) % (i + 1)]);
   return v;
 }
 

@@ -14,15 +14,6 @@ namespace dofkit::detail::ao {
 
 namespace {
 
-std::uint32_t mix(std::uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352dU;
-  x ^= x >> 15;
-  x *= 0x846ca68bU;
-  x ^= x >> 16;
-  return x;
-}
-
 double unit(std::uint32_t h) { return (h >> 8) * (1.0 / 16777216.0); }
 
 // n directions spread evenly over the sphere (spherical Fibonacci lattice), each scaled to a
@@ -32,7 +23,7 @@ void offset_set(int n, std::uint32_t salt, std::vector<float>& ox, std::vector<f
   const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
   std::vector<int> order(n);
   for (int i = 0; i < n; ++i) order[i] = i;
-  for (int i = n - 1; i > 0; --i) std::swap(order[i], order[mix(salt + 31u * i) % (i + 1)]);
+  for (int i = n - 1; i > 0; --i) std::swap(order[i], order[hash32(salt + 31u * i) % (i + 1)]);
   for (int i = 0; i < n; ++i) {
     const double z = 1 - 2 * (i + 0.5) / n, r = std::sqrt(1 - z * z), phi = golden * i;
     const double len = 0.5 + 0.5 * (order[i] + 0.5) / n;
@@ -68,7 +59,8 @@ Sc2Kernel make_sc2_kernel(const Sc2Params& p, double radius_m, int width) {
   k.noise = p.noise_size_px;
   for (int i = 0; i < k.noise * k.noise; ++i) {
     // Uniform on the sphere: z uniform in [−1, 1], the azimuth uniform.
-    const double z = 2 * unit(mix(0x9e37u + 2u * i)) - 1, phi = 2 * std::numbers::pi * unit(mix(0x7f4au + 2u * i + 1));
+    const double z = 2 * unit(hash32(0x9e37u + 2u * i)) - 1,
+                 phi = 2 * std::numbers::pi * unit(hash32(0x7f4au + 2u * i + 1));
     const double r = std::sqrt(std::max(0.0, 1 - z * z));
     k.nx.push_back(static_cast<float>(r * std::cos(phi)));
     k.ny.push_back(static_cast<float>(r * std::sin(phi)));

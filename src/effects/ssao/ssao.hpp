@@ -109,6 +109,17 @@ void downsample_depth(const Image& depth, const std::string& how, Image& out);
 
 constexpr int kTableSize = 2048;  ///< entries of a tabulated occlusion function
 
+/// A 32-bit integer hash (two multiply-xorshift rounds) for the fixed pseudo-random constants
+/// (offset order, noise vectors, GTAO's noise tile): the same values on every machine.
+inline std::uint32_t hash32(std::uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352dU;
+  x ^= x >> 15;
+  x *= 0x846ca68bU;
+  x ^= x >> 16;
+  return x;
+}
+
 /// Everything the raw pass reads besides the buffers, shared by the oracle and the kernels.
 struct Sc2Kernel {
   int n_small = 4, n_wide = 12;

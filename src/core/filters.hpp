@@ -23,9 +23,9 @@ constexpr unsigned kTinyMagnitudeBits = 0x0f800000u;
 /// is slow on subnormals. Measured once per process, on first use: a dependent chain of 1024
 /// scalar multiplies with a subnormal operand against one with a normal operand, best of 3.
 /// The exact path is taken where the subnormal chain is 4× slower or more (Intel cores: a
-/// microcode assist of ~20× per multiply); on the Zen 5 core measured the chain is ≈ 1.5× and
-/// the exact path only costs (layered without it: 0.86–0.92 of its 1-thread time). The
-/// output bits do not depend on it.
+/// microcode assist of ~20× per multiply); where the chain is only ≈ 1.5× slower (AMD Zen) the
+/// exact path is pure cost (layered without it: 0.86–0.92 of its 1-thread time, see
+/// docs/methods/layered.md). The output bits do not depend on it.
 bool exact_tiny_multiplies();
 /// Tests: 1 forces the exact multiplies, 0 the float ones, -1 (the default) measures.
 void set_exact_tiny_multiplies(int mode);

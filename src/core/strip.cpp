@@ -121,8 +121,8 @@ constexpr int kPrefetch = 16;
 
 // a · b for 16-lane vectors, rounded like the float multiply but without its microcode assist
 // on subnormal operands or results. On Intel cores a vector multiply whose input or output
-// has a subnormal lane takes ~100+ cycles (measured on the Sapphire Rapids VM: ~20× a normal
-// one; additions are not affected), and the cascaded blurs of layered's near accumulator carry
+// has a subnormal lane takes ~100+ cycles (measured ~20× a normal one on a Sapphire Rapids
+// core; additions are not affected), and the cascaded blurs of layered's near accumulator carry
 // subnormal tails (each finite-support blur multiplies the far tail by its end weights). The
 // product of two floats is exact in double (24 + 24 <= 53 bits, and 2^-298 is far inside
 // double's range), so converting it to float rounds the exact product once, as the float
@@ -437,7 +437,8 @@ float* strip_passes(float* a, float* b, int n, int pad, int r, float alpha, int 
 // load asks for the line kColumnAhead rows ahead (960 × 540 planes out of L3: 0.89 of the
 // time without it). The store back finds the lines the load brought in (a 1080-row strip is
 // 69 KB of lines, still in L2 when its passes are done). layered's vertical sweeps (quarter
-// and half resolution, one thread), with the cascaded passes: 0.72–0.87 of round 14's time.
+// and half resolution, one thread) with the cascaded passes measured 0.72–0.87 of the
+// time of that scalar copy in and memmove out.
 constexpr int kColumnAhead = 16;
 
 DOFKIT_CLONES

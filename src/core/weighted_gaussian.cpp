@@ -37,16 +37,15 @@ constexpr int kAhead = 4;    // rows prefetched ahead by the vertical sweep
 constexpr int kGroup = 4;
 // Where the rings of kGroup rows outgrow the L2 anyway (the bench frame at 3840×2160: its medium
 // level's rings are 6.8 MB, 2.2 MB at 1080p), every ring row comes from L3 whatever the group.
-// On a core with a 2 MB L2 (the Emerald Rapids VM of round 16) larger groups then win: fewer
-// box_rows calls, each loading and storing its window and pending sums once per group (medium
-// level + final pass at 4K, 1 thread: ~0.93 of the time with 32 rows). On a core with a 1 MB
-// L2 (the Zen 5 VM of round 17) they lose: the whole 4K frame 0.89 of the 32-row time with
-// 4 rows, at 1 and at 2 threads — one 32-row group of the passes' output rows (4 planes × 32
-// rows × 3840 floats, 2 MB) no longer fits the L2 the next pass reads it from. So the wide
-// group is taken only where the rings exceed kGroupRingBytes and the L2 is at least
-// kWideGroupL2Bytes; 1 MB-L2 cores keep kGroup everywhere (docs/methods/starcraft.md,
-// "4K / 1080p (round 16)" and "Zen 5 (round 17)"). Same values: a group only splits the same
-// row sequence into calls, the sums carried between them in memory.
+// On a core with a 2 MB L2 larger groups then win: fewer box_rows calls, each loading and
+// storing its window and pending sums once per group (medium level + final pass at 4K,
+// 1 thread: ~0.93 of the time with 32 rows). On a core with a 1 MB L2 they lose (the whole
+// 4K frame 0.89 of the 32-row time with 4 rows, at 1 and at 2 threads): one 32-row group of
+// the passes' output rows (4 planes × 32 rows × 3840 floats, 2 MB) no longer fits the L2 the
+// next pass reads it from. So the wide group is taken only where the rings exceed
+// kGroupRingBytes and the L2 is at least kWideGroupL2Bytes; 1 MB-L2 cores keep kGroup
+// everywhere (docs/methods/starcraft.md, its 4K / 1080p notes). Same values: a group only
+// splits the same row sequence into calls, the sums carried between them in memory.
 constexpr int kWideGroup = 32;  // <= kResync: at most one re-synchronisation per call
 constexpr std::size_t kGroupRingBytes = std::size_t{4} << 20;
 constexpr std::size_t kWideGroupL2Bytes = std::size_t{2} << 20;

@@ -65,9 +65,10 @@ void composite_fast(const Image& colour, const Image& coc, const Rect& src, int 
   // 32 chunks: each starts by interpolating its first two low-res rows again (64 chunks:
   // 334 row interpolations per 1080p frame for 270 low-res rows; 32: 302).
   const int nchunk = std::min(h, 32);
-  // Non-temporal output stores (composite_row_simd; round 8): the output is not read again
-  // by the method, and streaming it saves the read of every output line into the cache
-  // before it is written (P4 one thread 14.8 → 8.5 ms on the Emerald Rapids VM).
+  // Non-temporal output stores (composite_row_simd): the output is not read again by the
+  // method, and streaming it saves the read of every output line into the cache before it is
+  // written (P4 on one thread measured 0.57 of its time with cached stores; on AMD Zen about
+  // even; docs/performance_mcguire.md).
   constexpr bool stream = true;
   core::parallel_for(nchunk, [&](int c0, int c1) {
     // The two interpolated rows per thread, not per chunk: a thread's chunks reuse the same

@@ -234,9 +234,9 @@ void CompositeRow(const CompositeRowJob& job) {
   bool stream = job.stream && w >= 2 * lanes && mis % sizeof(float) == 0;
   for (int c = 1; c < 4 && stream; ++c) stream = reinterpret_cast<std::uintptr_t>(job.out[c]) % vb == mis;
   // The sharp colour and the CoC come from memory: prefetched 128 floats (8 lines per
-  // plane) ahead (round 8: P4 one thread 7.5–8.0 → 5.9 ms once the stores streamed; with
-  // cached stores, round 7, it gave nothing; prefetching the L2-resident interpolated rows
-  // too was slower).
+  // plane) ahead (P4 on one thread measured ≈ 0.75 of its time once the stores stream; with
+  // cached stores it gives nothing; prefetching the L2-resident interpolated rows too was
+  // slower; docs/performance_mcguire.md).
   constexpr int kAhead = 128;
   auto prefetch = [&](int at) {
     for (int c = 0; c < 4; ++c) hwy::Prefetch(job.col[c] + at + kAhead);

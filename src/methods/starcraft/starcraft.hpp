@@ -97,7 +97,8 @@ void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& lev
 /// The medium level's fast sums (core::weighted_gaussian*, float running sums) are replaced by
 /// the exact ones (core::weighted_gaussian_at, double, no running sums) at every pixel that
 /// the final mix reads the medium level for (level weight > 0, i.e. 0.5 < c < 1) whose fast
-/// blurred weight W is below this. Why (round 15, docs/methods/starcraft.md):
+/// blurred weight W is below this. Why (docs/methods/starcraft.md, "the medium level's float
+/// drift where its weight is small"):
 /// medium = N / W, and the float running sums leave in N and W a residue δN, δW of the values
 /// that passed through the window since the last re-synchronisation (every 32 outputs), of
 /// order u·S, u = 2^-24, S the colour magnitude in the sums' reach (~100 px along each axis).
@@ -114,10 +115,10 @@ void compute_levels(const MethodContext& ctx, const LevelGeometry& g, Image& lev
 /// That is not a bound for every sanitised input: the worst-case residue of float running sums
 /// is ~(r + 35)·u·S per pass (a sequential re-sum of 2r + 1 terms plus 31 updates), ~200·u·S
 /// over four passes, and S may reach kMaxColorValue (1e18); next to highlights of 1000 a
-/// weight of ~0.1 already gives 1.9e-4 (found by the sweep of round 15). Nor is the oracle
-/// bounded: its double sums are never re-synchronised, and a highlight of 1e18 in a row shifts
-/// its sums after it by the texture itself (~0.5). A bound for any S needs sums whose error is
-/// relative to the window (no cancellation; see the round-15 notes for the options).
+/// weight of ~0.1 already gives 1.9e-4 (found by a sweep of highlights and weights). Nor is
+/// the oracle bounded: its double sums are never re-synchronised, and a highlight of 1e18 in a
+/// row shifts its sums after it by the texture itself (~0.5). A bound for any S needs sums whose error is
+/// relative to the window (no cancellation; docs/methods/starcraft.md lists the options).
 /// 1/32 is below every mixed pixel's weight on the bench frame (min 0.26 at 1080p, 0.38 at
 /// 640×360) and the built-in scenes at 640×360 (min 0.055, sky), so their output is the fast
 /// sums' bit for bit.

@@ -23,7 +23,7 @@
 // as its selects would and is skipped; chunks with no far pixel and no near tile around are
 // copied.
 //
-// Order inside a group of 8 pixels × 2 rows (round 4): all eight colour vectors are loaded
+// Order inside a group of 8 pixels × 2 rows: all eight colour vectors are loaded
 // first, then the far and near weights (shared by the channels), then channel by channel the
 // two blends and the stores. The x·y products of the bilinear weights are per row pair
 // constants (Pair::wxy). Loading the colour first matters more than the instruction count:
@@ -272,12 +272,11 @@ STERNA_SIMD void composite_chunk(const Pair& R, int xa, int n, bool cubic) {
 }
 
 // Output goes straight to the output planes with ordinary stores, copied (in-focus) chunks
-// by memcpy. Until round 15 both went out by non-temporal stores (computed chunks through an
-// L1 staging block), which paid on the Zen 3 / Zen 4 VMs (an all-copy 1080p frame 8.0 → 6.3 ms
-// CPU there). On the Emerald Rapids VM of round 15 (2 MB L2 per core, a large shared L3)
-// the streamed stores were the composite's hottest instructions and the plain stores take
-// the composite from ≈ 21 to ≈ 18.5 ms CPU per 1080p frame (1 thread, means of 4 alternating
-// rounds; docs/performance_sterna.md, round 15).
+// by memcpy. Non-temporal stores (computed chunks through an L1 staging block) pay on AMD
+// Zen 3 / Zen 4 cores (an all-copy 1080p frame 8.0 → 6.3 ms CPU), but on Intel cores with a
+// 2 MB L2 and a large shared L3 they were the composite's hottest instructions: ordinary
+// stores measured ≈ 0.88 of their time there (1 thread, 1080p), and on a Zen 2 core whose
+// frame does not fit the L3 the two are even; docs/performance_sterna.md.
 std::vector<float>& scratch(int slot, std::size_t n) {
   thread_local std::vector<float> bufs[2];
   if (bufs[slot].size() < n) bufs[slot].resize(n);

@@ -6,7 +6,7 @@
 // body is then the same for every texel and vectorises; interior columns read x − 1 … x + 1
 // directly and only the two border columns clamp.
 //
-// There is no separate fill pass over the frame (round 4): the composite asks for the filled
+// There is no separate fill pass over the frame: the composite asks for the filled
 // rows it needs (fill_rows) just before it reads them, into a per-thread two-row buffer, so the
 // 8 filled planes (16 MB at 1080p) are never written to memory and read back.
 #include <algorithm>

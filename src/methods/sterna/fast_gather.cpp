@@ -98,7 +98,7 @@ constexpr int kVecs = kSeg / 8;
 //   non-negative terms (the difference can cancel), but it stays of the order of one ulp of
 //   the larger source value: tests/sterna/sterna_fast_test.cpp measures the distance to
 //   impl=plain (worst 2.9e-6 relative).
-//   Measured (round 5, 1080p bench frame, 1 thread): the gather's own samples (perf) −3..−6 %,
+//   Measured (1080p bench frame, 1 thread, Zen 3): the gather's own samples (perf) −3..−6 %,
 //   the frame −2.9..−3.6 % min-of-min. Less than the 4 → 3 cycle model says: the loop is not
 //   bound by the FP pipes alone — about 7/16 of these unaligned 32-byte loads cross a 64-byte
 //   line (two load slots each), and only ~70 % of the gather's time is in the tap loops. So
@@ -401,7 +401,7 @@ __attribute__((always_inline)) inline void gather_seg(const float* base, const T
 // baseline: a1, d feed both rows' sums; FMA: each a_k feeds its sub and its FMA), so the loop
 // issues 8 loads per vector again. An empty asm that "modifies" them in a vector register
 // pins them there (6 loads). It needs a 32-byte vector register, so only the AVX2 /
-// AVX-512 copies use it (round 4: gather 19.2–19.9 → 17.8–19.1 ms CPU per 1080p frame).
+// AVX-512 copies use it (measured: gather 19.2–19.9 → 17.8–19.1 ms CPU per 1080p frame).
 template <bool kPin, bool kFma>
 __attribute__((always_inline)) inline void gather_seg2(const float* base, const TapV* taps, int ntaps,
                                                        std::ptrdiff_t pitch, V8* acc0, V8* acc1) {

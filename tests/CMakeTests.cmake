@@ -53,7 +53,8 @@ set(DOFKIT_SIMD_TEST_FILTERS
     "starcraft|StarcraftFast.*:StarcraftFinal.*:WeightedGaussian.*:Starcraft.SameOutputForAnyThreadCount"
     "layered|LayeredFast.*:LayeredColourCheck.*"
     "reference|Reference.SimdLoop*"
-    "lens|LensFast.*")
+    "lens|LensFast.*"
+    "ssao|Ao.FastPathsMatchThePlainOracles:Ao.BlurKernelsMatchTheOracleBitForBit:Ao.SameOutputForAnyThreadCount")
 foreach(simd_target ${DOFKIT_TEST_SIMD_TARGETS})
   foreach(entry ${DOFKIT_SIMD_TEST_FILTERS})
     string(REPLACE "|" ";" entry "${entry}")

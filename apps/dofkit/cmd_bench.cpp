@@ -31,6 +31,9 @@
 #include "io/image_io.hpp"
 #include "quality_run.hpp"
 #include "scene/bench_frame.hpp"
+#include "scene/raytracer.hpp"
+#include "ssao_common.hpp"
+#include "dofkit/ao.hpp"
 #include "dofkit/render.hpp"
 
 extern char** environ;
@@ -132,8 +135,8 @@ double peak_rss_mb() {
 }
 
 // Runs one measurement in this process and prints one JSON object.
-void run_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd,
-               bool passes) {
+void run_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd, bool passes,
+               bool ao) {
   if (!simd.empty() && !core::pin_simd_target(simd)) throw_usage("--simd " + simd + ": not a target this machine runs");
   const Frame frame = scene::bench_frame(size.w, size.h);
   std::vector<double> ms, cpu;
@@ -166,6 +169,25 @@ void run_child(const std::string& method, Size size, int threads, int iterations
     Image out(size.w, size.h, 4);
     time_runs(
         [&] { std::memcpy(out.data().data(), frame.color.data().data(), frame.color.data().size() * sizeof(float)); });
+  } else if (ao) {
+    // AO: the built-in scene ao_corner's depth and normals at this size (not timed), its own
+    // radius; one AoRenderer, as a game loop would use it.
+    const scene::Scene sc = scene::build_scene("ao_corner");
+    scene::SceneOptions so;
+    so.width = size.w;
+    so.height = size.h;
+    const scene::LensCamera cam = scene::camera_for(sc, so);
+    const scene::GBuffer g = scene::render_gbuffer(sc, cam);
+    const std::vector<AoSpec> spec = parse_ao_method_list(method);
+    if (spec.size() != 1) throw_usage("--methods " + method + ": expected one AO method");
+    AoSettings s;
+    s.method = spec[0].name;
+    s.params = spec[0].params;
+    s.hfov_deg = cam.hfov_deg;
+    s.radius_m = sc.ao_radius_m;
+    s.threads = threads;
+    AoRenderer renderer(s);
+    time_runs([&] { renderer.render(g.z, &g.normal); });
   } else {
     // A Renderer, as a game loop would use it: buffers are kept between frames.
     Renderer renderer(bench_settings(method, size.w, threads, Backend::cpu));
@@ -202,7 +224,7 @@ void run_child(const std::string& method, Size size, int threads, int iterations
 }
 
 nlohmann::json spawn_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd,
-                           bool passes, const std::string& backend = "cpu") {
+                           bool passes, const std::string& backend = "cpu", bool ao = false) {
   const std::string self = "/proc/self/exe";
   std::vector<std::string> args = {"dofkit",       "bench",
                                    "--child",      method,
@@ -212,6 +234,7 @@ nlohmann::json spawn_child(const std::string& method, Size size, int threads, in
   if (!simd.empty()) args.insert(args.end(), {"--simd", simd});
   if (passes) args.push_back("--passes");
   if (backend != "cpu") args.insert(args.end(), {"--backend", backend});
+  if (ao) args.insert(args.end(), {"--effect", "ao"});
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -325,6 +348,7 @@ void add_bench_command(CLI::App& app) {
     std::string write_frame;
     std::string simd;
     bool passes = false;
+    std::string effect = "dof";
     std::string backend = "cpu";
   };
   auto opts = std::make_shared<Opts>();
@@ -349,6 +373,10 @@ void add_bench_command(CLI::App& app) {
   cmd->add_flag("--passes", opts->passes,
                 "also time each pass of each method (median ms per frame; nested passes are included in their "
                 "parents) and print the breakdown after the table (JSON: a 'passes' list per row)");
+  cmd->add_option("--effect", opts->effect,
+                  "dof (depth of field, default) or ao: time the AO methods (--methods sc2,gtao by default, with "
+                  "parameters as name:key=value) on the built-in scene ao_corner's depth and normals at --size")
+      ->check(CLI::IsMember({"dof", "ao"}));
   cmd->add_option("--backend", opts->backend,
                   "cpu (default) or vulkan: time the methods' compute shaders on the GPU by timestamp queries "
                   "(median and min GPU ms per frame of the passes; rows name the device) against the GPU time "
@@ -374,7 +402,7 @@ void add_bench_command(CLI::App& app) {
       return;
     }
     if (!opts->child.empty()) {
-      run_child(opts->child, sizes.front(), threads, opts->iterations, opts->simd, opts->passes);
+      run_child(opts->child, sizes.front(), threads, opts->iterations, opts->simd, opts->passes, opts->effect == "ao");
       return;
     }
     if (!opts->write_frame.empty()) {
@@ -395,7 +423,11 @@ void add_bench_command(CLI::App& app) {
       return;
     }
     std::vector<std::string> names;
-    if (opts->methods.empty()) {
+    const bool ao = opts->effect == "ao";
+    if (ao) {
+      for (const AoSpec& spec : parse_ao_method_list(opts->methods.empty() ? "sc2,gtao" : opts->methods))
+        names.push_back(spec.label);
+    } else if (opts->methods.empty()) {
       for (const auto& m : methods())
         if (m.name != "scatter") names.push_back(m.name);
     } else {
@@ -407,6 +439,7 @@ void add_bench_command(CLI::App& app) {
     // Every method and its parameters are checked here, on a tiny frame, before the first
     // child is spawned: a bad value is the user's error (exit 2), said once.
     for (const std::string& m : names) {
+      if (ao) break;  // the AO specs were checked by parse_ao_method_list
       const RenderSettings probe_settings = bench_settings(m, 16, 1, Backend::cpu);
       Frame probe;
       probe.color = Image(16, 16, 4, 0.5f);
@@ -414,6 +447,7 @@ void add_bench_command(CLI::App& app) {
       (void)render(probe, probe_settings);
     }
     if (backend == Backend::vulkan) {
+      if (ao) throw_usage("--effect ao: runs on --backend cpu only");
       if (opts->methods.empty()) names = gpu::supported_methods();
       if (!opts->simd.empty()) throw_usage("--simd: applies to --backend cpu only");
       return run_gpu_bench(names, sizes, opts->iterations, opts->passes, opts->json);
@@ -429,7 +463,7 @@ void add_bench_command(CLI::App& app) {
       if (!opts->json)
         std::cerr << fmt::format("{}x{}: copy {:.2f} ms\n", size.w, size.h, copy["median_ms"].get<double>());
       for (const auto& m : names) {
-        nlohmann::json r = spawn_child(m, size, threads, opts->iterations, opts->simd, opts->passes);
+        nlohmann::json r = spawn_child(m, size, threads, opts->iterations, opts->simd, opts->passes, "cpu", ao);
         r["ratio_to_copy"] = r["median_ms"].get<double>() / copy["median_ms"].get<double>();
         if (!opts->json)
           std::cerr << fmt::format("{}x{}: {} {:.2f} ms\n", size.w, size.h, m, r["median_ms"].get<double>());

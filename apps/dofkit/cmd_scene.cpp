@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <functional>
 #include <iostream>
 #include <mutex>
 #include <sstream>
@@ -17,11 +19,15 @@
 #include "budget.hpp"
 #include "cli_common.hpp"
 #include "commands.hpp"
+#include "core/parallel.hpp"
 #include "quality_run.hpp"
 #include "dofkit/error.hpp"
+#include "io/atomic_write.hpp"
+#include "io/exr_direct.hpp"
 #include "io/image_io.hpp"
 #include "io/atomic_write.hpp"
 #include "io/layers_io.hpp"
+#include "scene/raytracer.hpp"
 #include "scene/scene.hpp"
 
 namespace dofkit::cli {
@@ -41,6 +47,9 @@ struct SceneArgs {
   int threads = 0;
   bool list = false;
   BudgetFlags budget;
+  bool gbuffer = false;
+  double ao_radius_m = 0;
+  int ao_rays = 4096;
 };
 
 // Shortest decimal that reads back as the same double (for flags that must reproduce exactly).
@@ -56,11 +65,15 @@ std::string exact(double v) {
 void run_scene(const SceneArgs& a) {
   if (a.list) {
     for (const auto& n : scene::scene_names()) std::cout << n << "\t" << scene::scene_description(n) << "\n";
+    for (const auto& n : scene::ao_scene_names()) std::cout << n << "\t" << scene::scene_description(n) << "\n";
     return;
   }
   if (a.name.empty()) throw_usage("scene: a scene NAME is required (see dofkit scene --list)");
   if (a.out.empty()) throw_usage("scene: --out DIR is required");
   a.budget.apply();
+  if (!(a.ao_radius_m >= 0) || !std::isfinite(a.ao_radius_m))
+    throw_usage("--ao-radius: must be a finite number of metres >= 0 (0 = the scene's own, for an AO scene)");
+  if (a.ao_rays < 1 || a.ao_rays > (1 << 20)) throw_usage("--ao-rays: must be 1..1048576");
 
   scene::SceneOptions opt;
   parse_size(a.size, "--size", opt.width, opt.height);
@@ -120,6 +133,73 @@ void run_scene(const SceneArgs& a) {
   if (a.layers > 0) io::write_layers_exr((dir / "layers.exr").string(), r.pinhole);
   io::write_image((dir / "ground_truth.exr").string(), r.ground_truth, colour);
 
+  // G-buffer, camera and AO (docs/gbuffer.md).
+  const scene::Scene built = scene::build_scene(a.name);
+  const double ao_radius = a.ao_radius_m > 0 ? a.ao_radius_m : built.ao_radius_m;
+  const bool write_ao = a.ao_radius_m > 0 || (a.gbuffer && built.ao_radius_m > 0);
+  std::vector<std::string> extra_files;
+  if (a.gbuffer) {
+    const scene::LensCamera cam = scene::camera_for(built, opt);
+    scene::GBuffer g;
+    core::with_threads(a.threads, [&] { g = scene::render_gbuffer(built, cam); });
+    const std::vector<io::exr::OutChannel> ch = {{"Z", g.z.plane(0)},
+                                                 {"N.X", g.normal.plane(0)},
+                                                 {"N.Y", g.normal.plane(1)},
+                                                 {"N.Z", g.normal.plane(2)},
+                                                 {"albedo.R", g.albedo.plane(0)},
+                                                 {"albedo.G", g.albedo.plane(1)},
+                                                 {"albedo.B", g.albedo.plane(2)},
+                                                 {"specular.R", g.specular.plane(0)},
+                                                 {"specular.G", g.specular.plane(1)},
+                                                 {"specular.B", g.specular.plane(2)},
+                                                 {"gloss", g.gloss.plane(0)},
+                                                 {"emissive.R", g.emissive.plane(0)},
+                                                 {"emissive.G", g.emissive.plane(1)},
+                                                 {"emissive.B", g.emissive.plane(2)}};
+    const std::string gpath = (std::filesystem::path(a.out) / "gbuffer.exr").string();
+    io::write_atomically(gpath, [&](const std::string& tmp) {
+      io::exr::write_scanline(tmp, gpath, cam.width, cam.height, ch, false, "zip");
+    });
+    nlohmann::json c;
+    c["width"] = cam.width;
+    c["height"] = cam.height;
+    c["hfov_deg"] = cam.hfov_deg;
+    c["vfov_deg"] = 2 * std::atan(0.5 * cam.height / cam.f_px()) * 180 / 3.14159265358979323846;
+    c["f_px"] = cam.f_px();
+    c["principal_point_px"] = {0.5 * cam.width, 0.5 * cam.height};
+    c["pixel_centre"] = "pixel (x, y) has its centre at (x + 0.5, y + 0.5), y growing downward";
+    c["ray"] =
+        "pixel (x, y) sees along (X, Y, Z) = ((x + 0.5 - W/2) / f_px, -(y + 0.5 - H/2) / f_px, -1) in camera "
+        "space (X right, Y up, Z towards the camera); a point at depth z is that ray times z";
+    c["depth"] = "planar depth along the optical axis (-Z in camera space), metres; +inf where no surface is hit";
+    c["normal_space"] = "camera space: X right, Y up, Z towards the camera; unit length; 0 on the background";
+    c["clip_near_m"] = 0.05;
+    c["clip_far_m"] = 1000.0;
+    c["clip_note"] = "nominal planes for a rasteriser's projection; the ray tracer itself does not clip";
+    c["pitch_deg"] = built.pitch_deg;
+    if (write_ao) c["ao_radius_m"] = ao_radius;
+    const std::string cpath = (std::filesystem::path(a.out) / "camera.json").string();
+    io::write_atomically(cpath, [&](const std::string& tmp) {
+      std::ofstream f(tmp, std::ios::binary);
+      f << c.dump(2) << "\n";
+      f.close();
+      if (!f) throw_bad_input(cpath + ": cannot write");
+    });
+    extra_files.push_back("gbuffer.exr");
+    extra_files.push_back("camera.json");
+  }
+  if (write_ao) {
+    if (tty) std::fprintf(stderr, "dofkit scene %s: ambient occlusion, %d rays per pixel\n", a.name.c_str(), a.ao_rays);
+    const scene::LensCamera cam = scene::camera_for(built, opt);
+    Image ao;
+    core::with_threads(a.threads, [&] { ao = scene::render_ao(built, cam, ao_radius, a.ao_rays, a.seed); });
+    io::WriteOptions one;
+    one.bits = 32;
+    one.channel_name = "Y";
+    io::write_image((std::filesystem::path(a.out) / "ao.exr").string(), ao, one);
+    extra_files.push_back("ao.exr");
+  }
+
   std::ostringstream flags;
   flags << "--focus " << exact(d.focus_m) << " --blur-at-infinity " << exact(d.blur_at_infinity_px);
   if (!a.aperture.text().empty()) flags << " " << a.aperture.text();
@@ -145,6 +225,15 @@ void run_scene(const SceneArgs& a) {
   j["ground_truth_seconds"] = seconds;
   j["files"] = {{"color", "color.exr"}, {"depth", "depth.exr"}, {"ground_truth", "ground_truth.exr"}};
   if (a.layers > 0) j["files"]["layers"] = "layers.exr";
+  if (a.gbuffer) {
+    j["files"]["gbuffer"] = "gbuffer.exr";
+    j["files"]["camera"] = "camera.json";
+  }
+  if (write_ao) {
+    j["files"]["ao"] = "ao.exr";
+    j["ao_radius_m"] = ao_radius;
+    j["ao_rays"] = a.ao_rays;
+  }
   // Written through a temporary file + rename like every other output (atomic_write.hpp: an
   // unpredictable name created with O_EXCL, never through a symlink planted in the folder).
   const std::string params_path = (dir / "params.json").string();
@@ -155,8 +244,9 @@ void run_scene(const SceneArgs& a) {
     const bool ok = std::fwrite(s.data(), 1, s.size(), f) == s.size();
     if (std::fclose(f) != 0 || !ok) throw_bad_input("--out: cannot write '" + params_path + "'");
   });
-  std::cout << "wrote " << a.out << "/{color,depth" << (a.layers > 0 ? ",layers" : "")
-            << ",ground_truth}.exr and params.json; reproduce the camera with: dofkit render " << flags.str() << "\n";
+  std::cout << "wrote " << a.out << "/{color,depth" << (a.layers > 0 ? ",layers" : "") << ",ground_truth}.exr";
+  for (const auto& f : extra_files) std::cout << ", " << f;
+  std::cout << " and params.json; reproduce the camera with: dofkit render " << flags.str() << "\n";
 }
 
 }  // namespace
@@ -186,6 +276,13 @@ void add_scene_command(CLI::App& app) {
   cmd->add_option("--seed", args->seed, "lens sampling seed (default 1)");
   add_threads(cmd, args->threads, "worker threads (0 = all cores)");
   args->budget.add(cmd);
+  cmd->add_flag("--gbuffer", args->gbuffer,
+                "also write gbuffer.exr (channels Z, N.X N.Y N.Z, albedo.R/G/B, specular.R/G/B, gloss, "
+                "emissive.R/G/B) and camera.json (docs/gbuffer.md); for an AO scene also ao.exr at its radius");
+  cmd->add_option("--ao-radius", args->ao_radius_m,
+                  "write ao.exr: ray-traced ambient occlusion within this radius, metres (default for an AO scene "
+                  "with --gbuffer: the scene's own)");
+  cmd->add_option("--ao-rays", args->ao_rays, "cosine-weighted quasi-random rays per pixel for ao.exr (default 4096)");
   cmd->callback([args] { run_scene(*args); });
 }
 

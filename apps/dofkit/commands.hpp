@@ -13,5 +13,6 @@ void add_scene_command(CLI::App& app);
 void add_compare_command(CLI::App& app);
 void add_quality_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
+void add_ssao_command(CLI::App& app);
 
 }  // namespace dofkit::cli

@@ -72,6 +72,7 @@ const std::vector<NumericRange> kRanges = {
     {"scene --focus", "m", 0, 1e6, false, false, false, false, "0 = the scene's own"},
     {"scene --blur-at-infinity", "px", 0, 1e6, false, false, false, false, "0 = the scene's own"},
     {"quality --samples", "", 0, 1e6, false, false, true, false, "0 = the scene's own"},
+    {"quality --radii", "m", 1e-6, 1e6, false, false, false, false, "AO radii (--effect ao)"},
     {"quality --layers", "", 0, 16, false, false, true, false, ""},
     {"demo --samples", "", 0, 1e6, false, false, true, false, "0 = the scene's own"},
     {"demo --layers", "", 0, 16, false, false, true, false, ""},

@@ -589,6 +589,33 @@ ImageInfo probe_image(const std::string& path, const char* role) {
   return info;
 }
 
+Image read_normals(const std::string& path) {
+  OpenedFile f = open_checked(path, "normals");
+  const FileSpec& spec = f.spec;
+  if (spec.integer)
+    throw_bad_input(path +
+                    ": normals must be a float image (EXR or float TIFF); an 8/16-bit file cannot hold signed "
+                    "components");
+  static const char* const kSets[3][3] = {{"N.X", "N.Y", "N.Z"}, {"X", "Y", "Z"}, {"R", "G", "B"}};
+  int c[3] = {-1, -1, -1};
+  for (const auto& names : kSets) {
+    for (int k = 0; k < 3; ++k) c[k] = find_channel(spec, names[k]);
+    if (c[0] >= 0 && c[1] >= 0 && c[2] >= 0) break;
+  }
+  if (c[0] < 0 || c[1] < 0 || c[2] < 0)
+    throw_bad_input(path + ": no normal channels (N.X N.Y N.Z, X Y Z or R G B) among " + channel_list(spec));
+  // One read of the channel range that holds the three, then split.
+  const int lo = std::min({c[0], c[1], c[2]}), hi = std::max({c[0], c[1], c[2]}) + 1;
+  const std::vector<float> buf = read_channels(f, path, "normals", lo, hi);
+  Image n(spec.width, spec.height, 3);
+  const std::size_t stride = hi - lo;
+  for (int k = 0; k < 3; ++k) {
+    float* out = n.plane(k);
+    for (std::size_t i = 0; i < n.plane_size(); ++i) out[i] = buf[i * stride + (c[k] - lo)];
+  }
+  return n;
+}
+
 Frame load_frame(const std::string& color_path, const std::string& depth_path, const DepthOptions& opt) {
   check_depth_options(opt);
   // Sizes before pixels: a depth map of another size is refused from the headers alone.

@@ -105,6 +105,12 @@ bool is_png_path(const std::string& path);
 /// of a multi-channel file. 8/16-bit values are taken as linear coverage (no sRGB decode).
 Image read_mask(const std::string& path);
 
+/// Reads a normal map → 3 planes (X, Y, Z as stored; no conversion): the channels N.X, N.Y,
+/// N.Z (dofkit scene's gbuffer.exr), else X, Y, Z (or any layer's <layer>.X …, e.g. a
+/// renderer's Normal.X), else R, G, B. Integer (8/16-bit) files are refused: normals need
+/// signed values. Throws Error(bad_input) naming the file and the channels it has.
+Image read_normals(const std::string& path);
+
 /// Parses a --depth-kind name: z, distance, disparity, ndc, ndc-reversed (Error(usage)).
 DepthKind parse_depth_kind(const std::string& name);
 /// The --depth-kind name of a kind.

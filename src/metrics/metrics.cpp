@@ -240,6 +240,13 @@ double ssim(const Image& ref, const Image& test) {
   return ssim_display(display_planes(ref), display_planes(test), ref.width(), ref.height());
 }
 
+double ssim_values(const float* a, const float* b, int w, int h) {
+  if (w < kTaps || h < kTaps)
+    throw_bad_input("ssim: images are " + std::to_string(w) + "x" + std::to_string(h) +
+                    ", the 11x11 SSIM window needs at least 11x11 pixels");
+  return ssim_plane(a, b, w, h);
+}
+
 double rmse_linear(const Image& ref, const Image& test) {
   check_pair(ref, test, "rmse");
   const int w = ref.width(), h = ref.height();

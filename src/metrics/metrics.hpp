@@ -53,6 +53,10 @@ Scores compare(const Image& ref, const Image& test, const Image* depth);
 /// the band must come from a larger image than the one compared (a crop).
 Scores compare_with_mask(const Image& ref, const Image& test, const Image* band_mask);
 
+/// Mean SSIM of two single planes of W × H values taken as they are (data range 1; no sRGB
+/// encoding), by the protocol's window and border (for AO images). Needs W, H >= 11.
+double ssim_values(const float* a, const float* b, int w, int h);
+
 /// The per-pixel display value of the protocol: sRGB encoding of clamp(v, 0, 1).
 float display_value(float linear);
 /// Copy of the region [x0, x1) × [y0, y1) of every plane. Throws Error(usage) naming the

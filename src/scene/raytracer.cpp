@@ -150,8 +150,67 @@ Primitive Primitive::cylinder(Vec3 a, Vec3 b, double r, Texture t, std::string n
   return p;
 }
 
+Primitive Primitive::oriented_box(Vec3 centre, Vec3 half, Vec3 u, Vec3 v, Texture t, std::string name) {
+  Primitive p;
+  p.kind = Kind::oriented_box;
+  p.p0 = centre;
+  p.p1 = {std::abs(half.x), std::abs(half.y), std::abs(half.z)};
+  p.axis_u = normalize(u);
+  p.axis_v = normalize(v - p.axis_u * dot(v, p.axis_u));
+  p.tex = t;
+  p.name = std::move(name);
+  return p;
+}
+
+namespace {
+
+// An oriented box's third axis and the coordinates of x in its frame (origin at the centre).
+Vec3 obox_w(const Primitive& p) { return cross(p.axis_u, p.axis_v); }
+Vec3 obox_local(const Primitive& p, Vec3 x) {
+  const Vec3 q = x - p.p0;
+  return {dot(q, p.axis_u), dot(q, p.axis_v), dot(q, obox_w(p))};
+}
+
+// Index (0, 1, 2) of the face axis of a point q on a box of half size h, in the box's frame
+// centred on it: the axis along which the point is farthest out relative to the half size.
+int face_axis(Vec3 q, Vec3 h) {
+  const double qx = std::abs(q.x) / std::max(h.x, 1e-12);
+  const double qy = std::abs(q.y) / std::max(h.y, 1e-12);
+  const double qz = std::abs(q.z) / std::max(h.z, 1e-12);
+  if (qx >= qy && qx >= qz) return 0;
+  return qy >= qz ? 1 : 2;
+}
+
+// Slab test of the ray (o, d) against the box [lo, hi] (both in the same frame): the entry
+// parameter (or the exit one when the origin is inside), kInf if missed.
+double slab(const double os[3], const double ds[3], const double lo[3], const double hi[3]) {
+  double t0 = -kInf, t1 = kInf;
+  for (int a = 0; a < 3; ++a) {
+    if (ds[a] == 0) {
+      if (os[a] < lo[a] || os[a] > hi[a]) return kInf;
+      continue;
+    }
+    const double inv = 1.0 / ds[a];
+    double ta = (lo[a] - os[a]) * inv, tb = (hi[a] - os[a]) * inv;
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  if (t0 > t1) return kInf;
+  return first_positive(t0, t1);
+}
+
+}  // namespace
+
 double intersect(const Primitive& p, Vec3 o, Vec3 d) {
   switch (p.kind) {
+    case Primitive::Kind::oriented_box: {
+      const Vec3 w = obox_w(p), q = o - p.p0;
+      const double os[3] = {dot(q, p.axis_u), dot(q, p.axis_v), dot(q, w)};
+      const double ds[3] = {dot(d, p.axis_u), dot(d, p.axis_v), dot(d, w)};
+      const double hi[3] = {p.p1.x, p.p1.y, p.p1.z}, lo[3] = {-p.p1.x, -p.p1.y, -p.p1.z};
+      return slab(os, ds, lo, hi);
+    }
     case Primitive::Kind::plane: {
       const double dn = dot(d, p.p1);
       if (dn == 0) return kInf;
@@ -159,23 +218,9 @@ double intersect(const Primitive& p, Vec3 o, Vec3 d) {
       return t > kEps ? t : kInf;
     }
     case Primitive::Kind::box: {
-      // Slab test: the entry is the largest of the per-axis entry parameters.
-      double t0 = -kInf, t1 = kInf;
       const double os[3] = {o.x, o.y, o.z}, ds[3] = {d.x, d.y, d.z};
       const double lo[3] = {p.p0.x, p.p0.y, p.p0.z}, hi[3] = {p.p1.x, p.p1.y, p.p1.z};
-      for (int a = 0; a < 3; ++a) {
-        if (ds[a] == 0) {
-          if (os[a] < lo[a] || os[a] > hi[a]) return kInf;
-          continue;
-        }
-        const double inv = 1.0 / ds[a];
-        double ta = (lo[a] - os[a]) * inv, tb = (hi[a] - os[a]) * inv;
-        if (ta > tb) std::swap(ta, tb);
-        t0 = std::max(t0, ta);
-        t1 = std::min(t1, tb);
-      }
-      if (t0 > t1) return kInf;
-      return first_positive(t0, t1);
+      return slab(os, ds, lo, hi);
     }
     case Primitive::Kind::sphere: {
       // |o + t d − c|² = R²: a t² + 2 b t + c = 0.
@@ -222,6 +267,15 @@ double intersect(const Primitive& p, Vec3 o, Vec3 d) {
 
 Rgb shade_at(const Primitive& p, Vec3 x) {
   switch (p.kind) {
+    case Primitive::Kind::oriented_box: {
+      // As for an axis-aligned box, in the box's own frame (coordinates from its min corner).
+      const Vec3 q = obox_local(p, x);
+      const Vec3 r = q + p.p1;
+      const int a = face_axis(q, p.p1);
+      if (a == 0) return shade(p.tex, r.z, r.y);
+      if (a == 1) return shade(p.tex, r.x, r.z);
+      return shade(p.tex, r.x, r.y);
+    }
     case Primitive::Kind::plane: {
       const Vec3 q = x - p.p0;
       const Vec3 v_axis = cross(p.p1, p.axis_u);
@@ -263,6 +317,51 @@ Rgb shade_at(const Primitive& p, Vec3 x) {
   return {};
 }
 
+Vec3 normal_at(const Primitive& p, Vec3 x) {
+  switch (p.kind) {
+    case Primitive::Kind::plane:
+      return p.p1;
+    case Primitive::Kind::box: {
+      const Vec3 c = (p.p0 + p.p1) * 0.5, h = (p.p1 - p.p0) * 0.5;
+      const Vec3 q = x - c;
+      switch (face_axis(q, h)) {
+        case 0:
+          return {q.x < 0 ? -1.0 : 1.0, 0, 0};
+        case 1:
+          return {0, q.y < 0 ? -1.0 : 1.0, 0};
+        default:
+          return {0, 0, q.z < 0 ? -1.0 : 1.0};
+      }
+    }
+    case Primitive::Kind::oriented_box: {
+      const Vec3 q = obox_local(p, x);
+      switch (face_axis(q, p.p1)) {
+        case 0:
+          return p.axis_u * (q.x < 0 ? -1.0 : 1.0);
+        case 1:
+          return p.axis_v * (q.y < 0 ? -1.0 : 1.0);
+        default:
+          return obox_w(p) * (q.z < 0 ? -1.0 : 1.0);
+      }
+    }
+    case Primitive::Kind::sphere:
+      return normalize(x - p.p0);
+    case Primitive::Kind::cylinder: {
+      const Vec3 axis = p.p1 - p.p0;
+      const double len = std::sqrt(dot(axis, axis));
+      const Vec3 ax = axis * (1.0 / len);
+      const Vec3 w = x - p.p0;
+      const double h = dot(w, ax);
+      const Vec3 q = w - ax * h;
+      const double lateral = std::abs(std::sqrt(dot(q, q)) - p.radius);
+      // The nearest of the three surfaces holds the point (as in shade_at).
+      if (std::min(std::abs(h), std::abs(h - len)) < lateral) return std::abs(h) < std::abs(h - len) ? ax * -1.0 : ax;
+      return normalize(q);
+    }
+  }
+  return {0, 0, 1};
+}
+
 Rgb shade_background(const Background& bg, Vec3 d) {
   const double tx = d.x / d.z, ty = d.y / d.z;
   const double up = clamp01(-ty / 0.4);  // y points down: −ty = tan(elevation)
@@ -282,6 +381,38 @@ double LensCamera::coc_px(double z) const { return k_px * (focus_m / z - 1.0); }
 // Rendering
 
 namespace {
+
+// Axis-aligned bounds of a bounded primitive (false for a plane).
+bool bounds_of(const Primitive& p, Vec3& lo, Vec3& hi) {
+  switch (p.kind) {
+    case Primitive::Kind::plane:
+      return false;
+    case Primitive::Kind::box:
+      lo = p.p0;
+      hi = p.p1;
+      return true;
+    case Primitive::Kind::sphere:
+      lo = p.p0 - Vec3{p.radius, p.radius, p.radius};
+      hi = p.p0 + Vec3{p.radius, p.radius, p.radius};
+      return true;
+    case Primitive::Kind::cylinder: {
+      const Vec3 r{p.radius, p.radius, p.radius};
+      lo = Vec3{std::min(p.p0.x, p.p1.x), std::min(p.p0.y, p.p1.y), std::min(p.p0.z, p.p1.z)} - r;
+      hi = Vec3{std::max(p.p0.x, p.p1.x), std::max(p.p0.y, p.p1.y), std::max(p.p0.z, p.p1.z)} + r;
+      return true;
+    }
+    case Primitive::Kind::oriented_box: {
+      const Vec3 w = obox_w(p);
+      const Vec3 e{std::abs(p.axis_u.x) * p.p1.x + std::abs(p.axis_v.x) * p.p1.y + std::abs(w.x) * p.p1.z,
+                   std::abs(p.axis_u.y) * p.p1.x + std::abs(p.axis_v.y) * p.p1.y + std::abs(w.y) * p.p1.z,
+                   std::abs(p.axis_u.z) * p.p1.x + std::abs(p.axis_v.z) * p.p1.y + std::abs(w.z) * p.p1.z};
+      lo = p.p0 - e;
+      hi = p.p0 + e;
+      return true;
+    }
+  }
+  return false;
+}
 
 // Screen-space culling. A point Q at depth z seen through any lens point lands within |r(z)|
 // pixels of its pinhole projection (derivation in raytracer.hpp), so the rays of a tile can
@@ -312,12 +443,10 @@ struct Culler {
           lo = p.p0 - Vec3{p.radius, p.radius, p.radius};
           hi = p.p0 + Vec3{p.radius, p.radius, p.radius};
           break;
-        case Primitive::Kind::cylinder: {
-          const Vec3 r{p.radius, p.radius, p.radius};
-          lo = Vec3{std::min(p.p0.x, p.p1.x), std::min(p.p0.y, p.p1.y), std::min(p.p0.z, p.p1.z)} - r;
-          hi = Vec3{std::max(p.p0.x, p.p1.x), std::max(p.p0.y, p.p1.y), std::max(p.p0.z, p.p1.z)} + r;
+        case Primitive::Kind::cylinder:
+        case Primitive::Kind::oriented_box:
+          bounds_of(p, lo, hi);
           break;
-        }
       }
       if (lo.z <= 1e-6) {
         bounds.push_back({0, 0, 0, 0, true});
@@ -659,6 +788,199 @@ Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, s
       }
   });
   return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scene pitch, ambient occlusion and the G-buffer
+
+void pitch_scene(Scene& scene, double pitch_deg) {
+  const double a = pitch_deg * std::numbers::pi / 180.0, c = std::cos(a), s = std::sin(a);
+  // A level camera turned down by `a` sees the world direction (0, sin a, cos a) on its axis.
+  const auto rot = [&](Vec3 w) { return Vec3{w.x, c * w.y - s * w.z, s * w.y + c * w.z}; };
+  scene.pitch_deg += pitch_deg;
+  for (Primitive& p : scene.prims) {
+    switch (p.kind) {
+      case Primitive::Kind::plane:
+        p.p0 = rot(p.p0);
+        p.p1 = rot(p.p1);
+        p.axis_u = rot(p.axis_u);
+        break;
+      case Primitive::Kind::box: {
+        const Vec3 centre = (p.p0 + p.p1) * 0.5, half = (p.p1 - p.p0) * 0.5;
+        p.kind = Primitive::Kind::oriented_box;
+        p.p0 = rot(centre);
+        p.p1 = half;
+        p.axis_u = rot({1, 0, 0});
+        p.axis_v = rot({0, 1, 0});
+        break;
+      }
+      case Primitive::Kind::oriented_box:
+        p.p0 = rot(p.p0);
+        p.axis_u = rot(p.axis_u);
+        p.axis_v = rot(p.axis_v);
+        break;
+      case Primitive::Kind::sphere:
+        p.p0 = rot(p.p0);
+        break;
+      case Primitive::Kind::cylinder:
+        p.p0 = rot(p.p0);
+        p.p1 = rot(p.p1);
+        p.axis_u = rot(p.axis_u);
+        break;
+    }
+  }
+}
+
+double ao_at(const Scene& scene, const std::vector<int>& cand, Vec3 p, Vec3 n, double radius_m, int rays,
+             std::uint32_t seed) {
+  if (rays < 1) throw_usage("ambient occlusion: rays must be >= 1");
+  const Vec3 t1 = perpendicular(n), t2 = cross(n, t1);
+  // Lift the origin off the surface so that a ray never finds the surface it starts on (the
+  // hit point carries the rounding of the primary ray).
+  const double lift = 1e-7 * (1 + std::sqrt(dot(p, p)));
+  const Vec3 o = p + n * lift;
+  const int count = cand.empty() ? static_cast<int>(scene.prims.size()) : static_cast<int>(cand.size());
+  const detail::SobolSet set(seed);
+  int open = 0;
+  for (int i = 0; i < rays; ++i) {
+    double u, v, dx, dy;
+    set.sample(static_cast<std::uint32_t>(i), u, v);
+    detail::concentric_disc(u, v, dx, dy);
+    const double dz = std::sqrt(std::max(0.0, 1 - dx * dx - dy * dy));
+    const Vec3 d = t1 * dx + t2 * dy + n * dz;  // unit length: t is the distance
+    bool hit = false;
+    for (int k = 0; k < count && !hit; ++k) {
+      const int idx = cand.empty() ? k : cand[k];
+      const double t = intersect(scene.prims[idx], o, d);  // kInf: missed
+      hit = t < kInf && t <= radius_m;
+    }
+    open += hit ? 0 : 1;
+  }
+  return static_cast<double>(open) / rays;
+}
+
+namespace {
+
+// Primary hit of pixel (x, y) of the pinhole camera: the hit (z = ray parameter = depth), the
+// point and the ray direction (d.z = 1).
+struct PrimaryHit {
+  Hit hit;
+  Vec3 point, dir;
+};
+PrimaryHit primary_hit(const Scene& scene, const std::vector<int>& cand, const LensCamera& cam, double f, int x,
+                       int y) {
+  PrimaryHit r;
+  r.dir = {(x + 0.5 - 0.5 * cam.width) / f, (y + 0.5 - 0.5 * cam.height) / f, 1.0};
+  r.hit = closest(scene, cand, {0, 0, 0}, r.dir);
+  if (r.hit.prim >= 0) r.point = r.dir * r.hit.z;
+  return r;
+}
+
+// The normal of a primary hit turned towards the camera.
+Vec3 facing_normal(const Scene& scene, const PrimaryHit& h) {
+  Vec3 n = normal_at(scene.prims[h.hit.prim], h.point);
+  if (dot(n, h.dir) > 0) n = n * -1.0;
+  return n;
+}
+
+}  // namespace
+
+Image render_ao(const Scene& scene, const LensCamera& cam, double radius_m, int rays, std::uint64_t seed,
+                const Progress& progress) {
+  check_camera(cam);
+  if (!(radius_m > 0)) throw_usage("ambient occlusion radius must be > 0 metres");
+  if (rays < 1 || rays > (1 << 20)) throw_usage("ambient occlusion rays must be 1..1048576");
+  const int w = cam.width, h = cam.height;
+  const double f = cam.f_px();
+  const std::uint32_t seed32 = detail::hash_combine(detail::hash32(static_cast<std::uint32_t>(seed) ^ 0x0a0c1u),
+                                                    static_cast<std::uint32_t>(seed >> 32));
+  Image out(w, h, 1, 1.0f);
+  const Culler culler(scene, cam, false);
+  for_each_tile(cam, progress, [&](int x0, int y0, int x1, int y1) {
+    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
+    std::vector<PrimaryHit> hits;
+    Vec3 lo{kInf, kInf, kInf}, hi{-kInf, -kInf, -kInf};
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        hits.push_back(primary_hit(scene, cand, cam, f, x, y));
+        const PrimaryHit& ph = hits.back();
+        if (ph.hit.prim < 0) continue;
+        lo = {std::min(lo.x, ph.point.x), std::min(lo.y, ph.point.y), std::min(lo.z, ph.point.z)};
+        hi = {std::max(hi.x, ph.point.x), std::max(hi.y, ph.point.y), std::max(hi.z, ph.point.z)};
+      }
+    // Occluders: the primitives within radius_m of the tile's hit points' bounds (all of them
+    // when the radius is unlimited). Culling only skips primitives no ray can hit in range.
+    std::vector<int> near;
+    for (int i = 0; i < static_cast<int>(scene.prims.size()); ++i) {
+      Vec3 plo, phi;
+      if (std::isinf(radius_m) || !bounds_of(scene.prims[i], plo, phi) ||
+          (plo.x <= hi.x + radius_m && phi.x >= lo.x - radius_m && plo.y <= hi.y + radius_m &&
+           phi.y >= lo.y - radius_m && plo.z <= hi.z + radius_m && phi.z >= lo.z - radius_m))
+        near.push_back(i);
+    }
+    std::size_t k = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        const PrimaryHit& ph = hits[k++];
+        if (ph.hit.prim < 0) continue;  // background: 1
+        const std::uint32_t pixel_seed = detail::hash_combine(detail::hash_combine(seed32, x), y);
+        // No primitive in range: nothing can occlude (ao_at would read an empty list as "all").
+        if (!near.empty())
+          out.at(x, y) =
+              static_cast<float>(ao_at(scene, near, ph.point, facing_normal(scene, ph), radius_m, rays, pixel_seed));
+      }
+  });
+  return out;
+}
+
+GBuffer render_gbuffer(const Scene& scene, const LensCamera& cam) {
+  check_camera(cam);
+  const int w = cam.width, h = cam.height;
+  const double f = cam.f_px();
+  GBuffer g;
+  g.z = Image(w, h, 1);
+  g.normal = Image(w, h, 3, 0.0f);
+  g.albedo = Image(w, h, 3, 0.0f);
+  g.specular = Image(w, h, 3, 0.0f);
+  g.gloss = Image(w, h, 1, 0.0f);
+  g.emissive = Image(w, h, 3, 0.0f);
+  const Culler culler(scene, cam, false);
+  for_each_tile(cam, {}, [&](int x0, int y0, int x1, int y1) {
+    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        const PrimaryHit ph = primary_hit(scene, cand, cam, f, x, y);
+        g.z.at(x, y) = static_cast<float>(ph.hit.z);
+        if (ph.hit.prim < 0) {
+          const Rgb sky = shade_background(scene.background, ph.dir);
+          g.emissive.at(x, y, 0) = sky.r;
+          g.emissive.at(x, y, 1) = sky.g;
+          g.emissive.at(x, y, 2) = sky.b;
+          continue;
+        }
+        const Primitive& p = scene.prims[ph.hit.prim];
+        // Camera space of the files: X right, Y up, Z towards the camera (the tracer's y and z
+        // point the other way).
+        const Vec3 n = facing_normal(scene, ph);
+        g.normal.at(x, y, 0) = static_cast<float>(n.x);
+        g.normal.at(x, y, 1) = static_cast<float>(-n.y);
+        g.normal.at(x, y, 2) = static_cast<float>(-n.z);
+        const Rgb c = shade_at(p, ph.point);
+        const bool emitter = p.tex.emission > 1;
+        const float to_albedo = static_cast<float>(1 / p.tex.emission);
+        const float rgb[3] = {c.r, c.g, c.b};
+        const float spec[3] = {p.specular.r, p.specular.g, p.specular.b};
+        for (int ch = 0; ch < 3; ++ch) {
+          if (emitter)
+            g.emissive.at(x, y, ch) = rgb[ch];
+          else
+            g.albedo.at(x, y, ch) = std::clamp(rgb[ch] * to_albedo, 0.0f, 1.0f);
+          g.specular.at(x, y, ch) = std::clamp(spec[ch], 0.0f, 1.0f);
+        }
+        g.gloss.at(x, y) = std::clamp(p.gloss, 0.0f, 1.0f);
+      }
+  });
+  return g;
 }
 
 }  // namespace dofkit::scene

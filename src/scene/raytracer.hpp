@@ -73,26 +73,38 @@ struct Texture {
 /// Evaluates a texture at surface coordinates (metres).
 Rgb shade(const Texture& tex, double u, double v);
 
-/// An opaque analytic primitive. Closed solids (box, sphere, cylinder) are hit at their
-/// entry point only; planes are two-sided and infinite.
+/// An opaque analytic primitive. Closed solids (box, oriented box, sphere, cylinder) are hit at
+/// their entry point only; planes are two-sided and infinite.
 struct Primitive {
-  enum class Kind { plane, box, sphere, cylinder };
+  enum class Kind { plane, box, sphere, cylinder, oriented_box };
   Kind kind = Kind::sphere;
-  /// plane: a point on it; box: min corner; sphere: centre; cylinder: one end of the axis.
+  /// plane: a point on it; box: min corner; sphere: centre; cylinder: one end of the axis;
+  /// oriented box: centre.
   Vec3 p0;
-  /// plane: unit normal; box: max corner; cylinder: the other end of the axis.
+  /// plane: unit normal; box: max corner; cylinder: the other end of the axis; oriented box:
+  /// half extents along axis_u, axis_v, axis_u × axis_v (metres).
   Vec3 p1;
-  /// plane: unit u axis of the texture coordinates (v = normal × u).
+  /// plane: unit u axis of the texture coordinates (v = normal × u); oriented box: its first
+  /// unit axis.
   Vec3 axis_u;
+  /// oriented box: its second unit axis (orthogonal to axis_u). Unused by the other kinds.
+  Vec3 axis_v;
   double radius = 0;  ///< sphere / cylinder radius, metres
   Texture tex;
   std::string name;  ///< for debugging and tests
+  /// G-buffer material (render_gbuffer): specular colour and gloss in [0, 1]. The scenes'
+  /// radiance does not depend on them (every surface is emissive).
+  Rgb specular{0.04f, 0.04f, 0.04f};
+  float gloss = 0.3f;
 
   static Primitive plane(Vec3 point, Vec3 normal, Vec3 u_axis, Texture t, std::string name = "plane");
   static Primitive box(Vec3 lo, Vec3 hi, Texture t, std::string name = "box");
   static Primitive sphere(Vec3 centre, double r, Texture t, std::string name = "sphere");
   /// Closed cylinder (with end caps) around the segment a → b.
   static Primitive cylinder(Vec3 a, Vec3 b, double r, Texture t, std::string name = "cylinder");
+  /// Box with half extents `half` along the orthonormal axes u, v and u × v around `centre`
+  /// (v is made orthogonal to u). Texture coordinates as for `box`, in the box's own frame.
+  static Primitive oriented_box(Vec3 centre, Vec3 half, Vec3 u, Vec3 v, Texture t, std::string name = "box");
 };
 
 /// The background at infinite distance (depth +inf): a vertical gradient plus a texture laid
@@ -114,6 +126,11 @@ struct Scene {
   double focus_m = 5;       ///< default focus distance, metres
   double k_px_at_640 = 12;  ///< default blur radius at infinity, px at width 640
   int samples = 128;        ///< default lens samples per pixel (ground truth)
+  /// Ambient-occlusion radius the scene was composed for, metres (0: not an AO scene).
+  double ao_radius_m = 0;
+  /// How far the camera looks down, degrees (pitch_scene; informational: the primitives are
+  /// already in the camera frame).
+  double pitch_deg = 0;
 };
 
 /// The thin-lens camera: resolution, field of view, focus, blur at infinity, aperture shape.
@@ -165,8 +182,50 @@ Frame render_pinhole(const Scene& scene, const LensCamera& cam, int layers = 0);
 Image render_thin_lens(const Scene& scene, const LensCamera& cam, int samples, std::uint64_t seed,
                        const Progress& progress = {});
 
+/// Geometric unit normal of primitive `p` at the surface point `x`, pointing out of a solid (a
+/// plane: its stored normal). Not oriented towards any viewer.
+Vec3 normal_at(const Primitive& p, Vec3 x);
+
+/// Rotates a whole scene about the camera's x axis so that a camera that looked along +z now
+/// looks down by `pitch_deg` (the scene is built in a level "world" frame, y down, and turned
+/// into the camera frame). Axis-aligned boxes become oriented boxes. The background is not
+/// turned (it is the sky seen along the ray directions).
+void pitch_scene(Scene& scene, double pitch_deg);
+
+/// Ambient occlusion at the surface point p with unit normal n (oriented to the side the
+/// point is seen from): the cosine-weighted fraction of the hemisphere around n whose rays
+/// hit no primitive within `radius_m` (+inf: no limit), estimated with `rays` Owen-scrambled
+/// Sobol directions (Malley's method: concentric disc lifted to the hemisphere) seeded by
+/// `seed`. `cand` lists the primitives to test (indices into scene.prims; empty = all).
+double ao_at(const Scene& scene, const std::vector<int>& cand, Vec3 p, Vec3 n, double radius_m, int rays,
+             std::uint32_t seed);
+
+/// Ray-traced ambient occlusion of the pinhole view (1 plane): at each pixel centre's first hit
+/// p, with the geometric normal turned towards the camera, ao_at(p, n, radius_m, rays) over all
+/// the scene's primitives (geometry outside the frame included; primitives farther than
+/// radius_m from every hit point of a 16×16 tile are skipped, which changes nothing). Pixels
+/// that see the background (depth +inf) get 1. Deterministic for (seed, rays), any thread count.
+Image render_ao(const Scene& scene, const LensCamera& cam, double radius_m, int rays, std::uint64_t seed,
+                const Progress& progress = {});
+
+/// The deferred buffers of the pinhole view (docs/gbuffer.md), one value per pixel centre.
+struct GBuffer {
+  Image z;         ///< planar depth, metres (+inf: background)
+  Image normal;    ///< 3 planes: unit normal, camera space X right, Y up, Z towards the camera (0 on the background)
+  Image albedo;    ///< 3 planes: diffuse albedo in [0, 1] (the texture at emission 1; 0 for emitters and background)
+  Image specular;  ///< 3 planes: specular colour in [0, 1]
+  Image gloss;     ///< 1 plane: gloss in [0, 1]
+  Image emissive;  ///< 3 planes: emitted radiance of HDR emitters (texture emission > 1), and of the background
+};
+GBuffer render_gbuffer(const Scene& scene, const LensCamera& cam);
+
 /// Builds a built-in scene by name (throws Error(usage) for an unknown name).
 Scene build_scene(const std::string& name);
+/// Builds a built-in ambient-occlusion scene (scenes_ao.cpp); throws Error(usage) for an
+/// unknown name.
+Scene build_ao_scene(const std::string& name);
+/// Names of the built-in ambient-occlusion scenes.
+std::vector<std::string> ao_scene_names();
 
 /// The camera a scene render uses for `opt` (defaults filled in, options validated).
 LensCamera camera_for(const Scene& scene, const SceneOptions& opt);

@@ -308,8 +308,11 @@ Scene build_scene(const std::string& name) {
   if (name == "highlights") return highlights();
   if (name == "portrait") return portrait();
   if (name == "sky") return sky();
+  for (const std::string& ao : ao_scene_names())
+    if (name == ao) return build_ao_scene(name);
   throw_usage("unknown scene '" + name +
-              "' (known: occluder, fence, ground, highlights, portrait, sky; see dofkit scene --list)");
+              "' (known: occluder, fence, ground, highlights, portrait, sky, ao_corner, ao_shelf; see dofkit scene "
+              "--list)");
 }
 
 }  // namespace dofkit::scene

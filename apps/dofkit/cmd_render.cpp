@@ -619,24 +619,23 @@ void run_render(RenderArgs& a) {
   // The aperture (its image is an input too) and highlight recovery, whose default depends on
   // whether the colour is display-referred (an 8/16-bit file).
   settings.aperture = a.aperture.build();
-  // lens, the default, draws a circle: a shaped aperture with neither --method nor --set
-  // goes to reference, the accurate method that draws every aperture.
-  if (!settings.aperture.is_circle() && a.method_opt && a.method_opt->count() == 0 && a.sets.empty() &&
-      a.debug_view.empty()) {
+  if (!settings.aperture.is_circle()) {
+    bool honoured = true;  // an unknown method is render()'s error to report
     for (const auto& m : methods())
-      if (m.name == a.method && m.aperture.empty()) {
-        std::cerr << "dofkit: note: " << a.method
-                  << " (the default method) draws a circular aperture; rendering with reference, which draws this "
-                     "one (--method chooses)\n";
-        a.method = settings.method = "reference";
-        break;
-      }
-  }
-  for (const auto& m : methods())
-    if (m.name == a.method && m.aperture.empty() && !settings.aperture.is_circle())
+      if (m.name == a.method) honoured = !m.aperture.empty();
+    // lens, the default, draws a circle: a shaped aperture with neither --method nor --set
+    // goes to reference, the accurate method that draws every aperture.
+    if (!honoured && a.method_opt && a.method_opt->count() == 0 && a.sets.empty() && a.debug_view.empty()) {
+      std::cerr << "dofkit: note: " << a.method
+                << " (the default method) draws a circular aperture; rendering with reference, which draws this "
+                   "one (--method chooses)\n";
+      a.method = settings.method = "reference";
+    } else if (!honoured) {
       std::cerr << "dofkit: note: method " << a.method
                 << " draws its own kernel; the aperture flags apply to the methods that honour them (see dofkit "
                    "methods)\n";
+    }
+  }
   const FramePaths first = sequence ? paths_of(range.first) : paths_of(-1);
   const bool display = !first.color.empty() && io::is_display_referred(first.color);
   settings.highlights = a.highlights.build(display);

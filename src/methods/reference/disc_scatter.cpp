@@ -115,10 +115,6 @@ void check_work(const Image& coc, const DiscScatterOptions& opt, int channels) {
   }
 }
 
-}  // namespace
-
-namespace {
-
 // One scatter with one coverage channel of the aperture (see disc_scatter).
 void scatter_channel(const Image& colour, const Image& depth, const Image& coc, const DiscScatterOptions& opt,
                      int channel, Image& out) {

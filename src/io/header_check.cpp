@@ -216,9 +216,12 @@ class Walker {
     long long chunks = 0;
     for (Part& p : parts) {
       if (!p.has_window) fail("a header has no dataWindow");
+      // Required too: without it OpenEXR's C++ reader assumes a 64x64 display window, which
+      // the layers reader fills (a fuzzed deep file of 5x4 px was probed 5x4 and read 64x64).
+      if (!p.has_display) fail("a header has no displayWindow");
       if (p.w <= 0 || p.h <= 0) fail("empty or inverted dataWindow");
       check_budget(p.w, p.h, path_, role_);
-      if (p.deep && p.has_display) {
+      if (p.deep) {
         // The layers reader fills a frame of the display window: that is the image's size.
         if (p.display_w <= 0 || p.display_h <= 0) fail("empty or inverted displayWindow");
         check_budget(p.display_w, p.display_h, path_, role_);
@@ -273,8 +276,8 @@ class Walker {
       facts->channels = static_cast<int>(p.channels.size());
       if (p.deep) {
         facts->deep = true;
-        facts->width = facts->display_width = p.has_display ? p.display_w : p.w;
-        facts->height = facts->display_height = p.has_display ? p.display_h : p.h;
+        facts->width = facts->display_width = p.display_w;
+        facts->height = facts->display_height = p.display_h;
       }
     }
   }
@@ -678,9 +681,14 @@ void check_tiff(std::ifstream& f, std::size_t file_size, bool big_endian, bool b
     std::vector<std::uint64_t> offsets, counts;
     // The first image's size, samples, bits and compression (what the readers decode).
     std::uint64_t w = 0, h = 0, spp = 1, bits = 0, compression = 1, photometric = 0;
+    std::set<std::uint32_t> tags;
     for (std::uint64_t i = 0; i < n; ++i) {
       const unsigned char* e = &entries[static_cast<std::size_t>(i) * entry_size];
       const std::uint32_t tag = u16(e), type = u16(e + 2);
+      // A tag is unique within a directory. libtiff keeps the first of two and ignores the
+      // other (a warning), this walk would take the last: a fuzzed file with two heights
+      // (3, then 32) was probed as 5x32 and read as 5x3.
+      if (!tags.insert(tag).second) fail("tag " + std::to_string(tag) + " appears twice in one directory");
       const std::uint64_t count = big ? u64(e + 4) : u32(e + 4);
       const unsigned char* field = e + (big ? 12 : 8);
       if (tag == 273 || tag == 324) values(e, offsets);

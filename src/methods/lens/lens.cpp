@@ -107,7 +107,9 @@ const MethodDef& lens_method() {
        {"tiles",
         "per tile of 256x16 px: R = slices read back / K, G = 1 if any direct source with a footprint reaches it, B = "
         "estimates read / K"}},
-      render_lens};
+      render_lens,
+      /*checks_colour=*/false,
+      /*aperture=*/""};  // circles only: a shaped aperture goes to reference (cmd_render)
   return def;
 }
 

@@ -356,6 +356,7 @@ struct PreviewRequest {
   RenderSettings settings;
   std::shared_ptr<const Frame> frame;
   std::shared_ptr<const Image> truth;  // downscaled ground truth (null: none)
+  bool coc_map = false;                 // append the focus-zone map
 };
 
 struct PreviewResult {
@@ -439,7 +440,7 @@ class PreviewWorker {
       const int w = r.image.width(), h = r.image.height();
       res.body.reserve(static_cast<std::size_t>(w) * h * 8 + 16);
       append_rgba8(r.image, res.body);
-      append_coc_map(r.coc, res.body);
+      if (req.coc_map) append_coc_map(r.coc, res.body);
       int dw = 0, dh = 0;
       if (!r.debug.empty()) {
         dw = r.debug.width(), dh = r.debug.height();
@@ -447,7 +448,9 @@ class PreviewWorker {
       }
       res.status = 200;
       res.content_type = "application/octet-stream";
-      res.headers = {{"X-Width", std::to_string(w)},       {"X-Height", std::to_string(h)},
+      res.headers = {{"X-Width", std::to_string(w)},
+                     {"X-Height", std::to_string(h)},
+                     {"X-Coc-Map", req.coc_map ? "1" : "0"},
                      {"X-Debug-Width", std::to_string(dw)}, {"X-Debug-Height", std::to_string(dh)},
                      {"X-Seq", std::to_string(seq)},        {"X-Render-Ms", exact(std::round(ms * 10) / 10)}};
       if (req.truth) res.headers.emplace("X-Psnr-Db", exact(std::round(metrics::psnr(*req.truth, r.image) * 100) / 100));
@@ -785,6 +788,7 @@ class ViewServer {
       const Scaled sc = scaled(w);
       pr.frame = sc.frame;
       pr.truth = sc.truth;
+      pr.coc_map = j.value("coc_map", false);
       std::optional<PreviewResult> r = worker_.run(std::move(pr));
       if (!r) {
         fail(res, 409, "superseded by a newer preview request");

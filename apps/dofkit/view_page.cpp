@@ -75,7 +75,7 @@ progress{width:100%}
 "use strict";
 const token = new URLSearchParams(location.search).get("token") || "";
 const $ = (id) => document.getElementById(id);
-const V = window.dofkitView = {frames: 0, latencies: [], lastSeq: 0, state: null, info: null, busy: false};
+const V = window.dofkitView = {frames: 0, latencies: [], fullLatencies: [], renderMs: [], fullRenderMs: [], lastSeq: 0, state: null, info: null, busy: false};
 let info, state, start;
 const main = $("main"), canvas = $("view"), ctx = canvas.getContext("2d");
 const A = document.createElement("canvas"), B = document.createElement("canvas"), O = document.createElement("canvas");
@@ -216,13 +216,17 @@ function changed() {
   requestPreview(V.changedAt);
   updateCommand();
 }
-async function requestPreview(t0) {
+// A change is shown in two steps: a preview at half the displayed size first (a quarter of
+// the pixels: quick feedback while a slider moves), then one at the displayed size, requested
+// once the half-size one is on screen and no newer change has come.
+async function requestPreview(t0, full) {
   const ov = $("overlay").value;
   const settings = Object.assign({}, state, {debug_view: ov.startsWith("debug:") ? ov.slice(6) : ""});
-  const local = ++nextLocal;
+  const local = ++nextLocal, pw = previewWidth();
+  const coarse = !full && pw >= 320;
   inflight++; V.busy = true; $("status").textContent = "rendering…";
   try {
-    const r = await post("/api/preview", {settings, width: previewWidth()});
+    const r = await post("/api/preview", {settings, width: coarse ? Math.round(pw / 2) : pw, coc_map: ov === "coc"});
     if (r.status === 409) return;
     const seq = +r.headers.get("X-Seq");
     const buf = await r.arrayBuffer();
@@ -232,19 +236,22 @@ async function requestPreview(t0) {
     toCanvas(A, buf, w, h, 0);
     haveA = true; V.previewSize = w + "x" + h;
     const o = $("overlay").value;
-    if (o === "coc") toCanvas(O, buf, w, h, w * h * 4);
+    const cocMap = r.headers.get("X-Coc-Map") === "1";
+    if (o === "coc" && cocMap) toCanvas(O, buf, w, h, w * h * 4);
     const dw = +r.headers.get("X-Debug-Width"), dh = +r.headers.get("X-Debug-Height");
-    if (o.startsWith("debug:") && dw) { toCanvas(O, buf, dw, dh, w * h * 8); debugImg = {width: dw, height: dh}; }
+    if (o.startsWith("debug:") && dw) { toCanvas(O, buf, dw, dh, w * h * (cocMap ? 8 : 4)); debugImg = {width: dw, height: dh}; }
     if (o === "depth" && oKind !== "depth" + w) loadDepthOverlay();
     if (!o) O.width = 0;
     draw();
     const psnr = r.headers.get("X-Psnr-Db");
-    $("status").textContent = `${w}×${h} preview, ${state.method}, ${r.headers.get("X-Render-Ms")} ms render` + (psnr ? `, PSNR ${psnr} dB vs the ground truth (the scene's camera, at preview size)` : "");
+    $("status").textContent = `${w}×${h} preview${coarse ? " (half size; full size follows)" : ""}, ${state.method}, ${r.headers.get("X-Render-Ms")} ms render` + (psnr ? `, PSNR ${psnr} dB vs the ground truth (the scene's camera, at preview size)` : "");
     V.psnr = psnr ? +psnr : null;
     showError("");
     await new Promise((res) => requestAnimationFrame(() => res()));
     V.frames++;
-    V.latencies.push(performance.now() - t0);
+    (coarse ? V.latencies : V.fullLatencies).push(performance.now() - t0);
+    (coarse ? V.renderMs : V.fullRenderMs).push(+r.headers.get("X-Render-Ms"));
+    if (coarse && local === nextLocal) requestPreview(t0, true);
   } catch (e) { showError(e.message); $("status").textContent = ""; }
   finally { inflight--; V.busy = inflight > 0; }
 }

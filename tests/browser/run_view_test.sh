@@ -3,7 +3,7 @@
 # (tests/browser/view_test.mjs). Usage: run_view_test.sh DOFKIT WORKDIR
 # Environment: DOFKIT_VIEW_SIZE (scene size, default 320x180), DOFKIT_VIEW_SCREENSHOTS (folder
 # for the screenshots, default WORKDIR), DOFKIT_VIEW_LATENCY_RUNS (slider changes timed,
-# default 10), DOFKIT_VIEW_DISPLAY=scene (size the page so the preview is the scene's size).
+# default 10), DOFKIT_VIEW_SAMPLES (ground-truth samples, default 64), DOFKIT_VIEW_DISPLAY=scene (size the page so the preview is the scene's size).
 # Exit 77 (CTest: skipped) only when chromium is not installed.
 set -euo pipefail
 DOFKIT=$(realpath "$1")
@@ -21,7 +21,7 @@ fi
 SIZE=${DOFKIT_VIEW_SIZE:-320x180}
 rm -rf "$WORK"
 mkdir -p "$WORK/save"
-"$DOFKIT" scene occluder --out "$WORK/scene" --size "$SIZE" --samples 64 --layers 0 >/dev/null
+"$DOFKIT" scene occluder --out "$WORK/scene" --size "$SIZE" --samples "${DOFKIT_VIEW_SAMPLES:-64}" --layers 0 >/dev/null
 # The pixel to click: the nearest surface (the pillar), away from the border; its expected focus
 # is the median of the finite depths in the 7x7 window around it (the --focus-at rule).
 # Debian's python3 (numpy and OpenImageIO from scripts/deps), not a virtual environment's.

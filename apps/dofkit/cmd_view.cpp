@@ -160,7 +160,8 @@ ViewState from_json(const json& j, const ViewState& start) {
   s.anamorphic = num(j, "anamorphic", s.anamorphic);
   s.cat_eye = num(j, "cat_eye", s.cat_eye);
   if (j.contains("highlight_boost"))
-    s.highlight_boost = j["highlight_boost"].is_null() ? std::nullopt : std::optional<double>(num(j, "highlight_boost", 0));
+    s.highlight_boost =
+        j["highlight_boost"].is_null() ? std::nullopt : std::optional<double>(num(j, "highlight_boost", 0));
   if (j.contains("method")) {
     if (!j["method"].is_string()) throw_usage("method: expected a name");
     s.method = j["method"].get<std::string>();
@@ -356,7 +357,7 @@ struct PreviewRequest {
   RenderSettings settings;
   std::shared_ptr<const Frame> frame;
   std::shared_ptr<const Image> truth;  // downscaled ground truth (null: none)
-  bool coc_map = false;                 // append the focus-zone map
+  bool coc_map = false;                // append the focus-zone map
 };
 
 struct PreviewResult {
@@ -392,8 +393,7 @@ class PreviewWorker {
     if (pending_) ++skipped_;
     pending_ = std::move(req);
     cv_.notify_all();
-    cv_.wait_for(lock, std::chrono::seconds(120),
-                 [&] { return stop_ || done_.seq == seq || newest_ > seq; });
+    cv_.wait_for(lock, std::chrono::seconds(120), [&] { return stop_ || done_.seq == seq || newest_ > seq; });
     if (done_.seq == seq) return done_;
     return std::nullopt;
   }
@@ -438,6 +438,8 @@ class PreviewWorker {
       const RenderResult r = dofkit::render(*req.frame, req.settings);
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       const int w = r.image.width(), h = r.image.height();
+      // (X-Render-Ms: the library's render; X-Server-Ms, added below: with the conversion to
+      // 8-bit sRGB, the overlays and the PSNR.)
       res.body.reserve(static_cast<std::size_t>(w) * h * 8 + 16);
       append_rgba8(r.image, res.body);
       if (req.coc_map) append_coc_map(r.coc, res.body);
@@ -451,9 +453,14 @@ class PreviewWorker {
       res.headers = {{"X-Width", std::to_string(w)},
                      {"X-Height", std::to_string(h)},
                      {"X-Coc-Map", req.coc_map ? "1" : "0"},
-                     {"X-Debug-Width", std::to_string(dw)}, {"X-Debug-Height", std::to_string(dh)},
-                     {"X-Seq", std::to_string(seq)},        {"X-Render-Ms", exact(std::round(ms * 10) / 10)}};
-      if (req.truth) res.headers.emplace("X-Psnr-Db", exact(std::round(metrics::psnr(*req.truth, r.image) * 100) / 100));
+                     {"X-Debug-Width", std::to_string(dw)},
+                     {"X-Debug-Height", std::to_string(dh)},
+                     {"X-Seq", std::to_string(seq)},
+                     {"X-Render-Ms", exact(std::round(ms * 10) / 10)}};
+      if (req.truth)
+        res.headers.emplace("X-Psnr-Db", exact(std::round(metrics::psnr(*req.truth, r.image) * 100) / 100));
+      const double all = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      res.headers.emplace("X-Server-Ms", exact(std::round(all * 10) / 10));
     } catch (const Cancelled&) {
       res.status = 0;
     } catch (const Error& e) {
@@ -492,7 +499,8 @@ class PreviewWorker {
 std::string confined_path(const fs::path& dir, const std::string& rel) {
   if (rel.empty()) throw_usage("path: empty");
   if (rel.size() > 1024) throw_usage("path: longer than 1024 bytes");
-  if (rel.front() == '/') throw_usage("path " + rel + ": absolute paths are refused (give a name inside the save folder)");
+  if (rel.front() == '/')
+    throw_usage("path " + rel + ": absolute paths are refused (give a name inside the save folder)");
   for (const char c : rel)
     if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f || c == '\\')
       throw_usage("path: control characters and backslashes are refused");
@@ -615,7 +623,8 @@ class ViewServer {
     struct sigaction sa {};
     sa.sa_handler = on_stop_signal;
     sigemptyset(&sa.sa_mask);
-    struct sigaction old_int {}, old_term {};
+    struct sigaction old_int {
+    }, old_term{};
     sigaction(SIGINT, &sa, &old_int);
     sigaction(SIGTERM, &sa, &old_term);
     svr.listen_after_bind();
@@ -735,14 +744,9 @@ class ViewServer {
       for (const DebugViewInfo& v : m.debug_views) views.push_back(v.name);
       methods_j.push_back({{"name", m.name}, {"debug_views", views}, {"aperture", m.aperture}});
     }
-    json j{{"width", in_.frame.width()},
-           {"height", in_.frame.height()},
-           {"ground_truth", !in_.truth.empty()},
-           {"scene", in_.scene_name},
-           {"color", in_.color_path},
-           {"save_dir", save_dir_.string()},
-           {"state", to_json(start_)},
-           {"methods", methods_j}};
+    json j{{"width", in_.frame.width()}, {"height", in_.frame.height()}, {"ground_truth", !in_.truth.empty()},
+           {"scene", in_.scene_name},    {"color", in_.color_path},      {"save_dir", save_dir_.string()},
+           {"state", to_json(start_)},   {"methods", methods_j}};
     res.set_content(j.dump(), "application/json");
   }
 
@@ -756,7 +760,9 @@ class ViewServer {
     return std::min(static_cast<int>(w), in_.frame.width());
   }
 
-  // The inputs at a preview width (the last width asked for is kept).
+  // The inputs at a preview width. The last kScaledKept widths are kept: a change asks for
+  // half the displayed width, then the displayed width, so two alternate.
+  static constexpr std::size_t kScaledKept = 3;
   struct Scaled {
     int width = 0;
     std::shared_ptr<const Frame> frame;
@@ -764,17 +770,22 @@ class ViewServer {
   };
   Scaled scaled(int w) {
     const std::lock_guard<std::mutex> lock(scaled_mu_);
-    if (scaled_.width != w) {
-      Scaled s;
-      s.width = w;
-      const int h = preview_height(w);
-      s.frame = w == in_.frame.width() ? std::make_shared<const Frame>(in_.frame)
-                                       : std::make_shared<const Frame>(downscale(in_.frame, w, h));
-      if (!in_.truth.empty())
-        s.truth = std::make_shared<const Image>(w == in_.frame.width() ? in_.truth : box_down(in_.truth, w, h));
-      scaled_ = std::move(s);
-    }
-    return scaled_;
+    for (std::size_t i = 0; i < scaled_.size(); ++i)
+      if (scaled_[i].width == w) {
+        std::rotate(scaled_.begin(), scaled_.begin() + static_cast<std::ptrdiff_t>(i),
+                    scaled_.begin() + static_cast<std::ptrdiff_t>(i) + 1);
+        return scaled_.front();
+      }
+    Scaled s;
+    s.width = w;
+    const int h = preview_height(w);
+    s.frame = w == in_.frame.width() ? std::make_shared<const Frame>(in_.frame)
+                                     : std::make_shared<const Frame>(downscale(in_.frame, w, h));
+    if (!in_.truth.empty())
+      s.truth = std::make_shared<const Image>(w == in_.frame.width() ? in_.truth : box_down(in_.truth, w, h));
+    scaled_.insert(scaled_.begin(), std::move(s));
+    if (scaled_.size() > kScaledKept) scaled_.pop_back();
+    return scaled_.front();
   }
 
   void preview(const httplib::Request& req, httplib::Response& res) {
@@ -876,8 +887,7 @@ class ViewServer {
             save_.fraction = f;
             return !save_.cancel.load();
           });
-          if (!in_.truth.empty() && io::is_exr_path(target))
-            psnr_db = metrics::psnr(in_.truth, io::read_color(target));
+          if (!in_.truth.empty() && io::is_exr_path(target)) psnr_db = metrics::psnr(in_.truth, io::read_color(target));
         } catch (const Cancelled&) {
           state = "cancelled";
         } catch (const Error& e) {
@@ -917,7 +927,7 @@ class ViewServer {
   const std::string token_;
   int port_ = 0;
   std::mutex scaled_mu_;
-  Scaled scaled_;
+  std::vector<Scaled> scaled_;  // most recently used first
   SaveJob save_;
   PreviewWorker worker_;
 };
@@ -928,8 +938,7 @@ void run_view(ViewArgs& a) {
   std::vector<std::string> input_flags;
   json scene;
   if (!a.scene_dir.empty()) {
-    if (!a.color.empty() || !a.depth.empty())
-      throw_usage("view: give a scene folder or --color/--depth, not both");
+    if (!a.color.empty() || !a.depth.empty()) throw_usage("view: give a scene folder or --color/--depth, not both");
     const fs::path dir(a.scene_dir);
     std::ifstream pj(dir / "params.json");
     if (!pj) throw_bad_input(a.scene_dir + ": not a scene folder (no params.json; make one with dofkit scene)");
@@ -994,8 +1003,9 @@ void run_view(ViewArgs& a) {
     st.blur_at_infinity_px = b->blur_at_infinity_px;
     st.focus_m = b->focus_distance_m;
   } else {
-    throw_usage("view: the page drives a thin lens; start it with --f-number or --blur-at-infinity (not --planes, "
-                "--starcraft or --near-far)");
+    throw_usage(
+        "view: the page drives a thin lens; start it with --f-number or --blur-at-infinity (not --planes, "
+        "--starcraft or --near-far)");
   }
   if (a.camera.focus_at()) st.focus_at = a.camera.focus_at();
   st.max_coc_px = std::isfinite(cam.max_coc_px) ? cam.max_coc_px : 0;

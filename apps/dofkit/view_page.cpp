@@ -15,7 +15,7 @@ body{margin:0;font:13px system-ui,sans-serif;background:#1e1f22;color:#ddd;displ
 #main{flex:1;position:relative;overflow:hidden;cursor:crosshair}
 canvas#view{position:absolute;left:0;top:0}
 h1{font-size:15px;margin:2px 0 6px}
-fieldset{border:1px solid #444;margin:6px 0;padding:4px 6px}
+fieldset{border:1px solid #444;margin:6px 0;padding:4px 6px;min-width:0}
 legend{color:#9ab}
 label{display:flex;align-items:center;gap:6px;margin:3px 0}
 label span.n{width:92px;flex:none}
@@ -75,7 +75,7 @@ progress{width:100%}
 "use strict";
 const token = new URLSearchParams(location.search).get("token") || "";
 const $ = (id) => document.getElementById(id);
-const V = window.dofkitView = {frames: 0, latencies: [], fullLatencies: [], renderMs: [], fullRenderMs: [], lastSeq: 0, state: null, info: null, busy: false};
+const V = window.dofkitView = {frames: 0, latencies: [], fullLatencies: [], renderMs: [], fullRenderMs: [], serverMs: [], fullServerMs: [], lastSeq: 0, state: null, info: null, busy: false};
 let info, state, start;
 const main = $("main"), canvas = $("view"), ctx = canvas.getContext("2d");
 const A = document.createElement("canvas"), B = document.createElement("canvas"), O = document.createElement("canvas");
@@ -251,6 +251,7 @@ async function requestPreview(t0, full) {
     V.frames++;
     (coarse ? V.latencies : V.fullLatencies).push(performance.now() - t0);
     (coarse ? V.renderMs : V.fullRenderMs).push(+r.headers.get("X-Render-Ms"));
+    (coarse ? V.serverMs : V.fullServerMs).push(+r.headers.get("X-Server-Ms"));
     if (coarse && local === nextLocal) requestPreview(t0, true);
   } catch (e) { showError(e.message); $("status").textContent = ""; }
   finally { inflight--; V.busy = inflight > 0; }

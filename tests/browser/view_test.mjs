@@ -57,16 +57,16 @@ try {
   const after = await page.evaluate(() => window.dofkitView.state);
   check(after.focus_m === focus && after.focus_at[0] === x, "shift-click keeps the focus");
 
-  // The f-number slider: the thin-lens model, a long lens, then a wider aperture.
+  // The f-number slider: the thin-lens model, an 85 mm lens, then f/2.8 → f/2.
   n = await frames();
   await page.selectOption("#model", "f_number");
   await nextFrame(n);
   n = await frames();
-  await page.$eval("#focal_length_mm", (el) => { el.value = 135; el.dispatchEvent(new Event("input", {bubbles: true})); });
+  await page.$eval("#focal_length_mm", (el) => { el.value = 85; el.dispatchEvent(new Event("input", {bubbles: true})); });
   await nextFrame(n);
   const before = await picture();
   n = await frames();
-  await page.$eval("#f_number", (el) => { el.value = 150; el.dispatchEvent(new Event("input", {bubbles: true})); });
+  await page.$eval("#f_number", (el) => { el.value = 232; el.dispatchEvent(new Event("input", {bubbles: true})); });
   await nextFrame(n);
   check((await picture()) !== before, "moving the f-number slider changes the preview");
   await page.screenshot({path: join(shots, "view.png")});
@@ -127,10 +127,12 @@ try {
   }
   const median = (v) => { v.sort((a, b) => a - b); return v.length ? v[Math.floor(v.length / 2)].toFixed(1) + " ms" : "n/a"; };
   const size = await page.evaluate(() => window.dofkitView.previewSize);
-  const [rc, rf] = await page.evaluate(() => [window.dofkitView.renderMs, window.dofkitView.fullRenderMs]);
+  const [rc, rf, sc, sf] = await page.evaluate(() => [window.dofkitView.renderMs, window.dofkitView.fullRenderMs,
+                                                       window.dofkitView.serverMs, window.dofkitView.fullServerMs]);
   console.log(`slider -> new preview on screen over ${runs} changes, method lens, displayed size ${size}: ` +
               `median ${median(first)} to the half-size preview, ${median(full)} to the displayed-size one ` +
-              `(server render alone: median ${median(rc)} half size, ${median(rf)} displayed size, all previews of the test)`);
+              `(over all previews of the test, the library's render: median ${median(rc)} half size, ${median(rf)} displayed size; ` +
+              `with the 8-bit conversion and the PSNR: ${median(sc)}, ${median(sf)})`);
 } finally {
   await browser.close();
 }

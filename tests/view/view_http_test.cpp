@@ -117,8 +117,18 @@ struct View {
 };
 
 std::vector<std::string> base_args(const Inputs& in) {
-  return {"--color", in.color.string(), "--depth", in.depth.string(), "--blur-at-infinity", "12", "--focus", "3",
-          "--save-dir", in.save.string(), "--threads", "2"};
+  return {"--color",
+          in.color.string(),
+          "--depth",
+          in.depth.string(),
+          "--blur-at-infinity",
+          "12",
+          "--focus",
+          "3",
+          "--save-dir",
+          in.save.string(),
+          "--threads",
+          "2"};
 }
 
 std::string read_file(const fs::path& p) {
@@ -162,7 +172,8 @@ TEST(ViewHttp, TokenAndHostAreRequired) {
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200);
   // Settings get the CLI's validation, as one-line JSON errors.
-  r = cli.Post(v.with_token("/api/preview"), R"({"settings": {"model": "f_number", "f_number": -1}, "width": 32})", "application/json");
+  r = cli.Post(v.with_token("/api/preview"), R"({"settings": {"model": "f_number", "f_number": -1}, "width": 32})",
+               "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 400);
   EXPECT_NE(json::parse(r->body)["error"].get<std::string>().find("--f-number"), std::string::npos) << r->body;
@@ -232,8 +243,8 @@ TEST(ViewHttp, AGigabyteBodyIsRefusedFromItsHeader) {
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
   // Headers announcing 1 GiB, then a single body byte: the answer must come without the rest.
-  const std::string head = "POST " + v.with_token("/api/save") + " HTTP/1.1\r\nHost: 127.0.0.1:" +
-                           std::to_string(v.port) +
+  const std::string head = "POST " + v.with_token("/api/save") +
+                           " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(v.port) +
                            "\r\nContent-Type: application/json\r\nContent-Length: 1073741824\r\n\r\n{";
   ASSERT_EQ(send(fd, head.data(), head.size(), 0), static_cast<ssize_t>(head.size()));
   std::string reply;

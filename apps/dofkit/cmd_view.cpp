@@ -11,6 +11,7 @@
 // library's progress callback) and only the newest request is computed.
 #include <httplib.h>
 #include <nlohmann/json.hpp>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -606,11 +607,23 @@ class ViewServer {
       res.set_content(worker_.stats().dump(), "application/json");
     });
 
+    // The listening socket: SO_REUSEADDR only (cpp-httplib's default adds SO_REUSEPORT, which
+    // would let another process of this user bind the same port and take connections), and a
+    // backlog of 256 instead of the library's 5, so that a burst of requests (the page while a
+    // slider moves, 200 at once in the tests) is queued, not refused: listen() again on a
+    // listening socket only updates its backlog.
+    int listen_fd = -1;
+    svr.set_socket_options([&listen_fd](int fd) {
+      const int yes = 1;
+      setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+      listen_fd = fd;
+    });
     if (a_.port == 0) {
       port_ = svr.bind_to_any_port("127.0.0.1");
     } else {
       port_ = svr.bind_to_port("127.0.0.1", a_.port) ? a_.port : -1;
     }
+    if (port_ > 0 && listen_fd >= 0) ::listen(listen_fd, 256);
     if (port_ <= 0)
       throw_bad_input("--port " + std::to_string(a_.port) + ": cannot listen on 127.0.0.1 (in use or not allowed)");
     const std::string url = "http://127.0.0.1:" + std::to_string(port_) + "/?token=" + token_;

@@ -12,6 +12,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
@@ -280,6 +281,7 @@ TEST(ViewHttp, TwoHundredConcurrentPreviewsComputeOnlyTheNewest) {
   const long rss0 = v.rss_kib();
   constexpr int kRequests = 200;
   std::vector<int> status(kRequests, 0);
+  std::vector<long> seq(kRequests, 0);
   std::vector<std::thread> threads;
   std::atomic<long> rss_max{rss0};
   std::atomic<bool> done{false};
@@ -295,6 +297,7 @@ TEST(ViewHttp, TwoHundredConcurrentPreviewsComputeOnlyTheNewest) {
       const json body{{"settings", {{"blur_at_infinity_px", 10 + 0.05 * i}}}, {"width", 480}};
       auto r = cli.Post(v.with_token("/api/preview"), body.dump(), "application/json");
       status[i] = r ? r->status : -1;
+      if (r && r->status == 200) seq[i] = std::stol(r->get_header_value("X-Seq"));
     });
   for (auto& t : threads) t.join();
   done = true;
@@ -312,6 +315,9 @@ TEST(ViewHttp, TwoHundredConcurrentPreviewsComputeOnlyTheNewest) {
               st.dump().c_str(), rss0, rss_max.load());
   EXPECT_GE(ok, 1);
   EXPECT_EQ(st["requests"], kRequests);
+  // The newest request (the server numbers them 1..200 as they arrive) is never replaced: it
+  // is rendered and answered.
+  EXPECT_EQ(*std::max_element(seq.begin(), seq.end()), kRequests);
   // Every request was either started or replaced before it started; every started render
   // either finished or was cancelled by a newer request.
   EXPECT_EQ(st["renders_started"].get<long>() + st["requests_skipped"].get<long>(), kRequests);

@@ -662,7 +662,8 @@ class ViewServer {
       const std::string key = "dofkit_view=";
       for (std::size_t at = cookies.find(key); at != std::string::npos; at = cookies.find(key, at + 1))
         if (at == 0 || cookies[at - 1] == ' ' || cookies[at - 1] == ';') {
-          given = cookies.substr(at + key.size(), token_.size());
+          const std::size_t begin = at + key.size(), end = cookies.find(';', begin);
+          given = cookies.substr(begin, end == std::string::npos ? std::string::npos : end - begin);
           break;
         }
     }

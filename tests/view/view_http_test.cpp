@@ -165,6 +165,9 @@ TEST(ViewHttp, TokenAndHostAreRequired) {
   r = cli.Get("/api/info", {{"Cookie", "dofkit_view=" + v.token}});
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200);
+  r = cli.Get("/api/info", {{"Cookie", "a=b; dofkit_view=" + v.token + "0"}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 401) << "a cookie that only starts with the token";
   // DNS rebinding: a foreign Host is refused even with the token.
   r = cli.Get(v.with_token("/api/info"), {{"Host", "evil.example:" + std::to_string(v.port)}});
   ASSERT_TRUE(r);

@@ -25,6 +25,25 @@ foreach(t test_cli test_gpu_cli)
   endif()
 endforeach()
 
+# `dofkit view`'s HTTP tests run the built binary and talk to it with cpp-httplib's client.
+if(TARGET test_view)
+  find_package(PkgConfig REQUIRED)
+  pkg_check_modules(CPPHTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
+  target_link_libraries(test_view PRIVATE PkgConfig::CPPHTTPLIB nlohmann_json::nlohmann_json)
+  if(TARGET dofkit_cli)
+    add_dependencies(test_view dofkit_cli)
+  endif()
+endif()
+
+# `dofkit view` in Debian's chromium, headless, driven by playwright-core (npm; scripts/deps).
+# Skipped (exit 77) only when chromium is not installed.
+if(TARGET dofkit_cli)
+  add_test(NAME View.Browser
+    COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/tests/browser/run_view_test.sh $<TARGET_FILE:dofkit_cli>
+            ${CMAKE_CURRENT_BINARY_DIR}/view-browser-test)
+  set_tests_properties(View.Browser PROPERTIES SKIP_RETURN_CODE 77 TIMEOUT 300 LABELS "browser")
+endif()
+
 # Library users (issue 2 item 8): install this build into a scratch prefix, then configure,
 # build and run a tiny project that does find_package(dofkit) and links dofkit::dofkit.
 # It needs the whole build (the install rules cover the CLI too), so it runs from CTest after

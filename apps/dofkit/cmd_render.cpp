@@ -39,6 +39,10 @@ namespace dofkit::cli {
 
 namespace {
 
+// The progress callback of run_render_command (null on a plain command line): the render runs
+// on the thread that parsed the arguments, so a thread-local pointer reaches it.
+thread_local const ProgressCallback* t_render_progress = nullptr;
+
 struct RenderArgs {
   std::string color, depth, layers, mask, mask_depth;
   std::string output, output_coc, debug_output;
@@ -483,6 +487,7 @@ void run_render(RenderArgs& a) {
   settings.debug_view = a.debug_view;
   settings.max_work = a.max_work;
   settings.backend = parse_backend(a.backend);
+  if (t_render_progress) settings.progress = *t_render_progress;
 
   // --compression: every EXR output of the run (at least one must be EXR).
   if (!a.compression.empty() && !io::is_exr_path(a.output) && !io::is_exr_path(a.output_coc) &&
@@ -688,6 +693,24 @@ void run_render(RenderArgs& a) {
 }
 
 }  // namespace
+
+void run_render_command(const std::vector<std::string>& args, const ProgressCallback& progress) {
+  CLI::App app{"dofkit"};
+  app.require_subcommand(1);
+  add_render_command(app);
+  std::vector<std::string> argv{"render"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  std::reverse(argv.begin(), argv.end());  // CLI11 takes a vector last argument first
+  struct Restore {
+    ~Restore() { t_render_progress = nullptr; }
+  } restore;
+  t_render_progress = progress ? &progress : nullptr;
+  try {
+    app.parse(argv);
+  } catch (const CLI::ParseError& e) {
+    throw_usage(e.what());
+  }
+}
 
 void add_render_command(CLI::App& app) {
   auto args = std::make_shared<RenderArgs>();

@@ -1,6 +1,7 @@
 // dofkit — rendering depth of field.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -17,6 +18,22 @@ namespace dofkit {
 /// Where a method's passes run: the CPU (default), or Vulkan compute shaders on a GPU
 /// (methods mcguire, sterna, starcraft; see docs/gpu.md).
 enum class Backend { cpu, vulkan };
+
+/// Progress of one render: called with the fraction of the frame done (0..1, non-decreasing
+/// within a frame; 1 once the frame is complete). Return false to cancel: the render then stops
+/// at the next band and throws Cancelled. Called from the render's worker threads, one call at
+/// a time (serialised by the library); it must not throw and should return quickly. The
+/// output does not depend on whether a callback is set. Methods report per band of their main
+/// passes (`lens` and `reference` do; the others report only the frame's end, and a cancel
+/// then takes effect when their passes finish).
+using ProgressCallback = std::function<bool(double fraction_done)>;
+
+/// Thrown by render() / Renderer::render() when the ProgressCallback returned false (an
+/// Error of kind internal, message "render cancelled"; no result is produced).
+class Cancelled : public Error {
+ public:
+  Cancelled() : Error(ErrorKind::internal, "render cancelled") {}
+};
 
 /// Everything a render needs besides the frame.
 struct RenderSettings {
@@ -51,6 +68,8 @@ struct RenderSettings {
   /// cpu, or vulkan (GPU compute shaders; a build or machine without Vulkan throws
   /// Error(internal) naming the reason when a Renderer is made).
   Backend backend = Backend::cpu;
+  /// Progress and cancellation (see ProgressCallback); empty = none.
+  ProgressCallback progress;
 };
 
 /// --threads' maximum.
@@ -90,6 +109,8 @@ class Renderer {
   /// then keeps the previous one).
   void set_camera(const CameraModel& camera);
   const RenderSettings& settings() const;
+  /// Replaces the progress callback for the frames that follow (empty = none).
+  void set_progress(ProgressCallback progress);
 
  private:
   struct Impl;

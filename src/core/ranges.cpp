@@ -48,6 +48,7 @@ const std::vector<NumericRange> kRanges = {
     {"--clip", "", 1e-9, 1e30, false, false, false, true, "NEAR < FAR; only FAR may be inf"},
     // Resources and files.
     {"--threads", "", 0, 1024, false, false, true, false, "0 = all hardware threads"},
+    {"view --port", "", 0, 65535, false, false, true, false, "0 = a free port"},
     {"--max-pixels", "px", 1, 17179869184.0, false, false, true, false, "width x height of every input"},
     {"--max-memory", "MiB", 16, 1073741824.0, false, false, true, false,
      "default: 3/4 of the machine's memory (or of the cgroup's limit)"},

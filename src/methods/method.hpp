@@ -5,6 +5,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <set>
 #include <string>
 #include <vector>
@@ -96,6 +97,43 @@ class Workspace {
   std::map<std::string, std::shared_ptr<void>> objects_;
 };
 
+/// A render's progress (RenderSettings::progress), as methods report it: a pass declares
+/// the share [lo, hi] of the frame it covers and its number of units (bands, tiles); its
+/// parallel bodies call advance() per unit done and stop early once cancelled() is true.
+/// Without a callback every call is a no-op and cancelled() stays false, so the arithmetic a
+/// method does never depends on it.
+class Progress {
+ public:
+  explicit Progress(const ProgressCallback* fn = nullptr) : fn_(fn && *fn ? fn : nullptr) {}
+  /// Starts a pass (orchestrating thread only, between parallel loops).
+  void pass(double lo, double hi, long units);
+  /// `units` more of the current pass are done (any thread).
+  void advance(long units = 1);
+  /// The frame is complete: reports 1 (its answer no longer matters).
+  void finish();
+  bool cancelled() const { return cancelled_.load(std::memory_order_relaxed); }
+  bool active() const { return fn_ != nullptr; }
+
+ private:
+  void report(double f);  // with mu_ held
+  const ProgressCallback* fn_;
+  std::mutex mu_;
+  double lo_ = 0, hi_ = 0, last_ = -1;
+  long units_ = 1, done_ = 0;
+  std::atomic<bool> cancelled_{false};
+};
+
+/// A parallel_for body that reports each chunk of units to `progress` when done and skips
+/// its chunk once the render is cancelled (progress may be null).
+template <class Body>
+auto with_progress(Progress* progress, Body&& body) {
+  return [progress, &body](int begin, int end) {
+    if (progress && progress->cancelled()) return;
+    body(begin, end);
+    if (progress) progress->advance(end - begin);
+  };
+}
+
 /// Everything a method gets.
 struct MethodContext {
   const Frame& frame;         ///< colour (RGBA premultiplied) + depth z (+ layers)
@@ -122,6 +160,8 @@ struct MethodContext {
   /// The aperture model of RenderSettings::aperture for this frame size (render() always sets
   /// it; null means the circle). Only methods whose MethodDef::aperture is non-empty read it.
   const core::ApertureModel* aperture = nullptr;
+  /// Progress and cancellation (render() always sets it; null: none).
+  Progress* progress = nullptr;
 };
 
 /// One technique.

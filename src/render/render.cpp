@@ -84,6 +84,41 @@ std::string Params::get_choice(const std::string& key, const std::string& def,
   return it->second;
 }
 
+void Progress::pass(double lo, double hi, long units) {
+  if (!fn_) return;
+  const std::lock_guard<std::mutex> lock(mu_);
+  lo_ = lo;
+  hi_ = hi;
+  units_ = units > 0 ? units : 1;
+  done_ = 0;
+}
+
+void Progress::advance(long units) {
+  if (!fn_) return;
+  const std::lock_guard<std::mutex> lock(mu_);
+  done_ = std::min(units_, done_ + units);
+  report(lo_ + (hi_ - lo_) * static_cast<double>(done_) / static_cast<double>(units_));
+}
+
+void Progress::finish() {
+  if (!fn_) return;
+  const std::lock_guard<std::mutex> lock(mu_);
+  report(1.0);
+}
+
+void Progress::report(double f) {
+  f = std::clamp(f, 0.0, 1.0);
+  if (f <= last_ || cancelled_.load(std::memory_order_relaxed)) return;
+  last_ = f;
+  bool go = false;
+  try {
+    go = (*fn_)(f);
+  } catch (...) {
+    go = false;  // a callback that throws cancels (it must not throw across the worker threads)
+  }
+  if (!go) cancelled_.store(true, std::memory_order_relaxed);
+}
+
 std::vector<DebugViewInfo> common_debug_views(const MethodDef& m) {
   std::vector<DebugViewInfo> v{{"highlights",
                                 "highlight recovery's boost mask m^2 * w (1 plane; the gain is 1 + boost * mask; 0 "
@@ -308,6 +343,7 @@ Renderer::~Renderer() = default;
 Renderer::Renderer(Renderer&&) noexcept = default;
 Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 const RenderSettings& Renderer::settings() const { return impl_->settings; }
+void Renderer::set_progress(ProgressCallback progress) { impl_->settings.progress = std::move(progress); }
 void Renderer::set_camera(const CameraModel& camera) {
   validate(camera);
   impl_->settings.camera = camera;
@@ -324,6 +360,7 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
   const detail::Params params(method.name, settings.params);
   std::optional<detail::DebugSink> sink;
   const int threads = settings.threads > 0 ? settings.threads : core::hardware_threads();
+  detail::Progress progress(&settings.progress);
   core::with_threads(settings.threads, [&] {
     // Non-finite / out-of-range colour never reaches a method's result (rules in
     // render/sanitize.hpp). A method that reads every colour sample in one of its passes
@@ -368,12 +405,13 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     const double max_work = settings.max_work > 0 ? settings.max_work : kDefaultMaxWork;
     if (impl_->gpu)
       impl_->gpu->render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr,
-                          &range, max_work, aperture},
+                          &range, max_work, aperture, &progress},
                          result.image);
     else
       method.render({frame, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace,
-                     deferred ? &dirty : nullptr, &range, max_work, aperture},
+                     deferred ? &dirty : nullptr, &range, max_work, aperture, &progress},
                     result.image);
+    if (progress.cancelled()) throw Cancelled();
     if (deferred && dirty.load()) {
       // Rare (hostile input): everything from the first try is discarded. The depth, and so
       // the CoC, are the caller's in both tries.
@@ -381,8 +419,9 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
       const Frame& clean = detail::sanitized_frame(frame_in, impl_->sanitized);
       sink.emplace(settings.debug_view);
       method.render({clean, result.coc, settings.camera, coc_of, params, *sink, threads, impl_->workspace, nullptr,
-                     &range, max_work, aperture},
+                     &range, max_work, aperture, &progress},
                     result.image);
+      if (progress.cancelled()) throw Cancelled();
     }
     if (boost && settings.highlights.restore) {
       core::PassScope again("highlight restore");
@@ -399,6 +438,7 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     if (!sink->found()) throw_internal("method " + method.name + " did not produce debug view " + settings.debug_view);
     result.debug = std::move(sink->result());
   }
+  progress.finish();
   return result;
 }
 

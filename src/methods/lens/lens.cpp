@@ -24,6 +24,7 @@ void render_lens(const MethodContext& ctx, Image& out) {
   opt.highlight_abs = static_cast<float>(ctx.params.get_double("highlight_abs", 1.0, 0.0, 1e30));
   opt.highlight_rel = static_cast<float>(ctx.params.get_double("highlight_rel", 4.0, 1.0, 1e30));
   opt.simd = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
+  opt.progress = ctx.progress;
   core::CocRange range = ctx.coc_range ? *ctx.coc_range : core::coc_range(ctx.coc);
   lens::Sources src;
   std::vector<Image> layer_coc;

@@ -27,6 +27,7 @@
 #include "methods/lens/footprint.hpp"
 #include "methods/lens/kernels.hpp"
 #include "methods/lens/lens.hpp"
+#include "methods/method.hpp"
 
 namespace dofkit::detail::lens {
 
@@ -610,7 +611,8 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
       }
     const int rows = h + 2 * origin;
     const int blocks = (rows + unit - 1) / unit;
-    core::parallel_for(blocks, [&](int b0, int b1) {
+    if (opt.progress) opt.progress->pass(0.05, 0.35, blocks);
+    const auto merge_blocks = [&](int b0, int b1) {
       // The cells being filled, summed in registers while the pixels of a row run through
       // the same cells (a few slots; the oldest is written out when another cell comes).
       struct Open {
@@ -749,7 +751,8 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
             for (Open& o : open) flush(o);
           }
         }
-    });
+    };
+    core::parallel_for(blocks, with_progress(opt.progress, merge_blocks));
   }
 
   // 3a. Convolution: acc = merged ⊛ footprint, rows in parallel.
@@ -923,7 +926,8 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   core::PassScope pass("tiles");
   for (Image* v : {views.front, views.back, views.estimate, views.tiles})
     if (v) v->resize(w, h, 4);
-  core::parallel_for(tiles_x * tiles_y, [&](int t0, int t1) {
+  if (opt.progress) opt.progress->pass(0.45, 1.0, static_cast<long>(tiles_x) * tiles_y);
+  const auto tile_body = [&](int t0, int t1) {
     TileScratch& ts = st.scratch.local();
     ts.acc.resize(kPlane * 15);
     ts.est.resize(kPlane * 5);
@@ -1144,7 +1148,8 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
         }
       }
     }
-  });
+  };
+  core::parallel_for(tiles_x * tiles_y, with_progress(opt.progress, tile_body));
 }
 
 }  // namespace dofkit::detail::lens

@@ -5,6 +5,10 @@
 #pragma once
 #include <vector>
 
+namespace dofkit::detail {
+class Progress;
+}
+
 namespace dofkit::detail::lens {
 
 struct LensOptions {
@@ -31,6 +35,8 @@ struct LensOptions {
   bool hidden = true;
   /// The SIMD / tiled path (default) or the plain one (the test oracle).
   bool simd = true;
+  /// Progress per block / tile of the fast path (null: none; method.hpp).
+  Progress* progress = nullptr;
 };
 
 struct SlicePlan {

@@ -25,6 +25,7 @@
 
 #include "core/parallel.hpp"
 #include "core/sampling.hpp"
+#include "methods/method.hpp"
 #include "methods/reference/scatter_band.hpp"
 
 namespace dofkit::detail {
@@ -276,7 +277,8 @@ void scatter_channel(const Image& colour, const Image& depth, const Image& coc, 
   }
 
   out.resize(w, h, 4);
-  core::parallel_for(bands, [&](int b0, int b1) {
+  if (opt.progress) opt.progress->pass(0.05, 1.0, bands);
+  const auto band_body = [&](int b0, int b1) {
     // Accumulators: 4 colour channels + weight, for the front (F) and back (B) sums.
     // Rows are padded so the ten accumulator streams do not sit a multiple of 4 KiB apart
     // (which made them collide in the same L1 sets and run 4x slower).
@@ -349,7 +351,8 @@ void scatter_channel(const Image& colour, const Image& depth, const Image& coc, 
         }
       }
     }
-  });
+  };
+  core::parallel_for(bands, with_progress(opt.progress, band_body));
 }
 
 }  // namespace

@@ -8,6 +8,8 @@
 
 namespace dofkit::detail {
 
+class Progress;
+
 struct DiscScatterOptions {
   /// true: depth-ordered compositing (the reference); false: one normalised sum that
   /// ignores depth (what common lens-blur filters do).
@@ -23,6 +25,8 @@ struct DiscScatterOptions {
   /// The aperture every source spreads over (core/aperture.hpp); null = the circle. An RGB
   /// aperture image takes one scatter per colour channel (alpha: the mean of the three).
   const core::ApertureModel* aperture = nullptr;
+  /// Progress per band of rows, and cancellation (null: none; methods/method.hpp).
+  Progress* progress = nullptr;
 };
 
 /// The work of scattering a CoC map, in pixel visits: Σ over sources of the receivers their

@@ -19,6 +19,7 @@ const MethodDef& reference_method() {
         opt.depth_softness = static_cast<float>(ctx.params.get_double("depth_softness", 0.05, 0.001, 1.0));
         opt.max_work = ctx.max_work;
         opt.aperture = ctx.aperture;
+        opt.progress = ctx.progress;
         disc_scatter(ctx.frame.color, ctx.frame.depth, ctx.coc, opt, out);
       },
       /*checks_colour=*/false,

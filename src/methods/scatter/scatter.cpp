@@ -17,6 +17,7 @@ const MethodDef& scatter_method() {
         opt.depth_order = false;
         opt.max_work = ctx.max_work;
         opt.aperture = ctx.aperture;
+        opt.progress = ctx.progress;
         disc_scatter(ctx.frame.color, ctx.frame.depth, ctx.coc, opt, out);
       },
       /*checks_colour=*/false,

@@ -302,13 +302,14 @@ CameraModel CameraFlags::build(const Image* depth) const {
 // --- depth ---------------------------------------------------------------------------------
 
 void DepthFlags::add(CLI::App* cmd, const std::string& group) {
-  cmd->add_option(
-         "--depth-kind", kind_,
-         "how the depth file encodes depth: z (planar distance along the view axis, default), distance "
-         "(radial distance from the camera; needs --fov-deg), disparity (z = --disparity-scale / value; 8/16-bit "
-         "files: normalised, bright = near), ndc or ndc-reversed (window depth in [0,1]; needs --clip)")
-      ->check(CLI::IsMember({"z", "distance", "disparity", "ndc", "ndc-reversed"}))
-      ->group(group);
+  kind_opt_ =
+      cmd->add_option(
+             "--depth-kind", kind_,
+             "how the depth file encodes depth: z (planar distance along the view axis, default), distance "
+             "(radial distance from the camera; needs --fov-deg), disparity (z = --disparity-scale / value; 8/16-bit "
+             "files: normalised, bright = near), ndc or ndc-reversed (window depth in [0,1]; needs --clip)")
+          ->check(CLI::IsMember({"z", "distance", "disparity", "ndc", "ndc-reversed"}))
+          ->group(group);
   fov_ = add_number(cmd, "--fov-deg", fov_deg_, "horizontal field of view, degrees, for --depth-kind distance")
              ->group(group);
   scale_ = add_number(cmd, "--disparity-scale", disparity_scale_,
@@ -318,6 +319,18 @@ void DepthFlags::add(CLI::App* cmd, const std::string& group) {
                           "NEAR,FAR clip distances, scene units (FAR may be inf), for --depth-kind ndc / ndc-reversed "
                           "(default 0.1,1000)")
               ->group(group);
+  cmd->add_option("--depth-channel", channel_,
+                  "NAME of the depth channel of a multi-channel file (exact, else ignoring case); default: chosen by "
+                  "name (Z, depth.Z, *depth*.Z, other <layer>.Z; never N.*, P.* or motion passes; see docs/cli.md)")
+      ->group(group);
+  depth_scale_ = add_number(cmd, "--depth-scale", depth_scale_v_,
+                            "file depth x SCALE = metres (default 1), e.g. 0.01 for a depth in centimetres; applied "
+                            "after --depth-kind's conversion")
+                     ->group(group);
+  depth_units_ = cmd->add_option("--depth-units", units_,
+                                 "unit of the depth file: m (default), cm, mm, in or ft (sets --depth-scale)")
+                     ->check(CLI::IsMember({"m", "cm", "mm", "in", "ft"}))
+                     ->group(group);
   cmd->add_option("--invalid-depth", invalid_,
                   "what to do with NaN, zero or negative depth: error (default; exit 3 naming the count and first "
                   "pixel) or far (treat as infinitely far)")
@@ -346,7 +359,37 @@ io::DepthOptions DepthFlags::build() const {
   if (ndc && !(std::isfinite(o.clip_near) && o.clip_far > o.clip_near))
     throw_usage("--clip " + clip_text_ + ": need NEAR < FAR (FAR may be inf)");
   o.invalid_as_far = invalid_ == "far";
+  o.channel = channel_;
+  if (given(depth_scale_) && given(depth_units_)) throw_usage("--depth-scale and --depth-units: give only one of them");
+  if (given(depth_units_)) {
+    static const std::map<std::string, double> kUnits = {
+        {"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}, {"ft", 0.3048}};
+    o.scale = kUnits.at(units_);
+  } else {
+    o.scale = depth_scale_v_;
+  }
   return o;
+}
+
+// --- the focus-zone picture ---
+
+Image focus_zone_picture(const Image& coc) {
+  constexpr float kNear[3] = {1.0f, 0.55f, 0.0f}, kFar[3] = {0.0f, 0.45f, 1.0f}, kFocus = 0.5f;
+  float largest = 0;
+  for (const float r : coc.data())
+    if (std::isfinite(r)) largest = std::max(largest, std::fabs(r));
+  Image pic(coc.width(), coc.height(), 3);
+  for (std::size_t i = 0; i < coc.plane_size(); ++i) {
+    const float r = coc.plane(0)[i];
+    if (!(std::fabs(r) >= 0.5f)) {  // in focus (NaN too)
+      for (int c = 0; c < 3; ++c) pic.plane(c)[i] = kFocus;
+      continue;
+    }
+    const float t = std::isfinite(r) ? std::fabs(r) / largest : 1.0f;
+    const float* hue = r > 0 ? kNear : kFar;
+    for (int c = 0; c < 3; ++c) pic.plane(c)[i] = hue[c] * t;
+  }
+  return pic;
 }
 
 // --- paths and outputs ---------------------------------------------------------------------

@@ -93,17 +93,20 @@ class CameraFlags {
 };
 
 /// Depth-convention flags: --depth-kind, --fov-deg, --disparity-scale, --clip NEAR,FAR,
-/// --invalid-depth error|far.
+/// --depth-channel, --depth-scale / --depth-units, --invalid-depth error|far.
 class DepthFlags {
  public:
   void add(CLI::App* cmd, const std::string& group = "Depth conventions");
   /// Throws Error(usage) naming the flag if a value is malformed or a kind lacks its flag.
   io::DepthOptions build() const;
+  /// Whether --depth-kind was given.
+  bool kind_given() const { return kind_opt_ && kind_opt_->count() > 0; }
 
  private:
-  CLI::Option *fov_ = nullptr, *scale_ = nullptr, *clip_ = nullptr;
-  std::string kind_ = "z", clip_text_, invalid_ = "error";
-  double fov_deg_ = 0, disparity_scale_ = 1;
+  CLI::Option* kind_opt_ = nullptr;
+  CLI::Option *fov_ = nullptr, *scale_ = nullptr, *clip_ = nullptr, *depth_scale_ = nullptr, *depth_units_ = nullptr;
+  std::string kind_ = "z", clip_text_, invalid_ = "error", channel_, units_ = "m";
+  double fov_deg_ = 0, disparity_scale_ = 1, depth_scale_v_ = 1;
 };
 
 /// The aperture flags of render, scene and quality: --blades, --blade-rotation,
@@ -147,6 +150,12 @@ class HighlightFlags {
   CLI::Option* boost_opt_ = nullptr;
   HighlightRecovery h_;
 };
+
+/// The focus-zone picture of a signed CoC map (docs/coc.md has the legend), 3 planes of
+/// display codes in [0, 1] (to be written without an sRGB curve): in focus (|r| < 0.5 px, or
+/// NaN) neutral grey 0.5; the near field (r > 0) orange (1, 0.55, 0), the far field (r < 0)
+/// blue (0, 0.45, 1), each times t = |r| / max |r| over the map (an infinite |r| counts as t = 1).
+Image focus_zone_picture(const Image& coc);
 
 /// One file a command reads or writes, with the flag that named it (for messages).
 struct NamedPath {

@@ -120,6 +120,14 @@ void CameraFlags::add(CLI::App* cmd, const std::string& group) {
                               "X,Y: focus on the median depth of the 7x7 pixels around pixel (X, Y) (pixels from the "
                               "top-left corner); replaces --focus, and refocuses --planes/--starcraft/--near-far")
                   ->group(group);
+  focus_keys_ = cmd->add_option("--focus-keys", focus_keys_text_,
+                                "FRAME:METRES,FRAME:METRES,...: animate the focus distance over --frames (rack focus), "
+                                "eased in and out between keys (docs/cli.md); replaces --focus")
+                    ->group(group);
+  focus_at_keys_ = cmd->add_option("--focus-at-keys", focus_at_keys_text_,
+                                   "FRAME:X,Y,FRAME:X,Y,...: as --focus-keys, each key's distance measured like "
+                                   "--focus-at on the frame's depth; replaces --focus-at")
+                       ->group(group);
   f_number_ = add_number(cmd, "--f-number", f_number_v_,
                          "MODEL physical thin lens: aperture f-number N (> 0), e.g. 2.8. With --focus, "
                          "--focal-length, --sensor-width")
@@ -214,10 +222,19 @@ void CameraFlags::check() const {
   only_with(planes_ramp_, "--planes-ramp", {"--planes"});
   only_with(max_radius_, "--max-radius", {"--starcraft", "--near-far"});
   only_with(focus_, "--focus", {"--f-number", "--blur-at-infinity"});
-  if (given(focus_) && given(focus_at_)) throw_usage("--focus and --focus-at: give only one of them");
+  {
+    std::vector<const char*> focus_flags;
+    if (given(focus_)) focus_flags.push_back("--focus");
+    if (given(focus_at_)) focus_flags.push_back("--focus-at");
+    if (given(focus_keys_)) focus_flags.push_back("--focus-keys");
+    if (given(focus_at_keys_)) focus_flags.push_back("--focus-at-keys");
+    if (focus_flags.size() > 1)
+      throw_usage(std::string(focus_flags[0]) + " and " + focus_flags[1] + ": give only one of them");
+  }
   const bool needs_focus = model == "--f-number" || model == "--blur-at-infinity";
-  if (needs_focus && !given(focus_) && !given(focus_at_))
-    throw_usage(model + ": needs --focus M (focus distance in metres) or --focus-at X,Y");
+  if (needs_focus && !given(focus_) && !given(focus_at_) && !animated())
+    throw_usage(model + ": needs --focus M (focus distance in metres), --focus-at X,Y or --focus-keys");
+  focus_keys();  // syntax and order
   if (model == "--planes" && (!given(near_radius_) || !given(far_radius_)))
     throw_usage("--planes: needs --near-radius PX and --far-radius PX");
   if (model == "--planes") parse_numbers(planes_text_, 4, "--planes", "NB,NS,FS,FB in metres", {"--planes"});
@@ -278,12 +295,97 @@ CameraModel CameraFlags::assemble() const {
   return cam;
 }
 
-CameraModel CameraFlags::build(const Image* depth) const {
+bool CameraFlags::animated() const { return given(focus_keys_) || given(focus_at_keys_); }
+
+namespace {
+// A frame number of a key: digits only, 0 to 999999999.
+long parse_key_frame(const std::string& flag, const std::string& text, const std::string& whole) {
+  if (text.empty() || text.size() > 9 ||
+      !std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); }))
+    throw_usage(flag + " " + whole + ": frame '" + text + "' is not a frame number (0 to 999999999)");
+  return std::stol(text);
+}
+}  // namespace
+
+std::vector<FocusKey> CameraFlags::focus_keys() const {
+  std::vector<FocusKey> keys;
+  const bool at = given(focus_at_keys_);
+  if (!at && !given(focus_keys_)) return keys;
+  const std::string flag = at ? "--focus-at-keys" : "--focus-keys";
+  const std::string& text = at ? focus_at_keys_text_ : focus_keys_text_;
+  const std::string form = at ? "FRAME:X,Y,FRAME:X,Y,..." : "FRAME:METRES,FRAME:METRES,...";
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  std::string part;
+  while (std::getline(ss, part, ',')) parts.push_back(trim(part));
+  if (text.empty() || text.back() == ',') parts.push_back("");
+  const std::size_t per_key = at ? 2 : 1;
+  if (parts.size() % per_key != 0) throw_usage(flag + " " + text + ": expected " + form);
+  for (std::size_t i = 0; i < parts.size(); i += per_key) {
+    const auto colon = parts[i].find(':');
+    if (colon == std::string::npos || (at && parts[i + 1].find(':') != std::string::npos))
+      throw_usage(flag + " " + text + ": expected " + form);
+    FocusKey k;
+    k.frame = parse_key_frame(flag, parts[i].substr(0, colon), text);
+    const std::string value = parts[i].substr(colon + 1);
+    try {
+      if (at) {
+        k.x = static_cast<int>(parse_number("--focus-at", value));
+        k.y = static_cast<int>(parse_number("--focus-at", parts[i + 1]));
+      } else {
+        k.focus_m = parse_number("--focus", value);
+      }
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      throw_usage(flag + " " + text + ": key at frame " + std::to_string(k.frame) + ": " + m.substr(m.find(": ") + 2));
+    }
+    if (!keys.empty() && k.frame <= keys.back().frame)
+      throw_usage(flag + " " + text + ": frame " + std::to_string(k.frame) +
+                  (k.frame == keys.back().frame ? " is given twice"
+                                                : " comes after frame " + std::to_string(keys.back().frame)) +
+                  "; keys must be in increasing frame order");
+    keys.push_back(k);
+  }
+  return keys;
+}
+
+double eased_focus(const std::vector<double>& key_focus_m, const std::vector<long>& key_frames, long frame) {
+  if (frame <= key_frames.front()) return key_focus_m.front();
+  if (frame >= key_frames.back()) return key_focus_m.back();
+  std::size_t i = 0;
+  while (key_frames[i + 1] < frame) ++i;
+  if (key_frames[i + 1] == frame) return key_focus_m[i + 1];
+  const double t = static_cast<double>(frame - key_frames[i]) / static_cast<double>(key_frames[i + 1] - key_frames[i]);
+  const double s = t * t * (3.0 - 2.0 * t);
+  return key_focus_m[i] + (key_focus_m[i + 1] - key_focus_m[i]) * s;
+}
+
+CameraModel CameraFlags::build(const Image* depth, long frame) const {
   check();
   CameraModel cam = assemble();
-  if (const auto at = focus_at()) {
+  std::optional<double> focus_z;
+  if (animated()) {
+    if (frame < 0)
+      throw_usage(std::string(given(focus_keys_) ? "--focus-keys" : "--focus-at-keys") + ": needs --frames");
+    const std::vector<FocusKey> keys = focus_keys();
+    std::vector<double> z;
+    std::vector<long> f;
+    for (const FocusKey& k : keys) {
+      f.push_back(k.frame);
+      if (given(focus_keys_)) {
+        z.push_back(k.focus_m);
+      } else {
+        if (!depth) throw_usage("--focus-at-keys: needs a depth map");
+        z.push_back(focus_from_depth(*depth, k.x, k.y));
+      }
+    }
+    focus_z = eased_focus(z, f, frame);
+  } else if (const auto at = focus_at()) {
     if (!depth) throw_usage("--focus-at: needs a depth map");
-    const double z = focus_from_depth(*depth, at->first, at->second);
+    focus_z = focus_from_depth(*depth, at->first, at->second);
+  }
+  if (focus_z) {
+    const double z = *focus_z;
     if (given(f_number_) || given(blur_inf_)) {
       std::visit(
           [z](auto& m) {

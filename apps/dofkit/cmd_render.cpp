@@ -328,6 +328,7 @@ struct FrameInputs {
   Frame frame;
   Image mask, mask_depth;
   io::DepthFacts depth_facts;  // for the sanity warnings
+  long frame_number = -1;      // with --frames: drives --focus-keys / --focus-at-keys
 };
 // Sizes before pixels: every input's header (no pixel decoded), their sizes compared, and
 // the frame's estimated memory held to --max-memory. A mismatch, a bomb or a request too large
@@ -453,7 +454,7 @@ double render_and_write(const RenderArgs& a, const FramePaths& p, const FrameInp
                         std::optional<Renderer>& renderer, const io::WriteOptions& out_opt,
                         const io::WriteOptions& coc_opt, const io::WriteOptions& debug_opt) {
   const Frame& frame = in.frame;
-  settings.camera = a.camera.build(&frame.depth);
+  settings.camera = a.camera.build(&frame.depth, in.frame_number);
 
   // 3. Render.
   const auto t0 = std::chrono::steady_clock::now();
@@ -548,6 +549,10 @@ void run_render(RenderArgs& a) {
   color_channel_names(a.color_channels);  // syntax
   a.budget.apply();
   a.camera.check();
+  if (a.camera.animated() && a.frames.empty())
+    throw_usage(
+        "--focus-keys / --focus-at-keys: the keys need --frames (one still plate is fine: --frames FIRST-LAST with an "
+        "unnumbered --color)");
   a.aperture.check();
   a.highlights.check();
   const io::DepthOptions depth_opt = a.depth_flags.build();
@@ -631,7 +636,8 @@ void run_render(RenderArgs& a) {
         if (kFrameFields[k].path == path) return pattern[k].has_value();
       return false;
     };
-    if (!has_pattern(&FramePaths::color) && !has_pattern(&FramePaths::layers))
+    // One still plate is fine when the frames differ by their focus keys.
+    if (!has_pattern(&FramePaths::color) && !has_pattern(&FramePaths::layers) && !a.camera.animated())
       throw_usage(std::string(a.layers.empty() ? "--color " + a.color : "--layers " + a.layers) +
                   ": needs a frame pattern (#### or %04d) with --frames");
   }
@@ -748,8 +754,10 @@ void run_render(RenderArgs& a) {
     warnings.check(a, depth_opt, p, in, settings, largest);
   } else {
     auto read_async = [&](long frame) {
-      return std::async(std::launch::async, [&a, &depth_opt, s = settings, p = paths_of(frame)] {
-        return read_inputs(a, p, depth_opt, s, true);
+      return std::async(std::launch::async, [&a, &depth_opt, s = settings, p = paths_of(frame), frame] {
+        FrameInputs in = read_inputs(a, p, depth_opt, s, true);
+        in.frame_number = frame;
+        return in;
       });
     };
     const GracefulStop stop;

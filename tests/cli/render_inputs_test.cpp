@@ -70,7 +70,8 @@ class RenderInputs : public ::testing::Test {
 
   // The render with the separate colour and depth files: what every AOV layout must give.
   void render_separate() {
-    const CliResult r = run_render(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr"}, "sep.exr", "sep_coc.exr"));
+    const CliResult r =
+        run_render(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr"}, "sep.exr", "sep_coc.exr"));
     ASSERT_EQ(r.code, 0) << r.message;
   }
   void expect_same_as_separate(const std::string& out, const std::string& coc) {
@@ -112,11 +113,11 @@ TEST(DepthChannelChoice, ByNameInTheDocumentedOrderNeverAPass) {
   EXPECT_EQ(pick({"depth.Z", "Z", "N.Z"}), "Z");
   EXPECT_EQ(pick({"ViewLayer.Combined.R", "ViewLayer.Depth.Z", "ViewLayer.Normal.Z", "ViewLayer.Vector.Z"}),
             "ViewLayer.Depth.Z");
-  EXPECT_EQ(pick({"R", "G", "B", "RenderLayer.Z", "N.Z"}), "RenderLayer.Z");  // any other layer's Z, last
+  EXPECT_EQ(pick({"R", "G", "B", "RenderLayer.Z", "N.Z"}), "RenderLayer.Z");      // any other layer's Z, last
   EXPECT_EQ(pick({"R", "G", "B", "myDEPTHpass.z", "other.Z"}), "myDEPTHpass.z");  // *depth*.Z before <layer>.Z
-  EXPECT_EQ(pick({"Y"}), "Y");                                      // a lone channel, whatever its name
-  EXPECT_EQ(pick({"R", "G", "B", "A", "N.Z", "P.Z"}), "-");        // passes only: none
-  EXPECT_EQ(pick({"R", "G", "B", "a.depth.Z", "b.depth.Z"}), "-");  // two in one tier: ambiguous
+  EXPECT_EQ(pick({"Y"}), "Y");                                                    // a lone channel, whatever its name
+  EXPECT_EQ(pick({"R", "G", "B", "A", "N.Z", "P.Z"}), "-");                       // passes only: none
+  EXPECT_EQ(pick({"R", "G", "B", "a.depth.Z", "b.depth.Z"}), "-");                // two in one tier: ambiguous
   EXPECT_EQ(pick({"R", "G", "B", "Motion.Z", "ViewLayer.Position.Z", "velocity.Z"}), "-");
   const io::DepthChannelChoice amb = io::choose_depth_channel({"R", "a.depth.Z", "b.depth.Z"}, "");
   EXPECT_TRUE(contains(amb.problem, "a.depth.Z, b.depth.Z")) << amb.problem;
@@ -171,8 +172,8 @@ TEST_F(RenderInputs, BadDepthChannelChoicesAreOneLineErrorsWithoutOutput) {
   expect_failure(call({"--color", dir_ / "aov.exr", "--depth-channel", "Depth.W"}, "out.exr"), 3,
                  {"--depth-channel Depth.W", "no such channel", "depth.Z"}, keep);
   // ... also for a separate depth file.
-  expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "aov.exr", "--depth-channel", "zz"}, "out.exr"),
-                 3, {"--depth-channel zz", "N.Z"}, keep);
+  expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "aov.exr", "--depth-channel", "zz"}, "out.exr"), 3,
+                 {"--depth-channel zz", "N.Z"}, keep);
   // Two candidates of one tier: ambiguous.
   write_aov("two.exr", {"R", "G", "B", "A"}, "a.depth.Z", {"b.depth.Z"});
   expect_failure(call({"--color", dir_ / "two.exr"}, "out.exr"), 3, {"a.depth.Z, b.depth.Z", "--depth-channel"},
@@ -184,8 +185,7 @@ TEST_F(RenderInputs, BadDepthChannelChoicesAreOneLineErrorsWithoutOutput) {
 TEST_F(RenderInputs, ColorChannelsChooseALayerAndSeveralLayersAreAmbiguous) {
   render_separate();
   // Two colour layers: the beauty in "beauty.*", something else in "albedo.*".
-  write_aov("layers.exr", {"beauty.R", "beauty.G", "beauty.B", "beauty.A"}, "Z",
-            {"albedo.R", "albedo.G", "albedo.B"});
+  write_aov("layers.exr", {"beauty.R", "beauty.G", "beauty.B", "beauty.A"}, "Z", {"albedo.R", "albedo.G", "albedo.B"});
   // "beauty" is preferred by name...
   CliResult r = run_render(call({"--color", dir_ / "layers.exr"}, "l_out.exr", "l_coc.exr"));
   ASSERT_EQ(r.code, 0) << r.message;
@@ -210,8 +210,8 @@ TEST_F(RenderInputs, BadColorChannelsAreOneLineErrorsWithoutOutput) {
   const std::vector<std::string> keep = {"c.exr", "z.exr"};
   expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--color-channels", "R,G"}, "out.exr"), 2,
                  {"--color-channels R,G", "R,G,B"}, keep);
-  expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--color-channels", "R,,B"}, "out.exr"),
-                 2, {"--color-channels R,,B"}, keep);
+  expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--color-channels", "R,,B"}, "out.exr"), 2,
+                 {"--color-channels R,,B"}, keep);
   expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--color-channels", "R,G,X"}, "out.exr"),
                  3, {"c.exr", "--color-channels", "no channel X"}, keep);
 }
@@ -242,12 +242,12 @@ TEST_F(RenderInputs, BadDepthScalesAreUsageErrorsWithoutOutput) {
   for (const char* bad : {"0", "-1", "inf", "nan", "1e400", "x"})
     expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--depth-scale", bad}, "out.exr"), 2,
                    {"--depth-scale"}, keep);
-  expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--depth-units", "furlong"}, "out.exr"),
-                 2, {"--depth-units"}, keep);
-  expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--depth-units", "cm", "--depth-scale",
-                       "0.01"},
-                      "out.exr"),
-                 2, {"--depth-scale and --depth-units"}, keep);
+  expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--depth-units", "furlong"}, "out.exr"), 2,
+                 {"--depth-units"}, keep);
+  expect_failure(
+      call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--depth-units", "cm", "--depth-scale", "0.01"},
+           "out.exr"),
+      2, {"--depth-scale and --depth-units"}, keep);
 }
 
 TEST_F(RenderInputs, CentimetresReadAsMetresWarnOnceAndRenderUnchanged) {
@@ -258,9 +258,9 @@ TEST_F(RenderInputs, CentimetresReadAsMetresWarnOnceAndRenderUnchanged) {
   io::write_image(dir_ / "cm.exr", cm, z);
   // A 50 mm f/2.8 lens focused at "200" (the user's centimetres): every radius is far below
   // half a pixel.
-  const std::vector<std::string> lens = {"--color",  dir_ / "c.exr", "--depth",    dir_ / "cm.exr",
-                                         "--f-number", "2.8",        "--focus",    "200",
-                                         "--method", "reference",     "--output",   dir_ / "out.exr"};
+  const std::vector<std::string> lens = {"--color",    dir_ / "c.exr", "--depth",  dir_ / "cm.exr",
+                                         "--f-number", "2.8",          "--focus",  "200",
+                                         "--method",   "reference",    "--output", dir_ / "out.exr"};
   const CliResult r = run_render(lens);
   ASSERT_EQ(r.code, 0) << r.message;
   EXPECT_TRUE(contains(r.err, "warning: every CoC radius is below 0.5 px")) << r.err;
@@ -310,9 +310,9 @@ TEST(FocusZonePicture, NearOrangeFarBlueInFocusGreyScaledByTheLargestRadius) {
   auto px = [&](int x) { return std::vector<float>{pic.at(x, 0, 0), pic.at(x, 0, 1), pic.at(x, 0, 2)}; };
   EXPECT_EQ(px(0), (std::vector<float>{0.5f, 0.5f, 0.5f}));
   EXPECT_EQ(px(1), (std::vector<float>{0.5f, 0.5f, 0.5f}));
-  EXPECT_EQ(px(2), (std::vector<float>{1.0f, 0.55f, 0.0f}));            // the largest |r|: the full hue
-  EXPECT_EQ(px(3), (std::vector<float>{0.0f, 0.45f * 0.5f, 0.5f}));      // half of it, far
-  EXPECT_EQ(px(4), (std::vector<float>{0.0f, 0.45f * 0.25f, 0.25f}));    // a quarter
+  EXPECT_EQ(px(2), (std::vector<float>{1.0f, 0.55f, 0.0f}));           // the largest |r|: the full hue
+  EXPECT_EQ(px(3), (std::vector<float>{0.0f, 0.45f * 0.5f, 0.5f}));    // half of it, far
+  EXPECT_EQ(px(4), (std::vector<float>{0.0f, 0.45f * 0.25f, 0.25f}));  // a quarter
 }
 
 TEST_F(RenderInputs, OutputCocPngIsTheFocusZonePictureIn8And16Bits) {
@@ -353,4 +353,99 @@ TEST_F(RenderInputs, DebugViewAndCocMapNeedNoOutput) {
                  {"--output: required"}, {"c.exr", "d.exr", "z.exr", "zones.png"});
   expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--coc-bits", "16"}, "o.exr", "c2.exr"), 2,
                  {"--coc-bits 16"}, {"c.exr", "d.exr", "z.exr", "zones.png"});
+}
+
+// --- focus animation -----------------------------------------------------------------------
+
+// The documented ease, written out independently: smoothstep between the keys.
+double expected_focus(long f) {
+  const double f0 = 1, f1 = 24, z0 = 1.5, z1 = 6;
+  if (f <= f0) return z0;
+  if (f >= f1) return z1;
+  const double t = (f - f0) / (f1 - f0);
+  return z0 + (z1 - z0) * (3 * t * t - 2 * t * t * t);
+}
+
+TEST(FocusEase, KeysHoldOutsideAndEaseBetween) {
+  const std::vector<double> z = {1.5, 6, 2};
+  const std::vector<long> f = {1, 24, 30};
+  EXPECT_EQ(cli::eased_focus(z, f, 0), 1.5);
+  EXPECT_EQ(cli::eased_focus(z, f, 1), 1.5);
+  EXPECT_EQ(cli::eased_focus(z, f, 24), 6.0);
+  EXPECT_EQ(cli::eased_focus(z, f, 99), 2.0);
+  EXPECT_NEAR(cli::eased_focus(z, f, 27), 4.0, 1e-12);  // the middle of 24..30: half way
+  for (long k = 2; k < 24; ++k) {
+    EXPECT_NEAR(cli::eased_focus(z, f, k), expected_focus(k), 1e-12) << k;
+    EXPECT_GT(cli::eased_focus(z, f, k), cli::eased_focus(z, f, k - 1)) << k;  // monotone between keys
+  }
+}
+
+TEST_F(RenderInputs, FocusKeysOnOneStillPlateWriteFramesWhoseCocFollowsTheEase) {
+  const std::string K = "6";
+  const CliResult r =
+      run_render({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--frames", "1-24", "--focus-keys",
+                  "1:1.5,24:6", "--blur-at-infinity", K, "--output-coc", dir_ / "coc.####.exr"});
+  ASSERT_EQ(r.code, 0) << r.message;
+  EXPECT_EQ(dir_.entries().size(), 2u + 24u);
+  for (const long f : {1L, 2L, 7L, 12L, 13L, 23L, 24L}) {
+    char name[32];
+    std::snprintf(name, sizeof name, "coc.%04ld.exr", f);
+    const Image coc = read_coc(name);
+    CameraModel cam;
+    cam.model = BlurAtInfinity{expected_focus(f), 6.0};
+    const CocFunction fn(cam, W);
+    for (std::size_t i = 0; i < coc.plane_size(); ++i)
+      ASSERT_EQ(coc.plane(0)[i], fn(depth_.plane(0)[i])) << "frame " << f << " pixel " << i;
+  }
+}
+
+TEST_F(RenderInputs, FocusKeysGiveTheSameFramesForAnyChunking) {
+  auto run = [&](const std::string& dir, std::vector<std::string> extra) {
+    std::filesystem::create_directories(dir_ / dir);
+    std::vector<std::string> a = {"--color",         dir_ / "c.exr",
+                                  "--depth",         dir_ / "z.exr",
+                                  "--frames",        "1-7",
+                                  "--focus-at-keys", "1:32,24,7:2,2",
+                                  "--f-number",      "2",
+                                  "--method",        "sterna",
+                                  "--output",        dir_ / (dir + "/o.####.exr")};
+    a.insert(a.end(), extra.begin(), extra.end());
+    const CliResult r = run_render(a);
+    ASSERT_EQ(r.code, 0) << r.message;
+  };
+  run("whole", {});
+  for (const char* i : {"0", "1", "2"}) run("chunks", {"--chunk-count", "3", "--chunk-index", i});
+  for (long f = 1; f <= 7; ++f) {
+    const std::string n = "/o.000" + std::to_string(f) + ".exr";
+    EXPECT_EQ(io::read_color(dir_ / ("whole" + n)).data(), io::read_color(dir_ / ("chunks" + n)).data()) << f;
+  }
+  // The focus moves: the first and last frames differ.
+  EXPECT_NE(io::read_color(dir_ / "whole/o.0001.exr").data(), io::read_color(dir_ / "whole/o.0007.exr").data());
+}
+
+TEST_F(RenderInputs, BadFocusKeysAreUsageErrorsWithoutOutput) {
+  const std::vector<std::string> keep = {"c.exr", "z.exr"};
+  auto keyed = [&](const std::string& flag, const std::string& keys) {
+    return std::vector<std::string>{
+        "--color", dir_ / "c.exr",       "--depth", dir_ / "z.exr", "--frames",         "1-4", flag,
+        keys,      "--blur-at-infinity", "6",       "--output",     dir_ / "o.####.exr"};
+  };
+  expect_failure(keyed("--focus-keys", "4:2,1:3"), 2, {"--focus-keys 4:2,1:3", "increasing frame order"}, keep);
+  expect_failure(keyed("--focus-keys", "1:2,1:3"), 2, {"--focus-keys", "frame 1 is given twice"}, keep);
+  expect_failure(keyed("--focus-keys", "1:inf,4:3"), 2, {"--focus-keys", "frame 1"}, keep);
+  expect_failure(keyed("--focus-keys", "1:nan,4:3"), 2, {"--focus-keys"}, keep);
+  expect_failure(keyed("--focus-keys", "1:-2,4:3"), 2, {"--focus-keys"}, keep);
+  expect_failure(keyed("--focus-keys", "x:2"), 2, {"--focus-keys", "not a frame number"}, keep);
+  expect_failure(keyed("--focus-keys", "1:2,"), 2, {"--focus-keys"}, keep);
+  expect_failure(keyed("--focus-at-keys", "1:3"), 2, {"--focus-at-keys", "FRAME:X,Y"}, keep);
+  expect_failure(keyed("--focus-at-keys", "2:3,4,1:5,6"), 2, {"--focus-at-keys", "increasing"}, keep);
+  std::vector<std::string> both = keyed("--focus-keys", "1:2");
+  both.insert(both.end(), {"--focus", "3"});
+  expect_failure(both, 2, {"--focus and --focus-keys"}, keep);
+  // Without --frames.
+  expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus-keys", "1:2"}, "o.exr"), 2,
+                 {"--focus and --focus-keys"}, keep);
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--focus-keys", "1:2", "--blur-at-infinity",
+                  "6", "--output", dir_ / "o.exr"},
+                 2, {"need --frames"}, keep);
 }

@@ -433,6 +433,17 @@ void DepthFlags::add(CLI::App* cmd, const std::string& group) {
                                  "unit of the depth file: m (default), cm, mm, in or ft (sets --depth-scale)")
                      ->check(CLI::IsMember({"m", "cm", "mm", "in", "ft"}))
                      ->group(group);
+  cmd->add_option("--depth-upsample", upsample_,
+                  "a depth map smaller than the colour: nearest, bilinear (in 1/z) or guided (default: joint bilateral "
+                  "upsampling, depth edges follow colour edges; docs/cli.md has the measurement); guided-filter: He "
+                  "et al.'s guided filter, the measured alternative")
+      ->check(CLI::IsMember({"nearest", "bilinear", "guided", "guided-filter"}))
+      ->group(group);
+  cmd->add_option("--depth-fit", fit_,
+                  "a smaller depth map of another aspect ratio: refused (same-aspect, default) or scaled per axis "
+                  "(stretch)")
+      ->check(CLI::IsMember({"same-aspect", "stretch"}))
+      ->group(group);
   cmd->add_option("--invalid-depth", invalid_,
                   "what to do with NaN, zero or negative depth: error (default; exit 3 naming the count and first "
                   "pixel) or far (treat as infinitely far)")
@@ -462,6 +473,8 @@ io::DepthOptions DepthFlags::build() const {
     throw_usage("--clip " + clip_text_ + ": need NEAR < FAR (FAR may be inf)");
   o.invalid_as_far = invalid_ == "far";
   o.channel = channel_;
+  o.upsample = io::parse_depth_upsample(upsample_);
+  o.stretch = fit_ == "stretch";
   if (given(depth_scale_) && given(depth_units_)) throw_usage("--depth-scale and --depth-units: give only one of them");
   if (given(depth_units_)) {
     static const std::map<std::string, double> kUnits = {

@@ -127,7 +127,8 @@ class DepthFlags {
  private:
   CLI::Option* kind_opt_ = nullptr;
   CLI::Option *fov_ = nullptr, *scale_ = nullptr, *clip_ = nullptr, *depth_scale_ = nullptr, *depth_units_ = nullptr;
-  std::string kind_ = "z", clip_text_, invalid_ = "error", channel_, units_ = "m";
+  std::string kind_ = "z", clip_text_, invalid_ = "error", channel_, units_ = "m", upsample_ = "guided",
+              fit_ = "same-aspect";
   double fov_deg_ = 0, disparity_scale_ = 1, depth_scale_v_ = 1;
 };
 

@@ -346,11 +346,18 @@ void check_frame_headers(const RenderArgs& a, const FramePaths& p, const RenderS
   if (!p.mask.empty()) seen.push_back({p.mask, "mask", io::probe_image(p.mask, "mask")});
   if (!p.mask_depth.empty()) seen.push_back({p.mask_depth, "mask depth", io::probe_image(p.mask_depth, "mask depth")});
   const Seen& first = seen.front();
-  for (const Seen& s : seen)
+  for (const Seen& s : seen) {
+    if (s.path == p.depth && p.layers.empty() && &s != &first) {
+      // A smaller depth map is resampled to the colour's size (--depth-upsample).
+      io::check_depth_fit(p.depth, s.info.width, s.info.height, first.path, first.info.width, first.info.height,
+                          a.depth_flags.build().stretch);
+      continue;
+    }
     if (s.info.width != first.info.width || s.info.height != first.info.height)
       throw_bad_input(s.path + ": " + s.what + " is " + std::to_string(s.info.width) + "x" +
                       std::to_string(s.info.height) + " but " + first.what + " " + first.path + " is " +
                       std::to_string(first.info.width) + "x" + std::to_string(first.info.height));
+  }
   FrameShape shape;
   shape.width = first.info.width;
   shape.height = first.info.height;

@@ -782,9 +782,7 @@ Frame load_frame(const std::string& color_path, const std::string& depth_path, c
   // Sizes before pixels: a depth map of another size is refused from the headers alone.
   if (!depth_path.empty()) {
     const ImageInfo c = probe_image(color_path, "colour"), d = probe_image(depth_path, "depth");
-    if (c.width != d.width || c.height != d.height)
-      throw_bad_input(depth_path + ": depth is " + std::to_string(d.width) + "x" + std::to_string(d.height) +
-                      " but colour " + color_path + " is " + std::to_string(c.width) + "x" + std::to_string(c.height));
+    check_depth_fit(depth_path, d.width, d.height, color_path, c.width, c.height, opt.stretch);
   }
   Frame frame;
   frame.color = read_color(color_path, color_channels);
@@ -802,6 +800,11 @@ Frame load_frame(const std::string& color_path, const std::string& depth_path, c
     frame.depth = read_depth(color_path, opt, facts);
   } else {
     frame.depth = read_depth(depth_path, opt, facts);
+    if (!frame.depth.same_size(frame.color)) {
+      check_depth_fit(depth_path, frame.depth.width(), frame.depth.height(), color_path, frame.color.width(),
+                      frame.color.height(), opt.stretch);
+      frame.depth = resample_depth(frame.depth, frame.color, opt.upsample);
+    }
   }
   if (!frame.depth.same_size(frame.color)) {
     throw_bad_input((depth_path.empty() ? color_path : depth_path) + ": depth is " +

@@ -13,6 +13,7 @@
 
 #include "dofkit/frame.hpp"
 #include "dofkit/image.hpp"
+#include "io/depth_resample.hpp"
 
 namespace dofkit::io {
 
@@ -38,6 +39,11 @@ struct DepthOptions {
   /// The channel to read (`--depth-channel`; exact name, else the one equal ignoring case);
   /// "" = chosen by name (choose_depth_channel).
   std::string channel;
+  /// A depth map smaller than the colour image (load_frame): how it is brought to the
+  /// colour's size (`--depth-upsample`), and whether another aspect ratio is scaled per axis
+  /// (`--depth-fit stretch`) instead of refused.
+  DepthUpsample upsample = DepthUpsample::guided;
+  bool stretch = false;
 };
 
 /// What read_depth found in the file (for the CLI's sanity warnings).
@@ -182,7 +188,8 @@ ImageInfo probe_image(const std::string& path, const char* role);
 /// read first: sizes that differ are refused before a pixel is decoded.
 /// Without a depth path the colour file's own depth channel is read (opt.channel, else by
 /// name; a file with non-colour channels and no single depth channel is refused listing
-/// them). `color_channels`: as read_color's.
+/// them). A depth file smaller than the colour (check_depth_fit) is resampled to its size
+/// (resample_depth, opt.upsample). `color_channels`: as read_color's.
 Frame load_frame(const std::string& color_path, const std::string& depth_path, const DepthOptions& opt,
                  const std::vector<std::string>& color_channels = {}, DepthFacts* facts = nullptr);
 

@@ -449,3 +449,38 @@ TEST_F(RenderInputs, BadFocusKeysAreUsageErrorsWithoutOutput) {
                   "6", "--output", dir_ / "o.exr"},
                  2, {"need --frames"}, keep);
 }
+
+// --- depth at another resolution ------------------------------------------------------------
+
+TEST_F(RenderInputs, QuarterSizeDepthIsUpsampledAndOtherAspectsRefusedUnlessStretched) {
+  Image low(16, 12, 1, 6.0f), odd(16, 16, 1, 6.0f);
+  io::WriteOptions z;
+  z.channel_name = "Z";
+  io::write_image(dir_ / "low.exr", low, z);
+  io::write_image(dir_ / "odd.exr", odd, z);
+  // A flat quarter-size depth gives the same CoC map as the flat full-size one, by every method.
+  Image flat(W, H, 1, 6.0f);
+  io::write_image(dir_ / "flat.exr", flat, z);
+  ASSERT_EQ(run_render(call({"--color", dir_ / "c.exr", "--depth", dir_ / "flat.exr"}, "f.exr", "f_coc.exr")).code, 0);
+  for (const char* how : {"nearest", "bilinear", "guided", "guided-filter"}) {
+    const CliResult r = run_render(
+        call({"--color", dir_ / "c.exr", "--depth", dir_ / "low.exr", "--depth-upsample", how}, "l.exr", "l_coc.exr"));
+    ASSERT_EQ(r.code, 0) << how << ": " << r.message;
+    EXPECT_EQ(read_coc("l_coc.exr").data(), read_coc("f_coc.exr").data()) << how;
+  }
+  const std::vector<std::string> keep = {"c.exr", "z.exr",     "low.exr", "odd.exr",  "flat.exr",
+                                         "f.exr", "f_coc.exr", "l.exr",   "l_coc.exr"};
+  expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "odd.exr"}, "o.exr"), 3,
+                 {"odd.exr: depth is 16x16", "64x48", "--depth-fit stretch"}, keep);
+  const CliResult s = run_render(
+      call({"--color", dir_ / "c.exr", "--depth", dir_ / "odd.exr", "--depth-fit", "stretch"}, "s.exr", "s_coc.exr"));
+  ASSERT_EQ(s.code, 0) << s.message;
+  EXPECT_EQ(read_coc("s_coc.exr").data(), read_coc("f_coc.exr").data());
+  expect_failure(call({"--color", dir_ / "low.exr", "--depth", dir_ / "c.exr"}, "o.exr"), 3, {"larger"},
+                 {"c.exr", "z.exr", "low.exr", "odd.exr", "flat.exr", "f.exr", "f_coc.exr", "l.exr", "l_coc.exr",
+                  "s.exr", "s_coc.exr"});
+  expect_failure(call({"--color", dir_ / "c.exr", "--depth", dir_ / "low.exr", "--depth-upsample", "cubic"}, "o.exr"),
+                 2, {"--depth-upsample"},
+                 {"c.exr", "z.exr", "low.exr", "odd.exr", "flat.exr", "f.exr", "f_coc.exr", "l.exr", "l_coc.exr",
+                  "s.exr", "s_coc.exr"});
+}

@@ -717,6 +717,7 @@ void run_render(RenderArgs& a) {
   // The aperture (its image is an input too) and highlight recovery, whose default depends on
   // whether the colour is display-referred (an 8/16-bit file).
   settings.aperture = a.aperture.build();
+  std::string aperture_note;  // said with the highlight note, once the first inputs are read
   if (!settings.aperture.is_circle()) {
     bool honoured = true;  // an unknown method is render()'s error to report
     for (const auto& m : methods())
@@ -724,24 +725,26 @@ void run_render(RenderArgs& a) {
     // lens, the default, draws a circle: a shaped aperture with neither --method nor --set
     // goes to reference, the accurate method that draws every aperture.
     if (!honoured && a.method_opt && a.method_opt->count() == 0 && a.sets.empty() && a.debug_view.empty()) {
-      std::cerr << "dofkit: note: " << a.method
-                << " (the default method) draws a circular aperture; rendering with reference, which draws this "
-                   "one (--method chooses)\n";
+      aperture_note = "dofkit: note: " + a.method +
+                      " (the default method) draws a circular aperture; rendering with reference, which draws this "
+                      "one (--method chooses)\n";
       a.method = settings.method = "reference";
     } else if (!honoured) {
-      std::cerr << "dofkit: note: method " << a.method
-                << " draws its own kernel; the aperture flags apply to the methods that honour them (see dofkit "
-                   "methods)\n";
+      aperture_note = "dofkit: note: method " + a.method +
+                      " draws its own kernel; the aperture flags apply to the methods that honour them (see dofkit "
+                      "methods)\n";
     }
   }
   const FramePaths first = sequence ? paths_of(range.first) : paths_of(-1);
   const bool display = !first.color.empty() && io::is_display_referred(first.color);
   settings.highlights = a.highlights.build(display);
-  // Said once the first frame's inputs have been read (an input error stays one line).
+  // Notes are said once the first frame's inputs have been read (an input error stays one line).
   bool noted = false;
-  auto note_highlights = [&] {
-    if (noted || !display || !settings.highlights.enabled()) return;
+  auto say_notes = [&] {
+    if (noted) return;
     noted = true;
+    std::cerr << aperture_note;
+    if (!display || !settings.highlights.enabled()) return;
     std::cerr << "dofkit: " << first.color
               << " is display-referred (8/16-bit): highlight recovery on (--highlight-boost "
               << settings.highlights.boost << "; --highlight-boost 0 turns it off)\n";
@@ -756,7 +759,7 @@ void run_render(RenderArgs& a) {
   if (!sequence) {
     const FramePaths p = paths_of(-1);
     FrameInputs in = read_inputs(a, p, depth_opt, settings, false);
-    note_highlights();
+    say_notes();
     const double largest = render_frame(a, p, in, settings, renderer, out_opt, coc_opt, debug_opt);
     warnings.check(a, depth_opt, p, in, settings, largest);
   } else {
@@ -775,7 +778,7 @@ void run_render(RenderArgs& a) {
                                         std::to_string(frames.size()) + " frames; frame " + std::to_string(frames[i]) +
                                         " on not rendered (rerun with --skip-existing to resume)");
       const FrameInputs in = next.get();
-      note_highlights();
+      say_notes();
       if (i + 1 < frames.size()) next = read_async(frames[i + 1]);
       const double largest = render_frame(a, paths_of(frames[i]), in, settings, renderer, out_opt, coc_opt, debug_opt);
       warnings.check(a, depth_opt, paths_of(frames[i]), in, settings, largest);

@@ -39,8 +39,8 @@ DepthUpsample parse_depth_upsample(const std::string& name) {
 void check_depth_fit(const std::string& depth_path, int dw, int dh, const std::string& color_path, int cw, int ch,
                      bool stretch) {
   if (dw == cw && dh == ch) return;
-  const std::string sizes = depth_path + ": depth is " + std::to_string(dw) + "x" + std::to_string(dh) + " but colour " +
-                            color_path + " is " + std::to_string(cw) + "x" + std::to_string(ch);
+  const std::string sizes = depth_path + ": depth is " + std::to_string(dw) + "x" + std::to_string(dh) +
+                            " but colour " + color_path + " is " + std::to_string(cw) + "x" + std::to_string(ch);
   if (dw > cw || dh > ch) throw_bad_input(sizes + "; a depth map larger than the colour image is not supported");
   if (stretch) return;
   // Same aspect: each side of the depth is the colour's scaled by one factor, within half a
@@ -75,10 +75,9 @@ std::vector<double> box_mean(const std::vector<double>& v, int W, int H, int r) 
   std::vector<double> sat(static_cast<std::size_t>(W + 1) * (H + 1), 0.0);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x)
-      sat[static_cast<std::size_t>(y + 1) * (W + 1) + x + 1] = v[static_cast<std::size_t>(y) * W + x] +
-                                                              sat[static_cast<std::size_t>(y) * (W + 1) + x + 1] +
-                                                              sat[static_cast<std::size_t>(y + 1) * (W + 1) + x] -
-                                                              sat[static_cast<std::size_t>(y) * (W + 1) + x];
+      sat[static_cast<std::size_t>(y + 1) * (W + 1) + x + 1] =
+          v[static_cast<std::size_t>(y) * W + x] + sat[static_cast<std::size_t>(y) * (W + 1) + x + 1] +
+          sat[static_cast<std::size_t>(y + 1) * (W + 1) + x] - sat[static_cast<std::size_t>(y) * (W + 1) + x];
   std::vector<double> out(v.size());
   for (int y = 0; y < H; ++y) {
     const int y0 = std::max(0, y - r), y1 = std::min(H, y + r + 1);
@@ -140,7 +139,8 @@ Image resample_depth(const Image& depth, const Image& color, DepthUpsample how) 
     // ĝ_j: the guide averaged over each depth sample's footprint in the colour image.
     sample_guide.assign(w.size(), 0.0f);
     tbb::parallel_for(0, dh, [&](int j) {
-      const int y0 = static_cast<int>(std::floor(j / sy)), y1 = std::max(y0 + 1, static_cast<int>(std::floor((j + 1) / sy)));
+      const int y0 = static_cast<int>(std::floor(j / sy)),
+                y1 = std::max(y0 + 1, static_cast<int>(std::floor((j + 1) / sy)));
       for (int i = 0; i < dw; ++i) {
         const int x0 = static_cast<int>(std::floor(i / sx)),
                   x1 = std::max(x0 + 1, static_cast<int>(std::floor((i + 1) / sx)));

@@ -500,6 +500,15 @@ TEST_F(RenderCli, EndToEndErrorsAreOneLineWithExitCodes) {
   EXPECT_EQ(r.err.rfind("dofkit: error: ", 0), 0u) << r.err;
   EXPECT_TRUE(contains(r.err, "missing.exr")) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  // A shaped aperture's note (the default method draws circles) waits for the inputs: the
+  // input error stays the only line.
+  for (const char* extra : {" --blades 6", " --blades 6 --method mcguire"}) {
+    r = spawn("render --color " + q(dir_ / "missing.exr") + " --depth " + q(dir_ / "z.exr") +
+                  " --focus 4 --blur-at-infinity 24 --output " + q(dir_ / "out.exr") + extra,
+              dir_);
+    EXPECT_EQ(r.code, 3) << extra << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << extra << ": " << r.err;
+  }
   r = spawn("render --color " + q(dir_ / "c.exr") + " --depth " + q(dir_ / "z.exr") +
                 " --focus 4 --f-number -2 --output " + q(dir_ / "out.exr"),
             dir_);

@@ -875,8 +875,9 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--frames", args->frames,
                   "FIRST-LAST[xSTEP]: render a numbered sequence in one process (one Renderer, buffers reused); "
                   "the frame number replaces a #### run (zero-padded to its length) or %d / %04d in the paths. "
-                  "--output (and --output-coc, --debug-output) and --color or --layers need one; a path without one "
-                  "serves every frame; %% is a literal %. At most 100000 frames. Every frame's inputs must exist "
+                  "--output (and --output-coc, --debug-output) and --color or --layers need one (--color not with "
+                  "--focus-keys: one still plate); a path without one serves every frame; %% is a literal %. At most "
+                  "100000 frames. Every frame's inputs must exist "
                   "before the first is rendered; an error stops the run and keeps the frames written before it")
       ->check(CLI::Validator(
           [](std::string& v) -> std::string {

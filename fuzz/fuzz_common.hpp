@@ -12,6 +12,7 @@
 #include <string>
 
 #include "dofkit/error.hpp"
+#include "dofkit/render.hpp"
 #include "io/image_io.hpp"
 
 namespace dofkit::fuzz {
@@ -61,6 +62,14 @@ bool expect_ok_or_refused(const char* what, F&& fn) {
   } catch (const std::exception& e) {
     bug(std::string(what) + ": exception that is not a dofkit::Error: " + e.what());
   }
+}
+
+/// A finished render must have the frame's size, 4 planes and finite samples.
+inline void check_result(const std::string& method, const RenderResult& r, int w, int h) {
+  if (r.image.width() != w || r.image.height() != h || r.image.channels() != 4)
+    bug("method " + method + " returned an image of the wrong size");
+  for (float v : r.image.data())
+    if (!std::isfinite(v)) bug("method " + method + " returned a non-finite sample");
 }
 
 }  // namespace dofkit::fuzz

@@ -33,6 +33,7 @@
 #include <string>
 
 #include "dofkit/render.hpp"
+#include "fuzz_common.hpp"
 #include "io/image_io.hpp"
 
 using namespace dofkit;
@@ -40,22 +41,7 @@ using namespace dofkit;
 namespace {
 
 constexpr std::size_t kControl = 8;
-constexpr long long kFuzzMaxPixels = 64 * 64;
 constexpr int kCrop = 24;
-
-[[noreturn]] void bug(const std::string& what) {
-  std::fprintf(stderr, "FUZZ BUG: %s\n", what.c_str());
-  std::fflush(stderr);
-  std::abort();
-}
-
-std::string temp_path(const char* ext) {
-  static const std::string base = [] {
-    const char* dir = std::getenv("TMPDIR");
-    return std::string(dir && *dir ? dir : "/tmp") + "/dofkit-fuzz-" + std::to_string(::getpid());
-  }();
-  return base + ext;
-}
 
 const char* extension_for(const std::uint8_t* d, std::size_t n, std::uint8_t pick) {
   if (n >= 4 && d[0] == 0x76 && d[1] == 0x2f && d[2] == 0x31 && d[3] == 0x01) return ".exr";
@@ -108,24 +94,14 @@ Image crop(const Image& img, int w, int h) {
 
 void check_render(const Frame& f, const RenderSettings& s) {
   RenderResult r;
-  try {
-    r = render(f, s);
-  } catch (const Error& e) {
-    if (e.kind() == ErrorKind::internal) bug("internal error from " + s.method + ": " + e.what());
-    return;
-  }
-  if (r.image.width() != f.width() || r.image.height() != f.height() || r.image.channels() != 4)
-    bug("method " + s.method + " returned an image of the wrong size");
-  for (float v : r.image.data())
-    if (!std::isfinite(v)) bug("method " + s.method + " returned a non-finite sample");
+  if (fuzz::expect_ok_or_refused(s.method.c_str(), [&] { r = render(f, s); }))
+    fuzz::check_result(s.method, r, f.width(), f.height());
 }
 
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  OIIO::attribute("threads", 1);
-  OIIO::attribute("exr_threads", 1);
-  io::set_pixel_budget(kFuzzMaxPixels);
+  fuzz::setup();
   return 0;
 }
 
@@ -134,7 +110,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::uint8_t* c = data;
   const std::uint8_t* file = data + kControl;
   const std::size_t n = size - kControl;
-  const std::string path = temp_path(extension_for(file, n, c[6]));
+  const std::string path = fuzz::temp_path(extension_for(file, n, c[6]));
   {
     std::FILE* fp = std::fopen(path.c_str(), "wb");
     if (!fp) return 0;
@@ -168,7 +144,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   std::remove(path.c_str());
   if (colour.empty()) return 0;
-  if (colour.channels() != 4) bug("read_color returned " + std::to_string(colour.channels()) + " planes");
+  if (colour.channels() != 4) fuzz::bug("read_color returned " + std::to_string(colour.channels()) + " planes");
 
   const int w = std::min(colour.width(), kCrop - (c[7] & 7)), h = std::min(colour.height(), kCrop - (c[7] >> 5));
   Frame frame;

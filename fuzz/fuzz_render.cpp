@@ -149,10 +149,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   RenderResult r;
   if (!fuzz::expect_ok_or_refused("render", [&] { r = render(frame, settings); })) return 0;
-  if (r.image.width() != w || r.image.height() != h || r.image.channels() != 4)
-    fuzz::bug("method " + m.name + " returned an image of the wrong size");
-  for (float v : r.image.data())
-    if (!std::isfinite(v)) fuzz::bug("method " + m.name + " returned a non-finite sample");
+  fuzz::check_result(m.name, r, w, h);
   for (float v : r.coc.data())
     if (std::isnan(v)) fuzz::bug("method " + m.name + ": NaN in the CoC map");
   return 0;

@@ -347,6 +347,29 @@ class Walker {
              std::to_string(file_size_ - pos_) + " remain in the file");
       need(static_cast<std::size_t>(size), "attribute value");
       const unsigned char* v = b_.data() + pos_;
+      // OpenEXR's C++ library (OpenImageIO's reader) reads a value of a known type by the type,
+      // not by the declared size: a size that disagrees makes it read the rest of the header
+      // from another offset than this walk (and the core library) — a fuzzed 363-byte file
+      // then declared a 1.9 GB opaque attribute to it and none to us.
+      if (const int fixed = fixed_size(type); fixed >= 0 && size != fixed)
+        fail("attribute '" + name + "' of type " + type + " declares " + std::to_string(size) + " bytes (a " + type +
+             " has " + std::to_string(fixed) + ")");
+      if (type == "chlist") {
+        std::vector<Part::Channel> list;
+        const bool ok = channel_list(v, static_cast<std::size_t>(size), list);
+        if (name == "channels") {
+          // OpenImageIO 2.4 aborts (an assertion) on a pixel type other than 0–2, and
+          // OpenEXR reports a malformed list in several lines: refused here (found by
+          // fuzz_layers).
+          if (!ok)
+            fail(
+                "malformed channel list (a pixel type other than uint / half / float, a sampling below 1, or "
+                "a list that does not end where its attribute does)");
+          part.channels = std::move(list);
+        } else if (!ok) {
+          fail("attribute '" + name + "': malformed channel list (it does not end where its attribute does)");
+        }
+      }
       if ((name == "dataWindow" || name == "displayWindow") && type == "box2i" && size == 16) {
         const long long x0 = le32(v), y0 = le32(v + 4), x1 = le32(v + 8), y1 = le32(v + 12);
         if (name == "dataWindow") {
@@ -367,13 +390,6 @@ class Walker {
         const std::string t(reinterpret_cast<const char*>(v), static_cast<std::size_t>(size));
         part.tiled = t == "tiledimage" || t == "deeptile";
         part.deep = t == "deepscanline" || t == "deeptile";
-      } else if (name == "channels" && type == "chlist") {
-        // OpenImageIO 2.4 aborts (an assertion) on a pixel type other than 0–2, and OpenEXR
-        // reports a malformed list in several lines: refused here (found by fuzz_layers).
-        if (!channel_list(v, static_cast<std::size_t>(size), part.channels))
-          fail(
-              "malformed channel list (a pixel type other than uint / half / float, a sampling below 1, or "
-              "a list that runs past its attribute)");
       } else if (name == "chunkCount" && size == 4) {
         part.chunk_count = le32(v);
         if (part.chunk_count < 0) fail("negative chunkCount");
@@ -382,14 +398,28 @@ class Walker {
     }
   }
 
+  // The size in bytes of a value of a fixed-size attribute type, −1 for the variable ones
+  // (string, stringvector, floatvector, chlist, preview, opaque types).
+  static int fixed_size(const std::string& type) {
+    static const std::pair<const char*, int> kSizes[] = {
+        {"box2i", 16},      {"box2f", 16},    {"v2i", 8},      {"v2f", 8},           {"v2d", 16},
+        {"v3i", 12},        {"v3f", 12},      {"v3d", 24},     {"m33f", 36},         {"m33d", 72},
+        {"m44f", 64},       {"m44d", 128},    {"int", 4},      {"float", 4},         {"double", 8},
+        {"compression", 1}, {"lineOrder", 1}, {"envmap", 1},   {"tiledesc", 9},      {"chromaticities", 32},
+        {"keycode", 28},    {"timecode", 8},  {"rational", 8}, {"deepImageState", 1}};
+    for (const auto& [t, n] : kSizes)
+      if (type == t) return n;
+    return -1;
+  }
+
   // The channel list: `name\0 int32 type, uint8 pLinear, 3 reserved, int32 xSampling, int32
-  // ySampling` per channel, ended by a 0 byte. False if malformed.
+  // ySampling` per channel, ended by a 0 byte that is the attribute's last. False if malformed.
   static bool channel_list(const unsigned char* v, std::size_t size, std::vector<Part::Channel>& out) {
     out.clear();
     std::size_t i = 0;
     for (;;) {
       if (i >= size) return false;
-      if (v[i] == 0) return true;
+      if (v[i] == 0) return i + 1 == size;
       while (i < size && v[i] != 0) ++i;
       if (i + 1 + 16 > size) return false;
       const unsigned char* e = v + i + 1;

@@ -120,6 +120,14 @@ void CameraFlags::add(CLI::App* cmd, const std::string& group) {
                               "X,Y: focus on the median depth of the 7x7 pixels around pixel (X, Y) (pixels from the "
                               "top-left corner); replaces --focus, and refocuses --planes/--starcraft/--near-far")
                   ->group(group);
+  focus_keys_ = cmd->add_option("--focus-keys", focus_keys_text_,
+                                "FRAME:METRES,FRAME:METRES,...: animate the focus distance over --frames (rack focus), "
+                                "eased in and out between keys (docs/cli.md); replaces --focus")
+                    ->group(group);
+  focus_at_keys_ = cmd->add_option("--focus-at-keys", focus_at_keys_text_,
+                                   "FRAME:X,Y,FRAME:X,Y,...: as --focus-keys, each key's distance measured like "
+                                   "--focus-at on the frame's depth; replaces --focus-at")
+                       ->group(group);
   f_number_ = add_number(cmd, "--f-number", f_number_v_,
                          "MODEL physical thin lens: aperture f-number N (> 0), e.g. 2.8. With --focus, "
                          "--focal-length, --sensor-width")
@@ -214,10 +222,19 @@ void CameraFlags::check() const {
   only_with(planes_ramp_, "--planes-ramp", {"--planes"});
   only_with(max_radius_, "--max-radius", {"--starcraft", "--near-far"});
   only_with(focus_, "--focus", {"--f-number", "--blur-at-infinity"});
-  if (given(focus_) && given(focus_at_)) throw_usage("--focus and --focus-at: give only one of them");
+  {
+    std::vector<const char*> focus_flags;
+    if (given(focus_)) focus_flags.push_back("--focus");
+    if (given(focus_at_)) focus_flags.push_back("--focus-at");
+    if (given(focus_keys_)) focus_flags.push_back("--focus-keys");
+    if (given(focus_at_keys_)) focus_flags.push_back("--focus-at-keys");
+    if (focus_flags.size() > 1)
+      throw_usage(std::string(focus_flags[0]) + " and " + focus_flags[1] + ": give only one of them");
+  }
   const bool needs_focus = model == "--f-number" || model == "--blur-at-infinity";
-  if (needs_focus && !given(focus_) && !given(focus_at_))
-    throw_usage(model + ": needs --focus M (focus distance in metres) or --focus-at X,Y");
+  if (needs_focus && !given(focus_) && !given(focus_at_) && !animated())
+    throw_usage(model + ": needs --focus M (focus distance in metres), --focus-at X,Y or --focus-keys");
+  focus_keys();  // syntax and order
   if (model == "--planes" && (!given(near_radius_) || !given(far_radius_)))
     throw_usage("--planes: needs --near-radius PX and --far-radius PX");
   if (model == "--planes") parse_numbers(planes_text_, 4, "--planes", "NB,NS,FS,FB in metres", {"--planes"});
@@ -278,12 +295,97 @@ CameraModel CameraFlags::assemble() const {
   return cam;
 }
 
-CameraModel CameraFlags::build(const Image* depth) const {
+bool CameraFlags::animated() const { return given(focus_keys_) || given(focus_at_keys_); }
+
+namespace {
+// A frame number of a key: digits only, 0 to 999999999.
+long parse_key_frame(const std::string& flag, const std::string& text, const std::string& whole) {
+  if (text.empty() || text.size() > 9 ||
+      !std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); }))
+    throw_usage(flag + " " + whole + ": frame '" + text + "' is not a frame number (0 to 999999999)");
+  return std::stol(text);
+}
+}  // namespace
+
+std::vector<FocusKey> CameraFlags::focus_keys() const {
+  std::vector<FocusKey> keys;
+  const bool at = given(focus_at_keys_);
+  if (!at && !given(focus_keys_)) return keys;
+  const std::string flag = at ? "--focus-at-keys" : "--focus-keys";
+  const std::string& text = at ? focus_at_keys_text_ : focus_keys_text_;
+  const std::string form = at ? "FRAME:X,Y,FRAME:X,Y,..." : "FRAME:METRES,FRAME:METRES,...";
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  std::string part;
+  while (std::getline(ss, part, ',')) parts.push_back(trim(part));
+  if (text.empty() || text.back() == ',') parts.push_back("");
+  const std::size_t per_key = at ? 2 : 1;
+  if (parts.size() % per_key != 0) throw_usage(flag + " " + text + ": expected " + form);
+  for (std::size_t i = 0; i < parts.size(); i += per_key) {
+    const auto colon = parts[i].find(':');
+    if (colon == std::string::npos || (at && parts[i + 1].find(':') != std::string::npos))
+      throw_usage(flag + " " + text + ": expected " + form);
+    FocusKey k;
+    k.frame = parse_key_frame(flag, parts[i].substr(0, colon), text);
+    const std::string value = parts[i].substr(colon + 1);
+    try {
+      if (at) {
+        k.x = static_cast<int>(parse_number("--focus-at", value));
+        k.y = static_cast<int>(parse_number("--focus-at", parts[i + 1]));
+      } else {
+        k.focus_m = parse_number("--focus", value);
+      }
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      throw_usage(flag + " " + text + ": key at frame " + std::to_string(k.frame) + ": " + m.substr(m.find(": ") + 2));
+    }
+    if (!keys.empty() && k.frame <= keys.back().frame)
+      throw_usage(flag + " " + text + ": frame " + std::to_string(k.frame) +
+                  (k.frame == keys.back().frame ? " is given twice"
+                                                : " comes after frame " + std::to_string(keys.back().frame)) +
+                  "; keys must be in increasing frame order");
+    keys.push_back(k);
+  }
+  return keys;
+}
+
+double eased_focus(const std::vector<double>& key_focus_m, const std::vector<long>& key_frames, long frame) {
+  if (frame <= key_frames.front()) return key_focus_m.front();
+  if (frame >= key_frames.back()) return key_focus_m.back();
+  std::size_t i = 0;
+  while (key_frames[i + 1] < frame) ++i;
+  if (key_frames[i + 1] == frame) return key_focus_m[i + 1];
+  const double t = static_cast<double>(frame - key_frames[i]) / static_cast<double>(key_frames[i + 1] - key_frames[i]);
+  const double s = t * t * (3.0 - 2.0 * t);
+  return key_focus_m[i] + (key_focus_m[i + 1] - key_focus_m[i]) * s;
+}
+
+CameraModel CameraFlags::build(const Image* depth, long frame) const {
   check();
   CameraModel cam = assemble();
-  if (const auto at = focus_at()) {
+  std::optional<double> focus_z;
+  if (animated()) {
+    if (frame < 0)
+      throw_usage(std::string(given(focus_keys_) ? "--focus-keys" : "--focus-at-keys") + ": needs --frames");
+    const std::vector<FocusKey> keys = focus_keys();
+    std::vector<double> z;
+    std::vector<long> f;
+    for (const FocusKey& k : keys) {
+      f.push_back(k.frame);
+      if (given(focus_keys_)) {
+        z.push_back(k.focus_m);
+      } else {
+        if (!depth) throw_usage("--focus-at-keys: needs a depth map");
+        z.push_back(focus_from_depth(*depth, k.x, k.y));
+      }
+    }
+    focus_z = eased_focus(z, f, frame);
+  } else if (const auto at = focus_at()) {
     if (!depth) throw_usage("--focus-at: needs a depth map");
-    const double z = focus_from_depth(*depth, at->first, at->second);
+    focus_z = focus_from_depth(*depth, at->first, at->second);
+  }
+  if (focus_z) {
+    const double z = *focus_z;
     if (given(f_number_) || given(blur_inf_)) {
       std::visit(
           [z](auto& m) {
@@ -302,13 +404,14 @@ CameraModel CameraFlags::build(const Image* depth) const {
 // --- depth ---------------------------------------------------------------------------------
 
 void DepthFlags::add(CLI::App* cmd, const std::string& group) {
-  cmd->add_option(
-         "--depth-kind", kind_,
-         "how the depth file encodes depth: z (planar distance along the view axis, default), distance "
-         "(radial distance from the camera; needs --fov-deg), disparity (z = --disparity-scale / value; 8/16-bit "
-         "files: normalised, bright = near), ndc or ndc-reversed (window depth in [0,1]; needs --clip)")
-      ->check(CLI::IsMember({"z", "distance", "disparity", "ndc", "ndc-reversed"}))
-      ->group(group);
+  kind_opt_ =
+      cmd->add_option(
+             "--depth-kind", kind_,
+             "how the depth file encodes depth: z (planar distance along the view axis, default), distance "
+             "(radial distance from the camera; needs --fov-deg), disparity (z = --disparity-scale / value; 8/16-bit "
+             "files: normalised, bright = near), ndc or ndc-reversed (window depth in [0,1]; needs --clip)")
+          ->check(CLI::IsMember({"z", "distance", "disparity", "ndc", "ndc-reversed"}))
+          ->group(group);
   fov_ = add_number(cmd, "--fov-deg", fov_deg_, "horizontal field of view, degrees, for --depth-kind distance")
              ->group(group);
   scale_ = add_number(cmd, "--disparity-scale", disparity_scale_,
@@ -318,6 +421,29 @@ void DepthFlags::add(CLI::App* cmd, const std::string& group) {
                           "NEAR,FAR clip distances, scene units (FAR may be inf), for --depth-kind ndc / ndc-reversed "
                           "(default 0.1,1000)")
               ->group(group);
+  cmd->add_option("--depth-channel", channel_,
+                  "NAME of the depth channel of a multi-channel file (exact, else ignoring case); default: chosen by "
+                  "name (Z, depth.Z, *depth*.Z, other <layer>.Z; never N.*, P.* or motion passes; see docs/cli.md)")
+      ->group(group);
+  depth_scale_ = add_number(cmd, "--depth-scale", depth_scale_v_,
+                            "file depth x SCALE = metres (default 1), e.g. 0.01 for a depth in centimetres; applied "
+                            "after --depth-kind's conversion")
+                     ->group(group);
+  depth_units_ = cmd->add_option("--depth-units", units_,
+                                 "unit of the depth file: m (default), cm, mm, in or ft (sets --depth-scale)")
+                     ->check(CLI::IsMember({"m", "cm", "mm", "in", "ft"}))
+                     ->group(group);
+  cmd->add_option("--depth-upsample", upsample_,
+                  "a depth map smaller than the colour: nearest, bilinear (in 1/z) or guided (default: joint bilateral "
+                  "upsampling, depth edges follow colour edges; docs/cli.md has the measurement); guided-filter: He "
+                  "et al.'s guided filter, the measured alternative")
+      ->check(CLI::IsMember({"nearest", "bilinear", "guided", "guided-filter"}))
+      ->group(group);
+  cmd->add_option("--depth-fit", fit_,
+                  "a smaller depth map of another aspect ratio: refused (same-aspect, default) or scaled per axis "
+                  "(stretch)")
+      ->check(CLI::IsMember({"same-aspect", "stretch"}))
+      ->group(group);
   cmd->add_option("--invalid-depth", invalid_,
                   "what to do with NaN, zero or negative depth: error (default; exit 3 naming the count and first "
                   "pixel) or far (treat as infinitely far)")
@@ -346,7 +472,39 @@ io::DepthOptions DepthFlags::build() const {
   if (ndc && !(std::isfinite(o.clip_near) && o.clip_far > o.clip_near))
     throw_usage("--clip " + clip_text_ + ": need NEAR < FAR (FAR may be inf)");
   o.invalid_as_far = invalid_ == "far";
+  o.channel = channel_;
+  o.upsample = io::parse_depth_upsample(upsample_);
+  o.stretch = fit_ == "stretch";
+  if (given(depth_scale_) && given(depth_units_)) throw_usage("--depth-scale and --depth-units: give only one of them");
+  if (given(depth_units_)) {
+    static const std::map<std::string, double> kUnits = {
+        {"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}, {"ft", 0.3048}};
+    o.scale = kUnits.at(units_);
+  } else {
+    o.scale = depth_scale_v_;
+  }
   return o;
+}
+
+// --- the focus-zone picture ---
+
+Image focus_zone_picture(const Image& coc) {
+  constexpr float kNear[3] = {1.0f, 0.55f, 0.0f}, kFar[3] = {0.0f, 0.45f, 1.0f}, kFocus = 0.5f;
+  float largest = 0;
+  for (const float r : coc.data())
+    if (std::isfinite(r)) largest = std::max(largest, std::fabs(r));
+  Image pic(coc.width(), coc.height(), 3);
+  for (std::size_t i = 0; i < coc.plane_size(); ++i) {
+    const float r = coc.plane(0)[i];
+    if (!(std::fabs(r) >= 0.5f)) {  // in focus (NaN too)
+      for (int c = 0; c < 3; ++c) pic.plane(c)[i] = kFocus;
+      continue;
+    }
+    const float t = std::isfinite(r) ? std::fabs(r) / largest : 1.0f;
+    const float* hue = r > 0 ? kNear : kFar;
+    for (int c = 0; c < 3; ++c) pic.plane(c)[i] = hue[c] * t;
+  }
+  return pic;
 }
 
 // --- paths and outputs ---------------------------------------------------------------------

@@ -66,6 +66,19 @@ std::map<std::string, std::string> parse_sets(const std::vector<std::string>& se
 ///   --near-far NB,NE,FB,FE  Sterna near/far blend (with --max-radius)
 /// plus --max-coc PX (clamp), --reference-width PX, --focus-at X,Y (refocus any model on the
 /// median depth around that pixel).
+/// One key of --focus-keys (focus_m) or --focus-at-keys (x, y).
+struct FocusKey {
+  long frame = 0;
+  double focus_m = 0;
+  int x = 0, y = 0;
+};
+
+/// The focus distance at `frame` from keys at increasing frames `key_frames` with distances
+/// `key_focus_m`: the first key's before it, the last key's after it, and between keys i and
+/// i+1 the smoothstep ease z_i + (z_{i+1} − z_i)·s, s = t²(3 − 2t), t = (frame − f_i) /
+/// (f_{i+1} − f_i). A pure function of the frame number (any chunking gives the same frames).
+double eased_focus(const std::vector<double>& key_focus_m, const std::vector<long>& key_frames, long frame);
+
 class CameraFlags {
  public:
   /// Registers the flags on `cmd` in the option group `group`.
@@ -77,7 +90,14 @@ class CameraFlags {
   void check() const;
   /// Builds the camera. `depth` (planar z) is needed only for --focus-at; pass nullptr if
   /// there is none (then --focus-at is a usage error). Validates the model (dofkit::validate).
-  CameraModel build(const Image* depth) const;
+  /// `frame`: the frame number with --frames (-1 without); drives --focus-keys /
+  /// --focus-at-keys (a usage error without --frames).
+  CameraModel build(const Image* depth, long frame = -1) const;
+  /// Whether the focus is animated (--focus-keys or --focus-at-keys).
+  bool animated() const;
+  /// The keys of --focus-keys / --focus-at-keys, checked: increasing frames, no frame twice,
+  /// each value in its flag's range (Error(usage) naming the flag). Empty if neither is given.
+  std::vector<FocusKey> focus_keys() const;
   /// The --focus-at pixel, if given.
   std::optional<std::pair<int, int>> focus_at() const;
 
@@ -86,24 +106,30 @@ class CameraFlags {
   CLI::Option *focus_ = nullptr, *f_number_ = nullptr, *focal_length_ = nullptr, *sensor_width_ = nullptr,
               *blur_inf_ = nullptr, *planes_ = nullptr, *planes_ramp_ = nullptr, *near_radius_ = nullptr,
               *far_radius_ = nullptr, *starcraft_ = nullptr, *near_far_ = nullptr, *max_radius_ = nullptr,
-              *max_coc_ = nullptr, *reference_width_ = nullptr, *focus_at_ = nullptr;
+              *max_coc_ = nullptr, *reference_width_ = nullptr, *focus_at_ = nullptr, *focus_keys_ = nullptr,
+              *focus_at_keys_ = nullptr;
+  std::string focus_keys_text_, focus_at_keys_text_;
   double focus_m_ = 0, f_number_v_ = 0, focal_length_mm_ = 50, sensor_width_mm_ = 36, blur_inf_px_ = 0;
   std::string planes_text_, planes_ramp_v_ = "z", starcraft_text_, near_far_text_, focus_at_text_;
   double near_radius_px_ = 0, far_radius_px_ = 0, max_radius_px_ = 0, max_coc_px_ = 0, reference_width_px_ = 0;
 };
 
 /// Depth-convention flags: --depth-kind, --fov-deg, --disparity-scale, --clip NEAR,FAR,
-/// --invalid-depth error|far.
+/// --depth-channel, --depth-scale / --depth-units, --invalid-depth error|far.
 class DepthFlags {
  public:
   void add(CLI::App* cmd, const std::string& group = "Depth conventions");
   /// Throws Error(usage) naming the flag if a value is malformed or a kind lacks its flag.
   io::DepthOptions build() const;
+  /// Whether --depth-kind was given.
+  bool kind_given() const { return kind_opt_ && kind_opt_->count() > 0; }
 
  private:
-  CLI::Option *fov_ = nullptr, *scale_ = nullptr, *clip_ = nullptr;
-  std::string kind_ = "z", clip_text_, invalid_ = "error";
-  double fov_deg_ = 0, disparity_scale_ = 1;
+  CLI::Option* kind_opt_ = nullptr;
+  CLI::Option *fov_ = nullptr, *scale_ = nullptr, *clip_ = nullptr, *depth_scale_ = nullptr, *depth_units_ = nullptr;
+  std::string kind_ = "z", clip_text_, invalid_ = "error", channel_, units_ = "m", upsample_ = "guided",
+              fit_ = "same-aspect";
+  double fov_deg_ = 0, disparity_scale_ = 1, depth_scale_v_ = 1;
 };
 
 /// The aperture flags of render, scene and quality: --blades, --blade-rotation,
@@ -147,6 +173,12 @@ class HighlightFlags {
   CLI::Option* boost_opt_ = nullptr;
   HighlightRecovery h_;
 };
+
+/// The focus-zone picture of a signed CoC map (docs/coc.md has the legend), 3 planes of
+/// display codes in [0, 1] (to be written without an sRGB curve): in focus (|r| < 0.5 px, or
+/// NaN) neutral grey 0.5; the near field (r > 0) orange (1, 0.55, 0), the far field (r < 0)
+/// blue (0, 0.45, 1), each times t = |r| / max |r| over the map (an infinite |r| counts as t = 1).
+Image focus_zone_picture(const Image& coc);
 
 /// One file a command reads or writes, with the flag that named it (for messages).
 struct NamedPath {

@@ -13,6 +13,7 @@
 #include <sys/stat.h>
 
 #include <climits>
+#include <cmath>
 
 #include <algorithm>
 #include <cctype>
@@ -47,6 +48,7 @@ struct RenderArgs {
   std::string color, depth, layers, mask, mask_depth;
   std::string output, output_coc, debug_output;
   std::string frames;
+  std::string color_channels;  // --color-channels R,G,B[,A]
   std::string compression;
   int png_level = -1;
   std::string method = "lens";
@@ -57,6 +59,7 @@ struct RenderArgs {
   std::string backend = "cpu";
   int max_layers = 8;
   int bits = 0;
+  int coc_bits = 0;     // --coc-bits of a picture --output-coc (0 = the format's default)
   double max_work = 0;  // 0 = the library's default
   BudgetFlags budget;
   CameraFlags camera;
@@ -328,6 +331,8 @@ class FileKeys {
 struct FrameInputs {
   Frame frame;
   Image mask, mask_depth;
+  io::DepthFacts depth_facts;  // for the sanity warnings
+  long frame_number = -1;      // with --frames: drives --focus-keys / --focus-at-keys
 };
 // Sizes before pixels: every input's header (no pixel decoded), their sizes compared, and
 // the frame's estimated memory held to --max-memory. A mismatch, a bomb or a request too large
@@ -345,11 +350,18 @@ void check_frame_headers(const RenderArgs& a, const FramePaths& p, const RenderS
   if (!p.mask.empty()) seen.push_back({p.mask, "mask", io::probe_image(p.mask, "mask")});
   if (!p.mask_depth.empty()) seen.push_back({p.mask_depth, "mask depth", io::probe_image(p.mask_depth, "mask depth")});
   const Seen& first = seen.front();
-  for (const Seen& s : seen)
+  for (const Seen& s : seen) {
+    if (s.path == p.depth && p.layers.empty() && &s != &first) {
+      // A smaller depth map is resampled to the colour's size (--depth-upsample).
+      io::check_depth_fit(p.depth, s.info.width, s.info.height, first.path, first.info.width, first.info.height,
+                          a.depth_flags.build().stretch);
+      continue;
+    }
     if (s.info.width != first.info.width || s.info.height != first.info.height)
       throw_bad_input(s.path + ": " + s.what + " is " + std::to_string(s.info.width) + "x" +
                       std::to_string(s.info.height) + " but " + first.what + " " + first.path + " is " +
                       std::to_string(first.info.width) + "x" + std::to_string(first.info.height));
+  }
   FrameShape shape;
   shape.width = first.info.width;
   shape.height = first.info.height;
@@ -379,18 +391,37 @@ FrameInputs read_inputs(const RenderArgs& a, const FramePaths& p, const io::Dept
                      [&] { return read_inputs_checked(a, p, depth_opt); });
 }
 
+// --color-channels as names (checked when the flags are: 3 or 4 non-empty names).
+std::vector<std::string> color_channel_names(const std::string& text) {
+  std::vector<std::string> names;
+  if (text.empty()) return names;
+  std::size_t start = 0;
+  while (true) {
+    const auto comma = text.find(',', start);
+    names.push_back(text.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  const bool empty_name = std::any_of(names.begin(), names.end(), [](const std::string& n) { return n.empty(); });
+  if (names.size() < 3 || names.size() > 4 || empty_name)
+    throw_usage("--color-channels " + text + ": expected R,G,B or R,G,B,A (3 or 4 channel names)");
+  return names;
+}
+
 FrameInputs read_inputs_checked(const RenderArgs& a, const FramePaths& p, const io::DepthOptions& depth_opt) {
   FrameInputs in;
   Frame& frame = in.frame;
+  const std::vector<std::string> color_channels = color_channel_names(a.color_channels);
   if (p.layers.empty()) {
-    frame = io::load_frame(p.color, p.depth, depth_opt);
+    frame = io::load_frame(p.color, p.depth, depth_opt, color_channels, &in.depth_facts);
   } else {
-    if (!p.color.empty()) frame.color = io::read_color(p.color);
-    if (!p.depth.empty()) frame.depth = io::read_depth(p.depth, depth_opt);
+    if (!p.color.empty()) frame.color = io::read_color(p.color, color_channels);
+    if (!p.depth.empty()) frame.depth = io::read_depth(p.depth, depth_opt, &in.depth_facts);
     io::read_layers(p.layers, frame, a.max_layers);
     if (frame.depth.empty() && !p.color.empty()) {
       // --color without --depth: its own Z channel if it has one, else the layers' depth.
-      if (io::has_depth_channel(p.color)) frame.depth = io::read_depth(p.color, depth_opt);
+      if (!depth_opt.channel.empty() || io::has_depth_channel(p.color))
+        frame.depth = io::read_depth(p.color, depth_opt, &in.depth_facts);
     }
     if (!frame.depth.same_size(frame.color))
       throw_bad_input((p.depth.empty() ? p.layers : p.depth) + ": depth is " + std::to_string(frame.depth.width()) +
@@ -416,25 +447,25 @@ FrameInputs read_inputs_checked(const RenderArgs& a, const FramePaths& p, const 
   return in;
 }
 
-void render_and_write(const RenderArgs& a, const FramePaths& p, const FrameInputs& in, RenderSettings& settings,
-                      std::optional<Renderer>& renderer, const io::WriteOptions& out_opt,
-                      const io::WriteOptions& coc_opt, const io::WriteOptions& debug_opt);
+double render_and_write(const RenderArgs& a, const FramePaths& p, const FrameInputs& in, RenderSettings& settings,
+                        std::optional<Renderer>& renderer, const io::WriteOptions& out_opt,
+                        const io::WriteOptions& coc_opt, const io::WriteOptions& debug_opt);
 
 // Steps 3–4 for one frame. `renderer` (kept across the frames of a sequence) is made on the
-// first call; masked renders go through render_masked.
-void render_frame(const RenderArgs& a, const FramePaths& p, const FrameInputs& in, RenderSettings& settings,
-                  std::optional<Renderer>& renderer, const io::WriteOptions& out_opt, const io::WriteOptions& coc_opt,
-                  const io::WriteOptions& debug_opt) {
-  while_doing("rendering " + std::to_string(in.frame.width()) + "x" + std::to_string(in.frame.height()) +
-                  " with method " + a.method + " and writing " + p.output,
-              [&] { render_and_write(a, p, in, settings, renderer, out_opt, coc_opt, debug_opt); });
+// first call; masked renders go through render_masked. Returns the largest |CoC| in pixels.
+double render_frame(const RenderArgs& a, const FramePaths& p, const FrameInputs& in, RenderSettings& settings,
+                    std::optional<Renderer>& renderer, const io::WriteOptions& out_opt, const io::WriteOptions& coc_opt,
+                    const io::WriteOptions& debug_opt) {
+  return while_doing("rendering " + std::to_string(in.frame.width()) + "x" + std::to_string(in.frame.height()) +
+                         " with method " + a.method + " and writing " + p.output,
+                     [&] { return render_and_write(a, p, in, settings, renderer, out_opt, coc_opt, debug_opt); });
 }
 
-void render_and_write(const RenderArgs& a, const FramePaths& p, const FrameInputs& in, RenderSettings& settings,
-                      std::optional<Renderer>& renderer, const io::WriteOptions& out_opt,
-                      const io::WriteOptions& coc_opt, const io::WriteOptions& debug_opt) {
+double render_and_write(const RenderArgs& a, const FramePaths& p, const FrameInputs& in, RenderSettings& settings,
+                        std::optional<Renderer>& renderer, const io::WriteOptions& out_opt,
+                        const io::WriteOptions& coc_opt, const io::WriteOptions& debug_opt) {
   const Frame& frame = in.frame;
-  settings.camera = a.camera.build(&frame.depth);
+  settings.camera = a.camera.build(&frame.depth, in.frame_number);
 
   // 3. Render.
   const auto t0 = std::chrono::steady_clock::now();
@@ -453,13 +484,63 @@ void render_and_write(const RenderArgs& a, const FramePaths& p, const FrameInput
 
   // 4. Outputs, all or nothing.
   OutputWriter out;
-  out.add_image(p.output, result->image, out_opt);
-  if (!p.output_coc.empty()) out.add_image(p.output_coc, result->coc, coc_opt);
+  if (!p.output.empty()) out.add_image(p.output, result->image, out_opt);
+  if (!p.output_coc.empty())
+    out.add_image(p.output_coc, io::is_exr_path(p.output_coc) ? result->coc : focus_zone_picture(result->coc), coc_opt);
   if (!p.debug_output.empty()) out.add_image(p.debug_output, result->debug, debug_opt);
   out.commit();
-  std::cerr << "dofkit: wrote " << p.output << " (" << frame.width() << "x" << frame.height() << ", method " << a.method
-            << ", " << describe(settings.camera) << ", render " << static_cast<long>(ms + 0.5) << " ms)\n";
+  std::cerr << "dofkit: wrote "
+            << (!p.output.empty()         ? p.output
+                : !p.debug_output.empty() ? p.debug_output
+                                          : p.output_coc)
+            << " (" << frame.width() << "x" << frame.height() << ", method " << a.method << ", "
+            << describe(settings.camera) << ", render " << static_cast<long>(ms + 0.5) << " ms)\n";
+  double largest = 0;
+  for (const float r : result->coc.data())
+    if (std::isfinite(r)) largest = std::max(largest, static_cast<double>(std::fabs(r)));
+  return largest;
 }
+
+// Whether the camera asks for any blur of half a pixel or more somewhere (so that a CoC map
+// without one says the depth's units are off).
+bool blur_asked(const CameraModel& cam) {
+  if (cam.max_coc_px < 0.5) return false;
+  return std::visit(
+      [](const auto& m) -> bool {
+        using T = std::decay_t<decltype(m)>;
+        if constexpr (std::is_same_v<T, ThinLens>) return true;
+        if constexpr (std::is_same_v<T, BlurAtInfinity>) return m.blur_at_infinity_px >= 0.5;
+        if constexpr (std::is_same_v<T, FourPlane>) return std::max(m.near_radius_px, m.far_radius_px) >= 0.5;
+        if constexpr (std::is_same_v<T, StarCraft>) return m.amount * m.max_radius_px >= 0.5;
+        if constexpr (std::is_same_v<T, NearFarBlend>) return m.max_radius_px >= 0.5;
+        return false;
+      },
+      cam.model);
+}
+
+// The two sanity warnings (each once per run, one line on stderr; the picture is never
+// changed): a CoC map below half a pixel everywhere while the camera asks for blur, and an
+// 8/16-bit depth file read as z (its values are 0..1 m, which is what a normalised
+// disparity map gives).
+struct SanityWarnings {
+  bool coc_done = false, integer_done = false;
+  void check(const RenderArgs& a, const io::DepthOptions& opt, const FramePaths& p, const FrameInputs& in,
+             const RenderSettings& settings, double largest_coc_px) {
+    if (!integer_done && in.depth_facts.integer && opt.kind == io::DepthKind::z && opt.scale == 1.0) {
+      integer_done = true;
+      std::cerr << "dofkit: warning: " << (p.depth.empty() ? p.color : p.depth)
+                << ": 8/16-bit depth read as z in metres gives 0..1 m; if it is a disparity map (bright = near) use "
+                   "--depth-kind disparity, if z in other units --depth-scale\n";
+    }
+    if (!coc_done && largest_coc_px < 0.5 && blur_asked(settings.camera)) {
+      coc_done = true;
+      std::cerr << "dofkit: warning: every CoC radius is below 0.5 px (largest " << largest_coc_px
+                << " px) though the camera asks for blur: is the depth in metres? use --depth-units (cm, mm, in, "
+                   "ft) or --depth-scale"
+                << (a.depth_flags.kind_given() ? "" : ", or --depth-kind if it is not planar z") << "\n";
+    }
+  }
+};
 
 void run_render(RenderArgs& a) {
   // 1. Flags and paths.
@@ -470,13 +551,19 @@ void run_render(RenderArgs& a) {
   const std::map<std::string, std::string> params = parse_sets(a.sets);
   check_method(a.method, params, a.debug_view);
   if (a.color.empty() && a.layers.empty()) throw_usage("--color: required (or --layers)");
-  if (a.output.empty()) throw_usage("--output: required");
+  if (a.output.empty() && a.debug_output.empty() && a.output_coc.empty())
+    throw_usage("--output: required (or --output-coc / --debug-output alone)");
   if (!a.debug_view.empty() && a.debug_output.empty()) throw_usage("--debug-view: needs --debug-output FILE");
   if (a.debug_view.empty() && !a.debug_output.empty()) throw_usage("--debug-output: needs --debug-view NAME");
   if (a.mask.empty() != a.mask_depth.empty()) throw_usage("--mask and --mask-depth: give both or neither");
   if (!a.mask.empty() && !a.layers.empty()) throw_usage("--mask and --layers: cannot be combined");
+  color_channel_names(a.color_channels);  // syntax
   a.budget.apply();
   a.camera.check();
+  if (a.camera.animated() && a.frames.empty())
+    throw_usage(
+        "--focus-keys / --focus-at-keys: the keys need --frames (one still plate is fine: --frames FIRST-LAST with an "
+        "unnumbered --color)");
   a.aperture.check();
   a.highlights.check();
   const io::DepthOptions depth_opt = a.depth_flags.build();
@@ -495,21 +582,31 @@ void run_render(RenderArgs& a) {
     throw_usage("--compression " + a.compression + ": applies to .exr outputs, and none is given");
   auto exr_compression = [&](const std::string& p) { return io::is_exr_path(p) ? a.compression : std::string(); };
   // --png-level: every PNG output of the run (at least one must be PNG).
-  if (a.png_level != -1 && !io::is_png_path(a.output) && !io::is_png_path(a.debug_output))
+  if (a.png_level != -1 && !io::is_png_path(a.output) && !io::is_png_path(a.debug_output) &&
+      !io::is_png_path(a.output_coc))
     throw_usage("--png-level " + std::to_string(a.png_level) + ": applies to .png outputs, and none is given");
   auto png_level = [&](const std::string& p) { return io::is_png_path(p) ? a.png_level : -1; };
   io::WriteOptions out_opt;
   out_opt.bits = a.bits;
   out_opt.compression = exr_compression(a.output);
   out_opt.png_level = png_level(a.output);
-  io::check_output_format(a.output, out_opt, "--output");
+  if (!a.output.empty()) io::check_output_format(a.output, out_opt, "--output");
+  if (a.output.empty() && a.bits != 0) throw_usage("--bits " + std::to_string(a.bits) + ": applies to --output");
   io::WriteOptions coc_opt;
   coc_opt.channel_name = "Y";
   coc_opt.compression = exr_compression(a.output_coc);
   if (!a.output_coc.empty()) {
+    // EXR: the signed float map; any other format: the focus-zone picture, display codes.
+    if (!io::is_exr_path(a.output_coc)) {
+      coc_opt.encoding = io::Encoding::linear;
+      coc_opt.bits = a.coc_bits;
+      coc_opt.png_level = png_level(a.output_coc);
+    } else if (a.coc_bits != 0) {
+      throw_usage("--coc-bits " + std::to_string(a.coc_bits) + ": applies to a .png/.tif/.jpg --output-coc");
+    }
     io::check_output_format(a.output_coc, coc_opt, "--output-coc");
-    if (!io::is_exr_path(a.output_coc))
-      throw_usage("--output-coc " + a.output_coc + ": the CoC map is signed float; write it as .exr");
+  } else if (a.coc_bits != 0) {
+    throw_usage("--coc-bits " + std::to_string(a.coc_bits) + ": needs --output-coc");
   }
   io::WriteOptions debug_opt;
   debug_opt.compression = exr_compression(a.debug_output);
@@ -551,7 +648,8 @@ void run_render(RenderArgs& a) {
         if (kFrameFields[k].path == path) return pattern[k].has_value();
       return false;
     };
-    if (!has_pattern(&FramePaths::color) && !has_pattern(&FramePaths::layers))
+    // One still plate is fine when the frames differ by their focus keys.
+    if (!has_pattern(&FramePaths::color) && !has_pattern(&FramePaths::layers) && !a.camera.animated())
       throw_usage(std::string(a.layers.empty() ? "--color " + a.color : "--layers " + a.layers) +
                   ": needs a frame pattern (#### or %04d) with --frames");
   }
@@ -661,16 +759,20 @@ void run_render(RenderArgs& a) {
   // while this frame renders and is written; a read error is reported when that frame's turn
   // comes, after the frames before it are written.
   std::optional<Renderer> renderer;
+  SanityWarnings warnings;
   const auto t0 = std::chrono::steady_clock::now();
   if (!sequence) {
     const FramePaths p = paths_of(-1);
     FrameInputs in = read_inputs(a, p, depth_opt, settings, false);
     say_notes();
-    render_frame(a, p, in, settings, renderer, out_opt, coc_opt, debug_opt);
+    const double largest = render_frame(a, p, in, settings, renderer, out_opt, coc_opt, debug_opt);
+    warnings.check(a, depth_opt, p, in, settings, largest);
   } else {
     auto read_async = [&](long frame) {
-      return std::async(std::launch::async, [&a, &depth_opt, s = settings, p = paths_of(frame)] {
-        return read_inputs(a, p, depth_opt, s, true);
+      return std::async(std::launch::async, [&a, &depth_opt, s = settings, p = paths_of(frame), frame] {
+        FrameInputs in = read_inputs(a, p, depth_opt, s, true);
+        in.frame_number = frame;
+        return in;
       });
     };
     const GracefulStop stop;
@@ -683,7 +785,8 @@ void run_render(RenderArgs& a) {
       const FrameInputs in = next.get();
       say_notes();
       if (i + 1 < frames.size()) next = read_async(frames[i + 1]);
-      render_frame(a, paths_of(frames[i]), in, settings, renderer, out_opt, coc_opt, debug_opt);
+      const double largest = render_frame(a, paths_of(frames[i]), in, settings, renderer, out_opt, coc_opt, debug_opt);
+      warnings.check(a, depth_opt, paths_of(frames[i]), in, settings, largest);
     }
     std::cerr << "dofkit: " << frames.size() << " frames in "
               << static_cast<long>(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1000 +
@@ -731,6 +834,10 @@ void add_render_command(CLI::App& app) {
       ->group(in);
   args->budget.add(cmd);
   add_number(cmd, "--max-layers", args->max_layers, "--layers: keep at most this many fragments per pixel (default 8)")
+      ->group(in);
+  cmd->add_option("--color-channels", args->color_channels,
+                  "R,G,B[,A]: the colour channels of --color by name (default: bare R,G,B[,A], else the one layer "
+                  "holding them, else the *Combined* / *beauty* layer)")
       ->group(in);
   cmd->add_option("--mask", args->mask,
                   "transparency coverage 0..1 (single channel, or the alpha of a multi-channel file): re-render there "
@@ -781,14 +888,19 @@ void add_render_command(CLI::App& app) {
              "a PNG out takes ~0.34 s at level 1 against ~0.63 s at 6, for a ~16 % larger file")
       ->group(outg);
   cmd->add_option("--output-coc", args->output_coc,
-                  "also write the signed CoC radius used, pixels (> 0 near, < 0 far), as a single-channel float EXR")
+                  "also write the CoC radius used: .exr = signed float, pixels (> 0 near, < 0 far); .png/.tif/.jpg = "
+                  "the focus-zone picture (near orange, far blue, in focus grey; docs/coc.md)")
+      ->group(outg);
+  add_number(cmd, "--coc-bits", args->coc_bits,
+             "bits per channel of a picture --output-coc: PNG/TIFF 8 (default) or 16", "--bits")
       ->group(outg);
   cmd->add_option("--debug-output", args->debug_output, "file for --debug-view (EXR keeps exact values)")->group(outg);
   cmd->add_option("--frames", args->frames,
                   "FIRST-LAST[xSTEP]: render a numbered sequence in one process (one Renderer, buffers reused); "
                   "the frame number replaces a #### run (zero-padded to its length) or %d / %04d in the paths. "
-                  "--output (and --output-coc, --debug-output) and --color or --layers need one; a path without one "
-                  "serves every frame; %% is a literal %. At most 100000 frames. Every frame's inputs must exist "
+                  "--output (and --output-coc, --debug-output) and --color or --layers need one (--color not with "
+                  "--focus-keys: one still plate); a path without one serves every frame; %% is a literal %. At most "
+                  "100000 frames. Every frame's inputs must exist "
                   "before the first is rendered; an error stops the run and keeps the frames written before it")
       ->check(CLI::Validator(
           [](std::string& v) -> std::string {

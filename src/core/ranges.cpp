@@ -45,6 +45,7 @@ const std::vector<NumericRange> kRanges = {
     // Depth conventions.
     {"--fov-deg", "deg", 0, 180, true, true, false, false, ""},
     {"--disparity-scale", "", 1e-9, 1e12, false, false, false, false, "scene units x disparity"},
+    {"--depth-scale", "", 1e-9, 1e12, false, false, false, false, "file value x scale = metres"},
     {"--clip", "", 1e-9, 1e30, false, false, false, true, "NEAR < FAR; only FAR may be inf"},
     // Resources and files.
     {"--threads", "", 0, 1024, false, false, true, false, "0 = all hardware threads"},

@@ -17,6 +17,7 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -220,20 +221,92 @@ int find_channel(const FileSpec& spec, const std::string& want) {
   return -1;
 }
 
-int find_depth_channel(const FileSpec& spec) {
-  if (spec.nchannels == 1) return 0;
-  int c = find_channel(spec, "Z");
-  if (c < 0) {
-    for (int i = 0; i < spec.nchannels; ++i)
-      if (lower(spec.channelnames[i]) == "depth") return i;
-  }
-  return c;
+std::string channel_list(const FileSpec& spec);
+
+// The channel named exactly `want`, else the one channel equal to it ignoring case; -1 if
+// none, -2 if several differ only in case.
+int find_named(const FileSpec& spec, const std::string& want) {
+  for (int c = 0; c < spec.nchannels; ++c)
+    if (spec.channelnames[c] == want) return c;
+  int found = -1;
+  for (int c = 0; c < spec.nchannels; ++c)
+    if (lower(spec.channelnames[c]) == lower(want)) found = found == -1 ? c : -2;
+  return found;
 }
+
+// A channel of a pass that is never depth: normals (N.*, *Normal*.*), positions (P.*,
+// *Position*.*) and motion (*Vector*.*, *Motion*.*, Blender's velocity). Its layer is what
+// precedes the last '.', compared in lower case.
+bool is_excluded_pass(const std::string& name) {
+  const auto dot = name.rfind('.');
+  if (dot == std::string::npos) return false;
+  const std::string layer = lower(name.substr(0, dot));
+  const auto last_part = layer.rfind('.');
+  const std::string leaf = last_part == std::string::npos ? layer : layer.substr(last_part + 1);
+  if (leaf == "n" || leaf == "p") return true;
+  for (const char* word : {"normal", "position", "vector", "motion", "velocity"})
+    if (layer.find(word) != std::string::npos) return true;
+  return false;
+}
+
+}  // namespace
+
+DepthChannelChoice choose_depth_channel(const std::vector<std::string>& names, const std::string& wanted) {
+  FileSpec spec;
+  spec.nchannels = static_cast<int>(names.size());
+  spec.channelnames = names;
+  DepthChannelChoice out;
+  auto list = [&] { return channel_list(spec); };
+  if (!wanted.empty()) {
+    out.index = find_named(spec, wanted);
+    if (out.index == -2)
+      out.problem = "--depth-channel " + wanted + ": several channels match it ignoring case (channels: " + list() +
+                    "); give the exact name";
+    else if (out.index < 0)
+      out.problem = "--depth-channel " + wanted + ": no such channel (channels: " + list() + ")";
+    if (out.index < 0) out.index = -1;
+    return out;
+  }
+  if (spec.nchannels == 1) {  // a lone channel, whatever its name
+    out.index = 0;
+    return out;
+  }
+  // Tiers, first match wins; a tier with several candidates is ambiguous.
+  const std::function<bool(const std::string&)> tiers[] = {
+      [](const std::string& n) { return n == "z"; },
+      [](const std::string& n) { return n == "depth.z" || n == "depth"; },
+      [](const std::string& n) {
+        return n.size() > 2 && n.compare(n.size() - 2, 2, ".z") == 0 && n.find("depth") != std::string::npos;
+      },
+      [](const std::string& n) { return n.size() > 2 && n.compare(n.size() - 2, 2, ".z") == 0; },
+  };
+  for (const auto& tier : tiers) {
+    std::vector<int> hits;
+    for (int c = 0; c < spec.nchannels; ++c)
+      if (!is_excluded_pass(names[c]) && tier(lower(names[c]))) hits.push_back(c);
+    if (hits.size() == 1) {
+      out.index = hits[0];
+      return out;
+    }
+    if (hits.size() > 1) {
+      std::string which;
+      for (const int c : hits) which += (which.empty() ? "" : ", ") + names[c];
+      out.problem = "several depth channels (" + which + ") among " + list() + "; choose one with --depth-channel";
+      return out;
+    }
+  }
+  out.problem = "no depth channel among " + list() +
+                " (normal N.*, position P.* and motion passes are never taken as depth); name one with "
+                "--depth-channel or give a depth file with --depth";
+  return out;
+}
+
+namespace {
 
 std::string channel_list(const FileSpec& spec) {
   std::string s;
-  for (int c = 0; c < spec.nchannels && c < 12; ++c) s += (c ? "," : "") + spec.channelnames[c];
-  if (spec.nchannels > 12) s += ",…";
+  for (int c = 0; c < spec.nchannels && c < 24; ++c) s += (c ? "," : "") + spec.channelnames[c];
+  if (spec.nchannels > 24) s += ",… (" + std::to_string(spec.nchannels) + " channels)";
   return s;
 }
 
@@ -247,13 +320,78 @@ std::string fmt_num(double v) {
 
 // --- colour -------------------------------------------------------------------------------
 
-Image read_color(const std::string& path) {
+ColorChannelChoice choose_color_channels(const std::vector<std::string>& names, const std::vector<std::string>& wanted,
+                                         int alpha_channel) {
+  FileSpec spec;
+  spec.nchannels = static_cast<int>(names.size());
+  spec.channelnames = names;
+  ColorChannelChoice out;
+  if (!wanted.empty()) {
+    int* slot[4] = {&out.r, &out.g, &out.b, &out.a};
+    for (std::size_t k = 0; k < wanted.size() && k < 4; ++k) {
+      const int c = find_named(spec, wanted[k]);
+      if (c < 0) {
+        out.problem = "--color-channels: " +
+                      (c == -2 ? "several channels match " + wanted[k] + " ignoring case" : "no channel " + wanted[k]) +
+                      " (channels: " + channel_list(spec) + ")";
+        return out;
+      }
+      *slot[k] = c;
+    }
+    return out;
+  }
+  // Layers (what precedes the last '.', "" for bare names) that hold R, G and B.
+  struct Layer {
+    std::string name;
+    int c[4] = {-1, -1, -1, -1};
+  };
+  std::vector<Layer> layers;
+  for (int i = 0; i < spec.nchannels; ++i) {
+    const std::string& n = names[i];
+    const auto dot = n.rfind('.');
+    const std::string layer = dot == std::string::npos ? "" : n.substr(0, dot);
+    const std::string leaf = lower(dot == std::string::npos ? n : n.substr(dot + 1));
+    const int k = leaf == "r" ? 0 : leaf == "g" ? 1 : leaf == "b" ? 2 : leaf == "a" ? 3 : -1;
+    if (k < 0) continue;
+    auto it = std::find_if(layers.begin(), layers.end(), [&](const Layer& l) { return l.name == layer; });
+    if (it == layers.end()) it = layers.insert(layers.end(), Layer{layer, {-1, -1, -1, -1}});
+    if (it->c[k] < 0) it->c[k] = i;
+  }
+  std::erase_if(layers, [](const Layer& l) { return l.c[0] < 0 || l.c[1] < 0 || l.c[2] < 0; });
+  const auto pick = [&](const Layer& l) {
+    out.r = l.c[0], out.g = l.c[1], out.b = l.c[2], out.a = l.c[3];
+    if (out.a < 0 && l.name.empty()) out.a = alpha_channel;
+    return out;
+  };
+  for (const Layer& l : layers)
+    if (l.name.empty()) return pick(l);  // bare R, G, B
+  if (layers.size() == 1) return pick(layers[0]);
+  std::vector<const Layer*> beauty;
+  for (const Layer& l : layers) {
+    const std::string n = lower(l.name);
+    if (n.find("combined") != std::string::npos || n == "rgba" || n.find("beauty") != std::string::npos)
+      beauty.push_back(&l);
+  }
+  if (beauty.size() == 1) return pick(*beauty[0]);
+  if (!layers.empty()) {
+    std::string which;
+    for (const Layer& l : layers) which += (which.empty() ? "" : ", ") + l.name;
+    out.problem = "several colour layers (" + which + ") among " + channel_list(spec) +
+                  "; choose one with --color-channels R,G,B[,A]";
+    return out;
+  }
+  out.r = -1;  // no R, G, B anywhere: the caller's grey / plain-channel rule
+  out.a = alpha_channel;
+  return out;
+}
+
+Image read_color(const std::string& path, const std::vector<std::string>& channels) {
   OpenedFile f = open_checked(path, "colour");
   const FileSpec& spec = f.spec;
-  int r = find_channel(spec, "R"), g = find_channel(spec, "G"), b = find_channel(spec, "B");
-  int a = find_channel(spec, "A");
-  if (a < 0 && spec.alpha_channel >= 0) a = spec.alpha_channel;
-  if (r < 0 || g < 0 || b < 0) {
+  const ColorChannelChoice choice = choose_color_channels(spec.channelnames, channels, spec.alpha_channel);
+  if (!choice.problem.empty()) throw_bad_input(path + ": " + choice.problem);
+  int r = choice.r, g = choice.g, b = choice.b, a = choice.a;
+  if (r < 0) {
     // No named RGB: grey (Y / one channel, optionally with alpha) or the first three
     // non-alpha, non-depth channels.
     std::vector<int> plain;
@@ -350,6 +488,8 @@ const char* depth_kind_name(DepthKind kind) {
 namespace {
 
 void check_depth_options(const DepthOptions& opt) {
+  if (!(opt.scale > 0 && std::isfinite(opt.scale)))
+    throw_usage("--depth-scale " + fmt_num(opt.scale) + ": must be a finite number > 0 (file value x scale = metres)");
   switch (opt.kind) {
     case DepthKind::z:
       break;
@@ -438,23 +578,28 @@ const char* valid_range_text(DepthKind k) {
 
 }  // namespace
 
-Image read_depth(const std::string& path, const DepthOptions& opt) {
+Image read_depth(const std::string& path, const DepthOptions& opt, DepthFacts* facts) {
   check_depth_options(opt);
   OpenedFile f = open_checked(path, "depth");
   const FileSpec& spec = f.spec;
-  int c = find_depth_channel(spec);
+  const DepthChannelChoice choice = choose_depth_channel(spec.channelnames, opt.channel);
+  int c = choice.index;
   bool grey_rgb = false;
   if (c < 0) {
     // A grey depth map saved as RGB(A) (common for 8/16-bit disparity maps): accept it if
     // R, G and B are identical everywhere, checked below.
     const int r = find_channel(spec, "R"), g = find_channel(spec, "G"), b = find_channel(spec, "B");
-    if (r == 0 && g == 1 && b == 2) {
+    const bool ambiguous = choice.problem.rfind("several", 0) == 0 || !opt.channel.empty();
+    if (!ambiguous && r == 0 && g == 1 && b == 2 && spec.nchannels <= 4) {
       c = 0;
       grey_rgb = true;
     } else {
-      throw_bad_input(path + ": depth image has " + std::to_string(spec.nchannels) + " channels (" +
-                      channel_list(spec) + ") and none is named Z or depth.Z; give a single-channel depth file");
+      throw_bad_input(path + ": " + choice.problem);
     }
+  }
+  if (facts) {
+    facts->integer = spec.integer;
+    facts->channel = grey_rgb ? "R=G=B" : spec.channelnames[c];
   }
   const int W = spec.width, H = spec.height;
   Image depth(W, H, 1);
@@ -478,7 +623,7 @@ Image read_depth(const std::string& path, const DepthOptions& opt) {
   for (int y = 0; y < H; ++y) {
     float* row = depth.row(0, y);
     for (int x = 0; x < W; ++x) {
-      const double z = conv(row[x], x, y);
+      const double z = conv(row[x], x, y) * opt.scale;
       if (std::isnan(z) || !(z > 0)) {
         if (bad++ == 0) {
           first = static_cast<std::size_t>(y) * W + x;
@@ -512,26 +657,41 @@ bool is_display_referred(const std::string& path) {
   }
 }
 
-bool has_depth_channel(const std::string& path) {
+namespace {
+// The channel names of a file that opens ({} if it does not: the read that follows reports it).
+std::vector<std::string> probe_channel_names(const std::string& path) {
   std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) return false;
+  if (!fs::is_regular_file(path, ec)) return {};
   try {
     check_file_header(path, "colour");
   } catch (const Error&) {
-    return false;  // the colour read that follows reports it
+    return {};
   }
   // The readers read_depth will use: a PNG or JPEG (never a Z channel) no longer loads
   // OpenImageIO just to be asked.
   OpenedFile f;
   std::string broken;
   if (!open_direct(f, path, broken)) {
-    if (!broken.empty()) return false;  // the colour read that follows reports it
+    if (!broken.empty()) return {};
     std::string error;
     auto in = oiio::module().open(path, /*straight_alpha=*/false, error);
-    if (!in) return false;
+    if (!in) return {};
     f.spec = in->spec();
   }
-  return f.spec.nchannels > 1 && find_channel(f.spec, "Z") >= 0;
+  return f.spec.channelnames;
+}
+
+// Whether a channel name is a colour channel (R, G, B, A or Y, bare or in a layer).
+bool is_colour_channel(const std::string& name) {
+  const auto dot = name.rfind('.');
+  const std::string leaf = lower(dot == std::string::npos ? name : name.substr(dot + 1));
+  return leaf == "r" || leaf == "g" || leaf == "b" || leaf == "a" || leaf == "y";
+}
+}  // namespace
+
+bool has_depth_channel(const std::string& path) {
+  const std::vector<std::string> names = probe_channel_names(path);
+  return names.size() > 1 && choose_depth_channel(names, "").index >= 0;
 }
 
 Image read_mask(const std::string& path) {
@@ -616,23 +776,35 @@ Image read_normals(const std::string& path) {
   return n;
 }
 
-Frame load_frame(const std::string& color_path, const std::string& depth_path, const DepthOptions& opt) {
+Frame load_frame(const std::string& color_path, const std::string& depth_path, const DepthOptions& opt,
+                 const std::vector<std::string>& color_channels, DepthFacts* facts) {
   check_depth_options(opt);
   // Sizes before pixels: a depth map of another size is refused from the headers alone.
   if (!depth_path.empty()) {
     const ImageInfo c = probe_image(color_path, "colour"), d = probe_image(depth_path, "depth");
-    if (c.width != d.width || c.height != d.height)
-      throw_bad_input(depth_path + ": depth is " + std::to_string(d.width) + "x" + std::to_string(d.height) +
-                      " but colour " + color_path + " is " + std::to_string(c.width) + "x" + std::to_string(c.height));
+    check_depth_fit(depth_path, d.width, d.height, color_path, c.width, c.height, opt.stretch);
   }
   Frame frame;
-  frame.color = read_color(color_path);
+  frame.color = read_color(color_path, color_channels);
   if (depth_path.empty()) {
-    if (!has_depth_channel(color_path))
-      throw_usage("--depth: not given and " + color_path + " has no Z channel; pass a depth file with --depth");
-    frame.depth = read_depth(color_path, opt);
+    // The colour file's own depth channel: named by --depth-channel, else chosen by name. A
+    // file with channels beyond colour but none of them depth (or several) is refused with
+    // its channel list; a plain colour file without depth is a usage error.
+    if (opt.channel.empty()) {
+      const std::vector<std::string> names = probe_channel_names(color_path);
+      const bool extra =
+          std::any_of(names.begin(), names.end(), [](const std::string& n) { return !is_colour_channel(n); });
+      if (names.size() < 2 || (!extra && choose_depth_channel(names, "").index < 0))
+        throw_usage("--depth: not given and " + color_path + " has no Z channel; pass a depth file with --depth");
+    }
+    frame.depth = read_depth(color_path, opt, facts);
   } else {
-    frame.depth = read_depth(depth_path, opt);
+    frame.depth = read_depth(depth_path, opt, facts);
+    if (!frame.depth.same_size(frame.color)) {
+      check_depth_fit(depth_path, frame.depth.width(), frame.depth.height(), color_path, frame.color.width(),
+                      frame.color.height(), opt.stretch);
+      frame.depth = resample_depth(frame.depth, frame.color, opt.upsample);
+    }
   }
   if (!frame.depth.same_size(frame.color)) {
     throw_bad_input((depth_path.empty() ? color_path : depth_path) + ": depth is " +

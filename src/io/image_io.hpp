@@ -13,6 +13,7 @@
 
 #include "dofkit/frame.hpp"
 #include "dofkit/image.hpp"
+#include "io/depth_resample.hpp"
 
 namespace dofkit::io {
 
@@ -32,25 +33,70 @@ struct DepthOptions {
   double clip_near = 0.1;       ///< near clip, scene units (ndc kinds)
   double clip_far = 1000;       ///< far clip, scene units; +inf allowed (ndc kinds)
   bool invalid_as_far = false;  ///< NaN / negative / zero depth → +inf instead of an error
+  /// Multiplies every converted depth: file units × scale = metres (`--depth-scale`,
+  /// `--depth-units`); finite and > 0. 1 leaves every value bit for bit as read.
+  double scale = 1;
+  /// The channel to read (`--depth-channel`; exact name, else the one equal ignoring case);
+  /// "" = chosen by name (choose_depth_channel).
+  std::string channel;
+  /// A depth map smaller than the colour image (load_frame): how it is brought to the
+  /// colour's size (`--depth-upsample`), and whether another aspect ratio is scaled per axis
+  /// (`--depth-fit stretch`) instead of refused.
+  DepthUpsample upsample = DepthUpsample::guided;
+  bool stretch = false;
 };
 
-/// Reads a colour image → RGBA premultiplied linear, 4 planes. Throws Error(bad_input)
-/// naming the file on any failure.
-Image read_color(const std::string& path);
+/// What read_depth found in the file (for the CLI's sanity warnings).
+struct DepthFacts {
+  bool integer = false;  ///< 8/16-bit integer samples (normalised to [0, 1] before conversion)
+  std::string channel;   ///< the channel read ("R=G=B" for a grey RGB file)
+};
 
-/// Reads a depth map: a single-channel file whatever its channel name, or the Z / depth.Z
-/// channel of a multi-channel EXR (or R of a grey image stored as identical R, G, B);
-/// converts it to planar z per `opt`. 8/16-bit values are normalised to [0, 1] (no sRGB
+/// The depth channel of a file with these channel names. `wanted` (--depth-channel): that
+/// name exactly, else the one channel equal to it ignoring case. Without it: a file of one
+/// channel gives that channel; otherwise the first of these tiers (names compared ignoring
+/// case) with exactly one hit: `Z`; `depth.Z` or `depth`; `*depth*.Z` (e.g.
+/// ViewLayer.Depth.Z); any other `<layer>.Z`. A channel of a normal (N.*, *Normal*.*),
+/// position (P.*, *Position*.*) or motion (*Vector*.*, *Motion*.*, *Velocity*.*) pass is never
+/// a candidate. index = -1 with `problem` (a sentence listing the channels, naming
+/// --depth-channel) when no channel or several qualify.
+struct DepthChannelChoice {
+  int index = -1;
+  std::string problem;
+};
+DepthChannelChoice choose_depth_channel(const std::vector<std::string>& names, const std::string& wanted);
+
+/// The colour channels of a file with these names. `wanted` (--color-channels, 3 or 4 names):
+/// those names. Without it: bare R, G, B [A] (A: else `alpha_channel`); else the one layer
+/// that holds <layer>.R/.G/.B [.A] (ignoring the leaf's case); else, of several such layers,
+/// the one whose name contains "combined" or "beauty" or is "rgba"; else `problem`. r = -1
+/// and no problem: no layer holds R, G and B (read_color's grey / plain-channel rule).
+struct ColorChannelChoice {
+  int r = -1, g = -1, b = -1, a = -1;
+  std::string problem;
+};
+ColorChannelChoice choose_color_channels(const std::vector<std::string>& names, const std::vector<std::string>& wanted,
+                                         int alpha_channel);
+
+/// Reads a colour image → RGBA premultiplied linear, 4 planes, from the channels
+/// choose_color_channels picks (`channels`: --color-channels). Throws Error(bad_input)
+/// naming the file on any failure.
+Image read_color(const std::string& path, const std::vector<std::string>& channels = {});
+
+/// Reads a depth map: the channel choose_depth_channel picks (a single-channel file whatever
+/// its channel name; opt.channel if given), or R of a grey image stored as identical R, G, B
+/// when no channel is named as depth; converts it to planar z per `opt` and multiplies by
+/// opt.scale. `facts`, if given, receives what was read. 8/16-bit values are normalised to [0, 1] (no sRGB
 /// decode). +inf is valid; values that are invalid for the kind (NaN, z <= 0, negative
 /// disparity, NDC outside [0, 1]) throw Error(bad_input) with their count and the first
 /// pixel, unless opt.invalid_as_far (they become +inf).
-Image read_depth(const std::string& path, const DepthOptions& opt);
+Image read_depth(const std::string& path, const DepthOptions& opt, DepthFacts* facts = nullptr);
 
 /// True if the file holds integer (8/16-bit) samples, i.e. display-referred sRGB colour that
 /// clips at 1 (reads the header only; Error(bad_input) like read_color if it cannot).
 bool is_display_referred(const std::string& path);
 
-/// True if the file is an EXR with a Z (or depth.Z) channel.
+/// True if the file has more than one channel and choose_depth_channel finds one by name.
 bool has_depth_channel(const std::string& path);
 
 enum class Encoding { automatic, linear, srgb };
@@ -140,6 +186,11 @@ ImageInfo probe_image(const std::string& path, const char* role);
 /// Loads a frame from colour + optional depth file (depth from the colour EXR's Z channel
 /// when depth_path is empty) and validates it (sizes, invalid depth per opt). Both headers are
 /// read first: sizes that differ are refused before a pixel is decoded.
-Frame load_frame(const std::string& color_path, const std::string& depth_path, const DepthOptions& opt);
+/// Without a depth path the colour file's own depth channel is read (opt.channel, else by
+/// name; a file with non-colour channels and no single depth channel is refused listing
+/// them). A depth file smaller than the colour (check_depth_fit) is resampled to its size
+/// (resample_depth, opt.upsample). `color_channels`: as read_color's.
+Frame load_frame(const std::string& color_path, const std::string& depth_path, const DepthOptions& opt,
+                 const std::vector<std::string>& color_channels = {}, DepthFacts* facts = nullptr);
 
 }  // namespace dofkit::io

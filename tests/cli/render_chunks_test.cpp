@@ -21,6 +21,7 @@
 #include "dofkit/error.hpp"
 #include "io/image_io.hpp"
 #include "io/io_test_util.hpp"
+#include "render_cli_util.hpp"
 
 extern char** environ;
 
@@ -178,31 +179,9 @@ TEST(ChunkFlags, MissingOrMalformedVariableIsAUsageErrorNamingIt) {
 
 namespace {
 
-struct Result {
-  int code = -1;
-  std::string message;
-};
-
-// Parses and runs `dofkit render ARGS` in this process, like main.cpp (errors → exit codes).
-Result render(std::vector<std::string> args) {
-  CLI::App app{"dofkit"};
-  app.require_subcommand(1);
-  cli::add_render_command(app);
-  args.insert(args.begin(), "render");
-  std::vector<std::string> rev(args.rbegin(), args.rend());
-  Result r;
-  try {
-    app.parse(rev);
-    r.code = 0;
-  } catch (const CLI::ParseError& e) {
-    r.code = e.get_exit_code() == 0 ? 0 : 2;
-    r.message = e.what();
-  } catch (const Error& e) {
-    r.code = e.exit_code();
-    r.message = e.what();
-  }
-  return r;
-}
+using Result = CliResult;
+// `dofkit render ARGS` in this process, like main.cpp (errors → exit codes).
+Result render(const std::vector<std::string>& args) { return run_render(args); }
 
 // Sets environment variables for one scope and removes them after.
 class ScopedEnv {

@@ -17,6 +17,7 @@
 #include "io/image_io.hpp"
 #include "io/io_test_util.hpp"
 #include "io/layers_io.hpp"
+#include "render_cli_util.hpp"
 
 using namespace dofkit;
 using namespace dofkit::test;
@@ -24,38 +25,6 @@ using namespace dofkit::test;
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
-
-struct CliResult {
-  int code = -1;
-  std::string message;  // the one-line error (what main prints after "dofkit: error: ")
-  std::string out;      // stdout
-};
-
-// Parses and runs `dofkit render ARGS` like main.cpp does, mapping errors to exit codes.
-CliResult run_render(std::vector<std::string> args) {
-  CLI::App app{"dofkit"};
-  app.require_subcommand(1);
-  cli::add_render_command(app);
-  args.insert(args.begin(), "render");
-  std::vector<std::string> rev(args.rbegin(), args.rend());  // CLI11 consumes a reversed vector
-  CliResult r;
-  ::testing::internal::CaptureStdout();
-  try {
-    app.parse(rev);
-    r.code = 0;
-  } catch (const CLI::ParseError& e) {
-    r.code = e.get_exit_code() == 0 ? 0 : 2;
-    r.message = e.what();
-  } catch (const Error& e) {
-    r.code = e.exit_code();
-    r.message = e.what();
-  } catch (const std::exception& e) {
-    r.code = 1;
-    r.message = e.what();
-  }
-  r.out = ::testing::internal::GetCapturedStdout();
-  return r;
-}
 
 bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 
@@ -121,7 +90,8 @@ TEST_F(RenderCli, ExactCallMatchesLibraryRender) {
 }
 
 // The CoC map's extension check is case-insensitive, like every other output's: COC.EXR is
-// an EXR (it was refused), coc.png is refused.
+// an EXR (it was refused), coc.bmp is refused (a .png is the focus-zone picture:
+// render_inputs_test.cpp).
 TEST_F(RenderCli, OutputCocExtensionIgnoresCase) {
   auto args = exact_call();
   args.insert(args.end(), {"--output-coc", dir_ / "COC.EXR"});
@@ -134,8 +104,8 @@ TEST_F(RenderCli, OutputCocExtensionIgnoresCase) {
   std::filesystem::remove(dir_ / "COC.EXR");
   std::filesystem::remove(dir_ / "out.exr");
   auto bad = exact_call();
-  bad.insert(bad.end(), {"--output-coc", dir_ / "coc.png"});
-  expect_failure(bad, 2, {"--output-coc", "write it as .exr"});
+  bad.insert(bad.end(), {"--output-coc", dir_ / "coc.bmp"});
+  expect_failure(bad, 2, {"--output-coc", "coc.bmp", "unsupported"});
 }
 
 TEST_F(RenderCli, OutputCocIsSignedFloatPixels) {
@@ -400,8 +370,8 @@ TEST_F(RenderCli, UnsupportedOutputFormatAndMissingFolder) {
   expect_failure(exact_call("out.bmp"), 2, {"--output", "out.bmp", "unsupported"});
   expect_failure(exact_call("nodir/out.exr"), 3, {"--output", "nodir", "does not exist"});
   auto a = exact_call();
-  a.insert(a.end(), {"--output-coc", dir_ / "coc.png"});
-  expect_failure(a, 2, {"--output-coc", ".exr"});
+  a.insert(a.end(), {"--output-coc", dir_ / "coc.bmp"});
+  expect_failure(a, 2, {"--output-coc", "unsupported"});
 }
 
 TEST_F(RenderCli, UnknownDebugView) {

@@ -199,15 +199,21 @@ AtomicFile::AtomicFile(std::string target) : target_(std::move(target)) {
   remove_stale_temporaries(dir.string());
   for (int attempt = 0; attempt < 16; ++attempt) {
     std::string candidate = (dir / temp_name_for(t)).string();
+    // Published to the signal handler before the file exists: claimed after open(), a signal
+    // in between left the temporary behind (HostileCli.Finding8 signals the moment the file
+    // appears). Unlinking a name not yet created, or already renamed, is harmless.
+    const int slot = claim_slot(candidate);
     // 0666 & ~umask: a new file gets the permissions a plain open() would give it.
     const int fd = ::open(candidate.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
     if (fd >= 0) {
       fd_ = fd;
       temp_ = std::move(candidate);
-      slot_ = claim_slot(temp_);
+      slot_ = slot;
       return;
     }
-    if (errno != EEXIST) throw_bad_input(target_ + ": cannot write in " + dir.string() + ": " + errno_text(errno));
+    const int err = errno;
+    release_slot(slot);
+    if (err != EEXIST) throw_bad_input(target_ + ": cannot write in " + dir.string() + ": " + errno_text(err));
   }
   throw_bad_input(target_ + ": cannot create a temporary file in " + dir.string());
 }

@@ -808,12 +808,11 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   if (opt.hidden) {
     core::PassScope pass("estimate");
     const HiddenPattern pattern;
-    std::vector<float>& behind = st.behind;
     for (int j = 0; j < k; ++j) {
       SliceBuf& b = sb[0][j];
       if (!b.used || !b.estimate) continue;
       const Grid& g = b.grid;
-      const int gw = g.w, L = g.level;
+      const int L = g.level;
       for (int c = 0; c < 5; ++c) std::fill(b.erow(c, b.m0), b.erow(c, b.m0) + b.mplane(), 0.0f);
       const float r = std::max(std::fabs(plan.anchor[j]), 0.5f) / static_cast<float>(1 << L);
       const float limit = sd.u[j] * (1.0f - soft);

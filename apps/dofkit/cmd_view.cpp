@@ -821,7 +821,7 @@ class ViewServer {
       }
       res.status = r->status;
       for (const auto& h : r->headers) res.set_header(h.first.c_str(), h.second);
-      res.set_content(std::move(r->body), r->content_type.c_str());
+      res.set_content(r->body, r->content_type.c_str());
     });
   }
 
@@ -845,7 +845,7 @@ class ViewServer {
       }
       res.set_header("X-Width", std::to_string(sc.frame->color.width()));
       res.set_header("X-Height", std::to_string(sc.frame->color.height()));
-      res.set_content(std::move(body), "application/octet-stream");
+      res.set_content(body, "application/octet-stream");
     });
   }
 

@@ -373,7 +373,7 @@ class Walker {
           fail("attribute '" + name + "': malformed channel list (it does not end where its attribute does)");
         }
       }
-      if ((name == "dataWindow" || name == "displayWindow") && type == "box2i" && size == 16) {
+      if ((name == "dataWindow" || name == "displayWindow") && type == "box2i") {  // 16 bytes: fixed_size above
         const long long x0 = le32(v), y0 = le32(v + 4), x1 = le32(v + 8), y1 = le32(v + 12);
         if (name == "dataWindow") {
           part.has_window = true;
@@ -386,7 +386,7 @@ class Walker {
         }
       } else if (name == "compression" && size == 1) {
         part.compression = v[0];
-      } else if (name == "tiles" && type == "tiledesc" && size >= 8) {
+      } else if (name == "tiles" && type == "tiledesc") {  // 9 bytes: fixed_size above
         part.tile_w = static_cast<std::uint32_t>(le32(v));
         part.tile_h = static_cast<std::uint32_t>(le32(v + 4));
       } else if (name == "type" && type == "string") {

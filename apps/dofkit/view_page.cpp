@@ -257,10 +257,14 @@ async function requestPreview(t0, full) {
   finally { inflight--; V.busy = inflight > 0; }
 }
 
+// Command requests can finish out of order: only the newest one's answer is shown.
+let commandSeq = 0;
 async function updateCommand() {
+  const mine = ++commandSeq;
   try {
     const r = await post("/api/command", state);
-    $("cmd").value = (await r.json()).command;
+    const command = (await r.json()).command;
+    if (mine === commandSeq) $("cmd").value = command;
   } catch (e) { showError(e.message); }
 }
 
@@ -336,7 +340,7 @@ $("save").onclick = async () => {
     const r = await post("/api/save?token=" + encodeURIComponent(token), {path: $("save_path").value, settings: state});
     const j = await r.json();
     if (r.status === 409) { showError(j.error); return; }
-    $("cmd").value = j.command;
+    ++commandSeq; $("cmd").value = j.command;
     $("save_status").dataset.state = "running";
     poll();
   } catch (e) { showError(e.message); $("save_status").textContent = "refused: " + e.message; $("save_status").dataset.state = "refused"; }

@@ -45,8 +45,10 @@ try {
         `click at (${x}, ${y}) focuses at ${focus} m = the median depth there ${expectedFocus} m`);
   const state = await page.evaluate(() => window.dofkitView.state);
   check(state.focus_at && state.focus_at[0] === x && state.focus_at[1] === y, "the focus is kept as --focus-at " + state.focus_at);
-  check((await page.evaluate(() => document.getElementById("cmd").value)).includes(`--focus-at ${x},${y}`),
-        "the command line shows --focus-at");
+  // The command line is fetched beside the preview, not before it: wait for it.
+  const shown = await page.waitForFunction((s) => document.getElementById("cmd").value.includes(s), `--focus-at ${x},${y}`, {timeout: 10000})
+    .then(() => true, () => false);
+  check(shown, "the command line shows --focus-at");
 
   // Shift-click inspects the depth and keeps the focus.
   const [fx, fy] = await page.evaluate(([a, b]) => window.dofkitView.imageToClient(a, b), [info[0] - 10, 10]);

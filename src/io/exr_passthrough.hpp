@@ -7,9 +7,9 @@
 // sharp picture's). Dropped, each with a note: a channel named like an output channel (R, G, B,
 // A) that was not the colour read (the output's own channel takes the name), a subsampled
 // channel, and the other parts of a multi-part file. A deep input passes nothing (the output
-// is flat; the CLI reads deep files only through --layers, never as --color). Attributes: all but the ones that describe the stored layout (channels,
-// compression, data / display window, line order, tiles, type, name, version, chunk count,
-// deep sample limits); the output's windows are (0, 0)–(W−1, H−1).
+// is flat; the CLI reads deep files only through --layers, never as --color). Attributes: all but the ones that
+// describe the stored layout (channels, compression, data / display window, line order, tiles, type, name, version,
+// chunk count, deep sample limits); the output's windows are (0, 0)–(W−1, H−1).
 #pragma once
 #include <memory>
 #include <string>

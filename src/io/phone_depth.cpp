@@ -439,10 +439,13 @@ bool jpeg_xmp(std::string_view b, JpegXmp& out, std::string& why) {
 
 namespace {
 
+// The first `limit` bytes of a regular file ("" for anything else: a fifo or device is never
+// opened here, the input checks refuse it with its own message).
 std::string read_head(const std::string& path, std::uintmax_t limit) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return {};
   std::ifstream f(path, std::ios::binary);
   if (!f) return {};
-  std::error_code ec;
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec) return {};
   std::string bytes(static_cast<std::size_t>(std::min(size, limit)), '\0');
@@ -590,6 +593,13 @@ Image gdepth(const std::string& path, int width, int height, const DepthOptions&
 }
 
 #ifdef DOFKIT_HAVE_HEIF
+// libheif's message for an error, on one line without its trailing newline.
+std::string heif_text(const heif_error& e) {
+  std::string m = e.message && *e.message ? e.message : "libheif error";
+  while (!m.empty() && is_space(m.back())) m.pop_back();
+  return m;
+}
+
 struct HeifContext {
   heif_context* ctx = heif_context_alloc();
   ~HeifContext() {
@@ -648,7 +658,7 @@ Image heif_depth(const std::string& path, int width, int height, const DepthOpti
   if (!c.ctx) throw_internal("libheif: cannot allocate a context");
   heif_context_set_maximum_image_size_limit(c.ctx, std::max(width, height));
   const auto check = [&](heif_error e, const char* what) {
-    if (e.code != heif_error_Ok) throw_bad_input(path + ": " + what + ": " + (e.message ? e.message : "libheif error"));
+    if (e.code != heif_error_Ok) throw_bad_input(path + ": " + what + ": " + heif_text(e));
   };
   check(heif_context_read_from_file(c.ctx, path.c_str(), nullptr), "cannot read it as HEIF");
   HeifHandle primary;
@@ -776,8 +786,7 @@ struct HeifPrimary {
   HeifPrimary(const std::string& path, const char* role) {
     if (!c.ctx) throw_internal("libheif: cannot allocate a context");
     const auto check = [&](heif_error e) {
-      if (e.code != heif_error_Ok)
-        throw_bad_input(path + ": cannot read " + role + " image: " + (e.message ? e.message : "libheif error"));
+      if (e.code != heif_error_Ok) throw_bad_input(path + ": cannot read " + role + " image: " + heif_text(e));
     };
     const long long budget = pixel_budget();
     heif_context_set_maximum_image_size_limit(c.ctx, static_cast<int>(std::min<long long>(budget, 1 << 30)));
@@ -814,8 +823,7 @@ Image read_heif_color(const std::string& path) {
                                      : (wide ? heif_chroma_interleaved_RRGGBB_LE : heif_chroma_interleaved_RGB);
   HeifImage img;
   const heif_error e = heif_decode_image(p.h.h, &img.img, heif_colorspace_RGB, chroma, nullptr);
-  if (e.code != heif_error_Ok)
-    throw_bad_input(path + ": cannot decode its image: " + (e.message ? e.message : "libheif error"));
+  if (e.code != heif_error_Ok) throw_bad_input(path + ": cannot decode its image: " + heif_text(e));
   const int C = p.alpha ? 4 : 3;
   int stride = 0;
   const std::uint8_t* plane = heif_image_get_plane_readonly(img.img, heif_channel_interleaved, &stride);

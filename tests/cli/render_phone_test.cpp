@@ -132,7 +132,7 @@ class RenderPhone : public ::testing::Test {
     const CliResult r = run_render(call({"--color", dir_ / photo}, "fail.exr", "fail_coc.exr"));
     EXPECT_EQ(r.code, code) << r.message;
     for (const char* p : parts) EXPECT_TRUE(contains(r.message, p)) << "missing '" << p << "' in: " << r.message;
-    EXPECT_FALSE(contains(r.message, "\n")) << r.message;
+    EXPECT_FALSE(contains(r.message, "\n") || contains(r.message, "\\n")) << r.message;
     EXPECT_FALSE(std::filesystem::exists(dir_ / "fail.exr"));
     EXPECT_FALSE(std::filesystem::exists(dir_ / "fail_coc.exr"));
   }
@@ -304,7 +304,8 @@ TEST_F(RenderPhone, HeicAuxiliaryDepthImageWithAppleDepthDataGivesTheDecodedDept
   expect_failure("nometa.heic", 3, {"nometa.heic", "records neither a depth representation"});
   write_bytes(dir_ / "plain.heic", heic_test::make_heic(W, H, rgb, 0, 0, {}, "", why));
   expect_failure("plain.heic", 2, {"plain.heic", "holds no embedded depth map (no auxiliary depth image)"});
+  // (libheif refuses the whole file: an item's extent runs past its end.)
   write_bytes(dir_ / "cut.heic", heic.substr(0, heic.size() - 40));
-  expect_failure("cut.heic", 3, {"cut.heic"});
+  expect_failure("cut.heic", 3, {"cut.heic", "cannot read colour image"});
 }
 #endif

@@ -79,29 +79,32 @@ void upsample_ao(const Image& depth, const Image& half_depth, const float* half_
           float* o = ao + static_cast<std::size_t>(y) * w;
           const int j0 = y >> 1, j1 = std::min(j0 + 1, h2 - 1);
           const float *t0 = half_depth.row(0, j0), *t1 = half_depth.row(0, j1);
-          const float *a0 = half_ao + static_cast<std::size_t>(j0) * w2, *a1 = half_ao + static_cast<std::size_t>(j1) * w2;
-          for (int x = 0; x < w; ++x) {
-            const float z = zr[x];
-            if (!(z < inf)) {
-              o[x] = 1.0f;
-              continue;
-            }
+          const float *a0 = half_ao + static_cast<std::size_t>(j0) * w2,
+                      *a1 = half_ao + static_cast<std::size_t>(j1) * w2;
+          const bool odd_row = (y & 1) != 0;
+          // Columns in pairs: the even one lies on grid column i, the odd one between i and i + 1.
+          for (int x = 0; x < w; x += 2) {
             const int i0 = x >> 1, i1 = std::min(i0 + 1, w2 - 1);
-            if (!(y & 1)) {
-              if (!(x & 1)) {
-                // On a grid pixel: its only candidate (a sky grid pixel holds 1).
-                o[x] = a0[i0];
-              } else {
-                const float t[2] = {t0[i0], t0[i1]}, v[2] = {a0[i0], a0[i1]}, wt[2] = {0.5f, 0.5f};
-                o[x] = mix(z, depth_t, t, v, wt);
-              }
-            } else if (!(x & 1)) {
+            const float z0 = zr[x];
+            if (!(z0 < inf)) {
+              o[x] = 1.0f;
+            } else if (!odd_row) {
+              o[x] = a0[i0];  // on a grid pixel: its only candidate (a sky grid pixel holds 1)
+            } else {
               const float t[2] = {t0[i0], t1[i0]}, v[2] = {a0[i0], a1[i0]}, wt[2] = {0.5f, 0.5f};
-              o[x] = mix(z, depth_t, t, v, wt);
+              o[x] = mix(z0, depth_t, t, v, wt);
+            }
+            if (x + 1 >= w) break;
+            const float z1 = zr[x + 1];
+            if (!(z1 < inf)) {
+              o[x + 1] = 1.0f;
+            } else if (!odd_row) {
+              const float t[2] = {t0[i0], t0[i1]}, v[2] = {a0[i0], a0[i1]}, wt[2] = {0.5f, 0.5f};
+              o[x + 1] = mix(z1, depth_t, t, v, wt);
             } else {
               const float t[4] = {t0[i0], t0[i1], t1[i0], t1[i1]}, v[4] = {a0[i0], a0[i1], a1[i0], a1[i1]};
               const float wt[4] = {0.25f, 0.25f, 0.25f, 0.25f};
-              o[x] = mix(z, depth_t, t, v, wt);
+              o[x + 1] = mix(z1, depth_t, t, v, wt);
             }
           }
         }

@@ -340,6 +340,16 @@ int main(int argc, char** argv) {
                           "ftypheic\0\0\0\0mif1heic",
                           24));
   }
+  // The JSON files: control byte 0 (camera.json), then the file.
+  const auto json_seed = [&](const std::string& name, const std::string& text) {
+    std::vector<unsigned char> b{0};
+    b.insert(b.end(), text.begin(), text.end());
+    bytes_seed(root / "json", name, b);
+  };
+  json_seed("camera", R"({"hfov_deg": 55, "width": 64, "height": 36, "near_m": 0.1, "far_m": 100})");
+  json_seed("camera_no_size", R"({"hfov_deg": 90.5})");
+  json_seed("camera_wrong_size", R"({"hfov_deg": 40, "width": 65})");
+  json_seed("camera_bad_fov", R"({"hfov_deg": 180})");
   std::printf("make_seeds: wrote the seed corpora to %s\n", root.c_str());
   return 0;
 }

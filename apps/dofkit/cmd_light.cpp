@@ -71,8 +71,8 @@ void run_light(const LightArgs& a, const CLI::App& cmd) {
   if (!a.camera.empty()) cam = read_camera_file(a.camera, g.depth.width(), g.depth.height());
   const std::vector<Light> lights = read_lights_file(a.lights, a.camera.empty() ? nullptr : &cam);
   if (!a.layers_output.empty() && static_cast<int>(lights.size()) > kMaxLightLayers)
-    throw_bad_input("--lights " + a.lights + ": " + std::to_string(lights.size()) + " lights; --layers-output takes at most " +
-                    std::to_string(kMaxLightLayers));
+    throw_bad_input("--lights " + a.lights + ": " + std::to_string(lights.size()) +
+                    " lights; --layers-output takes at most " + std::to_string(kMaxLightLayers));
   Image ao;
   if (!a.ao.empty()) {
     ao = io::read_mask(a.ao);
@@ -142,7 +142,8 @@ void add_light_command(CLI::App& app) {
   cmd->add_option("--channels", a->g.channel_maps,
                   "channel names of a buffer, BUFFER=NAME[,NAME,NAME] (repeatable), e.g. albedo=DiffCol.R,DiffCol.G,"
                   "DiffCol.B or depth=Depth.V");
-  cmd->add_option("--camera", a->camera, "camera.json (dofkit scene --gbuffer): hfov_deg, and view_matrix for world-space lights");
+  cmd->add_option("--camera", a->camera,
+                  "camera.json (dofkit scene --gbuffer): hfov_deg, and view_matrix for world-space lights");
   cmd->add_option("--fov-deg", a->fov_deg, "horizontal field of view, degrees (0..180), instead of --camera");
   cmd->add_option("--lights", a->lights, "lights file (JSON; schema in docs/lighting.md; at most 1024 lights)");
   cmd->add_option("--output", a->output, "the lit image (linear RGB: emissive + every light): .exr, .tif, .png");
@@ -150,10 +151,12 @@ void add_light_command(CLI::App& app) {
   cmd->add_option("--layers-output", a->layers_output,
                   "also write each light's contribution as its own R, G, B layer (NN_name.R …) plus the sum (R, G, B) "
                   "to this EXR (at most 64 lights)");
-  cmd->add_option("--ao", a->ao, "an ambient-occlusion image (1 channel, 1 = open) that multiplies the lights whose "
-                                 "\"ao\" is true (ambient lights by default)");
+  cmd->add_option("--ao", a->ao,
+                  "an ambient-occlusion image (1 channel, 1 = open) that multiplies the lights whose "
+                  "\"ao\" is true (ambient lights by default)");
   cmd->add_flag("--no-emissive", a->no_emissive, "leave the emissive buffer out of the lit image");
-  cmd->add_option("--impl", a->impl, "tiled (default: tile + per-pixel volume culling) or brute (every light at every pixel; the oracle)")
+  cmd->add_option("--impl", a->impl,
+                  "tiled (default: tile + per-pixel volume culling) or brute (every light at every pixel; the oracle)")
       ->check(CLI::IsMember({"tiled", "brute"}));
   cmd->add_flag("--stats", a->stats, "print, per light, the tiles it touched and the pixels it was evaluated at");
   add_threads(cmd, a->threads, "worker threads (0 = all hardware threads); the output is the same for any count");

@@ -41,7 +41,8 @@ int stage_index(const std::string& s) {
 void run_pipeline(const PipelineArgs& a) {
   // Flags first (exit 2).
   check_gbuffer_flags(a.g);
-  if (a.camera_file.empty()) throw_usage("--camera: required (camera.json: hfov_deg, and view_matrix for world lights)");
+  if (a.camera_file.empty())
+    throw_usage("--camera: required (camera.json: hfov_deg, and view_matrix for world lights)");
   if (a.lights.empty()) throw_usage("--lights: required (a lights file, docs/lighting.md)");
   if (a.output.empty()) throw_usage("--output: required (the final image, e.g. final.exr)");
   const int last = stage_index(a.stop_after);
@@ -126,8 +127,7 @@ void run_pipeline(const PipelineArgs& a) {
   // 3. Depth of field (§5.6) of the lit image with its depth.
   Frame frame;
   frame.color = Image(lit.width(), lit.height(), 4, 1.0f);
-  for (int c = 0; c < 3; ++c)
-    std::copy(lit.plane(c), lit.plane(c) + lit.plane_size(), frame.color.plane(c));
+  for (int c = 0; c < 3; ++c) std::copy(lit.plane(c), lit.plane(c) + lit.plane_size(), frame.color.plane(c));
   frame.depth = g.depth;
   RenderSettings rs;
   rs.method = a.method;

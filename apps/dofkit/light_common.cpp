@@ -102,8 +102,9 @@ std::vector<Light> read_lights_file(const std::string& path, const CameraFile* c
   if (static_cast<long long>(arr.size()) > kMaxLights)
     throw_bad_input(file + ": lights: " + std::to_string(arr.size()) + " lights, more than the limit of " +
                     std::to_string(kMaxLights));
-  static const std::set<std::string> keys = {"type",   "name",      "space",     "position_m", "direction", "color",
-                                             "intensity", "radius_m", "inner_deg", "outer_deg",  "ao",        "comment"};
+  static const std::set<std::string> keys = {"type",      "name",      "space",     "position_m",
+                                             "direction", "color",     "intensity", "radius_m",
+                                             "inner_deg", "outer_deg", "ao",        "comment"};
   std::vector<Light> out;
   for (std::size_t i = 0; i < arr.size(); ++i) {
     const std::string where = file + ": lights[" + std::to_string(i) + "]";
@@ -112,7 +113,8 @@ std::vector<Light> read_lights_file(const std::string& path, const CameraFile* c
     for (const auto& [k, v] : e.items())
       if (!keys.count(k)) throw_bad_input(where + ": unknown key \"" + k + "\"");
     Light l;
-    if (!e.contains("type") || !e["type"].is_string()) throw_bad_input(where + ".type: required (point, spot, directional or ambient)");
+    if (!e.contains("type") || !e["type"].is_string())
+      throw_bad_input(where + ".type: required (point, spot, directional or ambient)");
     const std::string type = e["type"].get<std::string>();
     if (type == "point")
       l.kind = Light::Kind::point;
@@ -167,8 +169,9 @@ std::vector<Light> read_lights_file(const std::string& path, const CameraFile* c
     }
     if (space == "world" && l.kind != Light::Kind::ambient) {
       if (!has_view)
-        throw_bad_input(where + ".space: world-space light but no view_matrix (in the lights file or the --camera "
-                                "file)");
+        throw_bad_input(where +
+                        ".space: world-space light but no view_matrix (in the lights file or the --camera "
+                        "file)");
       l.position_m = apply(view, l.position_m, true);
       l.direction = apply(view, l.direction, false);
     }
@@ -252,11 +255,11 @@ std::map<std::string, std::vector<std::string>> parse_maps(const std::vector<std
     const std::string buf = m.substr(0, eq);
     const auto it = counts.find(buf);
     if (it == counts.end())
-      throw_usage("--channels " + m + ": unknown buffer " + buf + " (depth, normals, albedo, specular, gloss, emissive)");
+      throw_usage("--channels " + m + ": unknown buffer " + buf +
+                  " (depth, normals, albedo, specular, gloss, emissive)");
     std::vector<std::string> names = split_names(m.substr(eq + 1));
-    if (static_cast<int>(names.size()) != it->second || std::any_of(names.begin(), names.end(), [](const std::string& n) {
-          return n.empty();
-        }))
+    if (static_cast<int>(names.size()) != it->second ||
+        std::any_of(names.begin(), names.end(), [](const std::string& n) { return n.empty(); }))
       throw_usage("--channels " + m + ": " + buf + " takes " + std::to_string(it->second) + " channel name(s)");
     out[buf] = names;
   }
@@ -313,18 +316,20 @@ GBufferImages read_gbuffer(const GBufferFiles& f) {
   else
     read("normals", f.normals, {"N.X", "N.Y", "N.Z"}, {"X", "Y", "Z"}, false, g.normals);
   read("albedo", f.albedo, {"albedo.R", "albedo.G", "albedo.B"}, {"R", "G", "B"}, false, g.albedo);
-  g.has_specular = read("specular", f.specular, {"specular.R", "specular.G", "specular.B"}, {"R", "G", "B"}, true,
-                        g.specular);
+  g.has_specular =
+      read("specular", f.specular, {"specular.R", "specular.G", "specular.B"}, {"R", "G", "B"}, true, g.specular);
   g.has_gloss = read("gloss", f.gloss, {"gloss"}, {"Y"}, true, g.gloss);
-  g.has_emissive = read("emissive", f.emissive, {"emissive.R", "emissive.G", "emissive.B"}, {"R", "G", "B"}, true,
-                        g.emissive);
+  g.has_emissive =
+      read("emissive", f.emissive, {"emissive.R", "emissive.G", "emissive.B"}, {"R", "G", "B"}, true, g.emissive);
   const struct {
     const Image* im;
     bool present;
     const char* name;
     const std::string* own;
-  } all[] = {{&g.normals, true, "normals", &f.normals},        {&g.albedo, true, "albedo", &f.albedo},
-             {&g.specular, g.has_specular, "specular", &f.specular}, {&g.gloss, g.has_gloss, "gloss", &f.gloss},
+  } all[] = {{&g.normals, true, "normals", &f.normals},
+             {&g.albedo, true, "albedo", &f.albedo},
+             {&g.specular, g.has_specular, "specular", &f.specular},
+             {&g.gloss, g.has_gloss, "gloss", &f.gloss},
              {&g.emissive, g.has_emissive, "emissive", &f.emissive}};
   for (const auto& b : all)
     if (b.present && !b.im->same_size(g.depth))

@@ -27,9 +27,9 @@ nlohmann::json lights_json(const std::vector<Light>& lights, bool world, const s
 /// A G-buffer read from files: one path for everything (dofkit scene's gbuffer.exr) or one per
 /// buffer; channel names per buffer (docs/lighting.md's --channels).
 struct GBufferFiles {
-  std::string gbuffer;                             ///< default file for every buffer
+  std::string gbuffer;                                            ///< default file for every buffer
   std::string depth, normals, albedo, specular, gloss, emissive;  ///< per-buffer files ("" = gbuffer)
-  std::vector<std::string> channel_maps;           ///< "albedo=diffuse.R,diffuse.G,diffuse.B", …
+  std::vector<std::string> channel_maps;                          ///< "albedo=diffuse.R,diffuse.G,diffuse.B", …
 };
 struct GBufferImages {
   Image depth, normals, albedo, specular, gloss, emissive;

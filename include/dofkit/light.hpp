@@ -80,15 +80,15 @@ struct LightSettings {
   /// "tiled" (default): tile + per-pixel volume culling; "brute": every light at every pixel
   /// (the oracle the tiled path is held to, bit for bit).
   std::string impl = "tiled";
-  bool layers = false;    ///< also return each light's contribution (at most kMaxLightLayers lights)
-  bool emissive = true;   ///< add the emissive buffer
+  bool layers = false;        ///< also return each light's contribution (at most kMaxLightLayers lights)
+  bool emissive = true;       ///< add the emissive buffer
   const Image* ao = nullptr;  ///< optional AO term (1 plane), multiplies the lights whose `ao` is set
 };
 
 struct LightStats {
-  long long tiles = 0;                      ///< screen tiles (16×16)
-  std::vector<long long> tiles_touched;     ///< per light: tiles whose list it entered
-  std::vector<long long> pixels_shaded;     ///< per light: pixels it was evaluated at
+  long long tiles = 0;                   ///< screen tiles (16×16)
+  std::vector<long long> tiles_touched;  ///< per light: tiles whose list it entered
+  std::vector<long long> pixels_shaded;  ///< per light: pixels it was evaluated at
 };
 
 struct LightResult {

@@ -17,40 +17,17 @@
 #include <nlohmann/json.hpp>
 
 #include "io/image_io.hpp"
+#include "cli/cli_run.hpp"
 #include "io/io_test_util.hpp"
 #include "metrics/metrics.hpp"
 
+using dofkit::test::channels_of;
+using dofkit::test::CliRun;
+using dofkit::test::dofkit_run;
 using dofkit::test::ScratchDir;
 namespace fs = std::filesystem;
 
 namespace {
-
-struct CliRun {
-  int code;
-  std::string err, out;
-};
-
-CliRun dofkit_run(const ScratchDir& dir, const std::string& args) {
-  const std::string err = dir / ".stderr", out = dir / ".stdout";
-  const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit " + args + " 2>" + err + " >" + out;
-  const int status = std::system(cmd.c_str());
-  const auto slurp = [](const std::string& p) {
-    std::ifstream f(p);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-  };
-  CliRun r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err), slurp(out)};
-  fs::remove(err);
-  fs::remove(out);
-  return r;
-}
-
-std::vector<std::string> channels_of(const std::string& path) {
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) return {};
-  return in->spec().channelnames;
-}
 
 class LightCli : public ::testing::Test {
  protected:
@@ -58,7 +35,8 @@ class LightCli : public ::testing::Test {
   std::string scene_;
   void SetUp() override {
     scene_ = dir_ / "scene";
-    const CliRun r = dofkit_run(dir_, "scene lights --out " + scene_ + " --size 96x54 --samples 16 --layers 0 --gbuffer");
+    const CliRun r =
+        dofkit_run(dir_, "scene lights --out " + scene_ + " --size 96x54 --samples 16 --layers 0 --gbuffer");
     ASSERT_EQ(r.code, 0) << r.err;
   }
   std::string base(const std::string& lights) const {
@@ -97,8 +75,8 @@ TEST_F(LightCli, LightsTheSceneLikeTheTracer) {
   const nlohmann::json lj = nlohmann::json::parse(lf);
   EXPECT_EQ(lj["space"], "world");  // turned back into camera space by the view matrix
   const std::string out = dir_ / "lit.exr", layers = dir_ / "layers.exr";
-  const CliRun r = dofkit_run(dir_, base(scene_ + "/lights.json") + " --output " + out + " --layers-output " + layers +
-                                        " --stats");
+  const CliRun r =
+      dofkit_run(dir_, base(scene_ + "/lights.json") + " --output " + out + " --layers-output " + layers + " --stats");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("tiles"), std::string::npos);
   const dofkit::Image lit = rgb(dofkit::io::read_color(out)), truth = rgb(dofkit::io::read_color(scene_ + "/lit.exr"));
@@ -138,8 +116,8 @@ TEST_F(LightCli, RefusesBadLightsFiles) {
 TEST_F(LightCli, WorldLightsNeedAViewMatrix) {
   const std::string lights = dir_ / "world.json", out = dir_ / "out.exr";
   write(lights, R"({"space": "world", "lights": [{"type": "point", "position_m": [0, 0, -2], "radius_m": 1}]})");
-  const CliRun r = dofkit_run(dir_, "light --gbuffer " + scene_ + "/gbuffer.exr --fov-deg 60 --lights " + lights +
-                                        " --output " + out);
+  const CliRun r = dofkit_run(
+      dir_, "light --gbuffer " + scene_ + "/gbuffer.exr --fov-deg 60 --lights " + lights + " --output " + out);
   EXPECT_EQ(r.code, 3) << r.err;
   EXPECT_NE(r.err.find("view_matrix"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
@@ -147,8 +125,8 @@ TEST_F(LightCli, WorldLightsNeedAViewMatrix) {
 
 TEST_F(LightCli, PipelineWritesEachStage) {
   const std::string lights = scene_ + "/lights.json", stages = dir_ / "stages";
-  const std::string args = "pipeline --gbuffer " + scene_ + "/gbuffer.exr --camera " + scene_ + "/camera.json --lights " +
-                           lights + " --focus 3.5 --blur-at-infinity 5 --threads 2";
+  const std::string args = "pipeline --gbuffer " + scene_ + "/gbuffer.exr --camera " + scene_ +
+                           "/camera.json --lights " + lights + " --focus 3.5 --blur-at-infinity 5 --threads 2";
   // --stop-after light with AO off is `dofkit light`'s image, bit for bit.
   const std::string lit = dir_ / "lit.exr", light_only = dir_ / "light_only.exr";
   ASSERT_EQ(dofkit_run(dir_, args + " --ao-method none --stop-after light --output " + lit).code, 0);
@@ -162,7 +140,8 @@ TEST_F(LightCli, PipelineWritesEachStage) {
   EXPECT_TRUE(fs::exists(stages + "/ao.exr"));
   EXPECT_TRUE(fs::exists(stages + "/lit.exr"));
   // AO multiplies only the ambient light: the lit stage is darker than without AO, never brighter.
-  const dofkit::Image with_ao = rgb(dofkit::io::read_color(stages + "/lit.exr")), no_ao = rgb(dofkit::io::read_color(lit));
+  const dofkit::Image with_ao = rgb(dofkit::io::read_color(stages + "/lit.exr")),
+                      no_ao = rgb(dofkit::io::read_color(lit));
   double sum_with = 0, sum_without = 0;
   for (std::size_t i = 0; i < with_ao.data().size(); ++i) {
     EXPECT_LE(with_ao.data()[i], no_ao.data()[i] * (1 + 1e-6) + 1e-7);

@@ -109,7 +109,7 @@ Light spot_light(std::array<double, 3> at, std::array<double, 3> dir, double rad
 // and an ambient light between them (the order of the sum matters).
 std::vector<Light> hard_lights() {
   std::vector<Light> ls;
-  ls.push_back(point_light({0.1, -0.05, -0.2}, 3.0));            // camera inside
+  ls.push_back(point_light({0.1, -0.05, -0.2}, 3.0));              // camera inside
   ls.push_back(point_light({0.0, 0.2, 0.4}, 0.9, {0.3, 0.5, 1}));  // centre behind the camera, crosses z = 0
   ls.push_back(point_light({-0.3, 0.1, -1.5}, 0.35, {1, 0.2, 0.2}));
   ls.push_back(point_light({2.0, 1.0, 1.5}, 1.2));  // behind the camera, out of view
@@ -118,7 +118,7 @@ std::vector<Light> hard_lights() {
   d.direction = {0.3, -1, -0.4};
   d.intensity = 0.5;
   ls.push_back(d);
-  ls.push_back(spot_light({0, 0, 0.3}, {0, 0, -1}, 6, 3, 8));          // camera inside a narrow cone
+  ls.push_back(spot_light({0, 0, 0.3}, {0, 0, -1}, 6, 3, 8));             // camera inside a narrow cone
   ls.push_back(spot_light({0.5, 0.6, -1}, {-0.3, -1, -0.6}, 3, 30, 80));  // wide cone
   ls.push_back(spot_light({-0.8, -0.2, -2}, {1, 0.1, 0.2}, 2.5, 0, 90));  // a half space
   ls.push_back(spot_light({0.2, 0.2, -0.5}, {0.1, 0.2, 1}, 2, 10, 20));   // points back at the camera

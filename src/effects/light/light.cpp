@@ -218,9 +218,7 @@ struct TileFrustum {
   double radius;
 };
 
-V3 ray_dir(const Buffers& b, double px, double py) {
-  return {(px - 0.5 * b.w) / b.f, -(py - 0.5 * b.h) / b.f, -1.0};
-}
+V3 ray_dir(const Buffers& b, double px, double py) { return {(px - 0.5 * b.w) / b.f, -(py - 0.5 * b.h) / b.f, -1.0}; }
 
 TileFrustum tile_frustum(const Buffers& b, int x0, int y0, int x1, int y1, double zmin, double zmax) {
   TileFrustum t;
@@ -309,21 +307,22 @@ void check_plane_finite(const Image* im, const char* what) {
     const float* p = im->plane(c);
     for (std::size_t i = 0; i < im->plane_size(); ++i)
       if (!std::isfinite(p[i]))
-        throw_bad_input(std::string(what) + ": non-finite value at pixel (" +
-                        std::to_string(i % im->width()) + ", " + std::to_string(i / im->width()) + ")");
+        throw_bad_input(std::string(what) + ": non-finite value at pixel (" + std::to_string(i % im->width()) + ", " +
+                        std::to_string(i / im->width()) + ")");
   }
 }
 
 Buffers check_and_bind(const GBufferRef& g, double hfov_deg, const Image* ao) {
   if (!g.depth || !g.normals || !g.albedo) throw_usage("lighting: depth, normals and albedo are required");
-  if (!(hfov_deg > 0 && hfov_deg < 180)) throw_usage("field of view: must be in (0, 180) degrees, got " + num(hfov_deg));
+  if (!(hfov_deg > 0 && hfov_deg < 180))
+    throw_usage("field of view: must be in (0, 180) degrees, got " + num(hfov_deg));
   const Image& z = *g.depth;
   if (z.channels() != 1) throw_bad_input("depth: expected 1 channel");
   const struct {
     const Image* im;
     int ch;
     const char* name;
-  } parts[] = {{g.normals, 3, "normals"}, {g.albedo, 3, "albedo"},  {g.specular, 3, "specular"},
+  } parts[] = {{g.normals, 3, "normals"}, {g.albedo, 3, "albedo"},     {g.specular, 3, "specular"},
                {g.gloss, 1, "gloss"},     {g.emissive, 3, "emissive"}, {ao, 1, "ao"}};
   for (const auto& p : parts) {
     if (!p.im) continue;
@@ -385,10 +384,10 @@ void validate_light(Light& l, const std::string& where) {
     if (!std::isfinite(l.radius_m) || !(l.radius_m > 0))
       throw_bad_input(where + ".radius_m: must be a finite number of metres > 0, got " + num(l.radius_m));
   if (l.kind == Light::Kind::spot) {
-    if (!std::isfinite(l.inner_deg) || !std::isfinite(l.outer_deg) || !(l.inner_deg >= 0) ||
-        !(l.outer_deg <= 90) || !(l.inner_deg < l.outer_deg))
-      throw_bad_input(where + ".inner_deg/outer_deg: need 0 <= inner_deg < outer_deg <= 90, got " +
-                      num(l.inner_deg) + " and " + num(l.outer_deg));
+    if (!std::isfinite(l.inner_deg) || !std::isfinite(l.outer_deg) || !(l.inner_deg >= 0) || !(l.outer_deg <= 90) ||
+        !(l.inner_deg < l.outer_deg))
+      throw_bad_input(where + ".inner_deg/outer_deg: need 0 <= inner_deg < outer_deg <= 90, got " + num(l.inner_deg) +
+                      " and " + num(l.outer_deg));
   }
   if (l.kind == Light::Kind::spot || l.kind == Light::Kind::directional) {
     const double len = std::sqrt(dot3(l.direction, l.direction));
@@ -398,8 +397,7 @@ void validate_light(Light& l, const std::string& where) {
 }
 
 LightResult deferred_lighting(const GBufferRef& g, const std::vector<Light>& in_lights, const LightSettings& s) {
-  if (s.impl != "tiled" && s.impl != "brute")
-    throw_usage("lighting impl: " + s.impl + " is not tiled or brute");
+  if (s.impl != "tiled" && s.impl != "brute") throw_usage("lighting impl: " + s.impl + " is not tiled or brute");
   if (s.threads < 0) throw_usage("--threads: must be >= 0");
   const std::vector<Light> lights = checked_lights(in_lights);
   if (s.layers && static_cast<int>(lights.size()) > kMaxLightLayers)
@@ -412,8 +410,7 @@ LightResult deferred_lighting(const GBufferRef& g, const std::vector<Light>& in_
   for (const Light& l : lights) prep.push_back(prepare(l));
   // The chapter's CPU-side test: is the camera inside the (grown) light sphere?
   std::vector<char> camera_inside(n, 0);
-  for (int k = 0; k < n; ++k)
-    camera_inside[k] = prep[k].local && dot3(prep[k].pos, prep[k].pos) <= prep[k].stencil_r2;
+  for (int k = 0; k < n; ++k) camera_inside[k] = prep[k].local && dot3(prep[k].pos, prep[k].pos) <= prep[k].stencil_r2;
 
   LightResult r;
   r.lit = Image(b.w, b.h, 3, 0.0f);

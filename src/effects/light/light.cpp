@@ -301,14 +301,40 @@ bool inside_volume(const Prepared& l, bool camera_inside, const V3& d, double z,
   return true;
 }
 
+// The first pixel (raster order) at which `bad` holds, or −1; rows are scanned in parallel (the
+// fixed cost of a lighting pass is mostly these checks), and the answer is the same for every
+// thread count.
+template <class Bad>
+long long first_bad(const Image& im, int c, Bad bad) {
+  std::vector<long long> first(im.height(), -1);
+  const float* p = im.plane(c);
+  core::parallel_for(
+      im.height(),
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          const float* row = p + static_cast<std::size_t>(y) * im.width();
+          for (int x = 0; x < im.width(); ++x)
+            if (bad(row[x])) {
+              first[y] = static_cast<long long>(y) * im.width() + x;
+              break;
+            }
+        }
+      },
+      16);
+  for (long long f : first)
+    if (f >= 0) return f;
+  return -1;
+}
+
+std::string pixel_of(const Image& im, long long i) {
+  return "(" + std::to_string(i % im.width()) + ", " + std::to_string(i / im.width()) + ")";
+}
+
 void check_plane_finite(const Image* im, const char* what) {
   if (!im) return;
   for (int c = 0; c < im->channels(); ++c) {
-    const float* p = im->plane(c);
-    for (std::size_t i = 0; i < im->plane_size(); ++i)
-      if (!std::isfinite(p[i]))
-        throw_bad_input(std::string(what) + ": non-finite value at pixel (" + std::to_string(i % im->width()) + ", " +
-                        std::to_string(i / im->width()) + ")");
+    const long long i = first_bad(*im, c, [](float v) { return !std::isfinite(v); });
+    if (i >= 0) throw_bad_input(std::string(what) + ": non-finite value at pixel " + pixel_of(*im, i));
   }
 }
 
@@ -335,12 +361,9 @@ Buffers check_and_bind(const GBufferRef& g, double hfov_deg, const Image* ao) {
                       std::to_string(p.im->channels()));
     check_plane_finite(p.im, p.name);
   }
-  for (std::size_t i = 0; i < z.plane_size(); ++i) {
-    const float v = z.plane(0)[i];
-    if (!(v > 0))
-      throw_bad_input("depth: invalid value " + num(v) + " at pixel (" + std::to_string(i % z.width()) + ", " +
-                      std::to_string(i / z.width()) + ") (planar depth must be > 0 metres, +inf for the background)");
-  }
+  if (const long long i = first_bad(z, 0, [](float v) { return !(v > 0); }); i >= 0)
+    throw_bad_input("depth: invalid value " + num(z.plane(0)[i]) + " at pixel " + pixel_of(z, i) +
+                    " (planar depth must be > 0 metres, +inf for the background)");
   Buffers b;
   b.w = z.width();
   b.h = z.height();
@@ -403,7 +426,8 @@ LightResult deferred_lighting(const GBufferRef& g, const std::vector<Light>& in_
   if (s.layers && static_cast<int>(lights.size()) > kMaxLightLayers)
     throw_usage("light layers: " + std::to_string(lights.size()) + " lights, more than the " +
                 std::to_string(kMaxLightLayers) + " that can be written as layers");
-  const Buffers b = check_and_bind(g, s.hfov_deg, s.ao);
+  Buffers b;
+  core::with_threads(s.threads, [&] { b = check_and_bind(g, s.hfov_deg, s.ao); });
   const int n = static_cast<int>(lights.size());
   std::vector<Prepared> prep;
   prep.reserve(n);

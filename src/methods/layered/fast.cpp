@@ -1824,8 +1824,7 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
   Workspace& ws = ctx.workspace;
   const std::size_t npix = static_cast<std::size_t>(w) * h;
   float* w0 = ws.image("layered.w0", w, h, 1).plane(0);
-  std::uint16_t* code =
-      reinterpret_cast<std::uint16_t*>(ws.image("layered.code", static_cast<int>((npix + 1) / 2), 1, 1).plane(0));
+  std::uint16_t* code = ws.plane<std::uint16_t>("layered.code", npix);
 
   // Code pass. A fragment of CoC r has a non-zero matte in at most two adjacent layers (its
   // plateau layer at weight 1 and the nearer one on the ramp; anchors.cpp). With j the first
@@ -1843,11 +1842,11 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     nl[k] = plan.near_limit(k);
   }
   const int nb = (w + kBlock - 1) / kBlock;
-  Image& binfo = ws.image("layered.blocks", nb, h, 2);
-  std::uint32_t* bpres = reinterpret_cast<std::uint32_t*>(binfo.plane(0));
-  std::uint32_t* bhk = reinterpret_cast<std::uint32_t*>(binfo.plane(1));
-  std::uint32_t* bspan = reinterpret_cast<std::uint32_t*>(ws.image("layered.spans", 16 * nb, h, 1).plane(0));
-  std::uint32_t* bhole = reinterpret_cast<std::uint32_t*>(ws.image("layered.holes", 16 * nb, h, 1).plane(0));
+  const std::size_t nblocks = static_cast<std::size_t>(nb) * h;
+  std::uint32_t* bpres = ws.plane<std::uint32_t>("layered.block_layers", nblocks);
+  std::uint32_t* bhk = ws.plane<std::uint32_t>("layered.block_holes", nblocks);
+  std::uint32_t* bspan = ws.plane<std::uint32_t>("layered.spans", 16 * nblocks);
+  std::uint32_t* bhole = ws.plane<std::uint32_t>("layered.holes", 16 * nblocks);
   std::atomic<std::uint32_t> nonempty{0}, holes{0};
   std::atomic<bool> bail{false};
   std::optional<core::PassScope> code_pass(std::in_place, "code pass");
@@ -2021,12 +2020,11 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     int flip = 0, flip_q = 0;
     ZeroMap zero;  // where `half` is +0 (valid while `half` is)
   };
-  // Zero maps of the two sides (bytes in workspace float planes).
+  // Zero maps of the two sides (one byte per coarse row and column block).
   const int nbz = (w + kBlock - 1) / kBlock;
   // One size for both reductions (the half-resolution row count), so no buffer is resized.
   auto zero_store = [&](const std::string& name) {
-    const std::size_t bytes = static_cast<std::size_t>(nbz) * ((h + 1) / 2);
-    return reinterpret_cast<std::uint8_t*>(ws.image(name, static_cast<int>((bytes + 3) / 4), 1, 1).plane(0));
+    return ws.plane<std::uint8_t>(name, static_cast<std::size_t>(nbz) * ((h + 1) / 2));
   };
   Side B, F;
   for (std::size_t i = 0; i < jobs.size(); ++i) {

@@ -25,7 +25,6 @@ Pyramid make_pyramid(Workspace& ws, int w, int h, const std::string& prefix = "l
 // arithmetic, with shortcuts for empty and all-known blocks. Needs fine rows 2y and 2y + 1 (where it exists) only.
 void pull_upper_row(const Image& fine, const Image& fwt, Image& cv, Image& cwt, int y);
 
-
 // Pull of levels `first` … L (first >= 2) from the level below, then the push from the top
 // down to level 1: v ← w v + (1 − w) up(v_{l+1}) where w < 1. With first = 3, level 2 has
 // been pulled already, row by row, by the pass that wrote level 1 (pull_upper_row on level

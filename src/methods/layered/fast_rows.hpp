@@ -270,7 +270,6 @@ struct Matte {
 // bytes; fast_rows.cpp).
 ZeroMap build_zero_map(const Image& img, int factor, int fw, std::uint8_t* nz);
 
-
 // kBlock floats of +0: the rows of an accumulator that a ZeroMap shows to be +0.
 // Four rows, so that they have the row caches' layout (channel c at + c·kRowStride, which
 // the fused kernels rely on: fused_simd.hpp).

@@ -210,7 +210,6 @@ bool render_gaussian_fused(const MethodContext& ctx, const Fragments& frags, con
     }
   }
 
-
   // I = F over L_focus over B (final_composite's arithmetic; the focus layer on the fly).
   const FusedLayer* Lf = focus_full ? &units.back() : nullptr;
   const AccRows BR(B.full, B.half, B.factor, &B.zero), FR(F.full, F.half, F.factor, &F.zero);

@@ -258,8 +258,7 @@ class CompositeBands {
 
   void store_full(int b, int x0, int n, const Scratch& s) const {
     for (int dy = 0; dy < 4 && 4 * b + dy < h; ++dy)
-      for (int ch = 0; ch < 4; ++ch)
-        std::copy(s.rows[dy][ch], s.rows[dy][ch] + n, dst.full->row(ch, 4 * b + dy) + x0);
+      for (int ch = 0; ch < 4; ++ch) std::copy(s.rows[dy][ch], s.rows[dy][ch] + n, dst.full->row(ch, 4 * b + dy) + x0);
   }
 
   // composite.cpp's 4×4 box of the band's rows into quarter row b.

@@ -76,8 +76,7 @@ void final_row_general(const AccRows& BR, const AccRows& FR, int y, int x0, int 
   kern::one_minus(s.cur[3], n, t);
   if (FR.present()) kern::one_minus(front[3], n, u);
   for (int c = 0; c < 4; ++c)
-    kern::final_channel(s.cur[c], t, BR.present() ? back[c] : nullptr, u, FR.present() ? front[c] : nullptr, n,
-                        o[c]);
+    kern::final_channel(s.cur[c], t, BR.present() ? back[c] : nullptr, u, FR.present() ? front[c] : nullptr, n, o[c]);
 }
 
 }  // namespace
@@ -85,28 +84,27 @@ void final_row_general(const AccRows& BR, const AccRows& FR, int y, int x0, int 
 void final_pass(const FusedLayer* Lf, const AccRows& BR, const AccRows& FR, Image& out) {
   const int w = out.width(), h = out.height();
   const int nbf = (w + kBlock - 1) / kBlock;
-  core::parallel_for(
-      (h + 3) / 4,
-      [&](int b0, int b1) {
-        std::unique_ptr<FinalScratch> sp(new FinalScratch);  // default-initialised (see composite_pass)
-        std::unique_ptr<HCache[]> caches(new HCache[3 * nbf]);
-        const FinalCaches fc{caches.get(), caches.get() + nbf, caches.get() + 2 * nbf};
-        FinalScratch& s = *sp;
-        for (int b = b0; b < b1; ++b)
-          for (int x0 = 0; x0 < w; x0 += kBlock)
-            for (int y = 4 * b; y < std::min(h, 4 * b + 4); ++y) {
-              const int n = std::min(kBlock, w - x0);
-              const int bi = x0 / kBlock;
-              focus_row(Lf, y, x0, n, fc.focus[bi], s.cur);
-              float* o[4];
-              for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
-              if (!BR.full && !FR.full)
-                final_row_reduced(BR, FR, y, x0, n, fc.back[bi], fc.front[bi], s.cur, o);
-              else
-                final_row_general(BR, FR, y, x0, n, fc.back[bi], fc.front[bi], s, o);
-            }
-      },
-      1);
+  core::parallel_for((h + 3) / 4,
+                     [&](int b0, int b1) {
+                       std::unique_ptr<FinalScratch> sp(new FinalScratch);  // default-initialised (see composite_pass)
+                       std::unique_ptr<HCache[]> caches(new HCache[3 * nbf]);
+                       const FinalCaches fc{caches.get(), caches.get() + nbf, caches.get() + 2 * nbf};
+                       FinalScratch& s = *sp;
+                       for (int b = b0; b < b1; ++b)
+                         for (int x0 = 0; x0 < w; x0 += kBlock)
+                           for (int y = 4 * b; y < std::min(h, 4 * b + 4); ++y) {
+                             const int n = std::min(kBlock, w - x0);
+                             const int bi = x0 / kBlock;
+                             focus_row(Lf, y, x0, n, fc.focus[bi], s.cur);
+                             float* o[4];
+                             for (int c = 0; c < 4; ++c) o[c] = out.row(c, y) + x0;
+                             if (!BR.full && !FR.full)
+                               final_row_reduced(BR, FR, y, x0, n, fc.back[bi], fc.front[bi], s.cur, o);
+                             else
+                               final_row_general(BR, FR, y, x0, n, fc.back[bi], fc.front[bi], s, o);
+                           }
+                     },
+                     1);
 }
 
 }  // namespace dofkit::detail::layered

@@ -72,8 +72,7 @@ struct FusedLayer {
   // bpres has no such pixel in the block.
   // With zero_outside false, o outside the span is left as it was (the caller fills what it
   // reads there).
-  std::pair<int, int> matte(int y, int x0, int n, float (*o)[kBlock], std::uint8_t* hb,
-                            bool zero_outside = true) const;
+  std::pair<int, int> matte(int y, int x0, int n, float (*o)[kBlock], std::uint8_t* hb, bool zero_outside = true) const;
   // The layer with its holes filled.
   //
   // The fill (fill_row, or finish_fill for a 1×1 image) changes hole pixels only and leaves

@@ -38,8 +38,7 @@ struct CodeSummary {
   std::uint32_t nonempty = 0, holes = 0;
 };
 /// The codes of one fragment per pixel (colour, CoC) under `plan`; holes only with do_fill.
-CodeSummary code_pass(const Image& color, const Image& coc, const LayerPlan& plan, bool do_fill,
-                      const CodePlanes& out);
+CodeSummary code_pass(const Image& color, const Image& coc, const LayerPlan& plan, bool do_fill, const CodePlanes& out);
 
 // ---------------------------------------------------------------------------------------
 // Composite pass (fused_composite.cpp).

@@ -136,5 +136,4 @@ void build_fold_kernel(const std::vector<std::pair<float, float>>& offsets, int 
   k.ok = k.pairs.size() + k.single.size() + k.e.size() <= texels.size();
 }
 
-
 }  // namespace dofkit::detail::sterna::fast

@@ -6,7 +6,7 @@
 #   scripts/sanitize, not only a fuzzing run.
 # Needs the targets dofkit_io and dofkit_scene, and dofkit_cli_commands (the CLI's
 # subcommands without main(), an object library).
-set(DOFKIT_FUZZ_HARNESSES load_render exr png jpeg tiff layers render cli CACHE INTERNAL "")
+set(DOFKIT_FUZZ_HARNESSES load_render exr png jpeg tiff layers render cli json CACHE INTERNAL "")
 set(_dofkit_fuzz_dir ${CMAKE_CURRENT_LIST_DIR})
 
 function(dofkit_fuzz_harnesses prefix driver)
@@ -26,6 +26,9 @@ function(dofkit_fuzz_harnesses prefix driver)
   # The command line: the subcommands exactly as the dofkit executable builds them.
   add_executable(${prefix}cli ${d}/fuzz_cli.cpp ${driver})
   target_link_libraries(${prefix}cli PRIVATE dofkit_cli_commands)
+  # The JSON files the commands read (camera.json, ...), through the CLI's own readers.
+  add_executable(${prefix}json ${d}/fuzz_json.cpp ${driver})
+  target_link_libraries(${prefix}json PRIVATE dofkit_cli_commands)
   foreach(h ${DOFKIT_FUZZ_HARNESSES})
     target_include_directories(${prefix}${h} PRIVATE ${d})
     target_link_libraries(${prefix}${h} PRIVATE dofkit_io dofkit_scene OpenImageIO::OpenImageIO)

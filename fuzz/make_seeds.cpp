@@ -299,6 +299,16 @@ int main(int argc, char** argv) {
   bytes_seed(root / "cli", "render_frames", {0x80, 0, 8, 5, 4, 39, 18});
   bytes_seed(root / "cli", "compare", {0x81});
   bytes_seed(root / "cli", "methods", {2});
+  // The JSON files: control byte 0 (camera.json), then the file.
+  const auto json_seed = [&](const std::string& name, const std::string& text) {
+    std::vector<unsigned char> b{0};
+    b.insert(b.end(), text.begin(), text.end());
+    bytes_seed(root / "json", name, b);
+  };
+  json_seed("camera", R"({"hfov_deg": 55, "width": 64, "height": 36, "near_m": 0.1, "far_m": 100})");
+  json_seed("camera_no_size", R"({"hfov_deg": 90.5})");
+  json_seed("camera_wrong_size", R"({"hfov_deg": 40, "width": 65})");
+  json_seed("camera_bad_fov", R"({"hfov_deg": 180})");
   std::printf("make_seeds: wrote the seed corpora to %s\n", root.c_str());
   return 0;
 }

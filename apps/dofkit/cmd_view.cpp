@@ -37,6 +37,7 @@
 #include "dofkit/error.hpp"
 #include "dofkit/render.hpp"
 #include "io/image_io.hpp"
+#include "io/layers_io.hpp"
 #include "io/srgb.hpp"
 #include "metrics/metrics.hpp"
 #include "view_page.hpp"
@@ -243,8 +244,36 @@ RenderSettings settings_from_flags(const std::vector<std::string>& flags, const 
 // --- images ------------------------------------------------------------------------------
 
 // Box-filtered colour and point-sampled depth at `w` × `h` (the depth of the pixel at each
-// cell's centre: averaging depths across an edge would invent surfaces).
+// cell's centre: averaging depths across an edge would invent surfaces). A layered frame is
+// point-sampled whole (colour, depth and every layer at the cell's centre pixel), so that each
+// preview fragment keeps its own colour, coverage and depth together.
+Frame point_sample(const Frame& in, int w, int h) {
+  Frame out;
+  const int W = in.width(), H = in.height();
+  const auto centre = [](int i, int n, int N) {
+    const int a = static_cast<int>(static_cast<long long>(i) * N / n);
+    const int b = std::max(a + 1, static_cast<int>(static_cast<long long>(i + 1) * N / n));
+    return std::min(N - 1, (a + b) / 2);
+  };
+  std::vector<int> xs(w), ys(h);
+  for (int x = 0; x < w; ++x) xs[x] = centre(x, w, W);
+  for (int y = 0; y < h; ++y) ys[y] = centre(y, h, H);
+  const auto sample = [&](const Image& img) {
+    Image o(w, h, img.channels());
+    for (int c = 0; c < img.channels(); ++c)
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) o.at(x, y, c) = img.at(xs[x], ys[y], c);
+    return o;
+  };
+  out.color = sample(in.color);
+  out.depth = sample(in.depth);
+  for (const Image& l : in.layer_color) out.layer_color.push_back(sample(l));
+  for (const Image& l : in.layer_depth) out.layer_depth.push_back(sample(l));
+  return out;
+}
+
 Frame downscale(const Frame& in, int w, int h) {
+  if (in.has_layers()) return point_sample(in, w, h);
   Frame out;
   out.color.resize(w, h, 4);
   out.depth.resize(w, h, 1);
@@ -557,7 +586,7 @@ struct Inputs {
   Frame frame;
   Image truth;  // empty: none
   bool display_referred = false;
-  std::string color_path, depth_path, scene_name;
+  std::string color_path, depth_path, layers_path, scene_name;
 };
 
 class ViewServer {
@@ -628,7 +657,10 @@ class ViewServer {
       throw_bad_input("--port " + std::to_string(a_.port) + ": cannot listen on 127.0.0.1 (in use or not allowed)");
     const std::string url = "http://127.0.0.1:" + std::to_string(port_) + "/?token=" + token_;
     std::cout << url << std::endl;
-    std::cerr << "dofkit view: serving " << (in_.scene_name.empty() ? in_.color_path : "scene " + in_.scene_name)
+    std::cerr << "dofkit view: serving "
+              << (!in_.scene_name.empty()  ? "scene " + in_.scene_name
+                  : in_.color_path.empty() ? in_.layers_path
+                                           : in_.color_path)
               << " (" << in_.frame.width() << "x" << in_.frame.height() << ") on 127.0.0.1:" << port_
               << "; saves go to " << save_dir_.string() << "; Ctrl-C stops\n";
     if (!a_.no_browser) open_browser(url);
@@ -758,9 +790,14 @@ class ViewServer {
       for (const DebugViewInfo& v : m.debug_views) views.push_back(v.name);
       methods_j.push_back({{"name", m.name}, {"debug_views", views}, {"aperture", m.aperture}});
     }
-    json j{{"width", in_.frame.width()}, {"height", in_.frame.height()}, {"ground_truth", !in_.truth.empty()},
-           {"scene", in_.scene_name},    {"color", in_.color_path},      {"save_dir", save_dir_.string()},
-           {"state", to_json(start_)},   {"methods", methods_j}};
+    json j{{"width", in_.frame.width()},
+           {"height", in_.frame.height()},
+           {"ground_truth", !in_.truth.empty()},
+           {"scene", in_.scene_name},
+           {"color", in_.color_path.empty() ? in_.layers_path : in_.color_path},
+           {"save_dir", save_dir_.string()},
+           {"state", to_json(start_)},
+           {"methods", methods_j}};
     res.set_content(j.dump(), "application/json");
   }
 
@@ -965,18 +1002,44 @@ void run_view(ViewArgs& a) {
     a.depth = (dir / "depth.exr").string();
     in.scene_name = scene.value("scene", dir.filename().string());
   }
-  if (!a.layers.empty())
-    throw_usage("--layers: not supported by view yet (preview a layered input with --color and --depth)");
-  if (a.color.empty()) throw_usage("view: give a scene folder (made by dofkit scene) or --color IMG [--depth DEPTH]");
+  if (!a.layers.empty() && !a.scene_dir.empty())
+    throw_usage("view: give a scene folder or --layers, not both (a scene's layers: --layers DIR/layers.exr)");
+  if (a.color.empty() && a.layers.empty())
+    throw_usage("view: give a scene folder (made by dofkit scene), --color IMG [--depth DEPTH] or --layers FILE");
   if (a.camera.model_given()) a.camera.check();
   a.aperture.check();
   a.highlights.check();
   const io::DepthOptions depth_opt = a.depth_flags.build();
-  check_paths({{"--color", a.color}, {"--depth", a.depth}, {"--aperture-image", a.aperture.image_path()}}, {});
-  in.color_path = fs::absolute(a.color).string();
+  check_paths({{"--color", a.color},
+               {"--depth", a.depth},
+               {"--layers", a.layers},
+               {"--aperture-image", a.aperture.image_path()}},
+              {});
+  in.color_path = a.color.empty() ? std::string() : fs::absolute(a.color).string();
   in.depth_path = a.depth.empty() ? std::string() : fs::absolute(a.depth).string();
-  in.frame = while_doing("reading " + a.color, [&] { return io::load_frame(a.color, a.depth, depth_opt); });
-  in.display_referred = io::is_display_referred(a.color);
+  in.layers_path = a.layers.empty() ? std::string() : fs::absolute(a.layers).string();
+  const std::string& layers_path = in.layers_path;
+  if (layers_path.empty()) {
+    in.frame = while_doing("reading " + a.color, [&] { return io::load_frame(a.color, a.depth, depth_opt); });
+  } else {
+    // As `dofkit render --layers` reads them (at most its default 8 layers): the layers give the
+    // colour and depth unless --color / --depth override them.
+    in.frame = while_doing("reading " + a.layers, [&] {
+      Frame f;
+      if (!a.color.empty()) f.color = io::read_color(a.color);
+      if (!a.depth.empty()) f.depth = io::read_depth(a.depth, depth_opt);
+      io::read_layers(a.layers, f, 8);
+      if (f.depth.empty() && !a.color.empty() && (!depth_opt.channel.empty() || io::has_depth_channel(a.color)))
+        f.depth = io::read_depth(a.color, depth_opt);
+      if (!f.depth.same_size(f.color))
+        throw_bad_input((a.depth.empty() ? a.layers : a.depth) + ": depth is " + std::to_string(f.depth.width()) + "x" +
+                        std::to_string(f.depth.height()) + " but colour is " + std::to_string(f.color.width()) + "x" +
+                        std::to_string(f.color.height()));
+      validate_frame(f, (a.color.empty() ? a.layers : a.color).c_str());
+      return f;
+    });
+  }
+  in.display_referred = !a.color.empty() && io::is_display_referred(a.color);
   if (!scene.is_null()) {
     const fs::path gt = fs::path(a.scene_dir) / "ground_truth.exr";
     if (fs::exists(gt)) {
@@ -984,7 +1047,8 @@ void run_view(ViewArgs& a) {
       if (!in.truth.same_size(in.frame.color)) throw_bad_input(gt.string() + ": not the size of color.exr");
     }
   }
-  input_flags = {"--color", in.color_path};
+  if (!layers_path.empty()) input_flags = {"--layers", layers_path};
+  if (!in.color_path.empty()) input_flags.insert(input_flags.end(), {"--color", in.color_path});
   if (!in.depth_path.empty()) input_flags.insert(input_flags.end(), {"--depth", in.depth_path});
   input_flags.insert(input_flags.end(), a.depth_flag_args.begin(), a.depth_flag_args.end());
 
@@ -1035,11 +1099,12 @@ void run_view(ViewArgs& a) {
   if (!a.highlights.text().empty() && a.highlights.text().find("--highlight-boost") == std::string::npos)
     throw_usage("view: of the highlight flags only --highlight-boost is supported yet");
 
-  fs::path save_dir = a.save_dir.empty() ? fs::absolute(a.color).parent_path() : fs::path(a.save_dir);
+  const fs::path input_dir = fs::absolute(a.color.empty() ? a.layers : a.color).parent_path();
+  fs::path save_dir = a.save_dir.empty() ? input_dir : fs::path(a.save_dir);
   std::error_code ec;
   save_dir = fs::canonical(save_dir, ec);
   if (ec || !fs::is_directory(save_dir))
-    throw_bad_input("--save-dir " + (a.save_dir.empty() ? fs::absolute(a.color).parent_path().string() : a.save_dir) +
+    throw_bad_input("--save-dir " + (a.save_dir.empty() ? input_dir.string() : a.save_dir) +
                     ": not an existing folder");
 
   ViewServer server(a, std::move(in), st, input_flags, save_dir);
@@ -1050,7 +1115,7 @@ void run_view(ViewArgs& a) {
 
 const char* kViewFooter = R"(
 Opens a local page (http://127.0.0.1:PORT/?token=..., printed as the first line of stdout) over
-one image + depth or a scene folder made by `dofkit scene` (then the ground truth is shown for
+one image + depth, a layered or deep EXR (--layers), or a scene folder made by `dofkit scene` (then the ground truth is shown for
 A/B with its PSNR). Click the image to focus there (as --focus-at), shift-click to read the depth;
 sliders set the lens, aperture and highlight recovery; Save renders at full size into --save-dir
 and shows the equivalent `dofkit render` command (its output is the saved file, bit for bit).
@@ -1072,7 +1137,9 @@ void add_view_command(CLI::App& app) {
       ->group(in);
   cmd->add_option("--color", a->color, "colour image, as for render")->group(in);
   cmd->add_option("--depth", a->depth, "depth map, as for render (default: the Z channel of --color)")->group(in);
-  cmd->add_option("--layers", a->layers, "(not supported by view yet: refused)")->group(in);
+  cmd->add_option("--layers", a->layers,
+                  "multi-layer or deep EXR, as for render (the colour and depth unless --color / --depth are given)")
+      ->group(in);
   a->budget.add(cmd);
   a->depth_flags.add(cmd);
   a->camera.add(cmd, "Starting camera (the page changes it; --f-number or --blur-at-infinity)");

@@ -75,7 +75,7 @@ progress{width:100%}
 "use strict";
 const token = new URLSearchParams(location.search).get("token") || "";
 const $ = (id) => document.getElementById(id);
-const V = window.dofkitView = {frames: 0, latencies: [], fullLatencies: [], renderMs: [], fullRenderMs: [], serverMs: [], fullServerMs: [], lastSeq: 0, state: null, info: null, busy: false};
+const V = window.dofkitView = {frames: 0, firstMsPerPixel: 0, firstWidths: [], latencies: [], fullLatencies: [], renderMs: [], fullRenderMs: [], serverMs: [], fullServerMs: [], lastSeq: 0, state: null, info: null, busy: false};
 let info, state, start;
 const main = $("main"), canvas = $("view"), ctx = canvas.getContext("2d");
 const A = document.createElement("canvas"), B = document.createElement("canvas"), O = document.createElement("canvas");
@@ -216,9 +216,18 @@ function changed() {
   requestPreview(V.changedAt);
   updateCommand();
 }
-// A change is shown in two steps: a preview at half the displayed size first (a quarter of
-// the pixels: quick feedback while a slider moves), then one at the displayed size, requested
-// once the half-size one is on screen and no newer change has come.
+// A change is shown in two steps: a small preview first (quick feedback while a slider
+// moves), then one at the displayed size, requested once the first is on screen and no newer
+// change has come. The first step's width is chosen so that the server's time for it stays
+// near kFirstStepMs, from the time per pixel the previous first steps took: at most half the
+// displayed width, at least an eighth of it.
+const kFirstStepMs = 60;
+function firstStepWidth(pw) {
+  let w = Math.round(pw / 2);
+  if (V.firstMsPerPixel > 0)
+    w = Math.min(w, Math.round(Math.sqrt((kFirstStepMs / V.firstMsPerPixel) * info.width / info.height)));
+  return Math.max(w, 8, Math.round(pw / 8));
+}
 async function requestPreview(t0, full) {
   const ov = $("overlay").value;
   const settings = Object.assign({}, state, {debug_view: ov.startsWith("debug:") ? ov.slice(6) : ""});
@@ -226,7 +235,7 @@ async function requestPreview(t0, full) {
   const coarse = !full && pw >= 320;
   inflight++; V.busy = true; $("status").textContent = "rendering…";
   try {
-    const r = await post("/api/preview", {settings, width: coarse ? Math.round(pw / 2) : pw, coc_map: ov === "coc"});
+    const r = await post("/api/preview", {settings, width: coarse ? firstStepWidth(pw) : pw, coc_map: ov === "coc"});
     if (r.status === 409) return;
     const seq = +r.headers.get("X-Seq");
     const buf = await r.arrayBuffer();
@@ -244,7 +253,7 @@ async function requestPreview(t0, full) {
     if (!o) O.width = 0;
     draw();
     const psnr = r.headers.get("X-Psnr-Db");
-    $("status").textContent = `${w}×${h} preview${coarse ? " (half size; full size follows)" : ""}, ${state.method}, ${r.headers.get("X-Render-Ms")} ms render` + (psnr ? `, PSNR ${psnr} dB vs the ground truth (the scene's camera, at preview size)` : "");
+    $("status").textContent = `${w}×${h} preview${coarse ? " (first step; full size follows)" : ""}, ${state.method}, ${r.headers.get("X-Render-Ms")} ms render` + (psnr ? `, PSNR ${psnr} dB vs the ground truth (the scene's camera, at preview size)` : "");
     V.psnr = psnr ? +psnr : null;
     showError("");
     await new Promise((res) => requestAnimationFrame(() => res()));
@@ -252,6 +261,11 @@ async function requestPreview(t0, full) {
     (coarse ? V.latencies : V.fullLatencies).push(performance.now() - t0);
     (coarse ? V.renderMs : V.fullRenderMs).push(+r.headers.get("X-Render-Ms"));
     (coarse ? V.serverMs : V.fullServerMs).push(+r.headers.get("X-Server-Ms"));
+    if (coarse) {
+      const rate = +r.headers.get("X-Server-Ms") / (w * h);
+      V.firstMsPerPixel = V.firstMsPerPixel > 0 ? 0.5 * (V.firstMsPerPixel + rate) : rate;
+      V.firstWidths.push(w);
+    }
     if (coarse && local === nextLocal) requestPreview(t0, true);
   } catch (e) { showError(e.message); $("status").textContent = ""; }
   finally { inflight--; V.busy = inflight > 0; }

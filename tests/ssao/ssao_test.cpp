@@ -163,15 +163,17 @@ TEST(Ao, FastPathsMatchThePlainOracles) {
     for (const Image* depth : {&in.depth, &pd}) {
       const Image* normals = depth == &pd ? &pn : &in.normals;
       for (const char* method : {"sc2", "gtao", "gtao:horizons"})
-        for (bool with_normals : {true, false}) {
-          const bool horizons = std::string(method) == "gtao:horizons";
-          AoSettings s = settings(horizons ? "gtao" : method, in.hfov, 0.3, {{"blur_passes", "2"}});
-          if (horizons) s.params["occluder_thickness_m"] = "0";
-          const AoResult fast = ambient_occlusion(*depth, with_normals ? normals : nullptr, s);
-          s.params["impl"] = "plain";
-          const AoResult plain = ambient_occlusion(*depth, with_normals ? normals : nullptr, s);
-          EXPECT_TRUE(same_bits(fast.ao, plain.ao)) << method << " " << w << "x" << h;
-        }
+        for (bool with_normals : {true, false})
+          for (const char* resolution : {"full", "half"}) {
+            const bool horizons = std::string(method) == "gtao:horizons";
+            AoSettings s =
+                settings(horizons ? "gtao" : method, in.hfov, 0.3, {{"blur_passes", "2"}, {"resolution", resolution}});
+            if (horizons) s.params["occluder_thickness_m"] = "0";
+            const AoResult fast = ambient_occlusion(*depth, with_normals ? normals : nullptr, s);
+            s.params["impl"] = "plain";
+            const AoResult plain = ambient_occlusion(*depth, with_normals ? normals : nullptr, s);
+            EXPECT_TRUE(same_bits(fast.ao, plain.ao)) << method << " " << resolution << " " << w << "x" << h;
+          }
     }
   }
 }
@@ -195,8 +197,10 @@ TEST(Ao, BlurKernelsMatchTheOracleBitForBit) {
 
 TEST(Ao, SameOutputForAnyThreadCount) {
   Input in = scene_input("ao_corner", 96, 54);
-  for (const char* method : {"sc2", "gtao"}) {
-    AoSettings s = settings(method, in.hfov, in.radius);
+  for (const char* method : {"sc2", "gtao", "sc2:half"}) {
+    const bool half = std::string(method) == "sc2:half";
+    AoSettings s = settings(half ? "sc2" : method, in.hfov, in.radius);
+    if (half) s.params["resolution"] = "half";
     s.threads = 1;
     const AoResult one = ambient_occlusion(in.depth, &in.normals, s);
     for (int t : {2, 3}) {
@@ -209,25 +213,33 @@ TEST(Ao, SameOutputForAnyThreadCount) {
 TEST(Ao, DebugViewsHoldEveryBuffer) {
   Input in = scene_input("ao_corner", 64, 36);
   for (const MethodInfo& m : ao_methods())
-    for (const DebugViewInfo& v : m.debug_views) {
-      AoSettings s = settings(m.name, in.hfov, in.radius, {{"blur_passes", "3"}});
-      s.debug_view = v.name;
-      if (v.name.rfind("blur", 0) == 0 && std::stoi(v.name.substr(4)) > 3) {
-        EXPECT_EQ(kind_of([&] { ambient_occlusion(in.depth, &in.normals, s); }), ErrorKind::usage) << v.name;
-        continue;
+    for (const DebugViewInfo& v : m.debug_views)
+      for (const char* resolution : {"full", "half"}) {
+        const bool half = std::string(resolution) == "half";
+        AoSettings s = settings(m.name, in.hfov, in.radius, {{"blur_passes", "3"}, {"resolution", resolution}});
+        s.debug_view = v.name;
+        if (v.name.rfind("blur", 0) == 0 && std::stoi(v.name.substr(4)) > 3) {
+          EXPECT_EQ(kind_of([&] { ambient_occlusion(in.depth, &in.normals, s); }), ErrorKind::usage) << v.name;
+          continue;
+        }
+        const AoResult r = ambient_occlusion(in.depth, &in.normals, s);
+        ASSERT_FALSE(r.debug.empty()) << m.name << " " << v.name;
+        if (v.name == "quarter_depth") {
+          EXPECT_EQ(r.debug.width(), 16);
+          EXPECT_EQ(r.debug.height(), 9);
+        } else {
+          EXPECT_EQ(r.debug.width(), 64);
+          EXPECT_EQ(r.debug.height(), 36);
+          EXPECT_EQ(r.debug.channels(), v.name == "normals" ? 3 : 1);
+        }
+        if (v.name == "blur3" && !half) EXPECT_TRUE(same_bits(r.debug, r.ao)) << m.name;
+        // Half resolution: the grid's buffers shown at full size; the grid pixels (2i, 2j) keep
+        // the blurred value in the output.
+        if (v.name == "blur3" && half)
+          for (int y = 0; y < 36; y += 2)
+            for (int x = 0; x < 64; x += 2)
+              EXPECT_EQ(r.debug.at(x, y), r.ao.at(x, y)) << m.name << " " << x << "," << y;
       }
-      const AoResult r = ambient_occlusion(in.depth, &in.normals, s);
-      ASSERT_FALSE(r.debug.empty()) << m.name << " " << v.name;
-      if (v.name == "quarter_depth") {
-        EXPECT_EQ(r.debug.width(), 16);
-        EXPECT_EQ(r.debug.height(), 9);
-      } else {
-        EXPECT_EQ(r.debug.width(), 64);
-        EXPECT_EQ(r.debug.height(), 36);
-        EXPECT_EQ(r.debug.channels(), v.name == "normals" ? 3 : 1);
-      }
-      if (v.name == "blur3") EXPECT_TRUE(same_bits(r.debug, r.ao)) << m.name;
-    }
   // The raw term is noisier than its blur, and the darker set is what the raw term keeps.
   AoSettings s = settings("sc2", in.hfov, in.radius);
   s.debug_view = "raw";
@@ -239,6 +251,51 @@ TEST(Ao, DebugViewsHoldEveryBuffer) {
   for (std::size_t i = 0; i < raw.plane_size(); ++i)
     EXPECT_EQ(raw.plane(0)[i], std::min(small.plane(0)[i], wide.plane(0)[i]));
   EXPECT_FALSE(same_bits(raw, ambient_occlusion(in.depth, &in.normals, settings("sc2", in.hfov, in.radius)).ao));
+}
+
+TEST(Ao, HalfResolutionUpsamplesWithoutCrossingDepthEdges) {
+  // 6x5 depth: z = 1 m in columns 0-2, 5 m in 3-5, sky in the last row; the grid holds the
+  // pixels (0|2|4, 0|2|4).
+  Image depth(6, 5, 1);
+  for (int y = 0; y < 5; ++y)
+    for (int x = 0; x < 6; ++x) depth.at(x, y) = y == 4 ? kInf : x < 3 ? 1.0f : 5.0f;
+  Image grid;
+  detail::ao::subsample2(depth, grid);
+  ASSERT_EQ(grid.width(), 3);
+  ASSERT_EQ(grid.height(), 3);
+  EXPECT_EQ(grid.at(1, 0), depth.at(2, 0));
+  const float g[9] = {0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 1.0f, 1.0f, 1.0f};  // the sky row holds 1
+  Image ao(6, 5, 1);
+  detail::ao::upsample_ao(depth, grid, g, 0.03f, ao.plane(0));
+  EXPECT_EQ(ao.at(2, 2), 0.5f);         // a grid pixel keeps its value
+  EXPECT_FLOAT_EQ(ao.at(1, 0), 0.15f);  // same surface: the bilinear mix
+  EXPECT_FLOAT_EQ(ao.at(1, 1), 0.3f);
+  EXPECT_EQ(ao.at(3, 0), 0.3f);  // z = 5: only the tap at x = 4, not the 1 m one at x = 2
+  EXPECT_FLOAT_EQ(ao.at(3, 1), 0.45f);
+  EXPECT_EQ(ao.at(3, 4), 1.0f);  // sky
+  EXPECT_EQ(ao.at(0, 3), 0.4f);  // the sky tap below is left out
+  // No candidate on the pixel's surface: the one of nearest depth.
+  depth.at(1, 0) = 3.5f;
+  detail::ao::upsample_ao(depth, grid, g, 0.03f, ao.plane(0));
+  EXPECT_EQ(ao.at(1, 0), 0.1f);
+
+  // On a scene: close to the full-resolution result; the grid's camera sees grid pixel i
+  // along the full-res pixel 2i's eye ray, and a point at full-res u at u / 2 + 0.25.
+  Input in = scene_input("ao_corner", 160, 90);
+  const AoSettings full = settings("sc2", in.hfov, in.radius, {{"preset", "tuned"}});
+  AoSettings half = full;
+  half.params["resolution"] = "half";
+  const Image a = ambient_occlusion(in.depth, &in.normals, full).ao;
+  const Image b = ambient_occlusion(in.depth, &in.normals, half).ao;
+  EXPECT_GT(metrics::compare_ao(a, b, in.depth).psnr_db, 20.0);
+  const detail::ao::Camera fc = detail::ao::make_camera(161, 91, 50), hc = detail::ao::half_camera(fc);
+  EXPECT_EQ(hc.w, 81);
+  EXPECT_EQ(hc.h, 46);
+  for (int i : {0, 17, 40, 80}) EXPECT_NEAR(hc.kx[i], fc.kx[2 * i], 1e-6) << i;
+  for (int j : {0, 23, 45}) EXPECT_NEAR(hc.ky[j], fc.ky[2 * j], 1e-6) << j;
+  const float sx = 0.37f, sy = -0.21f, sz = 2.9f;
+  EXPECT_NEAR(sx * (hc.f / sz) + hc.cx, 0.5f * (sx * (fc.f / sz) + fc.cx) + 0.25f, 1e-4);
+  EXPECT_NEAR(sy * (hc.f / sz) + hc.cy, 0.5f * (sy * (fc.f / sz) + fc.cy) + 0.25f, 1e-4);
 }
 
 TEST(Ao, ScreenRadiusLimiterCapsCloseUps) {

@@ -137,6 +137,36 @@ std::string read_file(const fs::path& p) {
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
 }
 
+// Saves `settings` as save/ok.exr through the page's API, waits for it, runs the command line
+// the server shows (its output renamed into `scratch`) and expects the same file bit for bit.
+void save_equals_render(const View& v, const fs::path& save, const fs::path& scratch, const json& settings) {
+  auto cli = v.client();
+  auto r =
+      cli.Post(v.with_token("/api/save"), json{{"path", "ok.exr"}, {"settings", settings}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  std::string command = json::parse(r->body)["command"];
+  json status;
+  for (int i = 0; i < 600; ++i) {
+    auto s = cli.Get(v.with_token("/api/save"));
+    ASSERT_TRUE(s);
+    status = json::parse(s->body);
+    if (status["state"] != "running") break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_EQ(status["state"], "done") << status.dump();
+  EXPECT_EQ(status["fraction"], 1.0);
+  const fs::path saved = save / "ok.exr", again = scratch / "again.exr";
+  ASSERT_TRUE(fs::exists(saved));
+  const std::string target = saved.string();
+  const auto at = command.find(target);
+  ASSERT_NE(at, std::string::npos) << command;
+  command.replace(at, target.size(), again.string());
+  command.replace(0, std::string("dofkit").size(), std::string(DOFKIT_BINARY_DIR) + "/dofkit");
+  ASSERT_EQ(std::system((command + " 2>/dev/null").c_str()), 0) << command;
+  EXPECT_EQ(read_file(saved), read_file(again)) << command;
+}
+
 TEST(ViewHttp, TokenAndHostAreRequired) {
   const Inputs in(64, 36);
   View v(base_args(in));
@@ -209,30 +239,8 @@ TEST(ViewHttp, SavePathsStayInsideTheSaveFolder) {
   EXPECT_FALSE(fs::exists(in.save / "ok.exr"));
 
   // A good save, then the command line it shows gives the same file bit for bit.
-  const json settings{{"model", "f_number"}, {"f_number", 2}, {"focus_at", {20, 10}}, {"blades", 6}};
-  r = cli.Post(v.with_token("/api/save"), json{{"path", "ok.exr"}, {"settings", settings}}.dump(), "application/json");
-  ASSERT_TRUE(r);
-  ASSERT_EQ(r->status, 202) << r->body;
-  std::string command = json::parse(r->body)["command"];
-  json status;
-  for (int i = 0; i < 600; ++i) {
-    auto s = cli.Get(v.with_token("/api/save"));
-    ASSERT_TRUE(s);
-    status = json::parse(s->body);
-    if (status["state"] != "running") break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  ASSERT_EQ(status["state"], "done") << status.dump();
-  EXPECT_EQ(status["fraction"], 1.0);
-  const fs::path saved = in.save / "ok.exr", again = in.dir / "again.exr";
-  ASSERT_TRUE(fs::exists(saved));
-  const std::string target = saved.string();
-  const auto at = command.find(target);
-  ASSERT_NE(at, std::string::npos) << command;
-  command.replace(at, target.size(), again.string());
-  command.replace(0, std::string("dofkit").size(), std::string(DOFKIT_BINARY_DIR) + "/dofkit");
-  ASSERT_EQ(std::system((command + " 2>/dev/null").c_str()), 0) << command;
-  EXPECT_EQ(read_file(saved), read_file(again)) << command;
+  save_equals_render(v, in.save, in.dir,
+                     json{{"model", "f_number"}, {"f_number", 2}, {"focus_at", {20, 10}}, {"blades", 6}});
   EXPECT_EQ(v.stop(), 0);
 }
 
@@ -334,6 +342,32 @@ TEST(ViewHttp, TwoHundredConcurrentPreviewsComputeOnlyTheNewest) {
   r = v.client().Get(v.with_token("/api/info"));
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(v.stop(), 0);
+}
+
+TEST(ViewHttp, LayeredInputPreviewsAndSavesAsRender) {
+  // A deep / multi-layer EXR (a built-in scene's layers.exr) as the only input.
+  const Inputs in(16, 9);
+  const fs::path scene = in.dir / "scene";
+  const std::string make = std::string(DOFKIT_BINARY_DIR) + "/dofkit scene occluder --size 96x54 --samples 4 --out '" +
+                           scene.string() + "' >/dev/null 2>&1";
+  ASSERT_EQ(std::system(make.c_str()), 0);
+  View v({"--layers", (scene / "layers.exr").string(), "--blur-at-infinity", "6", "--focus", "3", "--save-dir",
+          in.save.string(), "--threads", "2"});
+  auto cli = v.client();
+  auto r = cli.Get(v.with_token("/api/info"));
+  ASSERT_TRUE(r && r->status == 200);
+  EXPECT_EQ(json::parse(r->body)["width"], 96);
+  for (int w : {48, 96}) {
+    r = cli.Post(v.with_token("/api/preview"), json{{"width", w}}.dump(), "application/json");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << r->body;
+    EXPECT_EQ(r->get_header_value("X-Width"), std::to_string(w));
+  }
+  r = cli.Post(v.with_token("/api/command"), json::object().dump(), "application/json");
+  ASSERT_TRUE(r && r->status == 200);
+  EXPECT_NE(json::parse(r->body)["command"].get<std::string>().find("--layers"), std::string::npos) << r->body;
+  save_equals_render(v, in.save, in.dir, json{{"blur_at_infinity_px", 8}});
   EXPECT_EQ(v.stop(), 0);
 }
 

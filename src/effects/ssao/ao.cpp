@@ -2,6 +2,7 @@
 // views, and AoRenderer's buffers kept between frames.
 //   sc2:  geometry → quarter-res depth → raw term (two sample sets) → blur passes
 //   gtao: geometry → horizon search + slice integral → blur passes
+// With resolution=half the passes run on the grid of every other pixel, then upsample.
 // Every pass splits rows over the threads and computes each output pixel from its inputs
 // alone, so the result is the same for every thread count.
 #include <algorithm>
@@ -46,6 +47,7 @@ struct AoRenderer::Impl {
   GtaoParams gtao;
   AoResult result;
   Image normals, quarter, small, wide, tmp;
+  Image grid_depth, grid_normals, grid_ao;  ///< resolution=half: the sampled grid's buffers
 
   explicit Impl(AoSettings s) : settings(std::move(s)) {
     if (settings.method != "sc2" && settings.method != "gtao")
@@ -71,32 +73,49 @@ struct AoRenderer::Impl {
     }
   }
 
-  void run(const Image& depth, const Image* given_normals) {
-    check_inputs(depth, given_normals);
-    const int w = depth.width(), h = depth.height();
+  void run(const Image& full_depth, const Image* given_normals) {
+    check_inputs(full_depth, given_normals);
+    const int fw = full_depth.width(), fh = full_depth.height();
     const std::string& view = settings.debug_view;
     result.debug = Image();
     result.normals_reconstructed = given_normals == nullptr;
-    const Camera cam = make_camera(w, h, settings.hfov_deg);
     const bool sc2_method = settings.method == "sc2";
     const bool plain = sc2_method ? sc2.plain : gtao.plain;
-    result.ao.resize(w, h, 1);
-    float* ao = result.ao.plane(0);
+    const bool half = sc2_method ? sc2.half : gtao.half;
+    // The sampled grid: every pixel, or with resolution=half the pixels (2i, 2j) (halfres.cpp).
+    const Camera full_cam = make_camera(fw, fh, settings.hfov_deg);
+    const Camera cam = half ? half_camera(full_cam) : full_cam;
+    if (half) {
+      subsample2(full_depth, grid_depth);
+      if (given_normals) subsample2(*given_normals, grid_normals);
+    }
+    const Image& depth = half ? grid_depth : full_depth;
+    const Image* normals_in = half && given_normals ? &grid_normals : given_normals;
+    const int w = cam.w, h = cam.h;
+    // Debug views of grid-sized buffers are shown at full size.
+    const auto show = [&](Image img) { result.debug = half ? upsample_nearest(img, fw, fh) : std::move(img); };
+    result.ao.resize(fw, fh, 1);
+    if (half) grid_ao.resize(w, h, 1);
+    float* ao = half ? grid_ao.plane(0) : result.ao.plane(0);
     {
       core::PassScope scope("ao/normals");
-      if (given_normals)
-        normals_from_input(*given_normals, depth, normals);
+      if (normals_in)
+        normals_from_input(*normals_in, depth, normals);
       else
         normals_from_depth(depth, cam, normals);
     }
-    if (view == "normals") result.debug = normals_view(normals);
+    if (view == "normals") show(normals_view(normals));
     if (sc2_method) {
       {
         core::PassScope scope("ao/quarter_depth");
-        downsample_depth(depth, sc2.depth_downsample, quarter);
+        downsample_depth(full_depth, sc2.depth_downsample, quarter);
       }
       if (view == "quarter_depth") result.debug = quarter;
-      const Sc2Kernel k = make_sc2_kernel(sc2, settings.radius_m, w);
+      Sc2Kernel k = make_sc2_kernel(sc2, settings.radius_m, w);
+      if (half) {
+        k.q_scale = 0.5f;
+        k.q_offset = -0.125f;
+      }
       Sc2Out out{ao, nullptr, nullptr};
       if (view == "small_set") {
         small.resize(w, h, 1);
@@ -118,8 +137,8 @@ struct AoRenderer::Impl {
             },
             8);
       }
-      if (view == "small_set") result.debug = small;
-      if (view == "wide_set") result.debug = wide;
+      if (view == "small_set") show(small);
+      if (view == "wide_set") show(wide);
     } else {
       const GtaoKernel k = make_gtao_kernel(gtao, settings.radius_m, w);
       core::PassScope scope("ao/sample");
@@ -133,14 +152,18 @@ struct AoRenderer::Impl {
           },
           4);
     }
-    if (view == "raw") result.debug = plane_copy(ao, w, h);
+    if (view == "raw") show(plane_copy(ao, w, h));
     const BlurParams& bp = sc2_method ? sc2.blur : gtao.blur;
     if (bp.passes > 0) {
       core::PassScope scope("ao/blur");
       tmp.resize(w, h, 1);
       blur(depth, normals, bp, plain, ao, tmp.plane(0), [&](int pass, const float* plane) {
-        if (view == "blur" + std::to_string(pass)) result.debug = plane_copy(plane, w, h);
+        if (view == "blur" + std::to_string(pass)) show(plane_copy(plane, w, h));
       });
+    }
+    if (half) {
+      core::PassScope scope("ao/upsample");
+      upsample_ao(full_depth, depth, ao, static_cast<float>(bp.depth_threshold), result.ao.plane(0));
     }
   }
 };

@@ -35,11 +35,15 @@ Camera make_camera(int w, int h, double hfov_deg) {
   c.inv_f = 1.0f / c.f;
   c.cx = 0.5f * static_cast<float>(w);
   c.cy = 0.5f * static_cast<float>(h);
-  c.kx.resize(w);
-  c.ky.resize(h);
-  for (int x = 0; x < w; ++x) c.kx[x] = (static_cast<float>(x) + 0.5f - c.cx) * c.inv_f;
-  for (int y = 0; y < h; ++y) c.ky[y] = (static_cast<float>(y) + 0.5f - c.cy) * c.inv_f;
+  fill_rays(c);
   return c;
+}
+
+void fill_rays(Camera& c) {
+  c.kx.resize(c.w);
+  c.ky.resize(c.h);
+  for (int x = 0; x < c.w; ++x) c.kx[x] = (static_cast<float>(x) + 0.5f - c.cx) * c.inv_f;
+  for (int y = 0; y < c.h; ++y) c.ky[y] = (static_cast<float>(y) + 0.5f - c.cy) * c.inv_f;
 }
 
 void check_inputs(const Image& depth, const Image* normals) {

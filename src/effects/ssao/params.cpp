@@ -66,6 +66,15 @@ BlurParams parse_blur(const Params& p, const BlurParams& d) {
   return b;
 }
 
+ParamInfo resolution_info() {
+  return {"resolution", "full",
+          "full (every pixel sampled, as the chapter) or half (the samples and the blur on every other pixel "
+          "- a quarter of the work - then a depth-aware upsampling; blur_radius_px and noise_size_px are then in "
+          "half-res px)"};
+}
+
+bool parse_half(const Params& p) { return p.get_choice("resolution", "full", {"full", "half"}) == "half"; }
+
 std::vector<DebugViewInfo> blur_views(const std::string& prefix) {
   std::vector<DebugViewInfo> v;
   for (int k = 1; k <= 8; ++k)
@@ -129,6 +138,7 @@ std::vector<MethodInfo> method_infos() {
        "(the texel's pixel (1, 1))"},
   };
   for (auto& b : blur_infos(c.blur)) sc2.params.push_back(b);
+  sc2.params.push_back(resolution_info());
   sc2.params.push_back({"impl", "fast", "fast (Highway kernels, threads) or plain (the scalar oracle)"});
   sc2.debug_views = {
       {"normals", "the normals used (RGB = 0.5 + 0.5 N, camera space X right, Y up, Z towards the camera)"},
@@ -167,6 +177,7 @@ std::vector<MethodInfo> method_infos() {
       {"noise_size_px", num(g.noise_size_px), "side of the tiled slice-rotation / step-jitter texture, px, 2..16"},
   };
   for (auto& b : blur_infos(g.blur)) gtao.params.push_back(b);
+  gtao.params.push_back(resolution_info());
   gtao.params.push_back({"impl", "fast", "fast (Highway kernels, threads) or plain (the scalar oracle)"});
   gtao.debug_views = {
       {"normals", "the normals used (RGB = 0.5 + 0.5 N, camera space X right, Y up, Z towards the camera)"},
@@ -209,6 +220,7 @@ Sc2Params parse_sc2(const std::map<std::string, std::string>& values) {
   s.noise_size_px = p.get_int("noise_size_px", d.noise_size_px, 2, 16);
   s.depth_downsample = p.get_choice("depth_downsample", d.depth_downsample, {"min", "max", "mean", "nearest"});
   s.blur = parse_blur(p, d.blur);
+  s.half = parse_half(p);
   s.plain = p.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
   return s;
 }
@@ -227,6 +239,7 @@ GtaoParams parse_gtao(const std::map<std::string, std::string>& values) {
   g.max_screen_radius = p.get_double("max_screen_radius", d.max_screen_radius, 0.005, 1);
   g.noise_size_px = p.get_int("noise_size_px", d.noise_size_px, 2, 16);
   g.blur = parse_blur(p, d.blur);
+  g.half = parse_half(p);
   g.plain = p.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
   return g;
 }

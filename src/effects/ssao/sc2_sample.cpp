@@ -72,7 +72,8 @@ void sc2_span_plain(const Camera& cam, const Image& depth, const Image& n, const
             const float fi = cam.f / sz;
             const float u = sx * fi + cam.cx, v = sy * fi + cam.cy;
             if (u >= 0.0f && u < fw && v >= 0.0f && v < fh) {
-              const int qx = static_cast<int>(u * 0.25f), qy = static_cast<int>(v * 0.25f);
+              const int qx = static_cast<int>(u * k.q_scale + k.q_offset),
+                        qy = static_cast<int>(v * k.q_scale + k.q_offset);
               const float a = (sz - q[qy * qw + qx]) * inv_rs;
               const float ta = a * tscale;
               if (a > 0.0f && ta < static_cast<float>(kTableSize)) occ = table[static_cast<int>(ta)];

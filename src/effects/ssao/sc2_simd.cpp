@@ -35,7 +35,8 @@ int Sc2Row(const Camera& cam, const Image& depth, const Image& n, const Image& q
   const int n_offsets = k.n_small + k.n_wide;
   const std::size_t trow = static_cast<std::size_t>(y % k.noise) * n_offsets * k.period;
   const float *rfx = k.refl_x.data() + trow, *rfy = k.refl_y.data() + trow, *rfz = k.refl_z.data() + trow;
-  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), quarter_px = hn::Set(d, 0.25f);
+  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), quarter_px = hn::Set(d, k.q_scale);
+  const auto q_off = hn::Set(d, k.q_offset);
   const auto inf = hn::Set(d, std::numeric_limits<float>::infinity());
   const auto fw = hn::Set(d, static_cast<float>(cam.w)), fh = hn::Set(d, static_cast<float>(cam.h));
   const auto f = hn::Set(d, cam.f), cx = hn::Set(d, cam.cx), cy = hn::Set(d, cam.cy);
@@ -76,8 +77,8 @@ int Sc2Row(const Camera& cam, const Image& depth, const Image& n, const Image& q
             hn::And(hn::And(front, hn::And(hn::Ge(u, zero), hn::Lt(u, fw))), hn::And(hn::Ge(v, zero), hn::Lt(v, fh)));
         if (hn::AllFalse(d, on_screen)) continue;
         // Lanes off screen read texel 0 and are discarded below.
-        const auto qx = hn::ConvertTo(di, hn::IfThenElseZero(on_screen, hn::Mul(u, quarter_px)));
-        const auto qy = hn::ConvertTo(di, hn::IfThenElseZero(on_screen, hn::Mul(v, quarter_px)));
+        const auto qx = hn::ConvertTo(di, hn::IfThenElseZero(on_screen, hn::Add(hn::Mul(u, quarter_px), q_off)));
+        const auto qy = hn::ConvertTo(di, hn::IfThenElseZero(on_screen, hn::Add(hn::Mul(v, quarter_px), q_off)));
         const auto zs = hn::GatherIndex(d, q, hn::Add(hn::Mul(qy, vqw), qx));
         const auto a = hn::Mul(hn::Sub(sz, zs), inv_rs);
         const auto ta = hn::Mul(a, tscale);

@@ -11,6 +11,8 @@
 //   gtao_simd.cpp   pass 3 (gtao): the same, Highway kernels (within 1e-5 of the oracle)
 //   blur.cpp        pass 4: the depth- and normal-aware Gaussian, plain oracle + driver
 //   blur_simd.cpp   pass 4: its Highway row kernels (bit for bit the oracle's values)
+//   halfres.cpp     resolution=half: the sampled grid (every other pixel) and the
+//                   depth-aware upsampling of its AO to the full resolution
 //   ao.cpp          the pipeline, debug views, AoRenderer
 //
 // View space inside the effect is the image's: x right, y DOWN, z forward (metres), so a
@@ -57,6 +59,7 @@ struct Sc2Params {
   int noise_size_px = 8;                     ///< side of the tiled random-vector texture
   std::string depth_downsample = "nearest";  ///< min | max | mean | nearest (4×4 block → 1)
   BlurParams blur;
+  bool half = false;   ///< resolution=half: passes 1–4 on every other pixel, then upsampled
   bool plain = false;  ///< impl=plain: the oracle
 };
 
@@ -70,6 +73,7 @@ struct GtaoParams {
   double max_screen_radius = 1;       ///< × image width, px
   int noise_size_px = 4;
   BlurParams blur{2, 2, 0.03, 0.8};
+  bool half = false;
   bool plain = false;
 };
 
@@ -91,6 +95,8 @@ struct Camera {
   std::vector<float> kx, ky;  ///< (x + 0.5 − cx)·inv_f, (y + 0.5 − cy)·inv_f
 };
 Camera make_camera(int w, int h, double hfov_deg);
+/// kx, ky from w, h, cx, cy and inv_f (the kernels that recompute them use the same formula).
+void fill_rays(Camera& c);
 
 /// Checks the depth (z > 0 or +inf) and the normals (3 planes of the same size, finite where
 /// z is finite): Error(bad_input) naming the first bad pixel.
@@ -141,6 +147,9 @@ struct Sc2Kernel {
   float scale_small = 0, scale_wide = 0;
   float radius_small = 0, radius_wide = 0;  ///< metres, before the limiter
   float limit_px = 0;                       ///< largest wide radius on screen, px
+  /// The quarter-res texel under grid coordinate u: int(u · q_scale + q_offset); 0.25, 0 at
+  /// full resolution; 0.5, −0.125 on the half-res grid (whose u is the full-res u / 2 + 0.25).
+  float q_scale = 0.25f, q_offset = 0.0f;
 };
 Sc2Kernel make_sc2_kernel(const Sc2Params& p, double radius_m, int width);
 
@@ -226,5 +235,23 @@ int blur_v_row_simd(const VRows& rows, int r, const float* taps, float depth_t, 
 /// `tmp` scratch of the same size; after pass p (1-based) `on_pass(p, plane)` may copy it.
 void blur(const Image& depth, const Image& n, const BlurParams& p, bool plain, float* ao, float* tmp,
           const std::function<void(int, const float*)>& on_pass);
+
+// ---------------------------------------------------------------------------------------------
+// resolution=half (halfres.cpp)
+
+/// The sampled grid of resolution=half: pixel (i, j) is the full-res pixel (2i, 2j);
+/// ceil(W/2) × ceil(H/2), every channel of `in`.
+void subsample2(const Image& in, Image& out);
+/// The camera of that grid: F halved and the centre at cx / 2 + 0.25, so that grid pixel i's
+/// eye ray is the full-res pixel 2i's (to rounding) and a point at full-res coordinate u
+/// projects to u / 2 + 0.25.
+Camera half_camera(const Camera& full);
+/// The full-res AO from the grid's: a grid pixel keeps its value; any other pixel mixes its 2
+/// or 4 nearest grid pixels with equal (bilinear) weights, those whose depth differs from the
+/// pixel's by more than depth_t × its depth left out; none left: the grid pixel of nearest
+/// depth (1 where the pixel or every candidate is +inf). `depth` full res, `half_depth` = subsample2(depth).
+void upsample_ao(const Image& depth, const Image& half_depth, const float* half_ao, float depth_t, float* ao);
+/// A grid-sized plane shown at full size (nearest grid pixel), for the debug views.
+Image upsample_nearest(const Image& half, int w, int h);
 
 }  // namespace dofkit::detail::ao

@@ -6,7 +6,7 @@
 #   scripts/sanitize, not only a fuzzing run.
 # Needs the targets dofkit_io and dofkit_scene, and dofkit_cli_commands (the CLI's
 # subcommands without main(), an object library).
-set(DOFKIT_FUZZ_HARNESSES load_render exr png jpeg tiff layers render cli json CACHE INTERNAL "")
+set(DOFKIT_FUZZ_HARNESSES load_render exr png jpeg tiff layers render cli json phone CACHE INTERNAL "")
 set(_dofkit_fuzz_dir ${CMAKE_CURRENT_LIST_DIR})
 
 function(dofkit_fuzz_harnesses prefix driver)
@@ -23,6 +23,8 @@ function(dofkit_fuzz_harnesses prefix driver)
   target_compile_definitions(${prefix}tiff PRIVATE FUZZ_EXTENSION=".tif")
   target_compile_definitions(${prefix}layers PRIVATE FUZZ_EXTENSION=".exr" FUZZ_LAYERS=1)
   add_executable(${prefix}render ${d}/fuzz_render.cpp ${driver})
+  # Phone photos' embedded depth: XMP, base64, GDepth JPEGs, HEIF depth images.
+  add_executable(${prefix}phone ${d}/fuzz_phone.cpp ${driver})
   # The command line: the subcommands exactly as the dofkit executable builds them.
   add_executable(${prefix}cli ${d}/fuzz_cli.cpp ${driver})
   target_link_libraries(${prefix}cli PRIVATE dofkit_cli_commands)

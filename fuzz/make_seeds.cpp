@@ -20,6 +20,7 @@
 #include "dofkit/frame.hpp"
 #include "io/image_io.hpp"
 #include "io/layers_io.hpp"
+#include "io/phone_depth.hpp"
 
 namespace fs = std::filesystem;
 using namespace dofkit;
@@ -299,6 +300,46 @@ int main(int argc, char** argv) {
   bytes_seed(root / "cli", "render_frames", {0x80, 0, 8, 5, 4, 39, 18});
   bytes_seed(root / "cli", "compare", {0x81});
   bytes_seed(root / "cli", "methods", {2});
+  // Phone photos (fuzz_phone.cpp): an XMP packet, base64 text, a GDepth JPEG (a 4x3 8-bit PNG
+  // depth in the standard XMP), and the start of a HEIF file.
+  {
+    const fs::path phone = root / "phone";
+    const auto text_seed = [&](const std::string& name, unsigned char control, const std::string& text) {
+      std::vector<unsigned char> b = {control};
+      b.insert(b.end(), text.begin(), text.end());
+      bytes_seed(phone, name, b);
+    };
+    const auto packet = [](const std::string& attrs) {
+      return "<?xpacket begin=\"\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?><x:xmpmeta xmlns:x=\"adobe:ns:meta/\"><rdf:RDF "
+             "xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\"><rdf:Description rdf:about=\"\" "
+             "xmlns:GDepth=\"http://ns.google.com/photos/1.0/depthmap/\" " +
+             attrs + "/></rdf:RDF></x:xmpmeta><?xpacket end=\"w\"?>";
+    };
+    Image d(4, 3, 1);
+    for (int i = 0; i < 12; ++i) d.data()[i] = static_cast<float>(20 * i) / 255.0f;
+    io::write_image(tmp + ".png", d);
+    std::ifstream pin(tmp + ".png", std::ios::binary);
+    const std::string png((std::istreambuf_iterator<char>(pin)), {});
+    fs::remove(tmp + ".png");
+    const std::string xmp = packet(
+        "GDepth:Format=\"RangeInverse\" GDepth:Near=\"0.5\" GDepth:Far=\"8\" GDepth:Mime=\"image/png\" GDepth:Data=\"" +
+        io::encode_base64(png) + "\"");
+    text_seed("xmp", 0, xmp);
+    text_seed("base64", 1, io::encode_base64("a depth image"));
+    io::write_image(tmp + ".jpg", colour(8, 6, false));
+    std::ifstream jin(tmp + ".jpg", std::ios::binary);
+    const std::string jpg((std::istreambuf_iterator<char>(jin)), {});
+    fs::remove(tmp + ".jpg");
+    const std::string payload = std::string("http://ns.adobe.com/xap/1.0/\0", 29) + xmp;
+    const std::string segment = std::string("\xFF\xE1", 2) + static_cast<char>((payload.size() + 2) >> 8) +
+                                static_cast<char>((payload.size() + 2) & 255) + payload;
+    text_seed("gdepth_jpeg", 2, jpg.substr(0, 2) + segment + jpg.substr(2));
+    text_seed("gdepth_jpeg_far", 6, jpg.substr(0, 2) + segment + jpg.substr(2));
+    text_seed("heif_start", 3,
+              std::string("\0\0\0\x18"
+                          "ftypheic\0\0\0\0mif1heic",
+                          24));
+  }
   // The JSON files: control byte 0 (camera.json), then the file.
   const auto json_seed = [&](const std::string& name, const std::string& text) {
     std::vector<unsigned char> b{0};

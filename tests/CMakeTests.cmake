@@ -12,6 +12,11 @@ if(TARGET test_cli)
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/cli_common.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit/budget.cpp)
   target_include_directories(test_cli PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/apps/dofkit)
+  # render_phone_test.cpp makes its HEIC files with libheif's encoder.
+  if(LIBHEIF_FOUND)
+    target_link_libraries(test_cli PRIVATE PkgConfig::LIBHEIF)
+    target_compile_definitions(test_cli PRIVATE DOFKIT_HAVE_HEIF=1)
+  endif()
 endif()
 # Tests that run the built `dofkit` and parse its `--json` (bench_cli_test.cpp; the GPU
 # backend's tests/gpu_cli/).

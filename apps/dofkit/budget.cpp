@@ -74,8 +74,9 @@ void check_memory(std::uint64_t estimate, const std::string& what, const std::st
 
 std::uint64_t render_frame_bytes(const RenderSettings& settings, const FrameShape& s, bool sequence) {
   const double px = static_cast<double>(s.width) * s.height;
-  // Decoded inputs: colour RGBA float, depth, each kept layer's RGBA + z, mask + mask depth.
-  const double inputs = px * (16 + 4 + 20.0 * s.layers + (s.mask ? 8 : 0));
+  // Decoded inputs: colour RGBA float, depth, each kept layer's RGBA + z, mask + mask depth,
+  // the channels passed through to an EXR output (at most 4 bytes a sample).
+  const double inputs = px * (16 + 4 + 20.0 * s.layers + (s.mask ? 8 : 0) + 4.0 * s.passthrough_channels);
   // While a file is read: a reader's interleaved float buffer and its own decoded samples; a
   // layered EXR's every channel twice (OpenImageIO's buffer and dofkit's); a deep file's
   // samples as stored and as float, and its per-pixel tables.

@@ -27,6 +27,7 @@ struct FrameShape {
   std::uint64_t deep_sample_bytes = 0;  ///< a deep input's sample data (header_check.hpp)
   int layer_file_channels = 0;          ///< a layered EXR's channels (all are read)
   bool mask = false;                    ///< --mask and --mask-depth
+  int passthrough_channels = 0;         ///< an EXR colour's channels kept for the EXR output
 };
 
 /// Peak bytes of one `dofkit render` frame: the process, the decoded inputs (and a

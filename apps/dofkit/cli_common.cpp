@@ -409,8 +409,9 @@ void DepthFlags::add(CLI::App* cmd, const std::string& group) {
              "--depth-kind", kind_,
              "how the depth file encodes depth: z (planar distance along the view axis, default), distance "
              "(radial distance from the camera; needs --fov-deg), disparity (z = --disparity-scale / value; 8/16-bit "
-             "files: normalised, bright = near), ndc or ndc-reversed (window depth in [0,1]; needs --clip)")
-          ->check(CLI::IsMember({"z", "distance", "disparity", "ndc", "ndc-reversed"}))
+             "files: normalised, bright = near), ndc or ndc-reversed (window depth in [0,1]; needs --clip), linear "
+             "(z = NEAR + value (FAR - NEAR), value in [0,1]; needs --clip)")
+          ->check(CLI::IsMember({"z", "distance", "disparity", "ndc", "ndc-reversed", "linear"}))
           ->group(group);
   fov_ = add_number(cmd, "--fov-deg", fov_deg_, "horizontal field of view, degrees, for --depth-kind distance")
              ->group(group);
@@ -419,7 +420,7 @@ void DepthFlags::add(CLI::App* cmd, const std::string& group) {
                ->group(group);
   clip_ = cmd->add_option("--clip", clip_text_,
                           "NEAR,FAR clip distances, scene units (FAR may be inf), for --depth-kind ndc / ndc-reversed "
-                          "(default 0.1,1000)")
+                          "(default 0.1,1000) and linear (finite FAR, no default)")
               ->group(group);
   cmd->add_option("--depth-channel", channel_,
                   "NAME of the depth channel of a multi-channel file (exact, else ignoring case); default: chosen by "
@@ -459,7 +460,10 @@ io::DepthOptions DepthFlags::build() const {
   if (given(scale_) && o.kind != io::DepthKind::disparity)
     throw_usage("--disparity-scale: only applies with --depth-kind disparity");
   const bool ndc = o.kind == io::DepthKind::ndc || o.kind == io::DepthKind::ndc_reversed;
-  if (given(clip_) && !ndc) throw_usage("--clip: only applies with --depth-kind ndc or ndc-reversed");
+  const bool linear = o.kind == io::DepthKind::linear;
+  if (given(clip_) && !ndc && !linear)
+    throw_usage("--clip: only applies with --depth-kind ndc, ndc-reversed or linear");
+  if (linear && !given(clip_)) throw_usage("--depth-kind linear: needs --clip NEAR,FAR (the depths of 0 and 1)");
   o.fov_deg = fov_deg_;
   o.disparity_scale = disparity_scale_;
   if (given(clip_)) {

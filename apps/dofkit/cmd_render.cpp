@@ -33,6 +33,7 @@
 #include "commands.hpp"
 #include "dofkit/error.hpp"
 #include "dofkit/render.hpp"
+#include "io/exr_passthrough.hpp"
 #include "io/image_io.hpp"
 #include "io/layers_io.hpp"
 
@@ -59,8 +60,9 @@ struct RenderArgs {
   std::string backend = "cpu";
   int max_layers = 8;
   int bits = 0;
-  int coc_bits = 0;     // --coc-bits of a picture --output-coc (0 = the format's default)
-  double max_work = 0;  // 0 = the library's default
+  bool rgba_only = false;  // --rgba-only: an EXR --output without the colour EXR's other channels
+  int coc_bits = 0;        // --coc-bits of a picture --output-coc (0 = the format's default)
+  double max_work = 0;     // 0 = the library's default
   BudgetFlags budget;
   CameraFlags camera;
   DepthFlags depth_flags;
@@ -333,6 +335,10 @@ struct FrameInputs {
   Image mask, mask_depth;
   io::DepthFacts depth_facts;  // for the sanity warnings
   long frame_number = -1;      // with --frames: drives --focus-keys / --focus-at-keys
+  // An EXR --output: what the colour EXR carries beyond its colour (exr_passthrough.hpp), and
+  // the notes on what it could not carry (said once, with the first frame).
+  std::shared_ptr<const io::ExrPassthrough> passthrough;
+  std::vector<std::string> passthrough_notes;
 };
 // Sizes before pixels: every input's header (no pixel decoded), their sizes compared, and
 // the frame's estimated memory held to --max-memory. A mismatch, a bomb or a request too large
@@ -366,6 +372,8 @@ void check_frame_headers(const RenderArgs& a, const FramePaths& p, const RenderS
   shape.width = first.info.width;
   shape.height = first.info.height;
   shape.mask = !p.mask.empty();
+  if (!a.rgba_only && !p.output.empty() && !p.color.empty() && io::is_exr_path(p.output) && io::is_exr_path(p.color))
+    shape.passthrough_channels = std::max(0, seen.front().info.channels);
   if (!p.layers.empty()) {
     const io::ImageInfo& l = seen[p.color.empty() ? 0 : 1].info;
     // Deep: as many layers as the deepest pixel has samples, at most --max-layers (not known
@@ -429,6 +437,9 @@ FrameInputs read_inputs_checked(const RenderArgs& a, const FramePaths& p, const 
                       std::to_string(frame.color.width()) + "x" + std::to_string(frame.color.height()));
     validate_frame(frame, (p.color.empty() ? p.layers : p.color).c_str());
   }
+  if (!a.rgba_only && !p.output.empty() && !p.color.empty() && io::is_exr_path(p.output) && io::is_exr_path(p.color))
+    in.passthrough = io::ExrPassthrough::read(p.color, color_channels, frame.color.width(), frame.color.height(),
+                                              in.passthrough_notes);
   Image& mask = in.mask;
   Image& mask_depth = in.mask_depth;
   if (!p.mask.empty()) {
@@ -484,7 +495,12 @@ double render_and_write(const RenderArgs& a, const FramePaths& p, const FrameInp
 
   // 4. Outputs, all or nothing.
   OutputWriter out;
-  if (!p.output.empty()) out.add_image(p.output, result->image, out_opt);
+  if (!p.output.empty() && in.passthrough && !in.passthrough->empty())
+    out.add_file(p.output, [&](const std::string& temp) {
+      io::encode_exr_passthrough(temp, p.output, result->image, out_opt, *in.passthrough);
+    });
+  else if (!p.output.empty())
+    out.add_image(p.output, result->image, out_opt);
   if (!p.output_coc.empty())
     out.add_image(p.output_coc, io::is_exr_path(p.output_coc) ? result->coc : focus_zone_picture(result->coc), coc_opt);
   if (!p.debug_output.empty()) out.add_image(p.debug_output, result->debug, debug_opt);
@@ -542,6 +558,13 @@ struct SanityWarnings {
   }
 };
 
+// What the first frame's inputs say (once per run): where an embedded depth map came from,
+// and what an EXR output could not pass through.
+void say_input_notes(const FrameInputs& in) {
+  if (!in.depth_facts.embedded.empty()) std::cerr << "dofkit: note: depth from " << in.depth_facts.embedded << "\n";
+  for (const std::string& n : in.passthrough_notes) std::cerr << "dofkit: note: " << n << "\n";
+}
+
 void run_render(RenderArgs& a) {
   // 1. Flags and paths.
   if (a.debug_view == "list") {
@@ -591,6 +614,7 @@ void run_render(RenderArgs& a) {
   out_opt.compression = exr_compression(a.output);
   out_opt.png_level = png_level(a.output);
   if (!a.output.empty()) io::check_output_format(a.output, out_opt, "--output");
+  if (a.rgba_only && !io::is_exr_path(a.output)) throw_usage("--rgba-only: applies to an .exr --output");
   if (a.output.empty() && a.bits != 0) throw_usage("--bits " + std::to_string(a.bits) + ": applies to --output");
   io::WriteOptions coc_opt;
   coc_opt.channel_name = "Y";
@@ -765,6 +789,7 @@ void run_render(RenderArgs& a) {
     const FramePaths p = paths_of(-1);
     FrameInputs in = read_inputs(a, p, depth_opt, settings, false);
     say_notes();
+    say_input_notes(in);
     const double largest = render_frame(a, p, in, settings, renderer, out_opt, coc_opt, debug_opt);
     warnings.check(a, depth_opt, p, in, settings, largest);
   } else {
@@ -784,6 +809,7 @@ void run_render(RenderArgs& a) {
                                         " on not rendered (rerun with --skip-existing to resume)");
       const FrameInputs in = next.get();
       say_notes();
+      if (i == 0) say_input_notes(in);
       if (i + 1 < frames.size()) next = read_async(frames[i + 1]);
       const double largest = render_frame(a, paths_of(frames[i]), in, settings, renderer, out_opt, coc_opt, debug_opt);
       warnings.check(a, depth_opt, paths_of(frames[i]), in, settings, largest);
@@ -878,6 +904,10 @@ void add_render_command(CLI::App& app) {
   add_number(cmd, "--bits", args->bits,
              "bits per channel of --output: EXR 32 (default) or 16 (half); PNG/TIFF 8 (default) or 16; TIFF 32 "
              "(float)")
+      ->group(outg);
+  cmd->add_flag("--rgba-only", args->rgba_only,
+                "an .exr --output holds R, G, B, A only; by default it also keeps an EXR --color's other channels "
+                "(AOVs, depth; unchanged, not blurred) and its metadata (docs/cli.md)")
       ->group(outg);
   cmd->add_option("--compression", args->compression,
                   "compression of every .exr output: none, rle, zips, zip (default), piz, or the lossy pxr24, b44, "

@@ -36,6 +36,20 @@ DepthUpsample parse_depth_upsample(const std::string& name) {
   throw_usage("--depth-upsample " + name + ": unknown (known: nearest, bilinear, guided, guided-filter)");
 }
 
+const char* depth_upsample_name(DepthUpsample how) {
+  switch (how) {
+    case DepthUpsample::nearest:
+      return "nearest";
+    case DepthUpsample::bilinear:
+      return "bilinear";
+    case DepthUpsample::guided:
+      return "guided";
+    case DepthUpsample::guided_filter:
+      return "guided-filter";
+  }
+  return "?";
+}
+
 void check_depth_fit(const std::string& depth_path, int dw, int dh, const std::string& color_path, int cw, int ch,
                      bool stretch) {
   if (dw == cw && dh == ch) return;

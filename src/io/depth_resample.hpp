@@ -16,6 +16,8 @@ enum class DepthUpsample {
 };
 /// Parses nearest|bilinear|guided|guided-filter (Error(usage) naming --depth-upsample).
 DepthUpsample parse_depth_upsample(const std::string& name);
+/// The --depth-upsample name of a method.
+const char* depth_upsample_name(DepthUpsample how);
 
 /// Checks that a depth map of dw x dh can serve a colour image of cw x ch: the same size, or
 /// smaller in both directions with the same aspect ratio (dh = ch·dw/cw within half a depth

@@ -24,6 +24,7 @@
 
 #include "dofkit/error.hpp"
 #include "io/image_io.hpp"
+#include "io/phone_depth.hpp"
 
 namespace dofkit::io {
 
@@ -922,6 +923,12 @@ void walk(const std::string& path, const char* role, std::uint64_t size, HeaderF
   };
   std::ifstream f(path, std::ios::binary);
   if (!f) return;  // vanished since it was opened: the decoder reports it
+  if (looks_like_heif(path)) {
+    // A HEIF/HEIC photo: libheif reads its boxes (phone_depth.hpp).
+    const HeifInfo h = probe_heif(path, role);
+    if (facts) facts->width = h.width, facts->height = h.height, facts->channels = h.channels;
+    return;
+  }
   if (size < 3) not_an_image();
   const std::size_t file_size = static_cast<std::size_t>(size);
   unsigned char magic[8] = {};

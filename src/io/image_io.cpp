@@ -35,6 +35,7 @@
 #include "io/srgb.hpp"
 #include "io/header_check.hpp"
 #include "io/oiio_module.hpp"
+#include "io/phone_depth.hpp"
 
 namespace fs = std::filesystem;
 
@@ -157,6 +158,11 @@ bool open_direct(OpenedFile& f, const std::string& path, std::string& broken) {
 
 OpenedFile open_checked(const std::string& path, const char* role) {
   check_file_header(path, role);  // a regular file, its structure and declared sizes sound
+  // A HEIF photo is read by libheif, as colour only (read_color, read_embedded_depth).
+  if (looks_like_heif(path))
+    throw_bad_input(path +
+                    ": a HEIF/HEIC file is read as a --color photo only (its own depth image is used "
+                    "when no --depth is given)");
   OpenedFile f;
   std::string broken;
   if (open_direct(f, path, broken)) {
@@ -386,6 +392,10 @@ ColorChannelChoice choose_color_channels(const std::vector<std::string>& names, 
 }
 
 Image read_color(const std::string& path, const std::vector<std::string>& channels) {
+  if (looks_like_heif(path)) {
+    check_file_header(path, "colour");
+    return read_heif_color(path);
+  }
   OpenedFile f = open_checked(path, "colour");
   const FileSpec& spec = f.spec;
   const ColorChannelChoice choice = choose_color_channels(spec.channelnames, channels, spec.alpha_channel);
@@ -466,6 +476,7 @@ DepthKind parse_depth_kind(const std::string& name) {
   if (name == "disparity") return DepthKind::disparity;
   if (name == "ndc") return DepthKind::ndc;
   if (name == "ndc-reversed") return DepthKind::ndc_reversed;
+  if (name == "linear") return DepthKind::linear;
   throw_usage("--depth-kind " + name + ": unknown kind (known: z, distance, disparity, ndc, ndc-reversed)");
 }
 
@@ -481,6 +492,8 @@ const char* depth_kind_name(DepthKind kind) {
       return "ndc";
     case DepthKind::ndc_reversed:
       return "ndc-reversed";
+    case DepthKind::linear:
+      return "linear";
   }
   return "?";
 }
@@ -509,6 +522,12 @@ void check_depth_options(const DepthOptions& opt) {
         throw_usage("--clip: NEAR must be > 0 (got " + fmt_num(opt.clip_near) + ")");
       if (!(opt.clip_far > opt.clip_near))
         throw_usage("--clip: FAR must be greater than NEAR, or inf (got " + fmt_num(opt.clip_near) + "," +
+                    fmt_num(opt.clip_far) + ")");
+      break;
+    case DepthKind::linear:
+      if (!(opt.clip_near > 0 && std::isfinite(opt.clip_near) && opt.clip_far > opt.clip_near &&
+            std::isfinite(opt.clip_far)))
+        throw_usage("--clip: --depth-kind linear needs finite 0 < NEAR < FAR (got " + fmt_num(opt.clip_near) + "," +
                     fmt_num(opt.clip_far) + ")");
       break;
   }
@@ -557,6 +576,9 @@ struct DepthConverter {
         if (d < 0 || d > 1) return nan;
         if (std::isinf(f)) return d <= 0 ? std::numeric_limits<double>::infinity() : n / d;
         return n * f / (n + d * (f - n));
+      case DepthKind::linear:
+        if (d < 0 || d > 1) return nan;
+        return n + d * (f - n);
     }
     return nan;
   }
@@ -571,6 +593,7 @@ const char* valid_range_text(DepthKind k) {
       return "NaN or negative";
     case DepthKind::ndc:
     case DepthKind::ndc_reversed:
+    case DepthKind::linear:
       return "NaN or outside [0, 1]";
   }
   return "invalid";
@@ -617,6 +640,13 @@ Image read_depth(const std::string& path, const DepthOptions& opt, DepthFacts* f
     std::copy(buf.begin(), buf.end(), depth.plane(0));
   }
 
+  convert_depth(depth, opt, path);
+  return depth;
+}
+
+void convert_depth(Image& depth, const DepthOptions& opt, const std::string& path) {
+  check_depth_options(opt);
+  const int W = depth.width(), H = depth.height();
   const DepthConverter conv(opt, W, H);
   std::size_t bad = 0, first = 0;
   float first_value = 0;
@@ -643,13 +673,13 @@ Image read_depth(const std::string& path, const DepthOptions& opt, DepthFacts* f
                     std::to_string(first % W) + ", " + std::to_string(first / W) + ") = " + fmt_num(first_value) +
                     "; use --invalid-depth far to treat them as infinitely far");
   }
-  return depth;
 }
 
 bool is_display_referred(const std::string& path) {
   // A probe: a file that cannot be opened is not display-referred here; the colour read that
   // follows (after every input's size is checked) reports why.
   try {
+    if (looks_like_heif(path)) return true;  // 8-16-bit samples
     OpenedFile f = open_checked(path, "colour");
     return f.spec.integer;
   } catch (const Error&) {
@@ -819,7 +849,25 @@ Frame load_frame(const std::string& color_path, const std::string& depth_path, c
   }
   Frame frame;
   frame.color = read_color(color_path, color_channels);
-  if (depth_path.empty()) {
+  if (depth_path.empty() && opt.channel.empty() && (looks_like_jpeg(color_path) || looks_like_heif(color_path))) {
+    // A phone photo: the depth map it carries (GDepth XMP, HEIC auxiliary depth image),
+    // converted per its own metadata, at its own size, then brought to the photo's.
+    std::string missing;
+    frame.depth = read_embedded_depth(color_path, frame.color.width(), frame.color.height(), opt, facts, missing);
+    if (frame.depth.empty())
+      throw_usage("--depth: not given and " + color_path + " holds no embedded depth map (" + missing +
+                  "); pass a depth file with --depth");
+    if (!frame.depth.same_size(frame.color)) {
+      const std::string what = color_path + " (its embedded depth map)";
+      check_depth_fit(what, frame.depth.width(), frame.depth.height(), color_path, frame.color.width(),
+                      frame.color.height(), opt.stretch);
+      frame.depth = resample_depth(frame.depth, frame.color, opt.upsample);
+      if (facts)
+        facts->embedded += ", upsampled to " + std::to_string(frame.color.width()) + "x" +
+                           std::to_string(frame.color.height()) + " (--depth-upsample " +
+                           depth_upsample_name(opt.upsample) + ")";
+    }
+  } else if (depth_path.empty()) {
     // The colour file's own depth channel: named by --depth-channel, else chosen by name. A
     // file with channels beyond colour but none of them depth (or several) is refused with
     // its channel list; a plain colour file without depth is a usage error.

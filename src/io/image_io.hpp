@@ -24,6 +24,7 @@ enum class DepthKind {
   disparity,     ///< z = disparity_scale / d; 8/16-bit normalised maps: bright = near
   ndc,           ///< hardware depth d in [0,1]: z = n f / (f − d (f − n)); f may be inf
   ndc_reversed,  ///< reversed-Z: z = n f / (n + d (f − n)); f may be inf
+  linear,        ///< d in [0,1] linear between the clip planes: z = n + d (f − n); f finite
 };
 
 struct DepthOptions {
@@ -50,6 +51,9 @@ struct DepthOptions {
 struct DepthFacts {
   bool integer = false;  ///< 8/16-bit integer samples (normalised to [0, 1] before conversion)
   std::string channel;   ///< the channel read ("R=G=B" for a grey RGB file)
+  /// A depth map embedded in a phone photo (phone_depth.hpp): where it came from and how it
+  /// was converted, for the note; "" for a depth file or channel.
+  std::string embedded;
 };
 
 /// The depth channel of a file with these channel names. `wanted` (--depth-channel): that
@@ -91,6 +95,12 @@ Image read_color(const std::string& path, const std::vector<std::string>& channe
 /// disparity, NDC outside [0, 1]) throw Error(bad_input) with their count and the first
 /// pixel, unless opt.invalid_as_far (they become +inf).
 Image read_depth(const std::string& path, const DepthOptions& opt, DepthFacts* facts = nullptr);
+
+/// Converts stored depth values (one plane; 8/16-bit ones normalised to [0, 1]) to planar z
+/// in place, per opt.kind, times opt.scale: what read_depth does after reading. Invalid values
+/// throw Error(bad_input) naming `what` with their count and first pixel, unless
+/// opt.invalid_as_far (+inf). Error(usage) for options that do not suit the kind.
+void convert_depth(Image& depth, const DepthOptions& opt, const std::string& what);
 
 /// True if the file holds integer (8/16-bit) samples, i.e. display-referred sRGB colour that
 /// clips at 1 (reads the header only; Error(bad_input) like read_color if it cannot).
@@ -165,7 +175,7 @@ Image read_normals(const std::string& path);
 Image read_named_channels(const std::string& path, const char* role, const std::vector<std::string>& names,
                           const std::vector<bool>& optional = {}, std::vector<std::string>* missing = nullptr);
 
-/// Parses a --depth-kind name: z, distance, disparity, ndc, ndc-reversed (Error(usage)).
+/// Parses a --depth-kind name: z, distance, disparity, ndc, ndc-reversed, linear (Error(usage)).
 DepthKind parse_depth_kind(const std::string& name);
 /// The --depth-kind name of a kind.
 const char* depth_kind_name(DepthKind kind);

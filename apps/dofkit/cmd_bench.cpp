@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,8 @@
 #include "scene/bench_frame.hpp"
 #include "scene/raytracer.hpp"
 #include "ssao_common.hpp"
+#include "light_common.hpp"
+#include "dofkit/light.hpp"
 #include "dofkit/ao.hpp"
 #include "dofkit/render.hpp"
 
@@ -134,9 +137,74 @@ double peak_rss_mb() {
   return ru.ru_maxrss / 1024.0;  // KiB on Linux
 }
 
+// A deferred-lighting benchmark set-up: the scene `lights`' G-buffer at w×h and the lights of
+// `spec` = points32 | small | full | none, optionally ":impl=brute".
+struct LightBench {
+  GBufferImages g;
+  std::vector<Light> lights;
+  LightSettings settings;
+};
+LightBench light_bench_setup(const std::string& spec, int w, int h, int threads) {
+  std::string name = spec, impl = "tiled";
+  if (const auto colon = spec.find(':'); colon != std::string::npos) {
+    name = spec.substr(0, colon);
+    const std::string kv = spec.substr(colon + 1);
+    if (kv != "impl=brute" && kv != "impl=tiled")
+      throw_usage("--methods " + spec + ": the light set-ups take only impl=tiled or impl=brute");
+    impl = kv.substr(5);
+  }
+  if (name != "points32" && name != "small" && name != "full" && name != "none")
+    throw_usage("--methods " + spec + ": unknown light set-up (points32, small, full, none)");
+  const scene::Scene sc = scene::build_scene("lights");
+  scene::SceneOptions so;
+  so.width = w;
+  so.height = h;
+  const scene::LensCamera cam = scene::camera_for(sc, so);
+  scene::GBuffer gb = scene::render_gbuffer(sc, cam);
+  LightBench b;
+  b.g.depth = std::move(gb.z);
+  b.g.normals = std::move(gb.normal);
+  b.g.albedo = std::move(gb.albedo);
+  b.g.specular = std::move(gb.specular);
+  b.g.gloss = std::move(gb.gloss);
+  b.g.emissive = std::move(gb.emissive);
+  b.g.has_specular = b.g.has_gloss = b.g.has_emissive = true;
+  b.settings.hfov_deg = cam.hfov_deg;
+  b.settings.threads = threads;
+  b.settings.impl = impl;
+  if (name == "points32") {
+    // 32 lights of radius 1 m, 0.2 m above the visible surface at an 8×4 grid of pixels.
+    const double f = cam.f_px();
+    for (int k = 0; k < 32; ++k) {
+      const int x = static_cast<int>((k % 8 + 0.5) * w / 8), y = static_cast<int>((k / 8 + 0.5) * h / 4);
+      const double z = b.g.depth.at(x, y);
+      if (!std::isfinite(z)) continue;
+      Light l;
+      l.name = "p" + std::to_string(k);
+      l.radius_m = 1.0;
+      l.intensity = 0.5;
+      l.color = {0.5 + 0.5 * (k % 3 == 0), 0.5 + 0.5 * (k % 3 == 1), 0.5 + 0.5 * (k % 3 == 2)};
+      l.position_m = {(x + 0.5 - 0.5 * w) / f * z, -(y + 0.5 - 0.5 * h) / f * z, -z};
+      for (int c = 0; c < 3; ++c) l.position_m[c] += 0.2 * b.g.normals.at(x, y, c);
+      b.lights.push_back(l);
+    }
+  } else if (name == "small") {
+    b.lights.push_back(sc.lights[3]);  // "small": radius 0.24 m beside the small ball
+  } else if (name == "full") {
+    Light l;
+    l.name = "full";
+    l.position_m = {0, 0, 0.1};
+    l.radius_m = 1000;
+    b.lights.push_back(l);
+  }
+  return b;
+}
+
 // Runs one measurement in this process and prints one JSON object.
 void run_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd, bool passes,
-               bool ao) {
+               const std::string& effect) {
+  const bool ao = effect == "ao";
+  nlohmann::json extra = nlohmann::json::object();
   if (!simd.empty() && !core::pin_simd_target(simd)) throw_usage("--simd " + simd + ": not a target this machine runs");
   const Frame frame = scene::bench_frame(size.w, size.h);
   std::vector<double> ms, cpu;
@@ -188,6 +256,15 @@ void run_child(const std::string& method, Size size, int threads, int iterations
     s.threads = threads;
     AoRenderer renderer(s);
     time_runs([&] { renderer.render(g.z, &g.normal); });
+  } else if (effect == "light") {
+    // Deferred lighting of the built-in scene `lights`' G-buffer at this size (not timed).
+    const LightBench lb = light_bench_setup(method, size.w, size.h, threads);
+    LightResult last;
+    time_runs([&] { last = deferred_lighting(lb.g.ref(), lb.lights, lb.settings); });
+    long long shaded = 0;
+    for (long long p : last.stats.pixels_shaded) shaded += p;
+    extra["lights"] = lb.lights.size();
+    extra["coverage"] = lb.lights.empty() ? 0.0 : static_cast<double>(shaded) / lb.lights.size() / size.w / size.h;
   } else {
     // A Renderer, as a game loop would use it: buffers are kept between frames.
     Renderer renderer(bench_settings(method, size.w, threads, Backend::cpu));
@@ -210,6 +287,7 @@ void run_child(const std::string& method, Size size, int threads, int iterations
   j["peak_rss_mb"] = peak_rss_mb();
   j["simd"] = core::simd_target();
   j["backend"] = "cpu";
+  for (const auto& [k, v] : extra.items()) j[k] = v;
   if (passes) {
     // A pass that ran in only some frames counts 0 ms in the others.
     nlohmann::json list = nlohmann::json::array();
@@ -224,7 +302,7 @@ void run_child(const std::string& method, Size size, int threads, int iterations
 }
 
 nlohmann::json spawn_child(const std::string& method, Size size, int threads, int iterations, const std::string& simd,
-                           bool passes, const std::string& backend = "cpu", bool ao = false) {
+                           bool passes, const std::string& backend = "cpu", const std::string& effect = "dof") {
   const std::string self = "/proc/self/exe";
   std::vector<std::string> args = {"dofkit",       "bench",
                                    "--child",      method,
@@ -234,7 +312,7 @@ nlohmann::json spawn_child(const std::string& method, Size size, int threads, in
   if (!simd.empty()) args.insert(args.end(), {"--simd", simd});
   if (passes) args.push_back("--passes");
   if (backend != "cpu") args.insert(args.end(), {"--backend", backend});
-  if (ao) args.insert(args.end(), {"--effect", "ao"});
+  if (effect != "dof") args.insert(args.end(), {"--effect", effect});
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -374,9 +452,11 @@ void add_bench_command(CLI::App& app) {
                 "also time each pass of each method (median ms per frame; nested passes are included in their "
                 "parents) and print the breakdown after the table (JSON: a 'passes' list per row)");
   cmd->add_option("--effect", opts->effect,
-                  "dof (depth of field, default) or ao: time the AO methods (--methods sc2,gtao by default, with "
-                  "parameters as name:key=value) on the built-in scene ao_corner's depth and normals at --size")
-      ->check(CLI::IsMember({"dof", "ao"}));
+                  "dof (depth of field, default); ao: time the AO methods (--methods sc2,gtao by default, with "
+                  "parameters as name:key=value) on the built-in scene ao_corner's depth and normals at --size; "
+                  "light: time deferred lighting of the scene lights' G-buffer (--methods points32,small,full,none by "
+                  "default; :impl=brute for the oracle)")
+      ->check(CLI::IsMember({"dof", "ao", "light"}));
   cmd->add_option("--backend", opts->backend,
                   "cpu (default) or vulkan: time the methods' compute shaders on the GPU by timestamp queries "
                   "(median and min GPU ms per frame of the passes; rows name the device) against the GPU time "
@@ -402,7 +482,7 @@ void add_bench_command(CLI::App& app) {
       return;
     }
     if (!opts->child.empty()) {
-      run_child(opts->child, sizes.front(), threads, opts->iterations, opts->simd, opts->passes, opts->effect == "ao");
+      run_child(opts->child, sizes.front(), threads, opts->iterations, opts->simd, opts->passes, opts->effect);
       return;
     }
     if (!opts->write_frame.empty()) {
@@ -423,8 +503,15 @@ void add_bench_command(CLI::App& app) {
       return;
     }
     std::vector<std::string> names;
-    const bool ao = opts->effect == "ao";
-    if (ao) {
+    const bool ao = opts->effect == "ao", light = opts->effect == "light";
+    if (light) {
+      std::stringstream in(opts->methods.empty() ? "points32,small,full,none" : opts->methods);
+      std::string m;
+      while (std::getline(in, m, ',')) {
+        (void)light_bench_setup(m, 16, 16, 1);  // checks the name (exit 2)
+        names.push_back(m);
+      }
+    } else if (ao) {
       for (const AoSpec& spec : parse_ao_method_list(opts->methods.empty() ? "sc2,gtao" : opts->methods))
         names.push_back(spec.label);
     } else if (opts->methods.empty()) {
@@ -439,7 +526,7 @@ void add_bench_command(CLI::App& app) {
     // Every method and its parameters are checked here, on a tiny frame, before the first
     // child is spawned: a bad value is the user's error (exit 2), said once.
     for (const std::string& m : names) {
-      if (ao) break;  // the AO specs were checked by parse_ao_method_list
+      if (ao || light) break;  // the AO specs were checked by parse_ao_method_list, the light set-ups above
       const RenderSettings probe_settings = bench_settings(m, 16, 1, Backend::cpu);
       Frame probe;
       probe.color = Image(16, 16, 4, 0.5f);
@@ -447,7 +534,7 @@ void add_bench_command(CLI::App& app) {
       (void)render(probe, probe_settings);
     }
     if (backend == Backend::vulkan) {
-      if (ao) throw_usage("--effect ao: runs on --backend cpu only");
+      if (ao || light) throw_usage("--effect " + opts->effect + ": runs on --backend cpu only");
       if (opts->methods.empty()) names = gpu::supported_methods();
       if (!opts->simd.empty()) throw_usage("--simd: applies to --backend cpu only");
       return run_gpu_bench(names, sizes, opts->iterations, opts->passes, opts->json);
@@ -463,7 +550,8 @@ void add_bench_command(CLI::App& app) {
       if (!opts->json)
         std::cerr << fmt::format("{}x{}: copy {:.2f} ms\n", size.w, size.h, copy["median_ms"].get<double>());
       for (const auto& m : names) {
-        nlohmann::json r = spawn_child(m, size, threads, opts->iterations, opts->simd, opts->passes, "cpu", ao);
+        nlohmann::json r =
+            spawn_child(m, size, threads, opts->iterations, opts->simd, opts->passes, "cpu", opts->effect);
         r["ratio_to_copy"] = r["median_ms"].get<double>() / copy["median_ms"].get<double>();
         if (!opts->json)
           std::cerr << fmt::format("{}x{}: {} {:.2f} ms\n", size.w, size.h, m, r["median_ms"].get<double>());
@@ -483,6 +571,24 @@ void add_bench_command(CLI::App& app) {
                                r["threads"].get<int>(), r["median_ms"].get<double>(), r["min_ms"].get<double>(),
                                r["cpu_ms"].get<double>(), r["mpix_per_s"].get<double>(), r["peak_rss_mb"].get<double>(),
                                r["ratio_to_copy"].get<double>());
+    if (light) {
+      // Per set-up: its lights, the mean fraction of the pixels each light was evaluated at,
+      // and the time per light over the set-up without local lights (none) when it ran.
+      std::cout << "\n| set-up | size | lights | coverage per light % | median ms | ms per light over none |\n"
+                   "|---|---|---:|---:|---:|---:|\n";
+      for (const auto& r : rows) {
+        if (!r.contains("lights")) continue;
+        double none = std::nan("");
+        for (const auto& q : rows)
+          if (q.contains("lights") && q["method"] == "none" && q["width"] == r["width"] && q["height"] == r["height"])
+            none = q["median_ms"].get<double>();
+        const int n = r["lights"].get<int>();
+        const double per = n > 0 && !std::isnan(none) ? (r["median_ms"].get<double>() - none) / n : std::nan("");
+        std::cout << fmt::format("| {} | {}x{} | {} | {:.2f} | {:.2f} | {} |\n", r["method"].get<std::string>(),
+                                 r["width"].get<int>(), r["height"].get<int>(), n, 100 * r["coverage"].get<double>(),
+                                 r["median_ms"].get<double>(), std::isnan(per) ? "–" : fmt::format("{:.3f}", per));
+      }
+    }
     if (!opts->passes) return;
     // Per method and size: each pass's median ms per frame and its share of the frame's median.
     for (const auto& r : rows) {

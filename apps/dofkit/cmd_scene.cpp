@@ -27,6 +27,7 @@
 #include "io/image_io.hpp"
 #include "io/atomic_write.hpp"
 #include "io/layers_io.hpp"
+#include "light_common.hpp"
 #include "scene/raytracer.hpp"
 #include "scene/scene.hpp"
 
@@ -66,6 +67,7 @@ void run_scene(const SceneArgs& a) {
   if (a.list) {
     for (const auto& n : scene::scene_names()) std::cout << n << "\t" << scene::scene_description(n) << "\n";
     for (const auto& n : scene::ao_scene_names()) std::cout << n << "\t" << scene::scene_description(n) << "\n";
+    for (const auto& n : scene::light_scene_names()) std::cout << n << "\t" << scene::scene_description(n) << "\n";
     return;
   }
   if (a.name.empty()) throw_usage("scene: a scene NAME is required (see dofkit scene --list)");
@@ -177,6 +179,10 @@ void run_scene(const SceneArgs& a) {
     c["clip_far_m"] = 1000.0;
     c["clip_note"] = "nominal planes for a rasteriser's projection; the ray tracer itself does not clip";
     c["pitch_deg"] = built.pitch_deg;
+    c["view_matrix"] = scene::world_to_camera(built);
+    c["view_matrix_note"] =
+        "world to camera space, row-major 4x4; the scene's level world frame: X right, Y up, Z towards a level "
+        "camera at the origin (the camera only pitches down by pitch_deg)";
     if (write_ao) c["ao_radius_m"] = ao_radius;
     const std::string cpath = (std::filesystem::path(a.out) / "camera.json").string();
     io::write_atomically(cpath, [&](const std::string& tmp) {
@@ -187,6 +193,33 @@ void run_scene(const SceneArgs& a) {
     });
     extra_files.push_back("gbuffer.exr");
     extra_files.push_back("camera.json");
+    if (!built.lights.empty()) {
+      // The scene's lights (world space, so that `dofkit light --camera camera.json` turns them
+      // back) and the tracer's forward-lit ground truth at the exact hits (docs/lighting.md).
+      const std::string lpath = (std::filesystem::path(a.out) / "lights.json").string();
+      const nlohmann::json lj = lights_json(built.lights, true, scene::world_to_camera(built));
+      io::write_atomically(lpath, [&](const std::string& tmp) {
+        std::ofstream f(tmp, std::ios::binary);
+        f << lj.dump(2) << "\n";
+        f.close();
+        if (!f) throw_bad_input(lpath + ": cannot write");
+      });
+      Image lit;
+      core::with_threads(a.threads, [&] { lit = scene::render_lit(built, cam); });
+      io::WriteOptions rgb;
+      rgb.bits = 32;
+      io::write_image((std::filesystem::path(a.out) / "lit.exr").string(), lit, rgb);
+      // The pipeline's ground truth: the lit scene through the same thin lens and samples as
+      // ground_truth.exr (docs/lighting.md).
+      scene::Scene lit_scene = built;
+      lit_scene.lit = true;
+      Image lit_gt;
+      core::with_threads(a.threads, [&] { lit_gt = scene::render_thin_lens(lit_scene, cam, d.samples, opt.seed, {}); });
+      io::write_image((std::filesystem::path(a.out) / "lit_ground_truth.exr").string(), lit_gt, colour);
+      extra_files.push_back("lights.json");
+      extra_files.push_back("lit.exr");
+      extra_files.push_back("lit_ground_truth.exr");
+    }
   }
   if (write_ao) {
     if (tty) std::fprintf(stderr, "dofkit scene %s: ambient occlusion, %d rays per pixel\n", a.name.c_str(), a.ao_rays);
@@ -228,6 +261,11 @@ void run_scene(const SceneArgs& a) {
   if (a.gbuffer) {
     j["files"]["gbuffer"] = "gbuffer.exr";
     j["files"]["camera"] = "camera.json";
+    if (!built.lights.empty()) {
+      j["files"]["lights"] = "lights.json";
+      j["files"]["lit"] = "lit.exr";
+      j["files"]["lit_ground_truth"] = "lit_ground_truth.exr";
+    }
   }
   if (write_ao) {
     j["files"]["ao"] = "ao.exr";
@@ -278,7 +316,8 @@ void add_scene_command(CLI::App& app) {
   args->budget.add(cmd);
   cmd->add_flag("--gbuffer", args->gbuffer,
                 "also write gbuffer.exr (channels Z, N.X N.Y N.Z, albedo.R/G/B, specular.R/G/B, gloss, "
-                "emissive.R/G/B) and camera.json (docs/gbuffer.md); for an AO scene also ao.exr at its radius");
+                "emissive.R/G/B) and camera.json (docs/gbuffer.md); for an AO scene also ao.exr at its radius; for the "
+                "lighting scene also lights.json and lit.exr (docs/lighting.md)");
   cmd->add_option("--ao-radius", args->ao_radius_m,
                   "write ao.exr: ray-traced ambient occlusion within this radius, metres (default for an AO scene "
                   "with --gbuffer: the scene's own)");

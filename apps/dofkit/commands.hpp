@@ -19,6 +19,8 @@ void add_compare_command(CLI::App& app);
 void add_quality_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 void add_ssao_command(CLI::App& app);
+void add_light_command(CLI::App& app);
+void add_pipeline_command(CLI::App& app);
 void add_view_command(CLI::App& app);
 
 /// Runs `dofkit render ARGS...` in this process, exactly as the command line would (same

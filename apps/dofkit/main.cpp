@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
   dofkit::cli::add_quality_command(app);
   dofkit::cli::add_bench_command(app);
   dofkit::cli::add_ssao_command(app);
+  dofkit::cli::add_light_command(app);
+  dofkit::cli::add_pipeline_command(app);
   dofkit::cli::add_view_command(app);
   // Every error is one line on stderr (dofkit::Error escapes control characters itself; the
   // others are escaped here) and an exit code: usage 2, bad input 3, internal 1.

@@ -29,7 +29,31 @@ namespace dofkit::cli {
 
 namespace fs = std::filesystem;
 
-double read_camera_fov(const std::string& path, int width, int height) {
+std::array<double, 16> parse_view_matrix(const nlohmann::json& j, const std::string& where) {
+  std::array<double, 16> m{};
+  if (!j.is_array() || j.size() != 16)
+    throw_bad_input(where + ": must be an array of 16 numbers (a row-major 4x4 world-to-camera matrix)");
+  for (int k = 0; k < 16; ++k) {
+    if (!j[k].is_number() || !std::isfinite(j[k].get<double>()))
+      throw_bad_input(where + ": element " + std::to_string(k) + " is not a finite number");
+    m[k] = j[k].get<double>();
+  }
+  if (m[12] != 0 || m[13] != 0 || m[14] != 0 || m[15] != 1) throw_bad_input(where + ": the last row must be 0 0 0 1");
+  // The upper 3x3 must be a rotation (lights keep their radii): R·Rᵀ = I, det = +1.
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      double d = 0;
+      for (int k = 0; k < 3; ++k) d += m[4 * a + k] * m[4 * b + k];
+      if (std::abs(d - (a == b ? 1.0 : 0.0)) > 1e-6)
+        throw_bad_input(where + ": the upper 3x3 is not a rotation (orthonormal rows needed; no scale or shear)");
+    }
+  const double det =
+      m[0] * (m[5] * m[10] - m[6] * m[9]) - m[1] * (m[4] * m[10] - m[6] * m[8]) + m[2] * (m[4] * m[9] - m[5] * m[8]);
+  if (det < 0) throw_bad_input(where + ": the upper 3x3 is a reflection (determinant -1), not a rotation");
+  return m;
+}
+
+CameraFile read_camera_file(const std::string& path, int width, int height) {
   std::ifstream f(path, std::ios::binary);
   if (!f) throw_bad_input("--camera " + path + ": cannot open the file");
   nlohmann::json j;
@@ -40,8 +64,10 @@ double read_camera_fov(const std::string& path, int width, int height) {
   }
   if (!j.is_object() || !j.contains("hfov_deg") || !j["hfov_deg"].is_number())
     throw_bad_input("--camera " + path + ": no field of view (a number hfov_deg, degrees)");
-  const double fov = j["hfov_deg"].get<double>();
-  if (!(fov > 0 && fov < 180)) throw_bad_input("--camera " + path + ": hfov_deg must be in (0, 180) degrees");
+  CameraFile c;
+  c.hfov_deg = j["hfov_deg"].get<double>();
+  if (!(c.hfov_deg > 0 && c.hfov_deg < 180))
+    throw_bad_input("--camera " + path + ": hfov_deg must be in (0, 180) degrees");
   for (const char* key : {"width", "height"}) {
     if (!j.contains(key)) continue;
     const int want = key[0] == 'w' ? width : height;
@@ -49,7 +75,15 @@ double read_camera_fov(const std::string& path, int width, int height) {
       throw_bad_input("--camera " + path + ": " + key + " " + j[key].dump() + " does not match the depth's " +
                       std::to_string(width) + "x" + std::to_string(height));
   }
-  return fov;
+  if (j.contains("view_matrix")) {
+    c.view = parse_view_matrix(j["view_matrix"], "--camera " + path + ": view_matrix");
+    c.has_view = true;
+  }
+  return c;
+}
+
+double read_camera_fov(const std::string& path, int width, int height) {
+  return read_camera_file(path, width, height).hfov_deg;
 }
 
 std::string ssao_params_help() {

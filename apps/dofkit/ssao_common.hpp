@@ -3,17 +3,32 @@
 // the AO quality run (own AO scenes against the tracer's AO, and an external folder such as a
 // Blender render with pinhole_depth.exr, normal.exr, ao.exr and params.json).
 #pragma once
+#include <array>
 #include <map>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "dofkit/image.hpp"
 
 namespace dofkit::cli {
 
-/// Reads the horizontal field of view (hfov_deg) from a camera.json; if the file gives a
-/// width and height they must match the depth's. Throws Error(bad_input) naming the file.
+/// What a camera.json (docs/gbuffer.md) holds for the screen-space effects.
+struct CameraFile {
+  double hfov_deg = 0;
+  /// world → camera space, row-major 4×4 (key view_matrix; only when the file has one).
+  bool has_view = false;
+  std::array<double, 16> view{};
+};
+/// Reads a camera.json: hfov_deg, and view_matrix when present; if the file gives a width and
+/// height they must match the depth's. Throws Error(bad_input) naming the file and the key.
+CameraFile read_camera_file(const std::string& path, int width, int height);
+/// read_camera_file's hfov_deg.
 double read_camera_fov(const std::string& path, int width, int height);
+/// Checks a view matrix (16 finite numbers, a rotation + translation, last row 0 0 0 1);
+/// throws Error(bad_input) "<where>: …" otherwise.
+std::array<double, 16> parse_view_matrix(const nlohmann::json& j, const std::string& where);
 
 /// The AO methods' parameters and debug views as help text.
 std::string ssao_params_help();

@@ -806,6 +806,39 @@ Image read_normals(const std::string& path) {
   return n;
 }
 
+Image read_named_channels(const std::string& path, const char* role, const std::vector<std::string>& names,
+                          const std::vector<bool>& optional, std::vector<std::string>* missing) {
+  OpenedFile f = open_checked(path, role);
+  const FileSpec& spec = f.spec;
+  std::vector<int> c(names.size(), -1);
+  int lo = spec.nchannels, hi = 0;
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    c[k] = find_named(spec, names[k]);
+    if (c[k] == -2)
+      throw_bad_input(path + ": " + role + " channel " + names[k] + ": several channels differ from it only in case (" +
+                      channel_list(spec) + ")");
+    if (c[k] < 0) {
+      if (k < optional.size() && optional[k]) {
+        if (missing) missing->push_back(names[k]);
+        continue;
+      }
+      throw_bad_input(path + ": no " + role + " channel " + names[k] + " among " + channel_list(spec));
+    }
+    lo = std::min(lo, c[k]);
+    hi = std::max(hi, c[k] + 1);
+  }
+  Image out(spec.width, spec.height, static_cast<int>(names.size()), 0.0f);
+  if (hi <= lo) return out;
+  const std::vector<float> buf = read_channels(f, path, role, lo, hi);
+  const std::size_t stride = hi - lo;
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    if (c[k] < 0) continue;
+    float* o = out.plane(static_cast<int>(k));
+    for (std::size_t i = 0; i < out.plane_size(); ++i) o[i] = buf[i * stride + (c[k] - lo)];
+  }
+  return out;
+}
+
 Frame load_frame(const std::string& color_path, const std::string& depth_path, const DepthOptions& opt,
                  const std::vector<std::string>& color_channels, DepthFacts* facts) {
   check_depth_options(opt);

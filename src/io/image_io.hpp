@@ -167,6 +167,14 @@ Image read_mask(const std::string& path);
 /// signed values. Throws Error(bad_input) naming the file and the channels it has.
 Image read_normals(const std::string& path);
 
+/// Reads the channels `names` (each the exact name, else the one channel equal to it ignoring
+/// case) → one plane per name, in that order, values as stored (8/16-bit normalised to [0, 1]).
+/// A name absent from the file whose `optional` entry is true gives a plane of zeros and is
+/// appended to *missing; any other absent name throws Error(bad_input) naming the file, `role`,
+/// the channel and the channels the file has. (The G-buffer reader of `dofkit light`.)
+Image read_named_channels(const std::string& path, const char* role, const std::vector<std::string>& names,
+                          const std::vector<bool>& optional = {}, std::vector<std::string>* missing = nullptr);
+
 /// Parses a --depth-kind name: z, distance, disparity, ndc, ndc-reversed, linear (Error(usage)).
 DepthKind parse_depth_kind(const std::string& name);
 /// The --depth-kind name of a kind.

@@ -8,6 +8,10 @@
 #include <mutex>
 #include <set>
 #include <string>
+#include <type_traits>
+#include <typeindex>
+#include <typeinfo>
+#include <utility>
 #include <vector>
 
 #include "dofkit/coc.hpp"
@@ -79,6 +83,19 @@ class Workspace {
       img.resize(width, height, channels);
     return img;
   }
+  /// A plane of `count` elements of type T (float, std::uint16_t codes, std::uint8_t masks,
+  /// …) under `key`, reused like image(): the same allocation comes back on the next frame of
+  /// the same size (it is only reallocated when `count` grows), contents unspecified. Keys are
+  /// separate per element type, so storage is never shared between types (no aliasing).
+  template <class T>
+  T* plane(const std::string& key, std::size_t count) {
+    static_assert(std::is_trivially_copyable_v<T>, "scratch planes hold plain values");
+    std::shared_ptr<void>& p = planes_[{key, std::type_index(typeid(T))}];
+    if (!p) p = std::make_shared<std::vector<T>>();
+    std::vector<T>& v = *static_cast<std::vector<T>*>(p.get());
+    if (v.size() != count) v.resize(count);
+    return v.data();
+  }
   /// A persistent object of type T, default-constructed on first use (a method's own buffers
   /// that are not images). The same key must always name the same type.
   template <class T>
@@ -89,11 +106,13 @@ class Workspace {
   }
   void clear() {
     images_.clear();
+    planes_.clear();
     objects_.clear();
   }
 
  private:
   std::map<std::string, Image> images_;
+  std::map<std::pair<std::string, std::type_index>, std::shared_ptr<void>> planes_;
   std::map<std::string, std::shared_ptr<void>> objects_;
 };
 

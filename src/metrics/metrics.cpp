@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -225,6 +226,18 @@ double psnr(const Image& ref, const Image& test) {
   double sse = 0, n = 0;
   masked_sse(display_planes(ref), display_planes(test), ref.width(), ref.height(), nullptr, sse, n);
   return psnr_from(sse, n);
+}
+
+double psnr_linear(const Image& ref, const Image& test, double peak) {
+  if (!ref.same_size(test) || ref.channels() != test.channels())
+    throw_usage("psnr_linear: images differ in size or channels");
+  double sse = 0;
+  for (std::size_t i = 0; i < ref.data().size(); ++i) {
+    const double d = static_cast<double>(test.data()[i]) - ref.data()[i];
+    sse += d * d;
+  }
+  if (sse == 0) return std::numeric_limits<double>::infinity();
+  return 10 * std::log10(peak * peak / (sse / static_cast<double>(ref.data().size())));
 }
 
 double psnr_masked(const Image& ref, const Image& test, const Image& mask) {

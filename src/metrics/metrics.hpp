@@ -41,6 +41,9 @@ inline constexpr int kEdgeBandPx = 12;
 inline constexpr double kEdgeJump = 0.05;
 
 double psnr(const Image& ref, const Image& test);
+/// PSNR of the linear values of every plane, no clipping: 10·log10(peak² / MSE) (inf for
+/// identical images). For HDR buffers such as a lit image (peak 1 = diffuse white).
+double psnr_linear(const Image& ref, const Image& test, double peak = 1.0);
 double ssim(const Image& ref, const Image& test);
 double rmse_linear(const Image& ref, const Image& test);
 /// Mask (1 plane, 0/1) of pixels within `band_px` of a depth discontinuity (relative jump > `jump`).

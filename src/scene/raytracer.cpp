@@ -495,6 +495,7 @@ Hit closest(const Scene& scene, const std::vector<int>& cand, Vec3 o, Vec3 d) {
 
 Rgb radiance(const Scene& scene, const Hit& h, Vec3 o, Vec3 d) {
   if (h.prim < 0) return shade_background(scene.background, d);
+  if (scene.lit) return lit_at(scene, scene.prims[h.prim], o + d * h.z, o);
   return shade_at(scene.prims[h.prim], o + d * h.z);
 }
 
@@ -798,6 +799,15 @@ void pitch_scene(Scene& scene, double pitch_deg) {
   // A level camera turned down by `a` sees the world direction (0, sin a, cos a) on its axis.
   const auto rot = [&](Vec3 w) { return Vec3{w.x, c * w.y - s * w.z, s * w.y + c * w.z}; };
   scene.pitch_deg += pitch_deg;
+  // Lights are in the files' camera space (X, Y up, Z back) = the tracer's (x, −y, −z).
+  const auto rot_file = [&](std::array<double, 3>& v) {
+    const Vec3 t = rot({v[0], -v[1], -v[2]});
+    v = {t.x, -t.y, -t.z};
+  };
+  for (Light& l : scene.lights) {
+    rot_file(l.position_m);
+    rot_file(l.direction);
+  }
   for (Primitive& p : scene.prims) {
     switch (p.kind) {
       case Primitive::Kind::plane:
@@ -981,6 +991,60 @@ GBuffer render_gbuffer(const Scene& scene, const LensCamera& cam) {
       }
   });
   return g;
+}
+
+Rgb lit_at(const Scene& scene, const Primitive& p, Vec3 x, Vec3 eye) {
+  const Rgb c = shade_at(p, x);
+  if (p.tex.emission > 1) return c;
+  // The files' camera space: the tracer's (x, −y, −z).
+  Vec3 n = normal_at(p, x);
+  const Vec3 to_eye = eye - x;
+  if (dot(n, to_eye) < 0) n = n * -1.0;
+  const double len = std::sqrt(dot(to_eye, to_eye));
+  const std::array<double, 3> P{x.x, -x.y, -x.z}, N{n.x, -n.y, -n.z};
+  const std::array<double, 3> V{to_eye.x / len, -to_eye.y / len, -to_eye.z / len};
+  std::array<double, 3> albedo, spec;
+  const float to_albedo = static_cast<float>(1 / p.tex.emission);
+  const float rgb[3] = {c.r, c.g, c.b}, sp[3] = {p.specular.r, p.specular.g, p.specular.b};
+  for (int ch = 0; ch < 3; ++ch) {
+    albedo[ch] = std::clamp(rgb[ch] * to_albedo, 0.0f, 1.0f);
+    spec[ch] = std::clamp(sp[ch], 0.0f, 1.0f);
+  }
+  const double gloss = std::clamp(p.gloss, 0.0f, 1.0f);
+  double acc[3] = {0, 0, 0};
+  for (const Light& l : scene.lights) {
+    const std::array<double, 3> c3 = shade_light(l, P, N, V, albedo, spec, gloss);
+    for (int ch = 0; ch < 3; ++ch) acc[ch] += c3[ch];
+  }
+  return {static_cast<float>(acc[0]), static_cast<float>(acc[1]), static_cast<float>(acc[2])};
+}
+
+Image render_lit(const Scene& scene, const LensCamera& cam) {
+  check_camera(cam);
+  const int w = cam.width, h = cam.height;
+  const double f = cam.f_px();
+  Image out(w, h, 3, 0.0f);
+  const Culler culler(scene, cam, false);
+  for_each_tile(cam, {}, [&](int x0, int y0, int x1, int y1) {
+    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        const PrimaryHit ph = primary_hit(scene, cand, cam, f, x, y);
+        const Rgb c = ph.hit.prim < 0 ? shade_background(scene.background, ph.dir)
+                                      : lit_at(scene, scene.prims[ph.hit.prim], ph.point, {0, 0, 0});
+        out.at(x, y, 0) = c.r;
+        out.at(x, y, 1) = c.g;
+        out.at(x, y, 2) = c.b;
+      }
+  });
+  return out;
+}
+
+std::array<double, 16> world_to_camera(const Scene& scene) {
+  // pitch_scene turns the tracer's (x, y down, z forward) by R; in the files' axes
+  // S·R·S with S = diag(1, −1, −1), which is R again.
+  const double a = scene.pitch_deg * std::numbers::pi / 180.0, c = std::cos(a), s = std::sin(a);
+  return {1, 0, 0, 0, 0, c, -s, 0, 0, s, c, 0, 0, 0, 0, 1};
 }
 
 }  // namespace dofkit::scene

@@ -30,6 +30,7 @@
 #include "dofkit/aperture.hpp"
 #include "dofkit/frame.hpp"
 #include "dofkit/image.hpp"
+#include "dofkit/light.hpp"
 #include "scene/scene.hpp"
 
 namespace dofkit::scene {
@@ -131,6 +132,13 @@ struct Scene {
   /// How far the camera looks down, degrees (pitch_scene; informational: the primitives are
   /// already in the camera frame).
   double pitch_deg = 0;
+  /// Lights for the deferred-lighting ground truth (render_lit), in the files' camera space
+  /// (X right, Y up, Z towards the camera; pitch_scene turns them with the primitives). The
+  /// scenes' own radiance does not depend on them.
+  std::vector<Light> lights;
+  /// Render the lights instead of the emissive textures: every hit's radiance is lit_at (the
+  /// pinhole and thin-lens renders of a lit scene; the pipeline's ground truth).
+  bool lit = false;
 };
 
 /// The thin-lens camera: resolution, field of view, focus, blur at infinity, aperture shape.
@@ -161,6 +169,10 @@ struct Hit {
 double intersect(const Primitive& p, Vec3 o, Vec3 d);
 /// Radiance of primitive `p` at the surface point `x`.
 Rgb shade_at(const Primitive& p, Vec3 x);
+/// Radiance of primitive `p` at `x` lit by scene.lights and seen from `eye` (tracer axes): an
+/// HDR emitter (emission > 1) its emission; any other surface the sum of shade_light with the
+/// material render_gbuffer records, the geometric normal turned towards the eye (no shadows).
+Rgb lit_at(const Scene& scene, const Primitive& p, Vec3 x, Vec3 eye);
 /// Radiance of the background in direction d.
 Rgb shade_background(const Background& bg, Vec3 d);
 
@@ -219,6 +231,17 @@ struct GBuffer {
 };
 GBuffer render_gbuffer(const Scene& scene, const LensCamera& cam);
 
+/// The forward-lit ground truth of Scene::lights (3 planes, linear RGB): at each pixel centre's
+/// exact first hit (double-precision point and geometric normal turned towards the camera, no
+/// G-buffer rounding) the sum of shade_light over the lights (no shadows) with the material
+/// render_gbuffer records (albedo, specular, gloss), plus the emissive radiance render_gbuffer
+/// records (HDR emitters and the background). Same for any thread count.
+Image render_lit(const Scene& scene, const LensCamera& cam);
+
+/// The view matrix of a scene's level "world" frame (X right, Y up, Z towards the viewer of a
+/// level camera, camera at the origin): world → camera space, row-major 4×4 (the pitch only).
+std::array<double, 16> world_to_camera(const Scene& scene);
+
 /// Builds a built-in scene by name (throws Error(usage) for an unknown name).
 Scene build_scene(const std::string& name);
 /// Builds a built-in ambient-occlusion scene (scenes_ao.cpp); throws Error(usage) for an
@@ -226,6 +249,10 @@ Scene build_scene(const std::string& name);
 Scene build_ao_scene(const std::string& name);
 /// Names of the built-in ambient-occlusion scenes.
 std::vector<std::string> ao_scene_names();
+/// Builds a built-in lighting scene (scenes_light.cpp); throws Error(usage) for an unknown name.
+Scene build_light_scene(const std::string& name);
+/// Names of the built-in lighting scenes (their lights are Scene::lights).
+std::vector<std::string> light_scene_names();
 
 /// The camera a scene render uses for `opt` (defaults filled in, options validated).
 LensCamera camera_for(const Scene& scene, const SceneOptions& opt);

@@ -16,39 +16,16 @@
 #include <nlohmann/json.hpp>
 
 #include "io/image_io.hpp"
+#include "cli/cli_run.hpp"
 #include "io/io_test_util.hpp"
 
+using dofkit::test::channels_of;
+using dofkit::test::CliRun;
+using dofkit::test::dofkit_run;
 using dofkit::test::ScratchDir;
 namespace fs = std::filesystem;
 
 namespace {
-
-struct CliRun {
-  int code;
-  std::string err, out;
-};
-
-CliRun dofkit_run(const ScratchDir& dir, const std::string& args) {
-  const std::string err = dir / ".stderr", out = dir / ".stdout";
-  const std::string cmd = std::string(DOFKIT_BINARY_DIR) + "/dofkit " + args + " 2>" + err + " >" + out;
-  const int status = std::system(cmd.c_str());
-  const auto slurp = [](const std::string& p) {
-    std::ifstream f(p);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-  };
-  CliRun r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err), slurp(out)};
-  fs::remove(err);
-  fs::remove(out);
-  return r;
-}
-
-std::vector<std::string> channels_of(const std::string& path) {
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) return {};
-  return in->spec().channelnames;
-}
 
 // A tiny AO scene with its G-buffer, once per test binary.
 class SsaoCli : public ::testing::Test {

@@ -11,6 +11,9 @@
 //    at half resolution until the next composite or read, and up-samples it inside that
 //    composite (one pass instead of an up-sampling pass plus an "over" pass);
 //  * the final F over focus over B is one pass.
+// The definitions are one file per pass (docs/methods/layered.md lists them): fast_matting.cpp,
+// fast_push_pull.cpp, fast_accumulator.cpp, and the fused stack's fused.cpp (order of passes),
+// fused_code.cpp, fused_layer.cpp, fused_pull.cpp, fused_composite.cpp, fused_final.cpp.
 #pragma once
 #include <cstdint>
 #include <string>

@@ -22,7 +22,7 @@ namespace hn = hwy::HWY_NAMESPACE;
 // subnormal operands or results (Intel: ~20× a normal multiply): the product of two floats
 // is exact in double, so demoting it rounds the exact product once, as the float multiply
 // does, gradual underflow included. For rows of an accumulator with subnormal tails (the
-// ZeroMap's tiny blocks, fast.cpp); kExact false is the plain multiply.
+// ZeroMap's tiny blocks, fast_rows.hpp); kExact false is the plain multiply.
 template <bool kExact, class D, class V>
 HWY_INLINE V MulX(D d, V a, V b) {
 #if HWY_TARGET == HWY_SCALAR
@@ -595,7 +595,7 @@ void LerpPairsBoxImpl(const float* ta, const float* ba, float tya, const float* 
     LerpPairsBoxT<false>(ta, ba, tya, tb, bb, tyb, m, d);
 }
 
-// fast.cpp's kern::up_pairs / kern::up_quads (the same expressions in the same order) with
+// fast_kernels.cpp's kern::up_pairs / kern::up_quads (the same expressions in the same order) with
 // MulX<true>: for coarse rows with tiny samples.
 void UpPairsExactImpl(const float* src, int i0, int i1, float* dst) {
   const float* s = src + i0;
@@ -644,7 +644,7 @@ void UpQuadsExactImpl(const float* src, int i0, int i1, float* dst) {
   }
 }
 
-// fast.cpp's push at a pyramid level (pull_push_upper) for the four channels of one block
+// fast_push_pull.cpp's push at a pyramid level (pull_push_upper) for the four channels of one block
 // (see push_rows4_simd): per vector of pixels, nothing where every w >= 1 (the push keeps v
 // there), else the same expression as the scalar form below, lane by lane.
 void PushRows4Impl(const float* wr, const float* top, const float* bot, float t, int n, float* v, std::size_t ps) {

@@ -1,4 +1,4 @@
-// Highway kernels of the fused Gaussian stack (fast.cpp, render_gaussian_fused), with run-time
+// Highway kernels of the fused Gaussian stack (fused*.cpp, render_gaussian_fused), with run-time
 // dispatch (fused_simd.cpp; AVX-512 / AVX2 / SSE4 / baseline). Each computes what the row
 // kernels it replaces computed, operation for operation (no contraction: the file is built
 // with -ffp-contract=off), so the output stays bit-identical to impl=plain.
@@ -90,13 +90,13 @@ void lerp_pairs_box_simd(const float* ta, const float* ba, float tya, const floa
 /// (0 + r0[4x] + r0[4x + 1] + … + r3[4x + 3]), summed in that order.
 void down_quads_simd(const float* r0, const float* r1, const float* r2, const float* r3, int m, float* d);
 
-/// fast.cpp's kern::up_pairs / kern::up_quads (the 2× / 4× horizontal up-sampling of the
+/// fast_kernels.cpp's kern::up_pairs / kern::up_quads (the 2× / 4× horizontal up-sampling of the
 /// coarse pairs / quads [i0, i1)) with the multiplies through double: the same bits, no
 /// subnormal assists (for coarse rows with tiny samples).
 void up_pairs_exact_simd(const float* src, int i0, int i1, float* dst);
 void up_quads_exact_simd(const float* src, int i0, int i1, float* dst);
 
-/// fast.cpp's push at a pyramid level for columns [0, n) of one block (n <= 256), four
+/// fast_push_pull.cpp's push at a pyramid level for columns [0, n) of one block (n <= 256), four
 /// channels: v + c·ps ← w v + (1 − w) up where w < 1 (w > 0; +0 + up where w <= 0), with up =
 /// top + (bot − top)·t from the cached rows top / bot + c·kRowStride. Vectors where every w >= 1 are
 /// neither read nor stored (the push keeps them).

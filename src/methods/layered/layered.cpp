@@ -138,12 +138,9 @@ void render_layered(const MethodContext& ctx, Image& out) {
   std::vector<std::uint8_t> plain_hole;
   Image& layer = fast ? ctx.workspace.image("layered.layer", w, h, 4) : plain_layer;
   Image& focus_layer = fast ? ctx.workspace.image("layered.focus", w, h, 4) : plain_focus;
-  // The fast hole mask: w·h bytes in a workspace float plane.
+  // The fast hole mask: w·h bytes.
   std::uint8_t* fast_hole =
-      fast && do_fill
-          ? reinterpret_cast<std::uint8_t*>(
-                ctx.workspace.image("layered.hole", static_cast<int>((plane_bytes(w, h) + 3) / 4), 1, 1).plane(0))
-          : nullptr;
+      fast && do_fill ? ctx.workspace.plane<std::uint8_t>("layered.hole", plane_bytes(w, h)) : nullptr;
   auto offer_layer = [&](int k, const Image& img) {
     const std::string m = "layer_" + std::to_string(k) + "_matted";
     const std::string b = "layer_" + std::to_string(k) + "_blurred";

@@ -51,13 +51,14 @@ void h_interp(const Image& blur, const Image& near, int row, int w, const int* i
 void composite_fast(const Image& colour, const Image& coc, const Rect& src, int ox, int oy, const Image& blur,
                     const Image& near, const Constants& k, const Rect& inner, Image& out, Workspace& ws) {
   const int w = inner.w, h = inner.h;
-  Image& taps = ws.image("mcguire.fast.c_taps", std::max(w, h), 6, 1);
-  int* tx0 = reinterpret_cast<int*>(taps.row(0, 0));
-  int* tx1 = reinterpret_cast<int*>(taps.row(0, 1));
-  int* ty0 = reinterpret_cast<int*>(taps.row(0, 3));
-  int* ty1 = reinterpret_cast<int*>(taps.row(0, 4));
-  float* wx = taps.row(0, 2);
-  float* wyv = taps.row(0, 5);
+  // Tap indices (x0, x1, y0, y1) and weights (x, y), each max(w, h) long.
+  const std::size_t nt = static_cast<std::size_t>(std::max(w, h));
+  int* tx0 = ws.plane<int>("mcguire.fast.c_tap_index", 4 * nt);
+  int* tx1 = tx0 + nt;
+  int* ty0 = tx1 + nt;
+  int* ty1 = ty0 + nt;
+  float* wx = ws.plane<float>("mcguire.fast.c_tap_weight", 2 * nt);
+  float* wyv = wx + nt;
   fill_taps(w, blur.width(), k.f, k.lowres_offset_fix, tx0, tx1, wx);
   fill_taps(h, blur.height(), k.f, k.lowres_offset_fix, ty0, ty1, wyv);
   // With the offset fix the horizontal taps are x / f and x / f + 1 (see fill_taps).

@@ -189,7 +189,7 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
     mcguire::blur_vertical_plain(t_blur, t_near, k, oy, ho, blur, near);
   } else if (fast_blur) {
     // Per t_near row, the outputs outside which it is +0 (P3 skips those columns).
-    int* near_span = reinterpret_cast<int*>(ws.image("mcguire.fast.near_span", 2, src.h, 1).plane(0));
+    int* near_span = ws.plane<int>("mcguire.fast.near_span", 2 * static_cast<std::size_t>(src.h));
     {
       core::PassScope pass("horizontal");
       mcguire::blur_horizontal_fast(colour, ctx.coc, src, k, ox, wo, t_blur, t_near, ws, ctx.colour_dirty, near_span);

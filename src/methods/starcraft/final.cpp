@@ -227,10 +227,18 @@ void exact_medium(const MediumExact& e, const float* wm, int y, RowScratch& sc, 
   }
 }
 
-void final_row(const Image& color, const Image& depth, const Image& level, const float* const med_in[4],
-               const float* med_wt, const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out,
-               const FinalGeometry& g, RowScratch& sc, int y, std::uint64_t pass, const MediumExact* exact,
-               bool opaque) {
+// final_pass_row's work; opaque: v.opaque where it applies (see FinalPassViews).
+void final_row(const FinalPassViews& v, const float* const med_in[4], const float* med_wt, const FinalGeometry& g,
+               RowScratch& sc, int y, bool opaque) {
+  const Image& color = v.color;
+  const Image& depth = v.depth;
+  const Image& level = v.level;
+  const Image& large = v.large;
+  const Image& inv_depth = v.inv_depth;
+  const bool keep_own_blur = v.keep_own_blur;
+  Image& out = v.out;
+  const std::uint64_t pass = v.pass;
+  const MediumExact* exact = v.exact;
   const float* med[4] = {med_in[0], med_in[1], med_in[2], med_in[3]};
   const int w = g.w, h = g.h, lw = g.lw, lh = g.lh;
   // Vertical lerp of the quarter-res rows around this row, then horizontal lerp to full res:
@@ -358,13 +366,13 @@ void final_pass(const Image& color, const Image& depth, const Image& level, cons
   }
   const int w = color.width(), h = color.height();
   out.resize(w, h, 4);
-  const std::uint64_t pass = new_final_pass_id();
+  const FinalPassViews views{color, depth, level, large, inv_depth, keep_own_blur, out, new_final_pass_id()};
   core::parallel_for(
       h,
       [&](int y0, int y1) {
         for (int y = y0; y < y1; ++y) {
           const float* med[4] = {medium.row(0, y), medium.row(1, y), medium.row(2, y), medium.row(3, y)};
-          final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass);
+          final_pass_row(views, med, y);
         }
         flush_streams();  // the mix's non-temporal stores are globally visible before the task ends
       },
@@ -376,9 +384,9 @@ std::uint64_t new_final_pass_id() {
   return ++last;
 }
 
-void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
-                    const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
-                    std::uint64_t pass, const float* med_wt, const MediumExact* exact, bool opaque) {
+void final_pass_row(const FinalPassViews& v, const float* const med[4], int y, const float* med_wt) {
+  const Image& color = v.color;
+  const Image& large = v.large;
   const int w = color.width(), h = color.height();
   const FinalGeometry g{w, h, large.width(), large.height()};
   thread_local RowScratch sc;  // per worker, kept between frames
@@ -387,8 +395,7 @@ void final_pass_row(const Image& color, const Image& depth, const Image& level, 
   for (auto* v : {&sc.ws, &sc.wm, &sc.wl, &sc.wsrc}) v->resize(w);
   // (A pass id is never reused, so slots filled by an earlier pass, of any width, never match.)
   if (sc.blocks.size() < static_cast<std::size_t>(16) * w) sc.blocks.resize(static_cast<std::size_t>(16) * w);
-  final_row(color, depth, level, med, med_wt, large, inv_depth, keep_own_blur, out, g, sc, y, pass, exact,
-            opaque && med_wt && med[3] == med_wt);
+  final_row(v, med, med_wt, g, sc, y, v.opaque && med_wt && med[3] == med_wt);
 }
 
 }  // namespace dofkit::detail::starcraft

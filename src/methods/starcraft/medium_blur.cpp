@@ -129,8 +129,9 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
     const int y = static_cast<int>(static_cast<long long>(h) * b / bands) + warm / 2;
     return std::min(h, y - y % 32);
   };
-  const std::uint64_t pass = new_final_pass_id();
   const MediumExact exact{src, nplanes, level.plane(0), w, h, sigma_medium, boxes};
+  const FinalPassViews views{color,  depth, level, large, inv_depth, keep_own_blur, out, new_final_pass_id(),
+                             &exact, opaque};
   core::parallel_for(bands, [&](int b0, int b1) {
     for (int b = b0; b < b1; ++b) {
       const int y0 = cut(b), y1 = cut(b + 1);
@@ -141,7 +142,7 @@ void medium_and_final(const Image& color, const Image& depth, const Image& level
           [&](int y, const float* const* rows) {
             const float* wt = rows[nplanes];
             const float* med[4] = {rows[0], rows[1], rows[2], nplanes == 4 ? rows[3] : wt};
-            final_pass_row(color, depth, level, med, large, inv_depth, keep_own_blur, out, y, pass, wt, &exact, opaque);
+            final_pass_row(views, med, y, wt);
           },
           false);
       flush_streams();  // the mix's non-temporal stores are globally visible before the task ends

@@ -183,22 +183,33 @@ void final_pass_plain(const Image& color, const Image& depth, const Image& level
 void final_pass(const Image& color, const Image& depth, const Image& level, const Image& medium, const Image& large,
                 const Image& inv_depth, bool keep_own_blur, Image& out, const FinalDebug& dbg = {});
 
+/// What final_pass_row reads and writes for every row of one final pass (final_pass's
+/// arguments without the medium level, which comes row by row).
+struct FinalPassViews {
+  const Image& color;
+  const Image& depth;
+  const Image& level;
+  const Image& large;
+  const Image& inv_depth;
+  bool keep_own_blur;
+  Image& out;  ///< must already have the frame's size
+  /// new_final_pass_id() of the pass the rows belong to (a worker keeps the small blur's block
+  /// sums of the source rows it read for the next rows of the same pass).
+  std::uint64_t pass;
+  /// exact (with med_wt): recompute the sums of the pixels the row mixes the medium level
+  /// into whose med_wt < kExactMediumBelow (see there). Null: never.
+  const MediumExact* exact = nullptr;
+  /// With med_wt and med[3] == med_wt: every alpha of `color` is 1 and large's plane 3 is its
+  /// plane 4 (large_blur on an opaque frame); the output's alpha then comes from the level
+  /// weights alone (same values).
+  bool opaque = false;
+};
 /// One row y of final_pass with the medium level's row given as 4 plane pointers (w floats
-/// each); `out` must already have the frame's size. Same result as final_pass's row y.
+/// each). Same result as final_pass's row y.
 /// med_wt set: med holds the medium level before its division (blurred c·rgba) and med_wt
 /// the blurred weight c; the division (with the source where med_wt <= 1e-6, as in
 /// medium_blur) is made in the mix, only for the pixels that are not in focus.
-/// `pass`: new_final_pass_id() of the pass the row belongs to (a worker keeps the small blur's
-/// block sums of the source rows it read for the next rows of the same pass).
-/// exact (with med_wt): recompute the sums of the pixels the row mixes the medium level into
-/// whose med_wt < kExactMediumBelow (see there).
-/// opaque (with med_wt and med[3] == med_wt): every alpha of `color` is 1 and large's plane 3
-/// is its plane 4 (large_blur on an opaque frame); the output's alpha then comes from the
-/// level weights alone (same values).
-void final_pass_row(const Image& color, const Image& depth, const Image& level, const float* const med[4],
-                    const Image& large, const Image& inv_depth, bool keep_own_blur, Image& out, int y,
-                    std::uint64_t pass, const float* med_wt = nullptr, const MediumExact* exact = nullptr,
-                    bool opaque = false);
+void final_pass_row(const FinalPassViews& v, const float* const med[4], int y, const float* med_wt = nullptr);
 /// A number no earlier final pass of the process used.
 std::uint64_t new_final_pass_id();
 

@@ -1,3 +1,4 @@
+// Over 800 lines: the gather templates are compiled once per target copy here, beside the dispatch that picks one.
 // Fast P7: the 49-tap gather, register-blocked. Same sums as gather.cpp, same order, in the
 // baseline copy; the FMA copies (the usual case) agree with gather.cpp to rounding and take,
 // per frame, the cheapest of three forms of the sum: in the AVX-512 copy the fold form
@@ -34,6 +35,7 @@
 #include "core/parallel.hpp"
 #include "core/simd_target.hpp"
 #include "methods/sterna/fast.hpp"
+#include "methods/sterna/fast_gather.hpp"
 #include "methods/sterna/v8.hpp"
 
 namespace dofkit::detail::sterna::fast {
@@ -44,12 +46,6 @@ constexpr std::uint8_t kNearBit = 1, kFarBit = 2;
 constexpr int kStripTiles = 4;  // tiles per column segment
 static_assert(kTile == 8, "one tile row is one 8-lane chunk");
 
-struct Tap {
-  std::ptrdiff_t off;        // dy·pitch + dx, floats
-  float w00, w10, w01, w11;  // bilinear weights (gather.cpp split())
-  float fx, fy;              // fractional parts of the offset, [0, 1)
-};
-
 // A tap with its weights already broadcast to vectors (loaded, not rebuilt, per tap): the
 // four bilinear weights for the baseline kernel, fx, fy and 1 − fy for the FMA kernel.
 struct alignas(32) TapV {
@@ -57,19 +53,6 @@ struct alignas(32) TapV {
   V8 fx, fy, gy;
   std::ptrdiff_t off;
 };
-
-// gather.cpp's split(): integer part and bilinear weights of an offset.
-Tap split(float ox, float oy, int pitch) {
-  const float fx0 = std::floor(ox), fy0 = std::floor(oy);
-  const float fx = ox - fx0, fy = oy - fy0;
-  return {static_cast<std::ptrdiff_t>(fy0) * pitch + static_cast<std::ptrdiff_t>(fx0),
-          (1 - fx) * (1 - fy),
-          fx * (1 - fy),
-          (1 - fx) * fy,
-          fx * fy,
-          fx,
-          fy};
-}
 
 constexpr int kSeg = kStripTiles * kTile;  // texels per segment = strip width (32)
 constexpr int kVecs = kSeg / 8;
@@ -176,178 +159,6 @@ __attribute__((always_inline)) inline V8 broadcast(const float* p) {
 #else
   return splat(*p);  // (never instantiated, as fmadd)
 #endif
-}
-
-// The texel form of the kernel (FMA copies): a texel both rows of a pair read, with its
-// weight for the first (even) row and for the second; a texel only one of them reads.
-struct TexelPair {
-  std::ptrdiff_t off;  // s·pitch + dx from the pair's first row
-  float w0, w1;
-};
-struct Texel {
-  std::ptrdiff_t off;
-  float w;
-};
-struct TexelKernel {
-  std::vector<TexelPair> both;
-  std::vector<Texel> only0, only1;
-};
-
-// Per texel (dy, dx) of the taps (offsets already scaled): the sum of the bilinear weights of
-// the taps that touch it, each computed as gather.cpp's split() does and added in double in
-// tap order; texels ordered by (dy, dx). Works in vectors kept per thread.
-struct TexelSum {
-  int dy, dx, tap;
-  double w;
-};
-void texel_sums(const std::vector<std::pair<float, float>>& offsets, int pitch, std::vector<TexelSum>& texels) {
-  thread_local std::vector<TexelSum> terms;
-  terms.clear();
-  for (int t = 0; t < static_cast<int>(offsets.size()); ++t) {
-    const auto [ox, oy] = offsets[t];
-    const Tap tp = split(ox, oy, pitch);
-    const float w[4] = {tp.w00, tp.w10, tp.w01, tp.w11};
-    const int x0 = static_cast<int>(std::floor(ox)), y0 = static_cast<int>(std::floor(oy));
-    for (int i = 0; i < 4; ++i)
-      if (w[i] != 0.0f) terms.push_back({y0 + i / 2, x0 + i % 2, t, w[i]});
-  }
-  // By texel (dy, then dx), the taps of a texel in tap order; then one weight per texel.
-  std::sort(terms.begin(), terms.end(), [](const TexelSum& a, const TexelSum& b) {
-    return a.dy != b.dy ? a.dy < b.dy : (a.dx != b.dx ? a.dx < b.dx : a.tap < b.tap);
-  });
-  texels.clear();
-  for (const TexelSum& t : terms) {
-    if (!texels.empty() && texels.back().dy == t.dy && texels.back().dx == t.dx)
-      texels.back().w += t.w;
-    else
-      texels.push_back(t);
-  }
-}
-
-// Builds the texel form of the taps (offsets already scaled): each texel's weight rounded once
-// from texel_sums.
-void build_texel_kernel(const std::vector<std::pair<float, float>>& offsets, int pitch, TexelKernel& k) {
-  thread_local std::vector<TexelSum> texels;
-  texel_sums(offsets, pitch, texels);
-  // Source texel (s, dx) from the pair's first row carries weight (s, dx) for that row and
-  // (s − 1, dx) for the second: merge the texel list with itself shifted down one row, both
-  // ordered by (s, dx).
-  k.both.clear();
-  k.only0.clear();
-  k.only1.clear();
-  const std::size_t n = texels.size();
-  std::size_t i = 0, j = 0;  // i: the first row's texels (s = dy), j: the second's (s = dy + 1)
-  while (i < n || j < n) {
-    const bool take_i = i < n && (j >= n || texels[i].dy < texels[j].dy + 1 ||
-                                  (texels[i].dy == texels[j].dy + 1 && texels[i].dx <= texels[j].dx));
-    const bool take_j = j < n && (i >= n || texels[j].dy + 1 < texels[i].dy ||
-                                  (texels[j].dy + 1 == texels[i].dy && texels[j].dx <= texels[i].dx));
-    const int s = take_i ? texels[i].dy : texels[j].dy + 1, dx = take_i ? texels[i].dx : texels[j].dx;
-    const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(s) * pitch + dx;
-    const float w0 = take_i ? static_cast<float>(texels[i].w) : 0.0f;
-    const float w1 = take_j ? static_cast<float>(texels[j].w) : 0.0f;
-    if (w0 != 0.0f && w1 != 0.0f)
-      k.both.push_back({off, w0, w1});
-    else if (w0 != 0.0f)
-      k.only0.push_back({off, w0});
-    else if (w1 != 0.0f)
-      k.only1.push_back({off, w1});
-    i += take_i ? 1 : 0;
-    j += take_j ? 1 : 0;
-  }
-}
-
-// The fold form (AVX-512 copy), the usual case there. Sterna's rings (and every kernel symmetric
-// about the horizontal axis: anamorphic, even polygons without rotation) give texel weights
-// with K(dx, s) = K(dx, −s) bit for bit, so the gather of row y is
-//   Σ_{e ≥ 0} Σ_dx K(dx, e)·V_e(x + dx),   V_0 = src(·, y),  V_e = src(·, y + e) + src(·, y − e),
-// where the rows V_e of output row y serve all the taps of that row: one add per distance e and
-// texel (~15 at the bench frame's scale 2.4) halves the FMAs, from one per texel of the kernel
-// (181 there) to one per (dx, e) pair (91, plus 12 texels whose mirror is missing or differs:
-// the taps at 90° and 180° have offsets of ±1e-16 instead of 0, which touch a neighbour texel
-// with a weight ~1e-16; they stay single texels, read from the plane). So the gather is ~120
-// FP operations per output vector, against ~135 FMAs + ~110 adds in the separable form.
-// It walks the frame row by row (the other forms walk column strips): each source row is read
-// from L3 once per plane as a stream and then from L2 by the 31 output rows that use it, where
-// the column walks wait on every row's first line (a 4 kB stride defeats the hardware
-// prefetchers). 16-lane vectors: an AVX2 copy of it (8 lanes, 2 rows of 32 texels per pass)
-// ran 10 % slower than the separable form there (gather CPU 32.3 against 29.4 ms per 1080p
-// frame, same AVX-512 machine, AVX2 code), so the AVX2 copy keeps the strip forms. Same real-number sum as gather.cpp,
-// rounded differently (each weight rounded once from its double sum, one rounding per V add and per FMA), in the same
-// order for every row: pairs by (e, dx), then the single texels by (s, dx).
-struct FoldTerm {
-  std::int32_t off;  // pairs: V-buffer offset e_index·vstride + dx − bx; single texels: s·pitch + dx
-  float w;
-};
-struct FoldKernel {
-  bool ok = false;        // the fold form needs fewer operations than the texel form
-  std::vector<int> e;     // the distinct e ≥ 0 of the pairs, ascending
-  std::vector<int> e_of;  // per pair: its e
-  std::vector<FoldTerm> pairs, single;
-  std::vector<int> e_slot;  // for e = 0 … max e: its index in `e`, or −1
-  int bx = 0;               // first buffer column, relative to the chunk (a multiple of 16, ≤ dx_min)
-  int vstride = 0;          // floats per V row in the buffer
-  int vspan = 0;            // dx_max − bx: V columns beyond a chunk's own texels that its pairs read
-};
-
-// The fold kernel for output chunks of cw texels (offsets already scaled).
-void build_fold_kernel(const std::vector<std::pair<float, float>>& offsets, int pitch, int cw, FoldKernel& k) {
-  thread_local std::vector<TexelSum> texels;
-  texel_sums(offsets, pitch, texels);
-  k.ok = false;
-  k.e.clear();
-  k.e_of.clear();
-  k.pairs.clear();
-  k.single.clear();
-  if (texels.empty()) return;
-  // Texel (dx, e ≥ 0) pairs with (dx, −e) where their float weights are equal; e = 0 pairs with
-  // nothing. (Sorted by (dy, dx): binary search.)
-  auto find = [&](int dy, int dx) -> const TexelSum* {
-    auto it = std::lower_bound(
-        texels.begin(), texels.end(), std::make_pair(dy, dx),
-        [](const TexelSum& t, std::pair<int, int> v) { return t.dy != v.first ? t.dy < v.first : t.dx < v.second; });
-    return it != texels.end() && it->dy == dy && it->dx == dx ? &*it : nullptr;
-  };
-  struct P {
-    int e, dx;
-    float w;
-  };
-  thread_local std::vector<P> pairs;
-  thread_local std::vector<const TexelSum*> single;
-  pairs.clear();
-  single.clear();
-  int dx_min = 0, dx_max = 0;
-  for (const TexelSum& t : texels) {
-    const float w = static_cast<float>(t.w);
-    if (t.dy == 0) {
-      pairs.push_back({0, t.dx, w});
-    } else {
-      const TexelSum* m = find(-t.dy, t.dx);
-      const bool mirrored = m != nullptr && static_cast<float>(m->w) == w;
-      if (!mirrored)
-        single.push_back(&t);
-      else if (t.dy > 0)
-        pairs.push_back({t.dy, t.dx, w});
-    }
-    dx_min = std::min(dx_min, t.dx);
-    dx_max = std::max(dx_max, t.dx);
-  }
-  std::sort(pairs.begin(), pairs.end(), [](const P& a, const P& b) { return a.e != b.e ? a.e < b.e : a.dx < b.dx; });
-  for (const P& q : pairs)
-    if (k.e.empty() || k.e.back() != q.e) k.e.push_back(q.e);
-  k.e_slot.assign(k.e.empty() ? 1 : k.e.back() + 1, -1);
-  for (std::size_t i = 0; i < k.e.size(); ++i) k.e_slot[k.e[i]] = static_cast<int>(i);
-  k.bx = -((-dx_min + 15) / 16) * 16;
-  k.vstride = (cw + dx_max - k.bx + 15) / 16 * 16;
-  k.vspan = dx_max - k.bx;
-  for (const P& q : pairs) {
-    const int ei = static_cast<int>(std::lower_bound(k.e.begin(), k.e.end(), q.e) - k.e.begin());
-    k.pairs.push_back({ei * k.vstride + q.dx - k.bx, q.w});
-    k.e_of.push_back(q.e);
-  }
-  for (const TexelSum* t : single)  // (texels order: (dy, dx))
-    k.single.push_back({t->dy * pitch + t->dx, static_cast<float>(t->w)});
-  k.ok = k.pairs.size() + k.single.size() + k.e.size() <= texels.size();
 }
 
 // One tap for one output row from source rows (a0, b0) above and (a1, b1) below.
@@ -997,156 +808,6 @@ STERNA_SIMD void classify_row(const float* __restrict nb, const float* __restric
     }
     tiles[t] |= (nn ? kNearBit : 0) | (ff ? kFarBit : 0);
   }
-}
-
-// gather.cpp's bilinear lookup of padded plane `plane` at (x, y) (texel units, centres at
-// integer + ½), the position's split given: the same operations in the same order.
-struct Lookup {
-  std::ptrdiff_t off;  // row y0, column x0 of the padded plane, from the origin
-  float tx, ty;
-};
-inline Lookup lookup_at(float x, float y, std::ptrdiff_t pitch) {
-  const float fx = x - 0.5f, fy = y - 0.5f;
-  const float x0 = std::floor(fx), y0 = std::floor(fy);
-  return {static_cast<std::ptrdiff_t>(y0) * pitch + static_cast<std::ptrdiff_t>(x0), fx - x0, fy - y0};
-}
-inline float bilinear_at(const float* origin, const Lookup& l, std::ptrdiff_t pitch) {
-  const float* r0 = origin + l.off;
-  const float* r1 = r0 + pitch;
-  const float tx = l.tx, ty = l.ty;
-  return (1 - ty) * ((1 - tx) * r0[0] + tx * r0[1]) + ty * ((1 - tx) * r1[0] + tx * r1[1]);
-}
-
-// per_pixel_scale (docs/methods/sterna.md, gather.cpp): the far field of texel p with its offsets
-// scaled by kernel_scale · far_h(p), so every texel has its own bilinear splits. gather.cpp's
-// per-texel loop with the same sums in the same order (Σ over taps of each channel's lookup,
-// then num / den), except that a tap's position is split once for the five planes instead of
-// once per plane (the same values). Texels with far_h = 0 get the early-out 0.
-// far_texels does texels x0 … x1 − 1 of row y one at a time; far_texels_avx2 eight at a time
-// (the lookups by AVX2 gathers, the arithmetic lane by lane the same operations: multiplies and
-// adds stay separate, AVX2 without FMA).
-struct PerTexel {
-  const float* origin[5];  // far_src planes at texel (0, 0)
-  float* out[4];           // dof_far row y
-  const float* fr;         // far_h row y
-  std::ptrdiff_t pitch;
-  float ks;
-  const std::vector<Offset>* off;
-};
-
-void far_texels(const PerTexel& P, int y, int x0, int x1) {
-  const std::ptrdiff_t pitch = P.pitch;
-  const float ks = P.ks;
-  const float* fr = P.fr;
-  for (int x = x0; x < x1; ++x) {
-    if (!(fr[x] > 0.0f)) {
-      for (int c = 0; c < 4; ++c) P.out[c][x] = 0.0f;
-      continue;
-    }
-    const float sc = ks * fr[x];
-    const float cx = x + 0.5f, cy = y + 0.5f;
-    float num[4] = {0, 0, 0, 0}, den = 0.0f;
-    for (const Offset& o : *P.off) {
-      const Lookup l = lookup_at(cx + o.x * sc, cy + o.y * sc, pitch);
-      for (int c = 0; c < 4; ++c) num[c] += bilinear_at(P.origin[c], l, pitch);
-      den += bilinear_at(P.origin[4], l, pitch);
-    }
-    for (int c = 0; c < 4; ++c) P.out[c][x] = num[c] / den;
-  }
-}
-
-#if !defined(__clang__)
-// row[idx] and row[idx + 1] for the 8 lanes of idx (idx_lo, idx_hi: lanes 0–3, 4–7): the two
-// neighbours as one 64-bit element per lane, two 4-lane gathers instead of two 8-lane ones
-// (Zen 3 gathers cost per element), then de-interleaved.
-__attribute__((target("avx2"), always_inline)) inline void gather_pairs(const float* row, __m128i idx_lo,
-                                                                        __m128i idx_hi, __m256& left, __m256& right) {
-  const double* base = reinterpret_cast<const double*>(row);
-  // (The masked form with every lane on: the unmasked intrinsic's undefined source trips
-  // GCC 12's -Wmaybe-uninitialized.)
-  const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), zero = _mm256_setzero_pd();
-  const __m256 g0 =
-      _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero, base, idx_lo, all, 4));  // l0 r0 l1 r1 | l2 r2 l3 r3
-  const __m256 g1 =
-      _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero, base, idx_hi, all, 4));  // l4 r4 l5 r5 | l6 r6 l7 r7
-  // l0 l1 l4 l5 | l2 l3 l6 l7, then the 64-bit lanes in the order 0, 2, 1, 3: l0 … l7
-  left = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0x88)), 0xd8));
-  right = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0xdd)), 0xd8));
-}
-
-// Returns the first texel it left to far_texels (the tail of the row).
-__attribute__((target("avx2"))) int far_texels_avx2(const PerTexel& P, int y, int w) {
-  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f);
-  const __m256 ks = _mm256_set1_ps(P.ks), cy = _mm256_set1_ps(y + 0.5f);
-  const __m256i pitch = _mm256_set1_epi32(static_cast<int>(P.pitch));
-  int x = 0;
-  for (; x + 8 <= w; x += 8) {
-    const __m256 fr = _mm256_loadu_ps(P.fr + x);
-    const __m256 on = _mm256_cmp_ps(fr, zero, _CMP_GT_OQ);
-    if (_mm256_movemask_ps(on) == 0) {
-      for (int c = 0; c < 4; ++c) _mm256_storeu_ps(P.out[c] + x, zero);
-      continue;
-    }
-    const __m256 sc = _mm256_mul_ps(ks, fr);
-    // x + 0.5f per lane: the integer column converted exactly, then the same add.
-    const __m256 cx = _mm256_add_ps(
-        _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))), half);
-    __m256 num[4] = {zero, zero, zero, zero}, den = zero;
-    for (const Offset& o : *P.off) {
-      const __m256 px = _mm256_add_ps(cx, _mm256_mul_ps(_mm256_set1_ps(o.x), sc));
-      const __m256 py = _mm256_add_ps(cy, _mm256_mul_ps(_mm256_set1_ps(o.y), sc));
-      const __m256 fx = _mm256_sub_ps(px, half), fy = _mm256_sub_ps(py, half);
-      const __m256 x0 = _mm256_floor_ps(fx), y0 = _mm256_floor_ps(fy);
-      const __m256 tx = _mm256_sub_ps(fx, x0), ty = _mm256_sub_ps(fy, y0);
-      const __m256 ux = _mm256_sub_ps(one, tx), uy = _mm256_sub_ps(one, ty);
-      const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(y0), pitch), _mm256_cvttps_epi32(x0));
-      const __m128i idx_lo = _mm256_castsi256_si128(idx), idx_hi = _mm256_extracti128_si256(idx, 1);
-      for (int c = 0; c < 5; ++c) {
-        const float* r0 = P.origin[c];
-        __m256 a, bb, cc, d;
-        gather_pairs(r0, idx_lo, idx_hi, a, bb);
-        gather_pairs(r0 + P.pitch, idx_lo, idx_hi, cc, d);
-        // (1 − ty)·((1 − tx)·a + tx·b) + ty·((1 − tx)·c + tx·d), as bilinear_at
-        const __m256 top = _mm256_add_ps(_mm256_mul_ps(ux, a), _mm256_mul_ps(tx, bb));
-        const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ux, cc), _mm256_mul_ps(tx, d));
-        const __m256 v = _mm256_add_ps(_mm256_mul_ps(uy, top), _mm256_mul_ps(ty, bot));
-        if (c < 4)
-          num[c] = _mm256_add_ps(num[c], v);
-        else
-          den = _mm256_add_ps(den, v);
-      }
-    }
-    for (int c = 0; c < 4; ++c) _mm256_storeu_ps(P.out[c] + x, _mm256_and_ps(on, _mm256_div_ps(num[c], den)));
-  }
-  return x;
-}
-#endif
-
-void far_per_texel(const Settings& s, Buffers& b) {
-  const int w = b.w, h = b.h;
-#if !defined(__clang__)  // (clang, the fuzz build: far_texels only)
-  static const bool cpu_avx2 = __builtin_cpu_supports("avx2");
-  const bool avx2 = cpu_avx2 && core::simd_level_cap() >= core::SimdLevel::avx2;
-#endif
-  core::parallel_for(
-      h,
-      [&](int y0, int y1) {
-        PerTexel P;
-        for (int c = 0; c < 5; ++c) P.origin[c] = b.src_row(*b.far_src, c, 0);
-        P.pitch = b.far_src->width();
-        P.ks = s.kernel_scale;
-        P.off = &s.offsets;
-        for (int y = y0; y < y1; ++y) {
-          P.fr = b.far_h_row(y);
-          for (int c = 0; c < 4; ++c) P.out[c] = b.dof_far->row(c, y);
-          int x = 0;
-#if !defined(__clang__)
-          if (avx2) x = far_texels_avx2(P, y, w);
-#endif
-          far_texels(P, y, x, w);
-        }
-      },
-      4);
 }
 
 }  // namespace

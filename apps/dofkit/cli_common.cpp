@@ -12,6 +12,7 @@
 #include "dofkit/error.hpp"
 #include "dofkit/render.hpp"
 #include "io/image_io.hpp"
+#include "io/layers_io.hpp"
 
 namespace fs = std::filesystem;
 
@@ -675,6 +676,26 @@ HighlightRecovery HighlightFlags::build(bool display_referred) const {
   HighlightRecovery h = h_;
   if (!given(boost_opt_)) h.boost = display_referred ? kDefaultDisplayBoost : 0.0;
   return h;
+}
+
+Frame read_layered_frame(const std::string& color, const std::string& depth, const std::string& layers,
+                         const io::DepthOptions& depth_opt, const std::vector<std::string>& color_channels,
+                         int max_layers, io::DepthFacts* facts) {
+  Frame frame;
+  if (!color.empty()) frame.color = io::read_color(color, color_channels);
+  if (!depth.empty()) frame.depth = io::read_depth(depth, depth_opt, facts);
+  io::read_layers(layers, frame, max_layers);
+  if (frame.depth.empty() && !color.empty()) {
+    // --color without --depth: its own Z channel if it has one, else the layers' depth.
+    if (!depth_opt.channel.empty() || io::has_depth_channel(color))
+      frame.depth = io::read_depth(color, depth_opt, facts);
+  }
+  if (!frame.depth.same_size(frame.color))
+    throw_bad_input((depth.empty() ? layers : depth) + ": depth is " + std::to_string(frame.depth.width()) + "x" +
+                    std::to_string(frame.depth.height()) + " but colour is " + std::to_string(frame.color.width()) +
+                    "x" + std::to_string(frame.color.height()));
+  validate_frame(frame, (color.empty() ? layers : color).c_str());
+  return frame;
 }
 
 }  // namespace dofkit::cli

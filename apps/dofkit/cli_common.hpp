@@ -234,4 +234,12 @@ CLI::Option* add_number(CLI::App* cmd, const std::string& flag, T& var, const st
 /// Parses --backend cpu|vulkan. Throws Error(usage).
 Backend parse_backend(const std::string& text);
 
+/// A `--layers` frame as render and view read it: the multi-layer or deep EXR `layers` gives
+/// the colour and depth unless `color` / `depth` (may be empty) override them; `color` without
+/// `depth` uses its own depth channel when it has one. Checks sizes and validates the frame
+/// (Error(bad_input) naming the file). `facts` (may be null) as io::read_depth.
+Frame read_layered_frame(const std::string& color, const std::string& depth, const std::string& layers,
+                         const io::DepthOptions& depth_opt, const std::vector<std::string>& color_channels,
+                         int max_layers, io::DepthFacts* facts);
+
 }  // namespace dofkit::cli

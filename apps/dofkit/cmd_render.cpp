@@ -423,19 +423,7 @@ FrameInputs read_inputs_checked(const RenderArgs& a, const FramePaths& p, const 
   if (p.layers.empty()) {
     frame = io::load_frame(p.color, p.depth, depth_opt, color_channels, &in.depth_facts);
   } else {
-    if (!p.color.empty()) frame.color = io::read_color(p.color, color_channels);
-    if (!p.depth.empty()) frame.depth = io::read_depth(p.depth, depth_opt, &in.depth_facts);
-    io::read_layers(p.layers, frame, a.max_layers);
-    if (frame.depth.empty() && !p.color.empty()) {
-      // --color without --depth: its own Z channel if it has one, else the layers' depth.
-      if (!depth_opt.channel.empty() || io::has_depth_channel(p.color))
-        frame.depth = io::read_depth(p.color, depth_opt, &in.depth_facts);
-    }
-    if (!frame.depth.same_size(frame.color))
-      throw_bad_input((p.depth.empty() ? p.layers : p.depth) + ": depth is " + std::to_string(frame.depth.width()) +
-                      "x" + std::to_string(frame.depth.height()) + " but colour is " +
-                      std::to_string(frame.color.width()) + "x" + std::to_string(frame.color.height()));
-    validate_frame(frame, (p.color.empty() ? p.layers : p.color).c_str());
+    frame = read_layered_frame(p.color, p.depth, p.layers, depth_opt, color_channels, a.max_layers, &in.depth_facts);
   }
   if (!a.rgba_only && !p.output.empty() && !p.color.empty() && io::is_exr_path(p.output) && io::is_exr_path(p.color))
     in.passthrough = io::ExrPassthrough::read(p.color, color_channels, frame.color.width(), frame.color.height(),

@@ -37,7 +37,6 @@
 #include "dofkit/error.hpp"
 #include "dofkit/render.hpp"
 #include "io/image_io.hpp"
-#include "io/layers_io.hpp"
 #include "io/srgb.hpp"
 #include "metrics/metrics.hpp"
 #include "view_page.hpp"
@@ -1024,20 +1023,8 @@ void run_view(ViewArgs& a) {
   } else {
     // As `dofkit render --layers` reads them (at most its default 8 layers): the layers give the
     // colour and depth unless --color / --depth override them.
-    in.frame = while_doing("reading " + a.layers, [&] {
-      Frame f;
-      if (!a.color.empty()) f.color = io::read_color(a.color);
-      if (!a.depth.empty()) f.depth = io::read_depth(a.depth, depth_opt);
-      io::read_layers(a.layers, f, 8);
-      if (f.depth.empty() && !a.color.empty() && (!depth_opt.channel.empty() || io::has_depth_channel(a.color)))
-        f.depth = io::read_depth(a.color, depth_opt);
-      if (!f.depth.same_size(f.color))
-        throw_bad_input((a.depth.empty() ? a.layers : a.depth) + ": depth is " + std::to_string(f.depth.width()) + "x" +
-                        std::to_string(f.depth.height()) + " but colour is " + std::to_string(f.color.width()) + "x" +
-                        std::to_string(f.color.height()));
-      validate_frame(f, (a.color.empty() ? a.layers : a.color).c_str());
-      return f;
-    });
+    in.frame = while_doing("reading " + a.layers,
+                           [&] { return read_layered_frame(a.color, a.depth, a.layers, depth_opt, {}, 8, nullptr); });
   }
   in.display_referred = !a.color.empty() && io::is_display_referred(a.color);
   if (!scene.is_null()) {

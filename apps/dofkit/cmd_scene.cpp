@@ -35,6 +35,11 @@ namespace dofkit::cli {
 
 namespace {
 
+// The built-in scenes' shadow maps: side in texels and depth bias in metres (about two texels
+// at the scenes' farthest receivers).
+constexpr int kSceneShadowMapPx = 512;
+constexpr double kSceneShadowBiasM = 0.03;
+
 struct SceneArgs {
   std::string name;
   std::string out;
@@ -196,8 +201,23 @@ void run_scene(const SceneArgs& a) {
     if (!built.lights.empty()) {
       // The scene's lights (world space, so that `dofkit light --camera camera.json` turns them
       // back) and the tracer's forward-lit ground truth at the exact hits (docs/lighting.md).
+      // Shadow-casting lights get their §5.8 maps rendered from the light (docs/lighting.md)
+      // and named in lights.json, so that `dofkit light` applies them with no further flag.
+      std::vector<Light> file_lights = built.lights;
+      std::vector<std::string> shadow_files(file_lights.size());
+      for (std::size_t k = 0; k < file_lights.size(); ++k) {
+        if (!file_lights[k].casts_shadows) continue;
+        ShadowMaps maps;
+        core::with_threads(a.threads, [&] {
+          maps = scene::render_shadow_maps(built, file_lights[k], kSceneShadowMapPx, kSceneShadowBiasM);
+        });
+        shadow_files[k] = "shadow_" + std::to_string(k) + ".exr";
+        write_shadow_maps((std::filesystem::path(a.out) / shadow_files[k]).string(), maps);
+        file_lights[k].shadow = std::make_shared<const ShadowMaps>(std::move(maps));
+        extra_files.push_back(shadow_files[k]);
+      }
       const std::string lpath = (std::filesystem::path(a.out) / "lights.json").string();
-      const nlohmann::json lj = lights_json(built.lights, true, scene::world_to_camera(built));
+      const nlohmann::json lj = lights_json(file_lights, true, scene::world_to_camera(built), shadow_files);
       io::write_atomically(lpath, [&](const std::string& tmp) {
         std::ofstream f(tmp, std::ios::binary);
         f << lj.dump(2) << "\n";

@@ -1,4 +1,4 @@
-// dofkit — deferred lighting from a G-buffer (StarCraft II §5.4, docs/methods/lighting.md).
+// dofkit — deferred lighting from a G-buffer (StarCraft II §5.4, §5.8 translucent shadows; docs/lighting.md).
 //
 // Local point and spot lights with a finite radius of influence are applied from the deferred
 // buffers (depth, normals, diffuse albedo, specular colour + gloss, emissive): each light

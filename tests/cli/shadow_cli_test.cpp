@@ -59,9 +59,10 @@ TEST(ShadowCli, SceneMapsAreAppliedWithNoFlagAndBadMapsAreRefused) {
   const dofkit::Image truth = rgb(dofkit::io::read_color(s + "/lit.exr"));
   const double db = dofkit::metrics::psnr_linear(truth, rgb(dofkit::io::read_color(out)));
   const double db_open = dofkit::metrics::psnr_linear(truth, rgb(dofkit::io::read_color(open_out)));
-  std::printf("scene shadows 96x54: dofkit light vs lit.exr %.2f dB with the maps (whole image, shadow edges "
-              "included), %.2f dB without\n",
-              db, db_open);
+  std::printf(
+      "scene shadows 96x54: dofkit light vs lit.exr %.2f dB with the maps (whole image, shadow edges "
+      "included), %.2f dB without\n",
+      db, db_open);
   EXPECT_GT(db, db_open + 10);
 
   // Bad maps: one line naming the file and the field, exit 3, no output.

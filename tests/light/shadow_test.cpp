@@ -46,13 +46,13 @@ std::array<double, 3> at(double x, double depth) { return {x, 0, -depth}; }
 TEST(Shadow, LookupFollowsTheChaptersRules) {
   const ShadowMaps m = tiny_maps();
   using A = std::array<double, 3>;
-  EXPECT_EQ(shadow_factor(m, at(-0.5, 1.0)), (A{1, 1, 1}));        // passes both tests: light not coloured
-  EXPECT_EQ(shadow_factor(m, at(-0.5, 2.005)), (A{1, 1, 1}));      // within the bias of the translucent caster
-  EXPECT_EQ(shadow_factor(m, at(-0.5, 3.0)), (A{0.5, 0.25, 1}));   // fails the translucent test only: coloured
-  EXPECT_EQ(shadow_factor(m, at(-0.5, 6.0)), (A{0, 0, 0}));        // fails the opaque test: no light
-  EXPECT_EQ(shadow_factor(m, at(0.5, 100.0)), (A{1, 1, 1}));       // the right texel holds no caster
-  EXPECT_EQ(shadow_factor(m, at(1.5, 6.0)), (A{1, 1, 1}));         // outside the map: not shadowed
-  ShadowMaps opaque_only = m;                                      // a plain shadow map
+  EXPECT_EQ(shadow_factor(m, at(-0.5, 1.0)), (A{1, 1, 1}));       // passes both tests: light not coloured
+  EXPECT_EQ(shadow_factor(m, at(-0.5, 2.005)), (A{1, 1, 1}));     // within the bias of the translucent caster
+  EXPECT_EQ(shadow_factor(m, at(-0.5, 3.0)), (A{0.5, 0.25, 1}));  // fails the translucent test only: coloured
+  EXPECT_EQ(shadow_factor(m, at(-0.5, 6.0)), (A{0, 0, 0}));       // fails the opaque test: no light
+  EXPECT_EQ(shadow_factor(m, at(0.5, 100.0)), (A{1, 1, 1}));      // the right texel holds no caster
+  EXPECT_EQ(shadow_factor(m, at(1.5, 6.0)), (A{1, 1, 1}));        // outside the map: not shadowed
+  ShadowMaps opaque_only = m;                                     // a plain shadow map
   opaque_only.translucent_depth = Image();
   opaque_only.translucent_color = Image();
   EXPECT_EQ(shadow_factor(opaque_only, at(-0.5, 3.0)), (A{1, 1, 1}));
@@ -80,8 +80,8 @@ struct ShadowCase {
   scene::Scene sc;
   scene::LensCamera cam;
   Image depth, normals, albedo, specular, gloss, emissive;
-  std::vector<Light> lights;            // with the maps
-  std::vector<Light> unshadowed;        // the same lights without
+  std::vector<Light> lights;      // with the maps
+  std::vector<Light> unshadowed;  // the same lights without
   std::shared_ptr<const ShadowMaps> maps;
   int key = -1;
   GBufferRef ref() const { return {&depth, &normals, &albedo, &specular, &gloss, &emissive}; }
@@ -200,8 +200,8 @@ TEST(Shadow, SceneAgainstTheTracersShadowRays) {
         bad_two += !close3(factor, both, 1e-5);
       } else if (id == red && close3(T, {0, 0, 0}, 0)) {
         ++n_black_on_slab;
-        bad_black += !(shadowed_layer.at(x, y, 0) == 0 && shadowed_layer.at(x, y, 1) == 0 &&
-                       shadowed_layer.at(x, y, 2) == 0);
+        bad_black +=
+            !(shadowed_layer.at(x, y, 0) == 0 && shadowed_layer.at(x, y, 1) == 0 && shadowed_layer.at(x, y, 2) == 0);
       } else if (slab && close3(T, {1, 1, 1}, 0)) {
         ++n_self;
         bad_self += !close3(factor, {1, 1, 1}, 1e-6);
@@ -248,7 +248,8 @@ TEST(Shadow, TiledEqualsBruteAndAnyThreadCount) {
   const Image fwd = forward_lighting(c.ref(), c.lights, c.cam.hfov_deg);
   double worst = 0;
   for (std::size_t i = 0; i < fwd.data().size(); ++i)
-    worst = std::max(worst, std::abs(fwd.data()[i] - brute.data()[i]) / std::max(1e-6, std::abs(double(fwd.data()[i]))));
+    worst =
+        std::max(worst, std::abs(fwd.data()[i] - brute.data()[i]) / std::max(1e-6, std::abs(double(fwd.data()[i]))));
   EXPECT_LE(worst, 1e-5);
   // The maps themselves: the same for 1 and 3 threads.
   ShadowMaps one, three;

@@ -3,6 +3,7 @@
 // `dofkit render`.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -239,6 +240,20 @@ void run_scene(const SceneArgs& a) {
       extra_files.push_back("lights.json");
       extra_files.push_back("lit.exr");
       extra_files.push_back("lit_ground_truth.exr");
+      // Key transparencies (§5.7): premultiplied lit colour, coverage and depth, the input of
+      // `dofkit pipeline --transparency` (docs/lighting.md).
+      if (std::any_of(built.prims.begin(), built.prims.end(),
+                      [](const scene::Primitive& p) { return p.camera_alpha < 1; })) {
+        Image t;
+        core::with_threads(a.threads, [&] { t = scene::render_transparency(built, cam); });
+        const std::string tpath = (std::filesystem::path(a.out) / "transparency.exr").string();
+        const std::vector<io::exr::OutChannel> tch = {
+            {"R", t.plane(0)}, {"G", t.plane(1)}, {"B", t.plane(2)}, {"A", t.plane(3)}, {"Z", t.plane(4)}};
+        io::write_atomically(tpath, [&](const std::string& tmp) {
+          io::exr::write_scanline(tmp, tpath, cam.width, cam.height, tch, false, "zip");
+        });
+        extra_files.push_back("transparency.exr");
+      }
     }
   }
   if (write_ao) {
@@ -285,6 +300,8 @@ void run_scene(const SceneArgs& a) {
       j["files"]["lights"] = "lights.json";
       j["files"]["lit"] = "lit.exr";
       j["files"]["lit_ground_truth"] = "lit_ground_truth.exr";
+      if (std::find(extra_files.begin(), extra_files.end(), "transparency.exr") != extra_files.end())
+        j["files"]["transparency"] = "transparency.exr";
     }
   }
   if (write_ao) {

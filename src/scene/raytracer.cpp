@@ -495,7 +495,25 @@ Hit closest(const Scene& scene, const std::vector<int>& cand, Vec3 o, Vec3 d) {
 
 Rgb radiance(const Scene& scene, const Hit& h, Vec3 o, Vec3 d) {
   if (h.prim < 0) return shade_background(scene.background, d);
-  if (scene.lit) return lit_at(scene, scene.prims[h.prim], o + d * h.z, o);
+  if (scene.lit) {
+    const Primitive& p = scene.prims[h.prim];
+    const Rgb c = lit_at(scene, p, o + d * h.z, o);
+    if (!(p.camera_alpha < 1)) return c;
+    // A key transparency: its coverage of its own radiance over what lies behind it (the
+    // nearest surface past it among all primitives but itself).
+    Hit behind;
+    for (int i = 0; i < static_cast<int>(scene.prims.size()); ++i) {
+      if (i == h.prim) continue;
+      const double t = intersect(scene.prims[i], o, d);
+      if (t < behind.z) {
+        behind.z = t;
+        behind.prim = i;
+      }
+    }
+    const Rgb b = radiance(scene, behind, o, d);
+    const float a = p.camera_alpha;
+    return {a * c.r + (1 - a) * b.r, a * c.g + (1 - a) * b.g, a * c.b + (1 - a) * b.b};
+  }
   return shade_at(scene.prims[h.prim], o + d * h.z);
 }
 
@@ -881,7 +899,15 @@ PrimaryHit primary_hit(const Scene& scene, const std::vector<int>& cand, const L
                        int y) {
   PrimaryHit r;
   r.dir = {(x + 0.5 - 0.5 * cam.width) / f, (y + 0.5 - 0.5 * cam.height) / f, 1.0};
-  r.hit = closest(scene, cand, {0, 0, 0}, r.dir);
+  // The opaque surface: key transparencies (camera_alpha < 1) are not in the opaque buffers.
+  for (int i : cand) {
+    if (scene.prims[i].camera_alpha < 1) continue;
+    const double t = intersect(scene.prims[i], {0, 0, 0}, r.dir);
+    if (t < r.hit.z) {
+      r.hit.z = t;
+      r.hit.prim = i;
+    }
+  }
   if (r.hit.prim >= 0) r.point = r.dir * r.hit.z;
   return r;
 }
@@ -1060,8 +1086,8 @@ Rgb shadow_transmittance(const Scene& scene, const Light& l, Vec3 x, int own) {
   }
   double f[3] = {1, 1, 1};
   for (int i = 0; i < static_cast<int>(scene.prims.size()); ++i) {
-    if (i == own) continue;
     const Primitive& p = scene.prims[i];
+    if (i == own || p.camera_alpha < 1) continue;  // key transparencies cast no shadow
     const double t = intersect(p, x, d);
     if (!(t < t_max)) continue;
     if (!p.translucent) return {0, 0, 0};
@@ -1122,7 +1148,7 @@ std::uint64_t casters_on_line(const Scene& scene, const Light& l, Vec3 x) {
   }
   std::uint64_t set = 0;
   for (std::size_t i = 0; i < scene.prims.size() && i < 64; ++i)
-    if (intersect(scene.prims[i], o, d) < kInf) set |= std::uint64_t{1} << i;
+    if (!(scene.prims[i].camera_alpha < 1) && intersect(scene.prims[i], o, d) < kInf) set |= std::uint64_t{1} << i;
   return set;
 }
 
@@ -1150,7 +1176,7 @@ ShadowMaps render_shadow_maps(const Scene& scene, const Light& l, int size_px, d
         const Vec3 d = tracer_of(light_to_camera(m.view, u / f, v / f, -1));
         double opaque = kInf, trans = kInf;
         for (std::size_t i = 0; i < scene.prims.size(); ++i) {
-          ts[i] = intersect(scene.prims[i], o, d);
+          ts[i] = scene.prims[i].camera_alpha < 1 ? kInf : intersect(scene.prims[i], o, d);
           if (!scene.prims[i].translucent) opaque = std::min(opaque, ts[i]);
         }
         double c[3] = {1, 1, 1};
@@ -1170,6 +1196,38 @@ ShadowMaps render_shadow_maps(const Scene& scene, const Light& l, int size_px, d
       }
   });
   return m;
+}
+
+Image render_transparency(const Scene& scene, const LensCamera& cam) {
+  check_camera(cam);
+  const double f = cam.f_px();
+  Image out(cam.width, cam.height, 5, 0.0f);
+  for (std::size_t i = 0; i < out.plane_size(); ++i) out.plane(4)[i] = static_cast<float>(kInf);
+  core::parallel_for(cam.height, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < cam.width; ++x) {
+        const Vec3 d{(x + 0.5 - 0.5 * cam.width) / f, (y + 0.5 - 0.5 * cam.height) / f, 1.0};
+        Hit opaque, key;
+        for (int i = 0; i < static_cast<int>(scene.prims.size()); ++i) {
+          const double t = intersect(scene.prims[i], {0, 0, 0}, d);
+          Hit& h = scene.prims[i].camera_alpha < 1 ? key : opaque;
+          if (t < h.z) {
+            h.z = t;
+            h.prim = i;
+          }
+        }
+        if (key.prim < 0 || !(key.z < opaque.z)) continue;
+        const Primitive& p = scene.prims[key.prim];
+        const Rgb c = lit_at(scene, p, d * key.z, {0, 0, 0});
+        const float a = p.camera_alpha;
+        out.at(x, y, 0) = a * c.r;
+        out.at(x, y, 1) = a * c.g;
+        out.at(x, y, 2) = a * c.b;
+        out.at(x, y, 3) = a;
+        out.at(x, y, 4) = static_cast<float>(key.z);
+      }
+  });
+  return out;
 }
 
 Image primitive_ids(const Scene& scene, const LensCamera& cam) {

@@ -102,6 +102,12 @@ struct Primitive {
   /// every primitive as an opaque surface either way.
   bool translucent = false;
   Rgb filter{1, 1, 1};
+  /// Coverage the camera sees the primitive with. 1: an ordinary surface. < 1: a key
+  /// transparency (StarCraft II §5.7): left out of the opaque buffers (render_gbuffer,
+  /// render_lit, render_ao and the other pinhole-hit passes), drawn over what lies behind it
+  /// with this coverage in the lit thin-lens render (Scene::lit), written by
+  /// render_transparency; it casts no shadow.
+  float camera_alpha = 1;
 
   static Primitive plane(Vec3 point, Vec3 normal, Vec3 u_axis, Texture t, std::string name = "plane");
   static Primitive box(Vec3 lo, Vec3 hi, Texture t, std::string name = "box");
@@ -197,7 +203,11 @@ ShadowMaps render_shadow_maps(const Scene& scene, const Light& l, int size_px, d
 /// depth), or the hit lies outside the map. 0 for the background. Scenes of at most 64
 /// primitives (the others are ignored).
 Image shadow_band(const Scene& scene, const LensCamera& cam, const Light& l, const ShadowMaps& m, double texels);
-/// The index of the primitive each pixel centre of the pinhole view sees (1 plane, −1: none).
+/// The key transparencies of the pinhole view (Primitive::camera_alpha < 1) in front of the
+/// opaque surface at each pixel centre: 5 planes, premultiplied R, G, B (lit_at's radiance ×
+/// alpha), A, and Z, its planar depth (+inf where none; the nearest one only).
+Image render_transparency(const Scene& scene, const LensCamera& cam);
+/// The index of the opaque primitive each pixel centre of the pinhole view sees (1 plane, −1: none).
 Image primitive_ids(const Scene& scene, const LensCamera& cam);
 
 /// Radiance of the background in direction d.

@@ -125,7 +125,8 @@ Scene shadows_scene() {
   s.name = "shadows";
   s.description =
       "translucent shadows: a spot light over a floor, a red slab, a blue and a yellow slab that overlap, an opaque "
-      "block over the red slab (lights.json + shadow maps + lit.exr with --gbuffer)";
+      "block over the red slab, a glass pane in front (a key transparency) (lights.json + shadow maps + "
+      "transparency.exr + lit.exr with --gbuffer)";
   s.hfov_deg = 60;
   s.focus_m = 3.5;
   s.k_px_at_640 = 10;
@@ -139,6 +140,13 @@ Scene shadows_scene() {
   s.prims.push_back(slab("yellow slab", {0.55, fy - 0.55, 3.45}, {1.55, fy - 0.51, 4.45}, {1.0f, 0.85f, 0.3f}, 915));
   // The opaque caster, over the red slab's near half.
   s.prims.push_back(Primitive::box({-1.2, fy - 1.12, 3.0}, {-0.85, fy - 0.97, 3.3}, block, "block"));
+
+  // A key transparency (§5.7): a half-covering glass pane in the near field, left out of the
+  // opaque G-buffer and written as transparency.exr.
+  Texture glass = matte({0.55f, 0.8f, 0.9f}, {0.5f, 0.75f, 0.85f}, 0.5, 916);
+  Primitive pane = Primitive::box({-0.9, fy - 1.05, 2.0}, {-0.2, fy - 0.55, 2.02}, glass, "glass pane");
+  pane.camera_alpha = 0.5f;
+  s.prims.push_back(pane);
 
   Light key = spot("key spot", {-0.1, fy - 4.2, 2.2}, {0.0, fy, 4.0}, {1.0, 0.97, 0.92}, 40, 9.0, 30, 42);
   key.casts_shadows = true;

@@ -39,6 +39,7 @@ TEST(ShadowCli, SceneMapsAreAppliedWithNoFlagAndBadMapsAreRefused) {
   CliRun r = dofkit_run(dir, "scene shadows --out " + s + " --size 96x54 --samples 4 --layers 0 --gbuffer");
   ASSERT_EQ(r.code, 0) << r.err;
   ASSERT_TRUE(fs::exists(s + "/shadow_0.exr"));
+  EXPECT_TRUE(fs::exists(s + "/transparency.exr"));  // the glass pane (a key transparency)
   const std::vector<std::string> ch = channels_of(s + "/shadow_0.exr");
   for (const char* c : {"opaque.Z", "translucent.Z", "translucent.R", "translucent.G", "translucent.B"})
     EXPECT_NE(std::find(ch.begin(), ch.end(), c), ch.end()) << c;

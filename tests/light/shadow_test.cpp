@@ -259,3 +259,36 @@ TEST(Shadow, TiledEqualsBruteAndAnyThreadCount) {
   EXPECT_EQ(one.translucent_depth.data(), three.translucent_depth.data());
   EXPECT_EQ(one.translucent_color.data(), three.translucent_color.data());
 }
+
+// The key transparency of the scene `shadows`: left out of the opaque buffers, written by
+// render_transparency, and drawn over the opaque scene by the lit thin-lens render — with a
+// pinhole-sized lens that render is the opaque lit image with the layer composited over it.
+TEST(Shadow, KeyTransparencyIsCompositedByTheLitLensRender) {
+  scene::Scene sc = scene::build_scene("shadows");
+  scene::SceneOptions o;
+  o.width = 96;
+  o.height = 54;
+  scene::LensCamera cam = scene::camera_for(sc, o);
+  cam.k_px = 1e-9;  // a pinhole
+  const Image opaque = scene::render_lit(sc, cam);
+  const Image layer = scene::render_transparency(sc, cam);
+  int covered = 0;
+  for (std::size_t i = 0; i < layer.plane_size(); ++i) covered += layer.plane(3)[i] > 0;
+  EXPECT_GT(covered, 100);
+  sc.lit = true;
+  const Image lens = scene::render_thin_lens(sc, cam, 1, 7);
+  double worst = 0;
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      const float a = layer.at(x, y, 3);
+      for (int c = 0; c < 3; ++c) {
+        const double want = opaque.at(x, y, c) * (1.0 - a) + layer.at(x, y, c);
+        worst = std::max(worst, std::abs(want - lens.at(x, y, c)));
+      }
+    }
+  EXPECT_LT(worst, 1e-4);
+  // The pane is not in the G-buffer: its pixels show the opaque scene's depth.
+  const scene::GBuffer g = scene::render_gbuffer(sc, cam);
+  for (std::size_t i = 0; i < layer.plane_size(); ++i)
+    if (layer.plane(3)[i] > 0) EXPECT_GT(g.z.plane(0)[i], layer.plane(4)[i]);
+}

@@ -919,6 +919,19 @@ Vec3 facing_normal(const Scene& scene, const PrimaryHit& h) {
   return n;
 }
 
+// Calls body(x, y, hit) for every pixel centre's opaque primary hit, tile by tile in parallel
+// (each pixel once, so writes to the pixel's own output are thread-count independent).
+template <class Body>
+void for_each_primary_hit(const Scene& scene, const LensCamera& cam, Body body) {
+  const double f = cam.f_px();
+  const Culler culler(scene, cam, false);
+  for_each_tile(cam, {}, [&](int x0, int y0, int x1, int y1) {
+    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) body(x, y, primary_hit(scene, cand, cam, f, x, y));
+  });
+}
+
 }  // namespace
 
 Image render_ao(const Scene& scene, const LensCamera& cam, double radius_m, int rays, std::uint64_t seed,
@@ -1053,21 +1066,13 @@ Rgb lit_at(const Scene& scene, const Primitive& p, Vec3 x, Vec3 eye) {
 
 Image render_lit(const Scene& scene, const LensCamera& cam) {
   check_camera(cam);
-  const int w = cam.width, h = cam.height;
-  const double f = cam.f_px();
-  Image out(w, h, 3, 0.0f);
-  const Culler culler(scene, cam, false);
-  for_each_tile(cam, {}, [&](int x0, int y0, int x1, int y1) {
-    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) {
-        const PrimaryHit ph = primary_hit(scene, cand, cam, f, x, y);
-        const Rgb c = ph.hit.prim < 0 ? shade_background(scene.background, ph.dir)
-                                      : lit_at(scene, scene.prims[ph.hit.prim], ph.point, {0, 0, 0});
-        out.at(x, y, 0) = c.r;
-        out.at(x, y, 1) = c.g;
-        out.at(x, y, 2) = c.b;
-      }
+  Image out(cam.width, cam.height, 3, 0.0f);
+  for_each_primary_hit(scene, cam, [&](int x, int y, const PrimaryHit& ph) {
+    const Rgb c = ph.hit.prim < 0 ? shade_background(scene.background, ph.dir)
+                                  : lit_at(scene, scene.prims[ph.hit.prim], ph.point, {0, 0, 0});
+    out.at(x, y, 0) = c.r;
+    out.at(x, y, 1) = c.g;
+    out.at(x, y, 2) = c.b;
   });
   return out;
 }
@@ -1232,53 +1237,40 @@ Image render_transparency(const Scene& scene, const LensCamera& cam) {
 
 Image primitive_ids(const Scene& scene, const LensCamera& cam) {
   check_camera(cam);
-  const double f = cam.f_px();
   Image out(cam.width, cam.height, 1, -1.0f);
-  const Culler culler(scene, cam, false);
-  for_each_tile(cam, {}, [&](int x0, int y0, int x1, int y1) {
-    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) out.at(x, y) = static_cast<float>(primary_hit(scene, cand, cam, f, x, y).hit.prim);
-  });
+  for_each_primary_hit(scene, cam,
+                       [&](int x, int y, const PrimaryHit& ph) { out.at(x, y) = static_cast<float>(ph.hit.prim); });
   return out;
 }
 
 Image shadow_band(const Scene& scene, const LensCamera& cam, const Light& l, const ShadowMaps& m, double texels) {
   check_camera(cam);
-  const double f = cam.f_px();
   const int mw = m.opaque_depth.width();
   Image out(cam.width, cam.height, 1, 0.0f);
-  const Culler culler(scene, cam, false);
-  for_each_tile(cam, {}, [&](int x0, int y0, int x1, int y1) {
-    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) {
-        const PrimaryHit ph = primary_hit(scene, cand, cam, f, x, y);
-        if (ph.hit.prim < 0) continue;
-        const std::array<double, 3> p = {ph.point.x, -ph.point.y, -ph.point.z};
-        double q[4], c[4];
-        for (int r = 0; r < 4; ++r)
-          q[r] = m.view[4 * r] * p[0] + m.view[4 * r + 1] * p[1] + m.view[4 * r + 2] * p[2] + m.view[4 * r + 3];
-        for (int r = 0; r < 4; ++r)
-          c[r] = m.projection[4 * r] * q[0] + m.projection[4 * r + 1] * q[1] + m.projection[4 * r + 2] * q[2] +
-                 m.projection[4 * r + 3] * q[3];
-        if (!(c[3] > 0) || std::abs(c[0] / c[3]) >= 1 || std::abs(c[1] / c[3]) >= 1) {
-          out.at(x, y) = 1;
-          continue;
-        }
-        // One texel across the light's view at this depth (light-space metres).
-        const double step = 2 * c[3] / (m.projection[0] * mw);
-        const std::uint64_t here = casters_on_line(scene, l, ph.point);
-        bool edge = false;
-        for (int j = -2; j <= 2 && !edge; ++j)
-          for (int i = -2; i <= 2 && !edge; ++i) {
-            if (i == 0 && j == 0) continue;
-            const std::array<double, 3> off =
-                light_to_camera(m.view, i * 0.5 * texels * step, j * 0.5 * texels * step, 0);
-            edge = casters_on_line(scene, l, ph.point + tracer_of(off)) != here;
-          }
-        if (edge) out.at(x, y) = 1;
+  for_each_primary_hit(scene, cam, [&](int x, int y, const PrimaryHit& ph) {
+    if (ph.hit.prim < 0) return;
+    const std::array<double, 3> p = {ph.point.x, -ph.point.y, -ph.point.z};
+    double q[4], c[4];
+    for (int r = 0; r < 4; ++r)
+      q[r] = m.view[4 * r] * p[0] + m.view[4 * r + 1] * p[1] + m.view[4 * r + 2] * p[2] + m.view[4 * r + 3];
+    for (int r = 0; r < 4; ++r)
+      c[r] = m.projection[4 * r] * q[0] + m.projection[4 * r + 1] * q[1] + m.projection[4 * r + 2] * q[2] +
+             m.projection[4 * r + 3] * q[3];
+    if (!(c[3] > 0) || std::abs(c[0] / c[3]) >= 1 || std::abs(c[1] / c[3]) >= 1) {
+      out.at(x, y) = 1;
+      return;
+    }
+    // One texel across the light's view at this depth (light-space metres).
+    const double step = 2 * c[3] / (m.projection[0] * mw);
+    const std::uint64_t here = casters_on_line(scene, l, ph.point);
+    bool edge = false;
+    for (int j = -2; j <= 2 && !edge; ++j)
+      for (int i = -2; i <= 2 && !edge; ++i) {
+        if (i == 0 && j == 0) continue;
+        const std::array<double, 3> off = light_to_camera(m.view, i * 0.5 * texels * step, j * 0.5 * texels * step, 0);
+        edge = casters_on_line(scene, l, ph.point + tracer_of(off)) != here;
       }
+    if (edge) out.at(x, y) = 1;
   });
   return out;
 }

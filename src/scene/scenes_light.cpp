@@ -52,6 +52,17 @@ Light spot(const char* name, Vec3 at, Vec3 towards, std::array<double, 3> colour
   return l;
 }
 
+// A cool ambient term, the light AO modulates.
+Light ambient_light(double intensity) {
+  Light l;
+  l.kind = Light::Kind::ambient;
+  l.name = "ambient";
+  l.color = {0.7, 0.75, 0.9};
+  l.intensity = intensity;
+  l.ao = true;
+  return l;
+}
+
 Scene lights_scene() {
   Scene s;
   s.name = "lights";
@@ -98,13 +109,7 @@ Scene lights_scene() {
   moon.color = {0.6, 0.7, 1.0};
   moon.intensity = 0.4;
   s.lights.push_back(moon);
-  Light ambient;
-  ambient.kind = Light::Kind::ambient;
-  ambient.name = "ambient";
-  ambient.color = {0.7, 0.75, 0.9};
-  ambient.intensity = 0.05;
-  ambient.ao = true;
-  s.lights.push_back(ambient);
+  s.lights.push_back(ambient_light(0.05));
   for (Light& l : s.lights) validate_light(l, "scene lights");
   pitch_scene(s, 15);
   return s;
@@ -151,13 +156,7 @@ Scene shadows_scene() {
   Light key = spot("key spot", {-0.1, fy - 4.2, 2.2}, {0.0, fy, 4.0}, {1.0, 0.97, 0.92}, 40, 9.0, 30, 42);
   key.casts_shadows = true;
   s.lights.push_back(key);
-  Light ambient;
-  ambient.kind = Light::Kind::ambient;
-  ambient.name = "ambient";
-  ambient.color = {0.7, 0.75, 0.9};
-  ambient.intensity = 0.08;
-  ambient.ao = true;
-  s.lights.push_back(ambient);
+  s.lights.push_back(ambient_light(0.08));
   for (Light& l : s.lights) validate_light(l, "scene shadows");
   pitch_scene(s, 25);
   return s;

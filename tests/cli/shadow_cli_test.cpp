@@ -146,10 +146,10 @@ TEST(ShadowCli, PipelineKeyTransparencyGetsItsOwnDepthOfField) {
   dofkit::test::raw_write(pane_z, w, h, {"Z"}, z);
   dofkit::test::raw_write(none, w, h, {"R", "G", "B", "A"}, clear);
   const std::string args = "pipeline --gbuffer " + s + "/gbuffer.exr --camera " + s + "/camera.json --lights " + s +
-                           "/lights.json --ao-method none --focus 1.5 --blur-at-infinity 6 --method lens --threads 2";
+                           "/lights.json --ao-method none --focus 1.5 --blur-at-infinity 6 --method lens";
   const std::string key = dir / "key.exr", plain = dir / "plain.exr", stages = dir / "stages";
-  CliRun r = dofkit_run(dir, args + " --transparency " + pane + " --transparency-depth " + pane_z + " --output " + key +
-                                 " --debug-dir " + stages);
+  CliRun r = dofkit_run(dir, args + " --threads 2 --transparency " + pane + " --transparency-depth " + pane_z +
+                                 " --output " + key + " --debug-dir " + stages);
   ASSERT_EQ(r.code, 0) << r.err;
   ASSERT_TRUE(fs::exists(stages + "/composite.exr"));
   // The same composite blurred with the opaque depth only (no re-application).
@@ -173,6 +173,13 @@ TEST(ShadowCli, PipelineKeyTransparencyGetsItsOwnDepthOfField) {
       err_key, err_plain, err_blend);
   EXPECT_GT(err_plain, 0.005);  // the scene behind the pane has texture the blur changes
   EXPECT_LT(err_blend, 1e-4);
+  // The same bits with one thread.
+  const std::string key1 = dir / "key1.exr";
+  ASSERT_EQ(dofkit_run(dir, args + " --threads 1 --transparency " + pane + " --transparency-depth " + pane_z +
+                                " --output " + key1)
+                .code,
+            0);
+  EXPECT_EQ(rgb(dofkit::io::read_color(key1)).data(), k.data());
   // No coverage: the same bits as without a transparency.
   const std::string with_none = dir / "with_none.exr", without = dir / "without.exr";
   ASSERT_EQ(

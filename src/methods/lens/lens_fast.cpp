@@ -61,6 +61,7 @@ struct SliceBuf {
   int m0 = 0, m1 = 0;  // merged rows [m0, m1)
   int a0 = 0, a1 = 0;  // acc rows [a0, a1)
   int ri = 0, reach = 0;
+  bool near = false;        // the footprint's field (the anchor's side of focus)
   float* merged = nullptr;  // kMChannels planes of (m1 − m0)·grid.w (rgba, mass only if sliced; all only if estimate)
   float* acc = nullptr;     // 5 planes of (a1 − a0)·grid.w (if sliced)
   float* est = nullptr;     // 5 planes of (m1 − m0)·grid.w (if estimate)
@@ -223,6 +224,7 @@ struct State {
   Prep pr;
   InverseArea inv_area;
   TapTable taps;
+  GaugeTable gauge;
   std::vector<float> arena, behind, padded;
   std::vector<int> offsets;
   tbb::enumerable_thread_specific<TileScratch> scratch;
@@ -299,8 +301,9 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
       b.m0 = (lo + origin) >> L;
       b.m1 = ((hi + origin) >> L) + 1;
       b.ri = slice_radius_index(plan, j);
-      taps.prepare(radius_of_index(b.ri));
-      b.reach = taps[b.ri].n;
+      taps.prepare(radius_of_index(b.ri), opt.shape);
+      b.near = plan.anchor[j] > 0.0f;
+      b.reach = taps.at(b.ri, b.near).n;
       b.a0 = b.a1 = b.m0;
       if (b.sliced) {
         b.a0 = std::max(0, b.m0 - b.reach);
@@ -516,7 +519,7 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
       for (int j = 0; j < k; ++j) {
         SliceBuf& b = sb[s][j];
         if (!b.used || !b.sliced) continue;
-        const Taps& tp = taps[b.ri];
+        const Taps& tp = taps.at(b.ri, b.near);
         const int gw = b.grid.w;
         core::parallel_for(
             b.a1 - b.a0,
@@ -665,9 +668,10 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
   out.resize(w, h, 4);
   if (cover) cover->resize(w, h, 4);
   InverseArea& inv_area = st.inv_area;
-  inv_area.prepare(pr.rho_max + 1.0f);
-  const int small_reach = reach(opt.direct_px());
-  const int hreach = reach(pr.rho_max);
+  inv_area.prepare(pr.rho_max + 1.0f, opt.shape);
+  const int small_reach = opt.shape.reach(opt.direct_px());
+  const int hreach = opt.shape.reach(pr.rho_max);
+  if (!opt.shape.circle()) st.gauge.prepare(opt.shape, hreach);
   const int tiles_x = (w + kTileCols - 1) / kTileCols, tiles_y = (h + kTileRows - 1) / kTileRows;
   int grid_w = 0;
   for (int s = 0; s < 2; ++s)
@@ -741,7 +745,14 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
         DirectSource d;
         d.qx = qx - tx0;
         d.qy = qy - ty0;
-        d.rho = std::max(std::fabs(src.coc[f]->plane(0)[i]), 0.5f);
+        const float coc = src.coc[f]->plane(0)[i];
+        d.rho = std::max(std::fabs(coc), 0.5f);
+        if (!opt.shape.circle()) {
+          d.gauge = st.gauge.row(0, coc > 0.0f);
+          d.pitch = st.gauge.pitch();
+          d.reach = opt.shape.reach(d.rho);
+          d.lim = opt.shape.model()->lim(d.rho);
+        }
         const float trn = pr.trans_of(q);
         for (int c = 0; c < 4; ++c) d.c[c] = src.colour[f]->plane(c)[i] * trn;
         d.c[4] = pr.weight_of(q);

@@ -870,8 +870,8 @@ void add_render_command(CLI::App& app) {
   args->highlights.add(cmd);
   args->farm.add(cmd);
   args->method_opt = cmd->add_option("--method", args->method,
-                                     "technique (default lens; with a non-circular aperture and no --method or "
-                                     "--set: reference; see `dofkit methods`)")
+                                     "technique (default lens; with --cat-eye or --aperture-image and no --method "
+                                     "or --set: reference; see `dofkit methods`)")
                          ->group(meth);
   cmd->add_option("--set", args->sets, "KEY=VALUE method parameter, repeatable (see `dofkit methods`)")
       ->allow_extra_args(false)

@@ -18,7 +18,8 @@ double area_of(double rho) {
 }  // namespace
 
 Shape::Shape(const core::ApertureModel* model) {
-  if (!model || model->is_circle()) return;
+  if (!model) return;
+  // (The model's circle may carry a cat's eye: refused too.)
   if (model->has_image())
     throw_usage(
         "lens: draws blades, rotation, curvature and anamorphic apertures, not an aperture image (use "
@@ -27,6 +28,7 @@ Shape::Shape(const core::ApertureModel* model) {
     throw_usage(
         "lens: draws blades, rotation, curvature and anamorphic apertures, not the cat's eye (use --method "
         "reference)");
+  if (model->is_circle()) return;
   model_ = model;
   key_ = model->shape();
 }

@@ -739,12 +739,16 @@ void run_render(RenderArgs& a) {
     bool honoured = true;  // an unknown method is render()'s error to report
     for (const auto& m : methods())
       if (m.name == a.method) honoured = !m.aperture.empty();
-    // lens, the default, draws a circle: a shaped aperture with neither --method nor --set
-    // goes to reference, the accurate method that draws every aperture.
-    if (!honoured && a.method_opt && a.method_opt->count() == 0 && a.sets.empty() && a.debug_view.empty()) {
-      aperture_note = "dofkit: note: " + a.method +
-                      " (the default method) draws a circular aperture; rendering with reference, which draws this "
-                      "one (--method chooses)\n";
+    // lens, the default, draws the analytic shapes but refuses the cat's eye and an aperture
+    // image (a usage error naming --method reference); with neither --method nor --set such an
+    // aperture goes to reference, the accurate method that draws every aperture.
+    const bool lens_refuses =
+        a.method == "lens" && (settings.aperture.image != nullptr || settings.aperture.cat_eye != 0.0);
+    const bool defaulted = a.method_opt && a.method_opt->count() == 0 && a.sets.empty() && a.debug_view.empty();
+    if ((!honoured || lens_refuses) && defaulted) {
+      aperture_note = "dofkit: note: " + a.method + " (the default method) does not draw this aperture (" +
+                      (settings.aperture.image ? "an aperture image" : "the cat's eye") +
+                      "); rendering with reference, which does (--method chooses)\n";
       a.method = settings.method = "reference";
     } else if (!honoured) {
       aperture_note = "dofkit: note: method " + a.method +
@@ -866,8 +870,8 @@ void add_render_command(CLI::App& app) {
   args->highlights.add(cmd);
   args->farm.add(cmd);
   args->method_opt = cmd->add_option("--method", args->method,
-                                     "technique (default lens; with a non-circular aperture and no --method or "
-                                     "--set: reference; see `dofkit methods`)")
+                                     "technique (default lens; with --cat-eye or --aperture-image and no --method "
+                                     "or --set: reference; see `dofkit methods`)")
                          ->group(meth);
   cmd->add_option("--set", args->sets, "KEY=VALUE method parameter, repeatable (see `dofkit methods`)")
       ->allow_extra_args(false)

@@ -827,22 +827,38 @@ TEST_F(RenderCli, ApertureFlagsReachTheLibrary) {
   EXPECT_EQ(io::read_color(dir_ / "out.exr").data(), render(f, s).image.data());
 }
 
-// lens (the default) draws a circle: a shaped aperture without --method renders with reference.
-TEST_F(RenderCli, ShapedApertureWithoutAMethodRendersWithReference) {
+// lens (the default) draws blades, rotation, curvature and anamorphic; the cat's eye (and an
+// aperture image) without --method renders with reference; with --method lens it is refused.
+TEST_F(RenderCli, ShapedApertureWithoutAMethodRendersWithLensOrReference) {
   std::vector<std::string> args = exact_call();
   const auto m = std::find(args.begin(), args.end(), std::string("--method"));
   ASSERT_NE(m, args.end());
   args.erase(m, m + 2);
-  for (const char* a : {"--blades", "6"}) args.push_back(a);
-  const CliResult r = run_render(args);
-  ASSERT_EQ(r.code, 0) << r.message;
   Frame f{color_, depth_, {}, {}};
   RenderSettings s;
-  s.method = "reference";
   s.camera.model = BlurAtInfinity{4.0, 24.0};
   s.camera.max_coc_px = 40;
   s.aperture.blades = 6;
+  std::vector<std::string> blades = args;
+  for (const char* a : {"--blades", "6"}) blades.push_back(a);
+  CliResult r = run_render(blades);
+  ASSERT_EQ(r.code, 0) << r.message;
+  s.method = "lens";
   EXPECT_EQ(io::read_color(dir_ / "out.exr").data(), render(f, s).image.data());
+  std::vector<std::string> eye = blades;
+  for (const char* a : {"--cat-eye", "0.5"}) eye.push_back(a);
+  r = run_render(eye);
+  ASSERT_EQ(r.code, 0) << r.message;
+  s.method = "reference";
+  s.aperture.cat_eye = 0.5;
+  EXPECT_EQ(io::read_color(dir_ / "out.exr").data(), render(f, s).image.data());
+  eye.push_back("--method");
+  eye.push_back("lens");
+  std::filesystem::remove(dir_ / "out.exr");
+  r = run_render(eye);
+  EXPECT_EQ(r.code, 2) << r.message;
+  EXPECT_TRUE(r.message.find("cat's eye") != std::string::npos) << r.message;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "out.exr"));
 }
 
 TEST_F(RenderCli, BadApertureIsAUsageErrorNamingTheFlag) {

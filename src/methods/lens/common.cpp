@@ -144,7 +144,7 @@ Fragments::Fragments(const Sources& s, const SlicePlan& plan, const LensOptions&
       if (exists[q]) rho_max = std::max(rho_max, rho[q]);
     }
   }
-  pad = reach(rho_max) + 1;
+  pad = opt.shape.reach(rho_max) + 1;
   this->soft = soft;
 }
 

@@ -155,6 +155,18 @@ void DirectRowImpl(const DirectRow& s, const RowReceivers& r) {
   }
 }
 
+// Receivers px0 … px1 of tile row `row`.
+inline RowReceivers SpanOf(const TileReceivers& r, int row, int px0, int px1) {
+  const std::size_t o = static_cast<std::size_t>(row) * r.stride + px0;
+  RowReceivers rr;
+  rr.n = px1 - px0 + 1;
+  rr.u = r.u + o;
+  rr.isu = r.isu + o;
+  rr.sharp = r.sharp + o;
+  for (int c = 0; c < 15; ++c) rr.acc[c] = r.acc[c] + o;
+  return rr;
+}
+
 // Spans of up to 8 receivers (most footprint rows of small sources) take 8-lane vectors.
 template <class D>
 HWY_INLINE void DirectSpan(D d, const DirectSource& s, const TileReceivers& r, int row, int px0, int px1, float dy) {
@@ -164,13 +176,7 @@ HWY_INLINE void DirectSpan(D d, const DirectSource& s, const TileReceivers& r, i
   for (int c = 0; c < 5; ++c) cv[c] = hn::Set(d, s.c[c]);
   const V dy2 = hn::Set(d, dy * dy), lim = hn::Set(d, s.rho + 0.5f), ws = hn::Set(d, s.ws);
   const V step = hn::Iota(d, 0.0f);
-  const std::size_t o = static_cast<std::size_t>(row) * r.stride + px0;
-  RowReceivers rr;
-  rr.n = px1 - px0 + 1;
-  rr.u = r.u + o;
-  rr.isu = r.isu + o;
-  rr.sharp = r.sharp + o;
-  for (int c = 0; c < 15; ++c) rr.acc[c] = r.acc[c] + o;
+  const RowReceivers rr = SpanOf(r, row, px0, px1);
   const float dx0 = static_cast<float>(px0 - s.qx);
   for (int i = 0; i < rr.n; i += lanes) {
     const V dx = hn::Add(step, hn::Set(d, dx0 + static_cast<float>(i)));
@@ -179,9 +185,42 @@ HWY_INLINE void DirectSpan(D d, const DirectSource& s, const TileReceivers& r, i
   }
 }
 
+// An analytic aperture's span: coverage sat(lim − T) from the gauge row (see DirectSource).
+template <class D>
+HWY_INLINE void GaugeSpan(D d, const DirectSource& s, const TileReceivers& r, int row, int px0, int px1,
+                          const float* trow) {
+  using V = hn::Vec<D>;
+  const int lanes = static_cast<int>(hn::Lanes(d));
+  V cv[5];
+  for (int c = 0; c < 5; ++c) cv[c] = hn::Set(d, s.c[c]);
+  const V lim = hn::Set(d, s.lim), ws = hn::Set(d, s.ws);
+  const RowReceivers rr = SpanOf(r, row, px0, px1);
+  const float* t = trow + (px0 - s.qx);
+  for (int i = 0; i < rr.n; i += lanes) {
+    const V cov = Sat(d, hn::Sub(lim, hn::LoadU(d, t + i)));
+    AddRule(d, rr, i, s.su, s.ssharp, s.hidden, hn::Mul(cov, ws), cv);
+  }
+}
+
 void DirectSourceImpl(const DirectSource& s, const TileReceivers& r) {
   const hn::ScalableTag<float> d;
   const hn::CappedTag<float, 8> d8;
+  if (s.gauge) {
+    // Non-zero coverage needs |p| <= T < lim, and |dx|, |dy| <= reach.
+    const int e = s.reach;
+    for (int py = std::max(0, s.qy - e); py <= std::min(r.rows - 1, s.qy + e); ++py) {
+      const float dy = static_cast<float>(py - s.qy);
+      const int hw = std::min(e, static_cast<int>(std::sqrt(std::max(0.0f, s.lim * s.lim - dy * dy))));
+      const int px0 = std::max(0, s.qx - hw), px1 = std::min(r.cols - 1, s.qx + hw);
+      if (px0 > px1) continue;
+      const float* trow = s.gauge + (py - s.qy) * s.pitch;
+      if (px1 - px0 < 8)
+        GaugeSpan(d8, s, r, py, px0, px1, trow);
+      else
+        GaugeSpan(d, s, r, py, px0, px1, trow);
+    }
+    return;
+  }
   const int e = static_cast<int>(std::ceil(s.rho + 0.5f)) - 1;
   const float lim = s.rho + 0.5f;
   for (int py = std::max(0, s.qy - e); py <= std::min(r.rows - 1, s.qy + e); ++py) {

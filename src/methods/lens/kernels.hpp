@@ -68,11 +68,18 @@ struct TileReceivers {
 };
 
 /// One direct source over the receivers of a tile: its exact footprint (the reference's disc,
-/// row spans as the reference computes them), centred at tile column qx, row qy.
+/// row spans as the reference computes them, or an analytic aperture: coverage
+/// sat(lim − T(dx, dy)) from a gauge table), centred at tile column qx, row qy.
 struct DirectSource {
   int qx = 0, qy = 0;
   float rho = 0.5f, ws = 1.0f;  // radius and 1 / area
-  float c[5] = {};              // rgba, weight
+  // An analytic aperture (gauge null: the circle): T(dx, dy) at gauge[dy · pitch + dx] for
+  // |dx|, |dy| <= reach, readable up to 32 floats past dx = reach; lim = the model's lim(rho).
+  const float* gauge = nullptr;
+  std::ptrdiff_t pitch = 0;
+  int reach = 0;
+  float lim = 1.0f;
+  float c[5] = {};  // rgba, weight
   float su = 0.0f, ssharp = 0.0f;
   bool hidden = false;
 };

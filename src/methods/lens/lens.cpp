@@ -25,6 +25,7 @@ void render_lens(const MethodContext& ctx, Image& out) {
   opt.highlight_rel = static_cast<float>(ctx.params.get_double("highlight_rel", 4.0, 1.0, 1e30));
   opt.simd = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
   opt.progress = ctx.progress;
+  opt.shape = lens::Shape(ctx.aperture);  // usage error for the cat's eye or an aperture image
   core::CocRange range = ctx.coc_range ? *ctx.coc_range : core::coc_range(ctx.coc);
   lens::Sources src;
   std::vector<Image> layer_coc;
@@ -110,7 +111,8 @@ const MethodDef& lens_method() {
         "estimates read / K"}},
       render_lens,
       /*checks_colour=*/false,
-      /*aperture=*/""};  // circles only: a shaped aperture goes to reference (cmd_render)
+      /*aperture=*/
+      "blades, rotation, curvature, anamorphic (not the cat's eye or an aperture image: those go to reference)"};
   return def;
 }
 

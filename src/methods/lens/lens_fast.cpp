@@ -1,4 +1,4 @@
-// Over 800 lines: render_fast's passes 2-4 share one frame's slice buffers and tap tables (prep: lens_prepare.cpp).
+// Over 800 lines: the passes share one frame's slice buffers (FrameCtx; prep: lens_prepare.cpp).
 // The fast form of `lens` (docs/methods/lens.md): the model of lens_plain.cpp, organised for
 // speed and memory. Per frame:
 //   1. prep (rows in parallel): each fragment's slice and hat weight, direct / exists flags,
@@ -9,6 +9,7 @@
 //      and the hidden-background estimate of its cells;
 //   4. tiles of the frame (in parallel): the direct sources' exact pairs, every slice's sums
 //      read back bilinearly, the estimate, and the composite (SIMD row kernels, kernels.hpp).
+// One function per pass (render_fast at the end calls them in order), sharing a FrameCtx.
 // Each output value is computed by one task in a fixed order, so the result is the same for
 // any thread count. Tested against the plain form (tests/lens/).
 #include <tbb/enumerable_thread_specific.h>
@@ -61,6 +62,7 @@ struct SliceBuf {
   int m0 = 0, m1 = 0;  // merged rows [m0, m1)
   int a0 = 0, a1 = 0;  // acc rows [a0, a1)
   int ri = 0, reach = 0;
+  bool near = false;        // the footprint's field (the anchor's side of focus)
   float* merged = nullptr;  // kMChannels planes of (m1 − m0)·grid.w (rgba, mass only if sliced; all only if estimate)
   float* acc = nullptr;     // 5 planes of (a1 − a0)·grid.w (if sliced)
   float* est = nullptr;     // 5 planes of (m1 − m0)·grid.w (if estimate)
@@ -223,27 +225,51 @@ struct State {
   Prep pr;
   InverseArea inv_area;
   TapTable taps;
+  GaugeTable gauge;
   std::vector<float> arena, behind, padded;
   std::vector<int> offsets;
   tbb::enumerable_thread_specific<TileScratch> scratch;
   tbb::enumerable_thread_specific<std::vector<float>> row_tmp;
 };
 
-}  // namespace
-
-void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& opt, Workspace& ws, Image& out,
-                 const Views& views) {
-  Image* const cover = views.coverage;
-  const int w = src.width(), h = src.height(), nf = src.count(), k = plan.count();
-  const float soft = opt.depth_softness;
-  State& st = ws.object<State>("lens.state");
-  Prep& pr = st.pr;
-  {
-    core::PassScope pass("prep");
-    prepare(src, plan, opt, pr);
+// One frame of the fast form: what every pass reads, and the slices' buffers, which the passes
+// fill in order (allocate_slices, merge_pass, convolve_pass, estimate_pass, then tile_pass).
+struct FrameCtx {
+  FrameCtx(const Sources& src_, const SlicePlan& plan_, const LensOptions& opt_, State& st_)
+      : src(src_),
+        plan(plan_),
+        opt(opt_),
+        st(st_),
+        pr(st_.pr),
+        w(src_.width()),
+        h(src_.height()),
+        nf(src_.count()),
+        k(plan_.count()),
+        sd(plan_, st_.pr.mass, st_.pr.u_sum) {
+    for (int j = 0; j < k; ++j) lmax = std::max(lmax, plan.level[j]);
+    // A common origin of every level's cells, −origin px, a multiple of the coarsest cell.
+    unit = 1 << lmax;
+    origin = (pr.pad + unit - 1) / unit * unit + unit;
+    pad = pr.pad;
   }
-  const std::size_t n = pr.n;
-  const SliceDepth sd(plan, pr.mass, pr.u_sum);
+  const Sources& src;
+  const SlicePlan& plan;
+  const LensOptions& opt;
+  State& st;
+  Prep& pr;  // st.pr, prepared for this frame
+  int w, h, nf, k;
+  SliceDepth sd;
+  int lmax = 1, unit = 2, origin = 0, pad = 0;
+  std::vector<SliceBuf> sb[2];  // per set (visible, hidden) and slice
+};
+
+// The debug views of the prep pass: slices and direct sources.
+void slice_views(const FrameCtx& fc, const Views& views) {
+  const SlicePlan& plan = fc.plan;
+  Prep& pr = fc.pr;
+  const int w = fc.w;
+  const int h = fc.h;
+  const int k = fc.k;
   if (views.slices || views.direct) {
     int top = 1;
     for (int j = 0; j < k; ++j) top = std::max(top, plan.level[j]);
@@ -270,15 +296,20 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
         }
     });
   }
-  int lmax = 1;
-  for (int j = 0; j < k; ++j) lmax = std::max(lmax, plan.level[j]);
-  // A common origin of every level's cells, −origin px, a multiple of the coarsest cell.
-  const int unit = 1 << lmax;
-  const int origin = (pr.pad + unit - 1) / unit * unit + unit;
-  const int pad = pr.pad;
+}
 
-  // Buffers: per set and slice, the rows its members (and their mirror copies) occupy.
-  std::vector<SliceBuf> sb[2];
+// 1b. Buffers: per set and slice, the rows its members (and their mirror copies) occupy, in one arena.
+void allocate_slices(FrameCtx& fc) {
+  const SlicePlan& plan = fc.plan;
+  const LensOptions& opt = fc.opt;
+  State& st = fc.st;
+  Prep& pr = fc.pr;
+  const int w = fc.w;
+  const int h = fc.h;
+  const int k = fc.k;
+  const int origin = fc.origin;
+  const int pad = fc.pad;
+  auto& sb = fc.sb;
   TapTable& taps = st.taps;
   std::size_t total = 0;
   for (int s = 0; s < 2; ++s) {
@@ -299,8 +330,9 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
       b.m0 = (lo + origin) >> L;
       b.m1 = ((hi + origin) >> L) + 1;
       b.ri = slice_radius_index(plan, j);
-      taps.prepare(radius_of_index(b.ri));
-      b.reach = taps[b.ri].n;
+      taps.prepare(radius_of_index(b.ri), opt.shape);
+      b.near = plan.anchor[j] > 0.0f;
+      b.reach = taps.at(b.ri, b.near).n;
       b.a0 = b.a1 = b.m0;
       if (b.sliced) {
         b.a0 = std::max(0, b.m0 - b.reach);
@@ -331,9 +363,23 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
         }
       }
   }
+}
 
-  // 2. Merge. Blocks of `unit` padded rows starting at −origin: every level's cell rows lie
-  // wholly in one block, so each cell is written by one task.
+// 2. Merge. Blocks of `unit` padded rows starting at −origin: every level's cell rows lie
+// wholly in one block, so each cell is written by one task.
+void merge_pass(FrameCtx& fc) {
+  const Sources& src = fc.src;
+  const LensOptions& opt = fc.opt;
+  Prep& pr = fc.pr;
+  const int w = fc.w;
+  const int h = fc.h;
+  const int nf = fc.nf;
+  const int k = fc.k;
+  const std::size_t n = fc.pr.n;
+  const int unit = fc.unit;
+  const int origin = fc.origin;
+  const int pad = fc.pad;
+  auto& sb = fc.sb;
   {
     core::PassScope pass("merge");
     for (int s = 0; s < 2; ++s)
@@ -508,15 +554,20 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
     };
     core::parallel_for(blocks, with_progress(opt.progress, merge_blocks));
   }
+}
 
-  // 3a. Convolution: acc = merged ⊛ footprint, rows in parallel.
+// 3a. Convolution: acc = merged ⊛ footprint, rows in parallel.
+void convolve_pass(FrameCtx& fc) {
+  const int k = fc.k;
+  auto& sb = fc.sb;
+  const TapTable& taps = fc.st.taps;
   {
     core::PassScope pass("slices");
     for (int s = 0; s < 2; ++s)
       for (int j = 0; j < k; ++j) {
         SliceBuf& b = sb[s][j];
         if (!b.used || !b.sliced) continue;
-        const Taps& tp = taps[b.ri];
+        const Taps& tp = taps.at(b.ri, b.near);
         const int gw = b.grid.w;
         core::parallel_for(
             b.a1 - b.a0,
@@ -557,8 +608,21 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
             4);
       }
   }
+}
 
-  // 3b. Hidden-background estimate of every visible slice's frame cells.
+// 3b. Hidden-background estimate of every visible slice's frame cells.
+void estimate_pass(FrameCtx& fc) {
+  const Sources& src = fc.src;
+  const SlicePlan& plan = fc.plan;
+  const LensOptions& opt = fc.opt;
+  State& st = fc.st;
+  Prep& pr = fc.pr;
+  const int w = fc.w;
+  const int h = fc.h;
+  const int k = fc.k;
+  const float soft = fc.opt.depth_softness;
+  const SliceDepth& sd = fc.sd;
+  auto& sb = fc.sb;
   if (opt.hidden) {
     core::PassScope pass("estimate");
     const HiddenPattern pattern;
@@ -660,14 +724,31 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
       b.any_est = any.load();
     }
   }
+}
 
-  // 4. Tiles.
+// 4. Tiles: the direct sources' exact pairs, the slices and estimates read back, the composite.
+void tile_pass(FrameCtx& fc, Image& out, const Views& views) {
+  const Sources& src = fc.src;
+  const LensOptions& opt = fc.opt;
+  State& st = fc.st;
+  Prep& pr = fc.pr;
+  const int w = fc.w;
+  const int h = fc.h;
+  const int nf = fc.nf;
+  const int k = fc.k;
+  const float soft = fc.opt.depth_softness;
+  const std::size_t n = fc.pr.n;
+  const SliceDepth& sd = fc.sd;
+  const int pad = fc.pad;
+  auto& sb = fc.sb;
+  Image* const cover = views.coverage;
   out.resize(w, h, 4);
   if (cover) cover->resize(w, h, 4);
   InverseArea& inv_area = st.inv_area;
-  inv_area.prepare(pr.rho_max + 1.0f);
-  const int small_reach = reach(opt.direct_px());
-  const int hreach = reach(pr.rho_max);
+  inv_area.prepare(pr.rho_max + 1.0f, opt.shape);
+  const int small_reach = opt.shape.reach(opt.direct_px());
+  const int hreach = opt.shape.reach(pr.rho_max);
+  if (!opt.shape.circle()) st.gauge.prepare(opt.shape, hreach);
   const int tiles_x = (w + kTileCols - 1) / kTileCols, tiles_y = (h + kTileRows - 1) / kTileRows;
   int grid_w = 0;
   for (int s = 0; s < 2; ++s)
@@ -741,7 +822,14 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
         DirectSource d;
         d.qx = qx - tx0;
         d.qy = qy - ty0;
-        d.rho = std::max(std::fabs(src.coc[f]->plane(0)[i]), 0.5f);
+        const float coc = src.coc[f]->plane(0)[i];
+        d.rho = std::max(std::fabs(coc), 0.5f);
+        if (!opt.shape.circle()) {
+          d.gauge = st.gauge.row(0, coc > 0.0f);
+          d.pitch = st.gauge.pitch();
+          d.reach = opt.shape.reach(d.rho);
+          d.lim = opt.shape.model()->lim(d.rho);
+        }
         const float trn = pr.trans_of(q);
         for (int c = 0; c < 4; ++c) d.c[c] = src.colour[f]->plane(c)[i] * trn;
         d.c[4] = pr.weight_of(q);
@@ -903,6 +991,24 @@ void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& o
     }
   };
   core::parallel_for(tiles_x * tiles_y, with_progress(opt.progress, tile_body));
+}
+
+}  // namespace
+
+void render_fast(const Sources& src, const SlicePlan& plan, const LensOptions& opt, Workspace& ws, Image& out,
+                 const Views& views) {
+  State& st = ws.object<State>("lens.state");
+  {
+    core::PassScope pass("prep");
+    prepare(src, plan, opt, st.pr);
+  }
+  FrameCtx fc(src, plan, opt, st);
+  slice_views(fc, views);
+  allocate_slices(fc);
+  merge_pass(fc);
+  convolve_pass(fc);
+  estimate_pass(fc);
+  tile_pass(fc, out, views);
 }
 
 }  // namespace dofkit::detail::lens

@@ -104,13 +104,13 @@ void render_plain(const Sources& src, const SlicePlan& plan, const LensOptions& 
       if (s.merged.empty()) continue;
       const Grid& gr = s.grid;
       const int ri = slice_radius_index(plan, j);
-      taps.prepare(radius_of_index(ri));
+      taps.prepare(radius_of_index(ri), opt.shape);
       for (int qy = 0; qy < gr.h; ++qy)
         for (int qx = 0; qx < gr.w; ++qx) {
           const float* c = &s.merged[(static_cast<std::size_t>(qy) * gr.w + qx) * kMChannels];
           if (c[kMMass] <= 0.0f) continue;
           if (s.acc.empty()) s.acc.assign(gr.cells() * 5, 0.0f);
-          const Taps& t = taps[ri];
+          const Taps& t = taps.at(ri, plan.anchor[j] > 0.0f);
           for (int dy = -t.n; dy <= t.n; ++dy) {
             const int py = qy + dy;
             if (py < 0 || py >= gr.h) continue;
@@ -175,7 +175,7 @@ void render_plain(const Sources& src, const SlicePlan& plan, const LensOptions& 
   const Receivers rc(fr);
   // Direct sources: one full-resolution footprint each (mirror-padded frame), exact weights.
   InverseArea inv_area;
-  inv_area.prepare(fr.rho_max + 1.0f);
+  inv_area.prepare(fr.rho_max + 1.0f, opt.shape);
   for (int f = 0; f < nf; ++f)
     for (int qy = -fr.pad; qy < h + fr.pad; ++qy)
       for (int qx = -fr.pad; qx < w + fr.pad; ++qx) {
@@ -184,10 +184,11 @@ void render_plain(const Sources& src, const SlicePlan& plan, const LensOptions& 
         const float rq = fr.rho[q], ws = inv_area(rq);
         const float c[5] = {col(q, 0), col(q, 1), col(q, 2), col(q, 3), fr.weight[q]};
         const Source sq{fr.inv_z[q], fr.sharp[q]};
-        const int e = reach(rq);
+        const bool near = src.coc[f]->plane(0)[q % n] > 0.0f;
+        const int e = opt.shape.reach(rq);
         for (int py = std::max(0, qy - e); py <= std::min(h - 1, qy + e); ++py)
           for (int px = std::max(0, qx - e); px <= std::min(w - 1, qx + e); ++px) {
-            const float cov = coverage(rq, static_cast<float>(px - qx), static_cast<float>(py - qy));
+            const float cov = opt.shape.coverage(rq, px - qx, py - qy, near);
             if (cov <= 0.0f) continue;
             const std::size_t p = static_cast<std::size_t>(py) * w + px;
             add_source(rc, p, f > 0, sq, cov * ws, c, &acc[p * 15]);

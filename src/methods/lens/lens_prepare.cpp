@@ -185,7 +185,7 @@ void prepare(const Sources& src, const SlicePlan& plan, const LensOptions& opt, 
     }
     pr.rho_max = std::max(pr.rho_max, brho[b]);
   }
-  pr.pad = reach(pr.rho_max) + 1;
+  pr.pad = opt.shape.reach(pr.rho_max) + 1;
   // Highlights (direct sources too large for the tiles' small-source window), per padded row
   // in padded-column order: the mirror copies of a row's highlights (few) in order of x'.
   const int pad = pr.pad;

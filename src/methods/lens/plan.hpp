@@ -5,6 +5,8 @@
 #pragma once
 #include <vector>
 
+#include "methods/lens/footprint.hpp"
+
 namespace dofkit::detail {
 class Progress;
 }
@@ -31,6 +33,8 @@ struct LensOptions {
   /// resolution (its disc's rim stays sharp).
   float highlight_abs = 1.0f;
   float highlight_rel = 4.0f;
+  /// The footprint's shape (default: the circle).
+  Shape shape;
   /// The hidden-background estimate (partial occlusion of a near blurred object).
   bool hidden = true;
   /// The SIMD / tiled path (default) or the plain one (the test oracle).

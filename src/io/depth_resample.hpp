@@ -11,7 +11,7 @@ namespace dofkit::io {
 enum class DepthUpsample {
   nearest,        ///< the nearest depth sample (blocky, never a depth that is not in the file)
   bilinear,       ///< bilinear in inverse depth (1/z: linear in the CoC), edges blurred over the ratio
-  guided,         ///< joint bilateral upsampling guided by the colour: depth edges follow colour edges
+  guided,         ///< edge-aware, colour-guided: depth edges follow colour edges, no blend across them
   guided_filter,  ///< He et al.'s guided filter on the bilinear result (the measured alternative)
 };
 /// Parses nearest|bilinear|guided|guided-filter (Error(usage) naming --depth-upsample).

@@ -1,5 +1,6 @@
 // Depth at another resolution than the colour (depth_resample.hpp): the size/aspect check,
-// nearest and bilinear exactly, guided snapping a depth edge to the colour edge, and the same
+// nearest and bilinear exactly, guided snapping a depth edge to the colour edge without blending
+// the two sides, and the same
 // output for any thread count. Tiny images.
 #include <gtest/gtest.h>
 
@@ -95,6 +96,26 @@ TEST(DepthResample, GuidedPutsTheDepthEdgeOnTheColourEdge) {
   // Far from the edge every method gives the flat depth.
   EXPECT_FLOAT_EQ(g.at(2, 10), 1.0f);
   EXPECT_FLOAT_EQ(g.at(60, 10), 4.0f);
+}
+
+TEST(DepthResample, GuidedNeverBlendsTheTwoSidesOfAnEdge) {
+  // A faint colour edge (0.40 against 0.46): the colour alone cannot say which side a pixel is
+  // on, yet no pixel may take a depth between the surfaces (a blend of two depths exists
+  // nowhere and shows as a halo in the blur), and the mixed sample's average (column 7) must
+  // not leak in.
+  EdgeScene s;
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x)
+      for (int c = 0; c < 3; ++c) s.color.at(x, y, c) = x < 30 ? 0.40f : 0.46f;
+  const Image g = io::resample_depth(s.low, s.color, io::DepthUpsample::guided);
+  int right = 0;
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) {
+      const float z = g.at(x, y);
+      EXPECT_TRUE(std::fabs(z - 1.0f) <= 0.05f || std::fabs(z - 4.0f) <= 0.2f) << x << "," << y << ": " << z;
+      right += std::fabs(z - s.full.at(x, y)) <= 0.05f * s.full.at(x, y);
+    }
+  EXPECT_GE(right, 48 * 64 - 48 * 2) << "at most two columns on the wrong side";
 }
 
 TEST(DepthResample, SameOutputForAnyThreadCount) {

@@ -292,4 +292,28 @@ Image resample_depth(const Image& depth, const Image& color, DepthUpsample how) 
   return out;
 }
 
+Image refine_depth(const Image& depth, const Image& color) {
+  const int cw = depth.width(), ch = depth.height();
+  const int dw = std::max(1, (cw + kRefineFactor / 2) / kRefineFactor),
+            dh = std::max(1, (ch + kRefineFactor / 2) / kRefineFactor);
+  if (dw == cw && dh == ch) return depth;
+  // The same footprints as edge_aware_upsample's: sample i covers [floor(i/s), floor((i+1)/s)).
+  const double sx = static_cast<double>(dw) / cw, sy = static_cast<double>(dh) / ch;
+  Image low(dw, dh, 1);
+  tbb::parallel_for(0, dh, [&](int j) {
+    const int y0 = static_cast<int>(std::floor(j / sy)),
+              y1 = std::min(ch, std::max(y0 + 1, static_cast<int>(std::floor((j + 1) / sy))));
+    for (int i = 0; i < dw; ++i) {
+      const int x0 = static_cast<int>(std::floor(i / sx)),
+                x1 = std::min(cw, std::max(x0 + 1, static_cast<int>(std::floor((i + 1) / sx))));
+      double sum = 0;
+      int n = 0;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x, ++n) sum += inverse(depth.at(x, y));
+      low.at(i, j) = n ? from_inverse(sum / n) : depth.at(std::min(x0, cw - 1), std::min(y0, ch - 1));
+    }
+  });
+  return resample_depth(low, color, DepthUpsample::guided);
+}
+
 }  // namespace dofkit::io

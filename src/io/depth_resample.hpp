@@ -32,4 +32,13 @@ void check_depth_fit(const std::string& depth_path, int dw, int dh, const std::s
 /// the same for any thread count.
 Image resample_depth(const Image& depth, const Image& color, DepthUpsample how);
 
+/// The factor by which refine_depth reduces the map before bringing it back.
+inline constexpr int kRefineFactor = 4;
+
+/// `--depth-refine`: a soft depth map of the colour's size (a phone's, whose edges are blurred
+/// into halos) re-snapped to the colour's edges: reduced kRefineFactor times (each sample the
+/// mean 1/z of its footprint) and brought back by the `guided` upsampling, which takes every
+/// pixel's depth from one side of an edge only. Detail finer than the factor is lost.
+Image refine_depth(const Image& depth, const Image& color);
+
 }  // namespace dofkit::io

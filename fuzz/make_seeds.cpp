@@ -335,6 +335,24 @@ int main(int argc, char** argv) {
                                 static_cast<char>((payload.size() + 2) & 255) + payload;
     text_seed("gdepth_jpeg", 2, jpg.substr(0, 2) + segment + jpg.substr(2));
     text_seed("gdepth_jpeg_far", 6, jpg.substr(0, 2) + segment + jpg.substr(2));
+    // A container photo: GDepth's fields in the XMP, the PNG appended as the Depth item.
+    const std::string cxmp =
+        "<?xpacket begin=\"\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?><x:xmpmeta xmlns:x=\"adobe:ns:meta/\"><rdf:RDF "
+        "xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\"><rdf:Description rdf:about=\"\" "
+        "xmlns:GDepth=\"http://ns.google.com/photos/1.0/depthmap/\" "
+        "xmlns:Container=\"http://ns.google.com/photos/1.0/container/\" "
+        "xmlns:Item=\"http://ns.google.com/photos/1.0/container/item/\" GDepth:Format=\"RangeInverse\" "
+        "GDepth:Near=\"0.5\" GDepth:Far=\"8\" GDepth:Mime=\"image/png\"><Container:Directory><rdf:Seq><rdf:li "
+        "rdf:parseType=\"Resource\"><Container:Item Item:Semantic=\"Primary\" Item:Mime=\"image/jpeg\"/></rdf:li>"
+        "<rdf:li rdf:parseType=\"Resource\"><Container:Item Item:Semantic=\"Depth\" Item:Mime=\"image/png\" "
+        "Item:Length=\"" +
+        std::to_string(png.size()) +
+        "\" Item:Padding=\"1\"/></rdf:li></rdf:Seq></Container:Directory></rdf:Description></rdf:RDF></x:xmpmeta>"
+        "<?xpacket end=\"w\"?>";
+    const std::string cpayload = std::string("http://ns.adobe.com/xap/1.0/\0", 29) + cxmp;
+    const std::string csegment = std::string("\xFF\xE1", 2) + static_cast<char>((cpayload.size() + 2) >> 8) +
+                                 static_cast<char>((cpayload.size() + 2) & 255) + cpayload;
+    text_seed("container_jpeg", 2, jpg.substr(0, 2) + csegment + jpg.substr(2) + png + "P");
     text_seed("heif_start", 3,
               std::string("\0\0\0\x18"
                           "ftypheic\0\0\0\0mif1heic",

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <limits>
 #include <sstream>
+#include <tuple>
 
 #include "budget.hpp"
 #include "dofkit/error.hpp"
@@ -133,6 +134,10 @@ void CameraFlags::add(CLI::App* cmd, const std::string& group) {
                          "MODEL physical thin lens: aperture f-number N (> 0), e.g. 2.8. With --focus, "
                          "--focal-length, --sensor-width")
                   ->group(group);
+  f_number_keys_ = cmd->add_option("--f-number-keys", f_number_keys_text_,
+                                   "FRAME:N,FRAME:N,...: MODEL as --f-number with the f-number animated over --frames, "
+                                   "eased in and out between keys like --focus-keys; replaces --f-number")
+                       ->group(group);
   focal_length_ =
       add_number(cmd, "--focal-length", focal_length_mm_, "thin lens focal length, millimetres (default 50)")
           ->group(group);
@@ -143,6 +148,10 @@ void CameraFlags::add(CLI::App* cmd, const std::string& group) {
                          "MODEL thin lens given by K, the blur radius of a point at infinity, pixels (>= 0): "
                          "r(z) = K (focus/z - 1). With --focus")
                   ->group(group);
+  blur_inf_keys_ = cmd->add_option("--blur-at-infinity-keys", blur_inf_keys_text_,
+                                   "FRAME:PX,FRAME:PX,...: MODEL as --blur-at-infinity with K animated over --frames, "
+                                   "eased in and out between keys like --focus-keys; replaces --blur-at-infinity")
+                       ->group(group);
   planes_ =
       cmd->add_option("--planes", planes_text_,
                       "MODEL four-plane artist model NB,NS,FS,FB, metres, 0 < NB < NS <= FS < FB (FB may be inf): "
@@ -183,7 +192,13 @@ void CameraFlags::add(CLI::App* cmd, const std::string& group) {
 }
 
 bool CameraFlags::model_given() const {
-  return given(f_number_) || given(blur_inf_) || given(planes_) || given(starcraft_) || given(near_far_);
+  return given(f_number_) || given(blur_inf_) || given(planes_) || given(starcraft_) || given(near_far_) ||
+         given(f_number_keys_) || given(blur_inf_keys_);
+}
+
+bool CameraFlags::focus_missing() const {
+  const bool thin = given(f_number_) || given(blur_inf_) || given(f_number_keys_) || given(blur_inf_keys_);
+  return thin && !given(focus_) && !given(focus_at_) && !given(focus_keys_) && !given(focus_at_keys_);
 }
 
 std::optional<std::pair<int, int>> CameraFlags::focus_at() const {
@@ -192,10 +207,12 @@ std::optional<std::pair<int, int>> CameraFlags::focus_at() const {
   return std::make_pair(static_cast<int>(v[0]), static_cast<int>(v[1]));
 }
 
-void CameraFlags::check() const {
+void CameraFlags::check(bool focus_from_input) const {
   std::vector<std::string> models;
   if (given(f_number_)) models.push_back("--f-number");
+  if (given(f_number_keys_)) models.push_back("--f-number-keys");
   if (given(blur_inf_)) models.push_back("--blur-at-infinity");
+  if (given(blur_inf_keys_)) models.push_back("--blur-at-infinity-keys");
   if (given(planes_)) models.push_back("--planes");
   if (given(starcraft_)) models.push_back("--starcraft");
   if (given(near_far_)) models.push_back("--near-far");
@@ -207,7 +224,10 @@ void CameraFlags::check() const {
     for (const auto& m : models) list += (list.empty() ? "" : " and ") + m;
     throw_usage(list + ": choose exactly one CoC model");
   }
-  const std::string& model = models[0];
+  // A key flag is its model's flag animated: the same companions apply.
+  const std::string model = models[0] == "--f-number-keys"           ? "--f-number"
+                            : models[0] == "--blur-at-infinity-keys" ? "--blur-at-infinity"
+                                                                     : models[0];
   auto only_with = [&](const CLI::Option* o, const char* name, std::initializer_list<const char*> owners) {
     if (!given(o)) return;
     for (const char* owner : owners)
@@ -232,10 +252,11 @@ void CameraFlags::check() const {
     if (focus_flags.size() > 1)
       throw_usage(std::string(focus_flags[0]) + " and " + focus_flags[1] + ": give only one of them");
   }
-  const bool needs_focus = model == "--f-number" || model == "--blur-at-infinity";
-  if (needs_focus && !given(focus_) && !given(focus_at_) && !animated())
-    throw_usage(model + ": needs --focus M (focus distance in metres), --focus-at X,Y or --focus-keys");
+  if (focus_missing() && !focus_from_input)
+    throw_usage(models[0] + ": needs --focus M (focus distance in metres), --focus-at X,Y or --focus-keys");
   focus_keys();  // syntax and order
+  if (given(f_number_keys_)) value_keys("--f-number-keys", f_number_keys_text_, "--f-number");
+  if (given(blur_inf_keys_)) value_keys("--blur-at-infinity-keys", blur_inf_keys_text_, "--blur-at-infinity");
   if (model == "--planes" && (!given(near_radius_) || !given(far_radius_)))
     throw_usage("--planes: needs --near-radius PX and --far-radius PX");
   if (model == "--planes") parse_numbers(planes_text_, 4, "--planes", "NB,NS,FS,FB in metres", {"--planes"});
@@ -254,15 +275,20 @@ CameraModel CameraFlags::assemble() const {
   // With --focus-at the focus is only known once the depth is read; until then a stand-in
   // far beyond the focal length lets every other value be validated.
   const double focus = given(focus_) ? focus_m_ : std::max(1000.0, focal_length_mm_ * 0.01);
-  if (given(f_number_)) {
+  if (given(f_number_) || given(f_number_keys_)) {
     ThinLens t;
-    t.f_number = f_number_v_;
+    // Keys: the first key's value stands in until build() knows the frame.
+    t.f_number =
+        given(f_number_) ? f_number_v_ : value_keys("--f-number-keys", f_number_keys_text_, "--f-number")[0].second;
     t.focal_length_mm = focal_length_mm_;
     t.sensor_width_mm = sensor_width_mm_;
     t.focus_distance_m = focus;
     cam.model = t;
-  } else if (given(blur_inf_)) {
-    cam.model = BlurAtInfinity{focus, blur_inf_px_};
+  } else if (given(blur_inf_) || given(blur_inf_keys_)) {
+    cam.model = BlurAtInfinity{
+        focus, given(blur_inf_)
+                   ? blur_inf_px_
+                   : value_keys("--blur-at-infinity-keys", blur_inf_keys_text_, "--blur-at-infinity")[0].second};
   } else if (given(planes_)) {
     const auto v = parse_numbers(planes_text_, 4, "--planes", "NB,NS,FS,FB in metres", {"--planes"});
     FourPlane p;
@@ -296,7 +322,16 @@ CameraModel CameraFlags::assemble() const {
   return cam;
 }
 
-bool CameraFlags::animated() const { return given(focus_keys_) || given(focus_at_keys_); }
+void CameraFlags::require_focus(const std::optional<double>& recorded_focus_m, const std::string& input) const {
+  if (focus_missing() && !recorded_focus_m)
+    throw_usage(std::string(given(f_number_) || given(f_number_keys_) ? "--f-number" : "--blur-at-infinity") +
+                ": needs --focus M (focus distance in metres), --focus-at X,Y or --focus-keys (" + input +
+                " records no focus distance)");
+}
+
+bool CameraFlags::animated() const {
+  return given(focus_keys_) || given(focus_at_keys_) || given(f_number_keys_) || given(blur_inf_keys_);
+}
 
 namespace {
 // A frame number of a key: digits only, 0 to 999999999.
@@ -350,6 +385,35 @@ std::vector<FocusKey> CameraFlags::focus_keys() const {
   return keys;
 }
 
+std::vector<std::pair<long, double>> CameraFlags::value_keys(const std::string& flag, const std::string& text,
+                                                             const std::string& value_flag) const {
+  std::vector<std::pair<long, double>> keys;
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  std::string part;
+  while (std::getline(ss, part, ',')) parts.push_back(trim(part));
+  if (text.empty() || text.back() == ',') parts.push_back("");
+  for (const std::string& key : parts) {
+    const auto colon = key.find(':');
+    if (colon == std::string::npos) throw_usage(flag + " " + text + ": expected FRAME:VALUE,FRAME:VALUE,...");
+    const long frame = parse_key_frame(flag, key.substr(0, colon), text);
+    double value = 0;
+    try {
+      value = parse_number(value_flag, key.substr(colon + 1));
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      throw_usage(flag + " " + text + ": key at frame " + std::to_string(frame) + ": " + m.substr(m.find(": ") + 2));
+    }
+    if (!keys.empty() && frame <= keys.back().first)
+      throw_usage(
+          flag + " " + text + ": frame " + std::to_string(frame) +
+          (frame == keys.back().first ? " is given twice" : " comes after frame " + std::to_string(keys.back().first)) +
+          "; keys must be in increasing frame order");
+    keys.emplace_back(frame, value);
+  }
+  return keys;
+}
+
 double eased_focus(const std::vector<double>& key_focus_m, const std::vector<long>& key_frames, long frame) {
   if (frame <= key_frames.front()) return key_focus_m.front();
   if (frame >= key_frames.back()) return key_focus_m.back();
@@ -361,13 +425,40 @@ double eased_focus(const std::vector<double>& key_focus_m, const std::vector<lon
   return key_focus_m[i] + (key_focus_m[i + 1] - key_focus_m[i]) * s;
 }
 
-CameraModel CameraFlags::build(const Image* depth, long frame) const {
-  check();
+CameraModel CameraFlags::build(const Image* depth, long frame, std::optional<double> recorded_focus_m) const {
+  check(recorded_focus_m.has_value());
   CameraModel cam = assemble();
+  if (animated() && frame < 0) {
+    const char* flag = given(focus_keys_)      ? "--focus-keys"
+                       : given(focus_at_keys_) ? "--focus-at-keys"
+                       : given(f_number_keys_) ? "--f-number-keys"
+                                               : "--blur-at-infinity-keys";
+    throw_usage(std::string(flag) + ": needs --frames");
+  }
+  // Animated aperture: the eased f-number or blur at infinity of this frame.
+  for (const auto& [opt, flag, value_flag] :
+       {std::tuple{f_number_keys_, "--f-number-keys", "--f-number"},
+        std::tuple{blur_inf_keys_, "--blur-at-infinity-keys", "--blur-at-infinity"}}) {
+    if (!given(opt)) continue;
+    const auto keys = value_keys(flag, opt == f_number_keys_ ? f_number_keys_text_ : blur_inf_keys_text_, value_flag);
+    std::vector<double> v;
+    std::vector<long> f;
+    for (const auto& [kf, kv] : keys) {
+      f.push_back(kf);
+      v.push_back(kv);
+    }
+    const double value = eased_focus(v, f, frame);
+    std::visit(
+        [value](auto& m) {
+          using T = std::decay_t<decltype(m)>;
+          if constexpr (std::is_same_v<T, ThinLens>) m.f_number = value;
+          if constexpr (std::is_same_v<T, BlurAtInfinity>) m.blur_at_infinity_px = value;
+        },
+        cam.model);
+  }
   std::optional<double> focus_z;
-  if (animated()) {
-    if (frame < 0)
-      throw_usage(std::string(given(focus_keys_) ? "--focus-keys" : "--focus-at-keys") + ": needs --frames");
+  if (focus_missing()) focus_z = *recorded_focus_m;  // check() refused it without one
+  if (given(focus_keys_) || given(focus_at_keys_)) {
     const std::vector<FocusKey> keys = focus_keys();
     std::vector<double> z;
     std::vector<long> f;
@@ -436,10 +527,14 @@ void DepthFlags::add(CLI::App* cmd, const std::string& group) {
                      ->check(CLI::IsMember({"m", "cm", "mm", "in", "ft"}))
                      ->group(group);
   cmd->add_option("--depth-upsample", upsample_,
-                  "a depth map smaller than the colour: nearest, bilinear (in 1/z) or guided (default: joint bilateral "
-                  "upsampling, depth edges follow colour edges; docs/cli.md has the measurement); guided-filter: He "
-                  "et al.'s guided filter, the measured alternative")
+                  "a depth map smaller than the colour: nearest, bilinear (in 1/z) or guided (default: edge-aware, "
+                  "colour-guided; depth edges follow colour edges, the two sides never blend; docs/cli.md has the "
+                  "measurement); guided-filter: He et al.'s guided filter, the measured alternative")
       ->check(CLI::IsMember({"nearest", "bilinear", "guided", "guided-filter"}))
+      ->group(group);
+  cmd->add_flag("--depth-refine", refine_,
+                "re-snap a soft depth map of the colour's size to the colour's edges (phone maps blur hair and "
+                "silhouettes into halos): reduced 4x and brought back by the guided upsampling")
       ->group(group);
   cmd->add_option("--depth-fit", fit_,
                   "a smaller depth map of another aspect ratio: refused (same-aspect, default) or scaled per axis "
@@ -480,6 +575,7 @@ io::DepthOptions DepthFlags::build() const {
   o.channel = channel_;
   o.upsample = io::parse_depth_upsample(upsample_);
   o.stretch = fit_ == "stretch";
+  o.refine = refine_;
   if (given(depth_scale_) && given(depth_units_)) throw_usage("--depth-scale and --depth-units: give only one of them");
   if (given(depth_units_)) {
     static const std::map<std::string, double> kUnits = {

@@ -73,10 +73,11 @@ struct FocusKey {
   int x = 0, y = 0;
 };
 
-/// The focus distance at `frame` from keys at increasing frames `key_frames` with distances
-/// `key_focus_m`: the first key's before it, the last key's after it, and between keys i and
-/// i+1 the smoothstep ease z_i + (z_{i+1} − z_i)·s, s = t²(3 − 2t), t = (frame − f_i) /
-/// (f_{i+1} − f_i). A pure function of the frame number (any chunking gives the same frames).
+/// The value at `frame` from keys at increasing frames `key_frames` with values `key_focus_m`
+/// (a focus distance, an f-number or a blur at infinity): the first key's before it, the last
+/// key's after it, and between keys i and i+1 the smoothstep ease z_i + (z_{i+1} − z_i)·s,
+/// s = t²(3 − 2t), t = (frame − f_i) / (f_{i+1} − f_i). A pure function of the frame number
+/// (any chunking gives the same frames).
 double eased_focus(const std::vector<double>& key_focus_m, const std::vector<long>& key_frames, long frame);
 
 class CameraFlags {
@@ -86,15 +87,25 @@ class CameraFlags {
   /// True if any model flag was given (lets a command supply a default camera instead).
   bool model_given() const;
   /// Checks the flag combination and every model value without needing the depth map (so a
-  /// command can fail before reading inputs). Throws Error(usage).
-  void check() const;
+  /// command can fail before reading inputs). Throws Error(usage). `focus_from_input`: the
+  /// input may record its focus distance (a phone photo without --depth), so a thin-lens model
+  /// without a focus flag is not refused yet (build() refuses it if the input records none).
+  void check(bool focus_from_input = false) const;
   /// Builds the camera. `depth` (planar z) is needed only for --focus-at; pass nullptr if
   /// there is none (then --focus-at is a usage error). Validates the model (dofkit::validate).
   /// `frame`: the frame number with --frames (-1 without); drives --focus-keys /
-  /// --focus-at-keys (a usage error without --frames).
-  CameraModel build(const Image* depth, long frame = -1) const;
-  /// Whether the focus is animated (--focus-keys or --focus-at-keys).
+  /// --focus-at-keys, --f-number-keys and --blur-at-infinity-keys (a usage error without
+  /// --frames). `recorded_focus_m`: the focus distance the input records (a phone photo's), the
+  /// thin lens's focus when no focus flag is given.
+  CameraModel build(const Image* depth, long frame = -1, std::optional<double> recorded_focus_m = std::nullopt) const;
+  /// Whether anything is animated by keys (--focus-keys, --focus-at-keys, --f-number-keys,
+  /// --blur-at-infinity-keys).
   bool animated() const;
+  /// Whether a thin-lens model (--f-number, --blur-at-infinity or their keys) lacks a focus flag.
+  bool focus_missing() const;
+  /// After check(true): Error(usage) if the focus is missing and `input` (a phone photo)
+  /// records none either.
+  void require_focus(const std::optional<double>& recorded_focus_m, const std::string& input) const;
   /// The keys of --focus-keys / --focus-at-keys, checked: increasing frames, no frame twice,
   /// each value in its flag's range (Error(usage) naming the flag). Empty if neither is given.
   std::vector<FocusKey> focus_keys() const;
@@ -103,6 +114,12 @@ class CameraFlags {
 
  private:
   CameraModel assemble() const;  // the model from the flags, before --focus-at
+  // The keys FRAME:VALUE of a scalar key flag: increasing frames, each value checked as
+  // `value_flag` checks it (Error(usage) naming `flag`).
+  std::vector<std::pair<long, double>> value_keys(const std::string& flag, const std::string& text,
+                                                  const std::string& value_flag) const;
+  CLI::Option *f_number_keys_ = nullptr, *blur_inf_keys_ = nullptr;
+  std::string f_number_keys_text_, blur_inf_keys_text_;
   CLI::Option *focus_ = nullptr, *f_number_ = nullptr, *focal_length_ = nullptr, *sensor_width_ = nullptr,
               *blur_inf_ = nullptr, *planes_ = nullptr, *planes_ramp_ = nullptr, *near_radius_ = nullptr,
               *far_radius_ = nullptr, *starcraft_ = nullptr, *near_far_ = nullptr, *max_radius_ = nullptr,
@@ -123,6 +140,8 @@ class DepthFlags {
   io::DepthOptions build() const;
   /// Whether --depth-kind was given.
   bool kind_given() const { return kind_opt_ && kind_opt_->count() > 0; }
+  /// Whether --depth-channel was given.
+  bool channel_given() const { return !channel_.empty(); }
 
  private:
   CLI::Option* kind_opt_ = nullptr;
@@ -130,6 +149,7 @@ class DepthFlags {
   std::string kind_ = "z", clip_text_, invalid_ = "error", channel_, units_ = "m", upsample_ = "guided",
               fit_ = "same-aspect";
   double fov_deg_ = 0, disparity_scale_ = 1, depth_scale_v_ = 1;
+  bool refine_ = false;
 };
 
 /// The aperture flags of render, scene and quality: --blades, --blade-rotation,

@@ -36,6 +36,7 @@
 #include "io/exr_passthrough.hpp"
 #include "io/image_io.hpp"
 #include "io/layers_io.hpp"
+#include "io/phone_depth.hpp"
 
 namespace dofkit::cli {
 
@@ -464,7 +465,8 @@ double render_and_write(const RenderArgs& a, const FramePaths& p, const FrameInp
                         std::optional<Renderer>& renderer, const io::WriteOptions& out_opt,
                         const io::WriteOptions& coc_opt, const io::WriteOptions& debug_opt) {
   const Frame& frame = in.frame;
-  settings.camera = a.camera.build(&frame.depth, in.frame_number);
+  a.camera.require_focus(in.depth_facts.focus_m, p.color);
+  settings.camera = a.camera.build(&frame.depth, in.frame_number, in.depth_facts.focus_m);
 
   // 3. Render.
   const auto t0 = std::chrono::steady_clock::now();
@@ -570,11 +572,14 @@ void run_render(RenderArgs& a) {
   if (!a.mask.empty() && !a.layers.empty()) throw_usage("--mask and --layers: cannot be combined");
   color_channel_names(a.color_channels);  // syntax
   a.budget.apply();
-  a.camera.check();
+  // A phone photo without --depth may record its focus distance (checked once it is read).
+  const bool photo_depth = a.depth.empty() && a.layers.empty() && !a.depth_flags.channel_given() &&
+                           (io::looks_like_jpeg(a.color) || io::looks_like_heif(a.color));
+  a.camera.check(photo_depth);
   if (a.camera.animated() && a.frames.empty())
     throw_usage(
-        "--focus-keys / --focus-at-keys: the keys need --frames (one still plate is fine: --frames FIRST-LAST with an "
-        "unnumbered --color)");
+        "--focus-keys / --focus-at-keys / --f-number-keys / --blur-at-infinity-keys: the keys need --frames (one "
+        "still plate is fine: --frames FIRST-LAST with an unnumbered --color)");
   a.aperture.check();
   a.highlights.check();
   const io::DepthOptions depth_opt = a.depth_flags.build();

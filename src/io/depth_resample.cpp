@@ -4,16 +4,12 @@
 // (r = K (z_F w − 1)), so a blend of two depths gives a blend of their radii, and an infinite
 // depth is w = 0 like any other value.
 //
-// guided = joint bilateral upsampling (Kopf et al. 2007): colour pixel x takes the weighted
-// mean of the inverse depths w_j of the 5x5 depth samples around it, weights
-//   exp(−d_j² / (2 σ_s²)) · exp(−|g(x) − ĝ_j|² / (2 σ_r²))
-// with d_j the distance from x to sample j in depth pixels (σ_s = 1), g the colour's
-// perceptual grey (sRGB-encoded luminance), ĝ_j the mean of g over sample j's footprint and
-// σ_r = 0.04. A sample whose footprint's colour differs from the pixel's contributes little, so
-// a depth edge lands on the colour edge. The guided filter of He et al. (radius 2·ratio,
-// ε = 1e-3) was measured against it and lost; σ_r = 0.08 and taking the heaviest sample
-// instead of the mean did worse, σ_r = 0.02 better only on one scene (docs/cli.md,
-// --depth-upsample, has the table).
+// guided: edge-aware upsampling guided by the colour (edge_aware_upsample below has the
+// steps). A joint bilateral upsampling (Kopf et al. 2007) that only weights samples by colour
+// still averages the near and the far side where the colour is ambiguous, and keeps the
+// samples that straddle an edge (their depth is a mix of both sides): both showed as halos in
+// the blur. The guided filter of He et al. (radius 2·ratio, ε = 1e-3) is kept as the
+// alternative that measured worse (docs/cli.md, --depth-upsample, has the table).
 #include "io/depth_resample.hpp"
 
 #include <algorithm>
@@ -131,6 +127,124 @@ Image guided_filter(const Image& bilinear_z, const std::vector<float>& guide, do
   return out;
 }
 
+// The colour as three sRGB-like encoded planes in [0, 1] (the guide of `guided`).
+std::vector<float> colour_guide(const Image& color) {
+  const std::size_t n = color.plane_size();
+  std::vector<float> g(3 * n);
+  for (int c = 0; c < 3; ++c)
+    for (std::size_t i = 0; i < n; ++i)
+      g[c * n + i] = static_cast<float>(std::pow(std::clamp<double>(color.plane(c)[i], 0.0, 1.0), 1.0 / 2.2));
+  return g;
+}
+
+// Edge-aware upsampling (`guided`, the default). Three steps, each pixel or sample computed on
+// its own, so the result is the same for any thread count:
+//  1. per depth sample k: the mean colour μ_k of its footprint in the colour image (3
+//     channels) and the footprint's colour variance v_k (summed over channels);
+//  2. per sample: "mixed" if its 3x3 neighbourhood spans a depth edge (max − min of w = 1/z
+//     above kEdge of the max) and its own w lies inside that span, more than kMargin of it from
+//     both ends — a sample that straddles the edge holds an average of both sides, a depth
+//     that exists nowhere, so it gets weight kMixedWeight;
+//  3. per pixel x: the 5x5 samples around it weighted by distance (σ_s = 1 sample) and by
+//     colour, exp(−|c(x) − μ_k|² / (2 (σ_r² + v_k))) — a textured footprint tolerates more
+//     colour difference. Where the samples that are not mixed span a depth edge, they are split
+//     at the middle of that span into a near and a far group and the pixel takes the weighted
+//     mean of the heavier group only (a pixel belongs to one surface, not to a blend of two);
+//     elsewhere the weighted mean of all.
+Image edge_aware_upsample(const Image& depth, const Image& color) {
+  constexpr int kRadius = 2;
+  constexpr double kSigmaS = 1.0, kSigmaR = 0.1, kEdge = 0.15, kMargin = 0.15, kMixedWeight = 0.02;
+  const int dw = depth.width(), dh = depth.height(), cw = color.width(), ch = color.height();
+  const double sx = static_cast<double>(dw) / cw, sy = static_cast<double>(dh) / ch;
+  const std::size_t nd = depth.plane_size(), nc = color.plane_size();
+  std::vector<float> w(nd);
+  for (std::size_t i = 0; i < nd; ++i) w[i] = inverse(depth.plane(0)[i]);
+  const std::vector<float> g = colour_guide(color);
+  std::vector<float> mean(3 * nd, 0.0f), var(nd, 0.0f);
+  std::vector<unsigned char> mixed(nd, 0);
+  tbb::parallel_for(0, dh, [&](int j) {
+    const int y0 = static_cast<int>(std::floor(j / sy)),
+              y1 = std::min(ch, std::max(y0 + 1, static_cast<int>(std::floor((j + 1) / sy))));
+    for (int i = 0; i < dw; ++i) {
+      const std::size_t k = static_cast<std::size_t>(j) * dw + i;
+      const int x0 = static_cast<int>(std::floor(i / sx)),
+                x1 = std::min(cw, std::max(x0 + 1, static_cast<int>(std::floor((i + 1) / sx))));
+      const int n = std::max(0, (y1 - y0) * (x1 - x0));
+      double v = 0;
+      for (int c = 0; c < 3; ++c) {
+        const float* plane = g.data() + c * nc;
+        double sum = 0, sum2 = 0;
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x) {
+            const double e = plane[static_cast<std::size_t>(y) * cw + x];
+            sum += e;
+            sum2 += e * e;
+          }
+        const double m = n ? sum / n : 0.0;
+        mean[c * nd + k] = static_cast<float>(m);
+        v += n ? std::max(0.0, sum2 / n - m * m) : 0.0;
+      }
+      var[k] = static_cast<float>(v);
+      float lo = w[k], hi = w[k];
+      for (int jj = std::max(0, j - 1); jj <= std::min(dh - 1, j + 1); ++jj)
+        for (int ii = std::max(0, i - 1); ii <= std::min(dw - 1, i + 1); ++ii) {
+          lo = std::min(lo, w[static_cast<std::size_t>(jj) * dw + ii]);
+          hi = std::max(hi, w[static_cast<std::size_t>(jj) * dw + ii]);
+        }
+      const double span = static_cast<double>(hi) - lo;
+      mixed[k] = span > kEdge * hi && w[k] > lo + kMargin * span && w[k] < hi - kMargin * span;
+    }
+  });
+  Image out(cw, ch, 1);
+  tbb::parallel_for(0, ch, [&](int y) {
+    float* row = out.row(0, y);
+    const double v = std::clamp((y + 0.5) * sy - 0.5, 0.0, dh - 1.0);
+    const int jc = static_cast<int>(std::lround(v));
+    const int j0 = std::max(0, jc - kRadius), j1 = std::min(dh - 1, jc + kRadius);
+    for (int x = 0; x < cw; ++x) {
+      const double u = std::clamp((x + 0.5) * sx - 0.5, 0.0, dw - 1.0);
+      const int ic = static_cast<int>(std::lround(u));
+      const int i0 = std::max(0, ic - kRadius), i1 = std::min(dw - 1, ic + kRadius);
+      const std::size_t px = static_cast<std::size_t>(y) * cw + x;
+      // The span of the samples that are not mixed (all of them if every one is).
+      float lo = std::numeric_limits<float>::max(), hi = -1.0f;
+      for (int pass = 0; pass < 2 && hi < 0; ++pass)
+        for (int j = j0; j <= j1; ++j)
+          for (int i = i0; i <= i1; ++i) {
+            const std::size_t k = static_cast<std::size_t>(j) * dw + i;
+            if (mixed[k] && pass == 0) continue;
+            lo = std::min(lo, w[k]);
+            hi = std::max(hi, w[k]);
+          }
+      const bool split = static_cast<double>(hi) - lo > kEdge * hi;
+      const double mid = 0.5 * (static_cast<double>(lo) + hi);
+      double sum[2] = {0, 0}, weight[2] = {0, 0};
+      for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i) {
+          const std::size_t k = static_cast<std::size_t>(j) * dw + i;
+          const double ds = (i - u) * (i - u) + (j - v) * (j - v);
+          double dc = 0;
+          for (int c = 0; c < 3; ++c) {
+            const double d = static_cast<double>(g[c * nc + px]) - mean[c * nd + k];
+            dc += d * d;
+          }
+          double e = std::exp(-ds / (2 * kSigmaS * kSigmaS) - dc / (2 * (kSigmaR * kSigmaR + var[k])));
+          if (mixed[k]) e *= kMixedWeight;
+          const int side = split && w[k] >= mid ? 1 : 0;
+          sum[side] += e * w[k];
+          weight[side] += e;
+        }
+      if (!split) {
+        sum[0] += sum[1];
+        weight[0] += weight[1];
+      }
+      const int side = split && weight[1] > weight[0] ? 1 : 0;
+      row[x] = weight[side] > 0 ? from_inverse(sum[side] / weight[side]) : depth.at(ic, jc);
+    }
+  });
+  return out;
+}
+
 }  // namespace
 
 Image resample_depth(const Image& depth, const Image& color, DepthUpsample how) {
@@ -140,6 +254,7 @@ Image resample_depth(const Image& depth, const Image& color, DepthUpsample how) 
     out = depth;
     return out;
   }
+  if (how == DepthUpsample::guided) return edge_aware_upsample(depth, color);
   if (how == DepthUpsample::guided_filter)
     return guided_filter(resample_depth(depth, color, DepthUpsample::bilinear), grey_guide(color),
                          std::max(static_cast<double>(cw) / dw, static_cast<double>(ch) / dh));
@@ -147,27 +262,6 @@ Image resample_depth(const Image& depth, const Image& color, DepthUpsample how) 
   // Inverse depth of the samples.
   std::vector<float> w(depth.plane_size());
   for (std::size_t i = 0; i < w.size(); ++i) w[i] = inverse(depth.plane(0)[i]);
-  std::vector<float> guide, sample_guide;
-  if (how == DepthUpsample::guided) {
-    guide = grey_guide(color);
-    // ĝ_j: the guide averaged over each depth sample's footprint in the colour image.
-    sample_guide.assign(w.size(), 0.0f);
-    tbb::parallel_for(0, dh, [&](int j) {
-      const int y0 = static_cast<int>(std::floor(j / sy)),
-                y1 = std::max(y0 + 1, static_cast<int>(std::floor((j + 1) / sy)));
-      for (int i = 0; i < dw; ++i) {
-        const int x0 = static_cast<int>(std::floor(i / sx)),
-                  x1 = std::max(x0 + 1, static_cast<int>(std::floor((i + 1) / sx)));
-        double sum = 0;
-        int n = 0;
-        for (int y = y0; y < std::min(y1, ch); ++y)
-          for (int x = x0; x < std::min(x1, cw); ++x, ++n) sum += guide[static_cast<std::size_t>(y) * cw + x];
-        sample_guide[static_cast<std::size_t>(j) * dw + i] = n ? static_cast<float>(sum / n) : 0.0f;
-      }
-    });
-  }
-  constexpr int kRadius = 2;
-  constexpr double kSigmaS = 1.0, kSigmaR = 0.04;
   tbb::parallel_for(0, ch, [&](int y) {
     float* row = out.row(0, y);
     const double v = std::clamp((y + 0.5) * sy - 0.5, 0.0, dh - 1.0);
@@ -189,28 +283,37 @@ Image resample_depth(const Image& depth, const Image& color, DepthUpsample how) 
           row[x] = from_inverse(top * (1 - fv) + bottom * fv);
           break;
         }
+        case DepthUpsample::guided:
         case DepthUpsample::guided_filter:
           break;  // above
-        case DepthUpsample::guided: {
-          const float g = guide[static_cast<std::size_t>(y) * cw + x];
-          const int ic = static_cast<int>(std::lround(u)), jc = static_cast<int>(std::lround(v));
-          double sum = 0, weight = 0;
-          for (int j = std::max(0, jc - kRadius); j <= std::min(dh - 1, jc + kRadius); ++j)
-            for (int i = std::max(0, ic - kRadius); i <= std::min(dw - 1, ic + kRadius); ++i) {
-              const std::size_t k = static_cast<std::size_t>(j) * dw + i;
-              const double ds = (i - u) * (i - u) + (j - v) * (j - v);
-              const double dr = static_cast<double>(g) - sample_guide[k];
-              const double wt = std::exp(-ds / (2 * kSigmaS * kSigmaS) - dr * dr / (2 * kSigmaR * kSigmaR));
-              sum += wt * w[k];
-              weight += wt;
-            }
-          row[x] = weight > 0 ? from_inverse(sum / weight) : depth.at(ic, jc);
-          break;
-        }
       }
     }
   });
   return out;
+}
+
+Image refine_depth(const Image& depth, const Image& color) {
+  const int cw = depth.width(), ch = depth.height();
+  const int dw = std::max(1, (cw + kRefineFactor / 2) / kRefineFactor),
+            dh = std::max(1, (ch + kRefineFactor / 2) / kRefineFactor);
+  if (dw == cw && dh == ch) return depth;
+  // The same footprints as edge_aware_upsample's: sample i covers [floor(i/s), floor((i+1)/s)).
+  const double sx = static_cast<double>(dw) / cw, sy = static_cast<double>(dh) / ch;
+  Image low(dw, dh, 1);
+  tbb::parallel_for(0, dh, [&](int j) {
+    const int y0 = static_cast<int>(std::floor(j / sy)),
+              y1 = std::min(ch, std::max(y0 + 1, static_cast<int>(std::floor((j + 1) / sy))));
+    for (int i = 0; i < dw; ++i) {
+      const int x0 = static_cast<int>(std::floor(i / sx)),
+                x1 = std::min(cw, std::max(x0 + 1, static_cast<int>(std::floor((i + 1) / sx))));
+      double sum = 0;
+      int n = 0;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x, ++n) sum += inverse(depth.at(x, y));
+      low.at(i, j) = n ? from_inverse(sum / n) : depth.at(std::min(x0, cw - 1), std::min(y0, ch - 1));
+    }
+  });
+  return resample_depth(low, color, DepthUpsample::guided);
 }
 
 }  // namespace dofkit::io

@@ -11,7 +11,7 @@ namespace dofkit::io {
 enum class DepthUpsample {
   nearest,        ///< the nearest depth sample (blocky, never a depth that is not in the file)
   bilinear,       ///< bilinear in inverse depth (1/z: linear in the CoC), edges blurred over the ratio
-  guided,         ///< joint bilateral upsampling guided by the colour: depth edges follow colour edges
+  guided,         ///< edge-aware, colour-guided: depth edges follow colour edges, no blend across them
   guided_filter,  ///< He et al.'s guided filter on the bilinear result (the measured alternative)
 };
 /// Parses nearest|bilinear|guided|guided-filter (Error(usage) naming --depth-upsample).
@@ -31,5 +31,14 @@ void check_depth_fit(const std::string& depth_path, int dw, int dh, const std::s
 /// edge samples). Every output pixel is computed on its own from the inputs, so the result is
 /// the same for any thread count.
 Image resample_depth(const Image& depth, const Image& color, DepthUpsample how);
+
+/// The factor by which refine_depth reduces the map before bringing it back.
+inline constexpr int kRefineFactor = 4;
+
+/// `--depth-refine`: a soft depth map of the colour's size (a phone's, whose edges are blurred
+/// into halos) re-snapped to the colour's edges: reduced kRefineFactor times (each sample the
+/// mean 1/z of its footprint) and brought back by the `guided` upsampling, which takes every
+/// pixel's depth from one side of an edge only. Detail finer than the factor is lost.
+Image refine_depth(const Image& depth, const Image& color);
 
 }  // namespace dofkit::io

@@ -849,6 +849,7 @@ Frame load_frame(const std::string& color_path, const std::string& depth_path, c
   }
   Frame frame;
   frame.color = read_color(color_path, color_channels);
+  bool resampled = false;  // a smaller map brought up (then --depth-refine has nothing to add)
   if (depth_path.empty() && opt.channel.empty() && (looks_like_jpeg(color_path) || looks_like_heif(color_path))) {
     // A phone photo: the depth map it carries (GDepth XMP, HEIC auxiliary depth image),
     // converted per its own metadata, at its own size, then brought to the photo's.
@@ -862,6 +863,7 @@ Frame load_frame(const std::string& color_path, const std::string& depth_path, c
       check_depth_fit(what, frame.depth.width(), frame.depth.height(), color_path, frame.color.width(),
                       frame.color.height(), opt.stretch);
       frame.depth = resample_depth(frame.depth, frame.color, opt.upsample);
+      resampled = true;
       if (facts)
         facts->embedded += ", upsampled to " + std::to_string(frame.color.width()) + "x" +
                            std::to_string(frame.color.height()) + " (--depth-upsample " +
@@ -885,8 +887,11 @@ Frame load_frame(const std::string& color_path, const std::string& depth_path, c
       check_depth_fit(depth_path, frame.depth.width(), frame.depth.height(), color_path, frame.color.width(),
                       frame.color.height(), opt.stretch);
       frame.depth = resample_depth(frame.depth, frame.color, opt.upsample);
+      resampled = true;
     }
   }
+  if (opt.refine && !resampled && frame.depth.same_size(frame.color))
+    frame.depth = refine_depth(frame.depth, frame.color);
   if (!frame.depth.same_size(frame.color)) {
     throw_bad_input((depth_path.empty() ? color_path : depth_path) + ": depth is " +
                     std::to_string(frame.depth.width()) + "x" + std::to_string(frame.depth.height()) + " but colour " +

@@ -8,6 +8,7 @@
 // a failed write never leaves a partial or clobbered file.
 #pragma once
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,9 @@ struct DepthOptions {
   /// (`--depth-fit stretch`) instead of refused.
   DepthUpsample upsample = DepthUpsample::guided;
   bool stretch = false;
+  /// A depth map of the colour's size re-snapped to the colour's edges (`--depth-refine`,
+  /// refine_depth); a smaller map is brought up by `upsample` instead.
+  bool refine = false;
 };
 
 /// What read_depth found in the file (for the CLI's sanity warnings).
@@ -54,6 +58,9 @@ struct DepthFacts {
   /// A depth map embedded in a phone photo (phone_depth.hpp): where it came from and how it
   /// was converted, for the note; "" for a depth file or channel.
   std::string embedded;
+  /// The focus distance the photo records (GFocus:FocalDistance, in the depth map's metres),
+  /// used when the camera flags give none.
+  std::optional<double> focus_m;
 };
 
 /// The depth channel of a file with these channel names. `wanted` (--depth-channel): that

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <optional>
 
 #include "dofkit/error.hpp"
@@ -30,6 +31,9 @@ namespace {
 
 constexpr std::string_view kNsGDepth = "http://ns.google.com/photos/1.0/depthmap/";
 constexpr std::string_view kNsGFocus = "http://ns.google.com/photos/1.0/focus/";
+// Google's container (newer Pixel portraits): secondary files appended after the photo,
+// listed in the XMP's Container:Directory, each with Item:Semantic, Item:Mime, Item:Length.
+constexpr std::string_view kNsItem = "http://ns.google.com/photos/1.0/container/item/";
 constexpr std::string_view kNsXmpNote = "http://ns.adobe.com/xmp/note/";
 constexpr std::string_view kNsAppleDepth = "http://ns.apple.com/pixeldatainfo/1.0/";
 constexpr std::size_t kMaxNamespaces = 1024;  // declarations in scope at once
@@ -518,6 +522,73 @@ auto naming(const std::string& temp, const std::string& label, F&& fn) -> declty
   }
 }
 
+// The Item:* properties of a container directory, one map per item, in directory order (a
+// new item starts where a name repeats: each Container:Item element holds one of each).
+std::vector<std::map<std::string, std::string>> container_items(const std::vector<XmpProperty>& props) {
+  std::vector<std::map<std::string, std::string>> items;
+  for (const XmpProperty& p : props) {
+    if (p.ns != kNsItem) continue;
+    if (items.empty() || items.back().count(p.name)) items.emplace_back();
+    items.back()[p.name] = std::string(trim(p.value));
+  }
+  return items;
+}
+
+// The depth image of a container photo: the item whose Item:Semantic is "Depth". The items
+// after the primary one are the file's tail, in directory order, each Item:Length bytes
+// followed by Item:Padding bytes. "" with `missing` set when there is no such item;
+// Error(bad_input) naming the field when the directory does not fit the file.
+std::string container_depth(const std::string& path, const std::vector<XmpProperty>& props, std::string& missing) {
+  const auto items = container_items(props);
+  std::size_t depth = items.size();
+  for (std::size_t i = 0; i < items.size(); ++i)
+    if (items[i].count("Semantic") && items[i].at("Semantic") == "Depth") depth = i;
+  if (depth == items.size()) {
+    missing = items.empty() ? "no GDepth:Data and no container directory" : "no Depth item in its container directory";
+    return {};
+  }
+  if (depth == 0) throw_bad_input(path + ": container Item 1 (Depth) is the primary image, not an appended one");
+  std::error_code ec;
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw_bad_input(path + ": cannot read its size: " + ec.message());
+  // Offsets from the end of the file: every item after the primary one has a length.
+  std::uintmax_t tail = 0, before = 0;
+  for (std::size_t i = 1; i < items.size(); ++i) {
+    const auto field = [&](const char* name, bool required) -> std::uintmax_t {
+      const auto it = items[i].find(name);
+      if (it == items[i].end()) {
+        if (required) throw_bad_input(path + ": container Item " + std::to_string(i + 1) + " has no Item:" + name);
+        return 0;
+      }
+      const std::optional<double> v = number(&it->second);
+      if (!v || *v < 0 || *v != std::floor(*v) || *v > static_cast<double>(size))
+        throw_bad_input(path + ": container Item " + std::to_string(i + 1) + "'s Item:" + name + " '" + it->second +
+                        "' is not a byte count within the file's " + std::to_string(size) + " bytes");
+      return static_cast<std::uintmax_t>(*v);
+    };
+    const std::uintmax_t len = field("Length", true) + field("Padding", false);
+    if (i < depth) before += len;
+    tail += len;
+    if (tail > size)
+      throw_bad_input(path + ": its container directory lists " + std::to_string(tail) +
+                      " bytes of appended items, more than the file's " + std::to_string(size));
+  }
+  const auto len_it = items[depth].find("Length");
+  const std::uintmax_t length = static_cast<std::uintmax_t>(*number(&len_it->second));
+  if (length == 0) throw_bad_input(path + ": container Item " + std::to_string(depth + 1) + " (Depth) is empty");
+  if (length > kMaxJpegHead)
+    throw_bad_input(path + ": container Item " + std::to_string(depth + 1) + " (Depth) declares " +
+                    std::to_string(length) + " bytes, more than the " + std::to_string(kMaxJpegHead >> 20) +
+                    " MiB a depth image may have");
+  std::ifstream f(path, std::ios::binary);
+  f.seekg(static_cast<std::streamoff>(size - tail + before));
+  std::string bytes(static_cast<std::size_t>(length), '\0');
+  f.read(bytes.data(), static_cast<std::streamsize>(length));
+  if (!f || static_cast<std::uintmax_t>(f.gcount()) != length)
+    throw_bad_input(path + ": cannot read container Item " + std::to_string(depth + 1) + " (Depth)");
+  return bytes;
+}
+
 Image gdepth(const std::string& path, int width, int height, const DepthOptions& user, DepthFacts* facts,
              std::string& missing) {
   const std::string head = read_head(path, kMaxJpegHead);
@@ -552,12 +623,23 @@ Image gdepth(const std::string& path, int width, int height, const DepthOptions&
     bad("ImageWidth/ImageHeight declare " + fmt(*iw) + "x" + fmt(*ih) + " but the photo is " + std::to_string(width) +
         "x" + std::to_string(height));
   const std::string* data = get("Data");
-  if (!data) bad("Data (the depth image) is missing" + std::string(xmp.extended.empty() ? " (no extended XMP)" : ""));
   std::string image;
-  if (!decode_base64(*data, image, why)) bad("Data is not valid base64: " + why);
+  bool from_container = false;
+  if (data) {
+    if (!decode_base64(*data, image, why)) bad("Data is not valid base64: " + why);
+  } else {
+    std::string none;
+    image = container_depth(path, props, none);
+    if (image.empty())
+      bad("Data (the depth image) is missing" + std::string(xmp.extended.empty() ? " (no extended XMP)" : "") +
+          ", and " + none);
+    from_container = true;
+  }
   const bool png = image.size() >= 8 && image.compare(0, 8, "\x89PNG\r\n\x1a\n", 8) == 0;
   const bool jpeg = image.size() >= 3 && image.compare(0, 3, "\xFF\xD8\xFF", 3) == 0;
-  if (png != (mime == "image/png") || (!png && !jpeg)) bad("Data is not the " + mime + " image GDepth:Mime declares");
+  if (png != (mime == "image/png") || (!png && !jpeg))
+    bad(std::string(from_container ? "Mime: the container's Depth item" : "Data") + " is not the " + mime +
+        " image GDepth:Mime declares");
 
   // The normalised map d ∈ [0, 1] → z (Google's depthmap encoding): RangeLinear
   // z = near + d (far − near); RangeInverse z = far·near / (far − d (far − near)), which is
@@ -569,7 +651,8 @@ Image gdepth(const std::string& path, int width, int height, const DepthOptions&
   opt.scale = scale;
   opt.invalid_as_far = user.invalid_as_far;
   const TempFile temp(image, png ? ".png" : ".jpg");
-  const std::string label = path + " (its GDepth:Data depth image)";
+  const std::string label =
+      path + (from_container ? " (its container's Depth item)" : " (its GDepth:Data depth image)");
   Image depth = naming(temp.path(), label, [&] {
     const ImageInfo info = probe_image(temp.path(), "depth");
     if (info.width > width || info.height > height)
@@ -579,14 +662,18 @@ Image gdepth(const std::string& path, int width, int height, const DepthOptions&
   });
   if (facts) {
     facts->integer = false;  // converted per the metadata, not read as z
-    facts->channel = "GDepth:Data";
-    std::string s = path + "'s GDepth XMP (" + format + ", near " + fmt(*near) + " " + units + ", far " + fmt(*far) +
-                    " " + units + ", " + (png ? "PNG " : "JPEG ") + std::to_string(depth.width()) + "x" +
-                    std::to_string(depth.height()) + ")";
+    facts->channel = from_container ? "Container Depth item" : "GDepth:Data";
+    std::string s = path + "'s GDepth XMP" + (from_container ? " and container" : "") + " (" + format + ", near " +
+                    fmt(*near) + " " + units + ", far " + fmt(*far) + " " + units + ", " + (png ? "PNG " : "JPEG ") +
+                    std::to_string(depth.width()) + "x" + std::to_string(depth.height()) + ")";
     const std::string* ray = get("MeasureType");
     if (ray && trim(*ray) == "OpticalRay") s += "; it is measured along each ray and is read as planar z";
     if (const std::optional<double> focus = number(find_prop(props, kNsGFocus, "FocalDistance")))
-      s += "; it records GFocus:FocalDistance " + fmt(*focus) + " (--focus to use it)";
+      if (std::isfinite(*focus) && *focus > 0) {
+        facts->focus_m = *focus * scale;
+        s += "; it records GFocus:FocalDistance " + fmt(*focus) + " " + units +
+             " (the focus unless a focus flag is given)";
+      }
     facts->embedded = s;
   }
   return depth;

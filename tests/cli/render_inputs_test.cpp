@@ -450,6 +450,57 @@ TEST_F(RenderInputs, BadFocusKeysAreUsageErrorsWithoutOutput) {
                  2, {"need --frames"}, keep);
 }
 
+TEST_F(RenderInputs, FNumberAndBlurAtInfinityKeysAnimateTheLensLikeTheFocus) {
+  const std::vector<double> n = {2, 8}, k = {3, 9};
+  const std::vector<long> f = {1, 5};
+  const CliResult r =
+      run_render({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--frames", "1-5", "--f-number-keys", "1:2,5:8",
+                  "--focus", "2", "--focal-length", "35", "--output-coc", dir_ / "n.####.exr"});
+  ASSERT_EQ(r.code, 0) << r.message;
+  const CliResult s =
+      run_render({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--frames", "1-5", "--blur-at-infinity-keys",
+                  "1:3,5:9", "--focus-keys", "1:1.5,5:6", "--output-coc", dir_ / "k.####.exr"});
+  ASSERT_EQ(s.code, 0) << s.message;
+  for (long fr = 1; fr <= 5; ++fr) {
+    const std::string tag = std::to_string(fr);
+    CameraModel thin;
+    ThinLens t;
+    t.f_number = cli::eased_focus(n, f, fr);
+    t.focal_length_mm = 35;
+    t.focus_distance_m = 2;
+    thin.model = t;
+    CameraModel blur;
+    blur.model = BlurAtInfinity{cli::eased_focus({1.5, 6}, f, fr), cli::eased_focus(k, f, fr)};
+    const Image a = read_coc("n.000" + tag + ".exr"), b = read_coc("k.000" + tag + ".exr");
+    const CocFunction fa(thin, W), fb(blur, W);
+    for (std::size_t i = 0; i < a.plane_size(); ++i) {
+      ASSERT_EQ(a.plane(0)[i], fa(depth_.plane(0)[i])) << "frame " << fr << " pixel " << i;
+      ASSERT_EQ(b.plane(0)[i], fb(depth_.plane(0)[i])) << "frame " << fr << " pixel " << i;
+    }
+  }
+  EXPECT_NE(read_coc("n.0001.exr").data(), read_coc("n.0003.exr").data());
+}
+
+TEST_F(RenderInputs, BadLensKeysAreUsageErrorsWithoutOutput) {
+  const std::vector<std::string> keep = {"c.exr", "z.exr"};
+  auto keyed = [&](const std::string& flag, const std::string& keys) {
+    return std::vector<std::string>{
+        "--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--frames",         "1-4", flag,
+        keys,      "--focus",      "2",       "--output",     dir_ / "o.####.exr"};
+  };
+  expect_failure(keyed("--f-number-keys", "1:0,4:2"), 2, {"--f-number-keys 1:0,4:2", "frame 1", "0.1 to 10000"}, keep);
+  expect_failure(keyed("--f-number-keys", "4:2,1:3"), 2, {"--f-number-keys", "increasing frame order"}, keep);
+  expect_failure(keyed("--blur-at-infinity-keys", "1:-1"), 2, {"--blur-at-infinity-keys", "frame 1"}, keep);
+  expect_failure(keyed("--blur-at-infinity-keys", "1:3,1:4"), 2, {"--blur-at-infinity-keys", "given twice"}, keep);
+  expect_failure(keyed("--blur-at-infinity-keys", "1:nan"), 2, {"--blur-at-infinity-keys"}, keep);
+  std::vector<std::string> both = keyed("--f-number-keys", "1:2");
+  both.insert(both.end(), {"--f-number", "2"});
+  expect_failure(both, 2, {"--f-number and --f-number-keys", "exactly one CoC model"}, keep);
+  expect_failure({"--color", dir_ / "c.exr", "--depth", dir_ / "z.exr", "--f-number-keys", "1:2", "--focus", "2",
+                  "--output", dir_ / "o.exr"},
+                 2, {"need --frames"}, keep);
+}
+
 // --- depth at another resolution ------------------------------------------------------------
 
 TEST_F(RenderInputs, QuarterSizeDepthIsUpsampledAndOtherAspectsRefusedUnlessStretched) {

@@ -181,6 +181,13 @@ TEST_F(RenderPhone, GDepthRangeInverseInExtendedXmpGivesTheDecodedDepthsCocMap) 
   // Within the map's quantisation of the scene's own depth: the CoC maps of the true depth and
   // the embedded one (both upsampled alike) differ by far less than a pixel.
   EXPECT_LT(coc_error_against_true_depth("portrait.jpg"), 0.01) << "px";
+
+  // The recorded focus distance is the focus when no focus flag is given: the same CoC map as
+  // --focus 1.5 (expect_same_as's renders).
+  const CliResult f = run_render({"--color", dir_ / "portrait.jpg", "--blur-at-infinity", "6", "--method", "reference",
+                                  "--output-coc", dir_ / "f_coc.exr"});
+  ASSERT_EQ(f.code, 0) << f.message;
+  EXPECT_EQ(io::read_color(dir_ / "f_coc.exr").data(), io::read_color(dir_ / "e_coc.exr").data());
 }
 
 TEST_F(RenderPhone, GDepthRangeLinearInMillimetresAsAnElementInTheStandardXmp) {
@@ -190,6 +197,13 @@ TEST_F(RenderPhone, GDepthRangeLinearInMillimetresAsAnElementInTheStandardXmp) {
                                                     "<GDepth:Data>\n" + base64(png) + "\n</GDepth:Data>")));
   const CliResult r = expect_same_as("linear.jpg", "decoded.exr");
   EXPECT_TRUE(contains(r.err, "RangeLinear, near 500 mm, far 8000 mm, PNG 16x12")) << r.err;
+  // It records no focus distance: a thin lens without a focus flag is a usage error.
+  const CliResult f =
+      run_render({"--color", dir_ / "linear.jpg", "--blur-at-infinity", "6", "--output-coc", dir_ / "nofocus_coc.exr"});
+  EXPECT_EQ(f.code, 2) << f.message;
+  EXPECT_TRUE(contains(f.message, "--blur-at-infinity: needs --focus")) << f.message;
+  EXPECT_TRUE(contains(f.message, "records no focus distance")) << f.message;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "nofocus_coc.exr"));
 }
 
 TEST_F(RenderPhone, BadGDepthIsAOneLineErrorWithoutOutput) {
@@ -225,6 +239,46 @@ TEST_F(RenderPhone, BadGDepthIsAOneLineErrorWithoutOutput) {
   // A segment whose length runs past the end of the file.
   write_bytes(dir_ / "seg.jpg", photo_.substr(0, 2) + std::string("\xFF\xE1\xFF\xF0", 4) + "http://ns.adobe.com");
   expect_failure("seg.jpg", 3, {"seg.jpg"});
+}
+
+// A newer Pixel portrait: GDepth's fields in the XMP, the depth image appended after the photo
+// as the container directory's "Depth" item (here followed by padding and another item).
+static std::string container_xmp(const std::string& head, const std::string& depth_item) {
+  return packet(head +
+                    "xmlns:Container=\"http://ns.google.com/photos/1.0/container/\" "
+                    "xmlns:Item=\"http://ns.google.com/photos/1.0/container/item/\"",
+                "<Container:Directory><rdf:Seq>"
+                "<rdf:li rdf:parseType=\"Resource\"><Container:Item Item:Semantic=\"Primary\" "
+                "Item:Mime=\"image/jpeg\"/></rdf:li>"
+                "<rdf:li rdf:parseType=\"Resource\"><Container:Item " +
+                    depth_item +
+                    "/></rdf:li>"
+                    "<rdf:li rdf:parseType=\"Resource\"><Container:Item Item:Semantic=\"Confidence\" "
+                    "Item:Mime=\"image/png\" Item:Length=\"5\"/></rdf:li>"
+                    "</rdf:Seq></Container:Directory>");
+}
+
+TEST_F(RenderPhone, ContainerDepthItemAppendedAfterThePhotoGivesTheDecodedDepthsCocMap) {
+  const std::string png = encode_depth(/*inverse=*/true, 16, 1.0, 0.5, 8.0, "decoded.exr");
+  const std::string head =
+      "GDepth:Format=\"RangeInverse\" GDepth:Near=\"0.5\" GDepth:Far=\"8\" GDepth:Mime=\"image/png\" ";
+  const std::string item = "Item:Semantic=\"Depth\" Item:Mime=\"image/png\" Item:Length=\"" +
+                           std::to_string(png.size()) + "\" Item:Padding=\"3\"";
+  const std::string tail = png + "PAD" + "CONF!";
+  write_photo("pixel.jpg", standard_segment(container_xmp(head, item)));
+  write_bytes(dir_ / "pixel.jpg", read_bytes(dir_ / "pixel.jpg") + tail);
+  const CliResult r = expect_same_as("pixel.jpg", "decoded.exr");
+  EXPECT_TRUE(contains(r.err, "GDepth XMP and container (RangeInverse")) << r.err;
+  EXPECT_LT(coc_error_against_true_depth("pixel.jpg"), 0.01) << "px";
+
+  // A directory that does not fit the file, a Depth item without a length, none at all.
+  write_photo("long.jpg", standard_segment(container_xmp(head, "Item:Semantic=\"Depth\" Item:Length=\"99999\"")));
+  write_bytes(dir_ / "long.jpg", read_bytes(dir_ / "long.jpg") + tail);
+  expect_failure("long.jpg", 3, {"long.jpg", "container Item 2's Item:Length '99999'"});
+  write_photo("nolen.jpg", standard_segment(container_xmp(head, "Item:Semantic=\"Depth\" Item:Mime=\"image/png\"")));
+  expect_failure("nolen.jpg", 3, {"nolen.jpg", "container Item 2 has no Item:Length"});
+  write_photo("none.jpg", standard_segment(container_xmp(head, "Item:Semantic=\"GainMap\" Item:Length=\"4\"")));
+  expect_failure("none.jpg", 3, {"none.jpg", "GDepth:Data (the depth image) is missing", "no Depth item"});
 }
 
 TEST_F(RenderPhone, APhotoWithoutDepthSaysWhatIsMissing) {

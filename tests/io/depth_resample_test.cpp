@@ -1,10 +1,12 @@
 // Depth at another resolution than the colour (depth_resample.hpp): the size/aspect check,
-// nearest and bilinear exactly, guided snapping a depth edge to the colour edge, and the same
+// nearest and bilinear exactly, guided snapping a depth edge to the colour edge without blending
+// the two sides, and the same
 // output for any thread count. Tiny images.
 #include <gtest/gtest.h>
 
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -97,6 +99,52 @@ TEST(DepthResample, GuidedPutsTheDepthEdgeOnTheColourEdge) {
   EXPECT_FLOAT_EQ(g.at(60, 10), 4.0f);
 }
 
+TEST(DepthResample, GuidedNeverBlendsTheTwoSidesOfAnEdge) {
+  // A faint colour edge (0.40 against 0.46): the colour alone cannot say which side a pixel is
+  // on, yet no pixel may take a depth between the surfaces (a blend of two depths exists
+  // nowhere and shows as a halo in the blur), and the mixed sample's average (column 7) must
+  // not leak in.
+  EdgeScene s;
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x)
+      for (int c = 0; c < 3; ++c) s.color.at(x, y, c) = x < 30 ? 0.40f : 0.46f;
+  const Image g = io::resample_depth(s.low, s.color, io::DepthUpsample::guided);
+  int right = 0;
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) {
+      const float z = g.at(x, y);
+      EXPECT_TRUE(std::fabs(z - 1.0f) <= 0.05f || std::fabs(z - 4.0f) <= 0.2f) << x << "," << y << ": " << z;
+      right += std::fabs(z - s.full.at(x, y)) <= 0.05f * s.full.at(x, y);
+    }
+  EXPECT_GE(right, 48 * 64 - 48 * 2) << "at most two columns on the wrong side";
+}
+
+TEST(DepthRefine, ASoftEdgeIsSnappedBackToTheColourEdge) {
+  // The full-resolution depth blurred over 9 px across the edge (in 1/z), as a phone's soft map.
+  const EdgeScene s;
+  Image soft(64, 48, 1);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) {
+      double w = 0;
+      for (int d = -4; d <= 4; ++d) w += 1.0 / s.full.at(std::clamp(x + d, 0, 63), y);
+      soft.at(x, y) = static_cast<float>(9.0 / w);
+    }
+  const Image r = io::refine_depth(soft, s.color);
+  ASSERT_TRUE(r.same_size(soft));
+  int refined_ok = 0, soft_ok = 0;
+  for (int y = 0; y < 48; ++y)
+    for (int x = 22; x < 38; ++x) {
+      const float t = s.full.at(x, y);
+      refined_ok += std::fabs(r.at(x, y) - t) <= 0.05f * t;
+      soft_ok += std::fabs(soft.at(x, y) - t) <= 0.05f * t;
+    }
+  EXPECT_GE(refined_ok, 48 * 16 * 9 / 10) << "refined " << refined_ok << ", soft " << soft_ok;
+  EXPECT_LT(soft_ok, 48 * 16 * 2 / 3);
+  // A flat map stays flat.
+  const Image flat(64, 48, 1, 2.5f);
+  for (const float z : io::refine_depth(flat, s.color).data()) ASSERT_FLOAT_EQ(z, 2.5f);
+}
+
 TEST(DepthResample, SameOutputForAnyThreadCount) {
   const EdgeScene s;
   for (const auto how : {io::DepthUpsample::nearest, io::DepthUpsample::bilinear, io::DepthUpsample::guided,
@@ -112,6 +160,16 @@ TEST(DepthResample, SameOutputForAnyThreadCount) {
     }
     EXPECT_EQ(one.data(), two.data()) << static_cast<int>(how);
   }
+  Image one, two;
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+    one = io::refine_depth(s.full, s.color);
+  }
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    two = io::refine_depth(s.full, s.color);
+  }
+  EXPECT_EQ(one.data(), two.data()) << "refine";
 }
 
 TEST(DepthResample, UnknownNameIsAUsageError) {

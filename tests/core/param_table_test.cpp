@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <functional>
 #include <map>
+#include <optional>
 #include <regex>
 #include <set>
 #include <string>
@@ -150,23 +151,25 @@ TEST(ParamTable, EveryMethodReadsExactlyItsDeclaredKeys) {
   }
 }
 
-ErrorKind kind_of(const std::function<void()>& f) {
+// The Error f throws (nullopt: none).
+std::optional<Error> error_of(const std::function<void()>& f) {
   try {
     f();
   } catch (const Error& e) {
-    return e.kind();
+    return e;
   }
-  ADD_FAILURE() << "no error";
-  return ErrorKind::internal;
+  return std::nullopt;
+}
+
+ErrorKind kind_of(const std::function<void()>& f) {
+  const std::optional<Error> e = error_of(f);
+  EXPECT_TRUE(e.has_value()) << "no error";
+  return e ? e->kind() : ErrorKind::internal;
 }
 
 std::string message_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
+  const std::optional<Error> e = error_of(f);
+  return e ? e->what() : "(no error)";
 }
 
 TEST(ParamTable, MisuseIsAnInternalError) {

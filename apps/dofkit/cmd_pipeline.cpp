@@ -1,8 +1,12 @@
 // `dofkit pipeline`: StarCraft II's chain on a G-buffer (docs/lighting.md#the-pipeline):
-// SSAO → deferred lighting, the AO term multiplying the lights it should → depth of field.
+// SSAO → deferred lighting, the AO term multiplying the lights it should → a key transparency
+// composited over the lit image → depth of field, re-applied over the transparency's area with
+// its own depth (§5.7, render_masked).
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <utility>
 
 #include <fmt/core.h>
 
@@ -22,6 +26,7 @@ namespace {
 struct PipelineArgs {
   GBufferFiles g;
   std::string camera_file, lights, output, debug_dir, stop_after = "dof";
+  std::string transparency, transparency_depth;
   std::string ao_method = "sc2", method = "lens";
   double ao_radius_m = 0;
   std::vector<std::string> sets;
@@ -54,6 +59,8 @@ void run_pipeline(const PipelineArgs& a) {
   if (dof && !a.camera.model_given())
     throw_usage("the dof stage needs a camera model (e.g. --focus 3.5 --blur-at-infinity 10; or --stop-after light)");
   if (dof) a.camera.check();
+  if (a.transparency.empty() != a.transparency_depth.empty())
+    throw_usage("--transparency and --transparency-depth: give both or neither");
   const std::map<std::string, std::string> params = parse_sets(a.sets);
   io::WriteOptions out_opt;
   io::check_output_format(a.output, out_opt, "--output");
@@ -62,7 +69,9 @@ void run_pipeline(const PipelineArgs& a) {
                {"--normals", a.g.normals},
                {"--albedo", a.g.albedo},
                {"--camera", a.camera_file},
-               {"--lights", a.lights}},
+               {"--lights", a.lights},
+               {"--transparency", a.transparency},
+               {"--transparency-depth", a.transparency_depth}},
               {{"--output", a.output}});
 
   // Inputs (exit 3).
@@ -70,6 +79,32 @@ void run_pipeline(const PipelineArgs& a) {
   for (const std::string& m : g.missing) std::cerr << "dofkit pipeline: no " << m << " channel: taken as 0\n";
   const CameraFile cam = read_camera_file(a.camera_file, g.depth.width(), g.depth.height());
   const std::vector<Light> lights = read_lights_file(a.lights, &cam);
+  // The key transparency (§5.7): premultiplied RGBA over the lit opaque scene, and its depth.
+  Image trans, trans_alpha, trans_depth;
+  if (!a.transparency.empty()) {
+    trans = io::read_color(a.transparency);
+    io::DepthOptions dopt;
+    dopt.invalid_as_far = true;  // outside the coverage the depth is never used
+    trans_depth = io::read_depth(a.transparency_depth, dopt);
+    for (const auto& [im, name] : {std::pair<const Image*, const std::string*>{&trans, &a.transparency},
+                                   std::pair<const Image*, const std::string*>{&trans_depth, &a.transparency_depth}})
+      if (!im->same_size(g.depth))
+        throw_bad_input(*name + ": is " + std::to_string(im->width()) + "x" + std::to_string(im->height()) +
+                        ", the G-buffer " + std::to_string(g.depth.width()) + "x" + std::to_string(g.depth.height()));
+    trans_alpha = Image(trans.width(), trans.height(), 1);
+    for (std::size_t i = 0; i < trans.plane_size(); ++i) {
+      const float al = trans.plane(3)[i];
+      const bool colour_ok =
+          std::isfinite(trans.plane(0)[i]) && std::isfinite(trans.plane(1)[i]) && std::isfinite(trans.plane(2)[i]);
+      if (!(al >= 0 && al <= 1) || !colour_ok)
+        throw_bad_input(a.transparency + ": pixel (" + std::to_string(i % trans.width()) + ", " +
+                        std::to_string(i / trans.width()) + "): alpha outside [0, 1] or a non-finite colour");
+      if (al > 0 && !(trans_depth.plane(0)[i] > 0 && std::isfinite(trans_depth.plane(0)[i])))
+        throw_bad_input(a.transparency_depth + ": pixel (" + std::to_string(i % trans.width()) + ", " +
+                        std::to_string(i / trans.width()) + ") is covered but has no finite depth > 0");
+      trans_alpha.plane(0)[i] = al;
+    }
+  }
 
   OutputWriter out;
   const auto debug = [&](const char* name, const Image& im, const char* channel) {
@@ -118,13 +153,22 @@ void run_pipeline(const PipelineArgs& a) {
     throw_bad_input((a.g.gbuffer.empty() ? std::string("G-buffer") : "--gbuffer " + a.g.gbuffer) + ": " + e.what());
   }
   debug("lit.exr", lit, "Y");
+  // 3. The key transparency drawn over the lit opaque scene (it is not lit by the deferred
+  // pass, as in the chapter): composite = lit · (1 − α) + premultiplied colour.
+  if (!trans.empty()) {
+    for (int c = 0; c < 3; ++c)
+      for (std::size_t i = 0; i < lit.plane_size(); ++i)
+        lit.plane(c)[i] = lit.plane(c)[i] * (1 - trans_alpha.plane(0)[i]) + trans.plane(c)[i];
+    debug("composite.exr", lit, "Y");
+  }
   if (!dof) {
     out.add_image(a.output, lit, out_opt);
     out.commit();
     return;
   }
 
-  // 3. Depth of field (§5.6) of the lit image with its depth.
+  // 4. Depth of field (§5.6) of the lit image with its depth; with a key transparency, once
+  // more over its area with its own depth, blended by its coverage (render_masked).
   Frame frame;
   frame.color = Image(lit.width(), lit.height(), 4, 1.0f);
   for (int c = 0; c < 3; ++c) std::copy(lit.plane(c), lit.plane(c) + lit.plane_size(), frame.color.plane(c));
@@ -134,7 +178,7 @@ void run_pipeline(const PipelineArgs& a) {
   rs.params = params;
   rs.threads = a.threads;
   rs.camera = a.camera.build(&frame.depth);
-  const RenderResult r = render(frame, rs);
+  const RenderResult r = trans.empty() ? render(frame, rs) : render_masked(frame, trans_alpha, trans_depth, rs);
   Image rgb(lit.width(), lit.height(), 3);
   for (int c = 0; c < 3; ++c) std::copy(r.image.plane(c), r.image.plane(c) + rgb.plane_size(), rgb.plane(c));
   out.add_image(a.output, rgb, out_opt);
@@ -164,9 +208,15 @@ void add_pipeline_command(CLI::App& app) {
   cmd->add_option("--method", a->method, "depth-of-field method (default lens; see dofkit methods)");
   cmd->add_option("--set", a->sets, "depth-of-field method parameter KEY=VALUE (repeatable)");
   a->camera.add(cmd);
+  cmd->add_option("--transparency", a->transparency,
+                  "a key transparency (StarCraft II §5.7): its colour, premultiplied RGBA (alpha = coverage), drawn "
+                  "over the lit image; depth of field is applied again over its area with --transparency-depth");
+  cmd->add_option("--transparency-depth", a->transparency_depth,
+                  "the key transparency's planar depth, metres (used where its alpha > 0)");
   cmd->add_option("--stop-after", a->stop_after, "ao, light or dof (default): the output is that stage's buffer");
   cmd->add_option("--output", a->output, "the final image (or --stop-after's stage): .exr, .tif, .png");
-  cmd->add_option("--debug-dir", a->debug_dir, "also write every stage's buffer there: ao.exr, lit.exr");
+  cmd->add_option("--debug-dir", a->debug_dir,
+                  "also write every stage's buffer there: ao.exr, lit.exr (composite.exr with --transparency)");
   add_threads(cmd, a->threads, "worker threads (0 = all); the output is the same for every count");
   cmd->callback([a] { run_pipeline(*a); });
 }

@@ -3,6 +3,7 @@
 // `dofkit render`.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -34,6 +35,11 @@
 namespace dofkit::cli {
 
 namespace {
+
+// The built-in scenes' shadow maps: side in texels and depth bias in metres (about two texels
+// at the scenes' farthest receivers).
+constexpr int kSceneShadowMapPx = 512;
+constexpr double kSceneShadowBiasM = 0.03;
 
 struct SceneArgs {
   std::string name;
@@ -196,8 +202,23 @@ void run_scene(const SceneArgs& a) {
     if (!built.lights.empty()) {
       // The scene's lights (world space, so that `dofkit light --camera camera.json` turns them
       // back) and the tracer's forward-lit ground truth at the exact hits (docs/lighting.md).
+      // Shadow-casting lights get their §5.8 maps rendered from the light (docs/lighting.md)
+      // and named in lights.json, so that `dofkit light` applies them with no further flag.
+      std::vector<Light> file_lights = built.lights;
+      std::vector<std::string> shadow_files(file_lights.size());
+      for (std::size_t k = 0; k < file_lights.size(); ++k) {
+        if (!file_lights[k].casts_shadows) continue;
+        ShadowMaps maps;
+        core::with_threads(a.threads, [&] {
+          maps = scene::render_shadow_maps(built, file_lights[k], kSceneShadowMapPx, kSceneShadowBiasM);
+        });
+        shadow_files[k] = "shadow_" + std::to_string(k) + ".exr";
+        write_shadow_maps((std::filesystem::path(a.out) / shadow_files[k]).string(), maps);
+        file_lights[k].shadow = std::make_shared<const ShadowMaps>(std::move(maps));
+        extra_files.push_back(shadow_files[k]);
+      }
       const std::string lpath = (std::filesystem::path(a.out) / "lights.json").string();
-      const nlohmann::json lj = lights_json(built.lights, true, scene::world_to_camera(built));
+      const nlohmann::json lj = lights_json(file_lights, true, scene::world_to_camera(built), shadow_files);
       io::write_atomically(lpath, [&](const std::string& tmp) {
         std::ofstream f(tmp, std::ios::binary);
         f << lj.dump(2) << "\n";
@@ -219,6 +240,20 @@ void run_scene(const SceneArgs& a) {
       extra_files.push_back("lights.json");
       extra_files.push_back("lit.exr");
       extra_files.push_back("lit_ground_truth.exr");
+      // Key transparencies (§5.7): premultiplied lit colour, coverage and depth, the input of
+      // `dofkit pipeline --transparency` (docs/lighting.md).
+      if (std::any_of(built.prims.begin(), built.prims.end(),
+                      [](const scene::Primitive& p) { return p.camera_alpha < 1; })) {
+        Image t;
+        core::with_threads(a.threads, [&] { t = scene::render_transparency(built, cam); });
+        const std::string tpath = (std::filesystem::path(a.out) / "transparency.exr").string();
+        const std::vector<io::exr::OutChannel> tch = {
+            {"R", t.plane(0)}, {"G", t.plane(1)}, {"B", t.plane(2)}, {"A", t.plane(3)}, {"Z", t.plane(4)}};
+        io::write_atomically(tpath, [&](const std::string& tmp) {
+          io::exr::write_scanline(tmp, tpath, cam.width, cam.height, tch, false, "zip");
+        });
+        extra_files.push_back("transparency.exr");
+      }
     }
   }
   if (write_ao) {
@@ -265,6 +300,8 @@ void run_scene(const SceneArgs& a) {
       j["files"]["lights"] = "lights.json";
       j["files"]["lit"] = "lit.exr";
       j["files"]["lit_ground_truth"] = "lit_ground_truth.exr";
+      if (std::find(extra_files.begin(), extra_files.end(), "transparency.exr") != extra_files.end())
+        j["files"]["transparency"] = "transparency.exr";
     }
   }
   if (write_ao) {

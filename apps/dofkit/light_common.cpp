@@ -11,6 +11,8 @@
 
 #include "cli_common.hpp"
 #include "dofkit/error.hpp"
+#include "io/atomic_write.hpp"
+#include "io/exr_direct.hpp"
 #include "io/image_io.hpp"
 
 namespace dofkit::cli {
@@ -40,6 +42,101 @@ std::array<double, 3> apply(const std::array<double, 16>& m, const std::array<do
   for (int r = 0; r < 3; ++r)
     o[r] = m[4 * r] * v[0] + m[4 * r + 1] * v[1] + m[4 * r + 2] * v[2] + (point ? m[4 * r + 3] : 0.0);
   return o;
+}
+
+std::array<double, 16> mul4(const std::array<double, 16>& a, const std::array<double, 16>& b) {
+  std::array<double, 16> o{};
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 4; ++k) o[4 * r + c] += a[4 * r + k] * b[4 * k + c];
+  return o;
+}
+
+// The inverse of a rotation + translation: Rᵀ, −Rᵀ·t.
+std::array<double, 16> rigid_inverse(const std::array<double, 16>& m) {
+  std::array<double, 16> inv{};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) inv[4 * r + c] = m[4 * c + r];
+  for (int r = 0; r < 3; ++r) inv[4 * r + 3] = -(inv[4 * r] * m[3] + inv[4 * r + 1] * m[7] + inv[4 * r + 2] * m[11]);
+  inv[15] = 1;
+  return inv;
+}
+
+// A light's "shadow" entry (docs/lighting.md): the maps and the matrices, in the light's space
+// (`to_camera`: that space → camera space).
+std::shared_ptr<const ShadowMaps> read_shadow(const nlohmann::json& e, const std::string& where,
+                                              const std::string& lights_path, const std::array<double, 16>& to_camera) {
+  if (!e.is_object()) throw_bad_input(where + ": must be an object");
+  static const std::set<std::string> keys = {"maps",    "opaque_depth", "translucent_depth", "translucent_color",
+                                             "size_px", "view_matrix",  "projection_matrix", "bias_m",
+                                             "comment"};
+  for (const auto& [k, v] : e.items())
+    if (!keys.count(k)) throw_bad_input(where + ": unknown key \"" + k + "\"");
+  for (const char* k : {"view_matrix", "projection_matrix", "size_px"})
+    if (!e.contains(k)) throw_bad_input(where + "." + k + ": required");
+  auto m = std::make_shared<ShadowMaps>();
+  const std::array<double, 16> view = parse_view_matrix(e["view_matrix"], where + ".view_matrix");
+  m->view = mul4(view, to_camera);
+  const nlohmann::json& pj = e["projection_matrix"];
+  if (!pj.is_array() || pj.size() != 16) throw_bad_input(where + ".projection_matrix: must be an array of 16 numbers");
+  for (int k = 0; k < 16; ++k) {
+    if (!pj[k].is_number() || !std::isfinite(pj[k].get<double>()))
+      throw_bad_input(where + ".projection_matrix: element " + std::to_string(k) + " is not a finite number");
+    m->projection[k] = pj[k].get<double>();
+  }
+  const nlohmann::json& sz = e["size_px"];
+  if (!sz.is_array() || sz.size() != 2 || !sz[0].is_number_integer() || !sz[1].is_number_integer())
+    throw_bad_input(where + ".size_px: must be [width, height] in texels");
+  const long long sw = sz[0].get<long long>(), sh = sz[1].get<long long>();
+  if (sw < 1 || sh < 1 || sw > kMaxShadowMapSide || sh > kMaxShadowMapSide)
+    throw_bad_input(where + ".size_px: each side must be 1.." + std::to_string(kMaxShadowMapSide));
+  if (e.contains("bias_m")) m->bias_m = number(e["bias_m"], where + ".bias_m");
+  if (!(m->bias_m >= 0)) throw_bad_input(where + ".bias_m: must be >= 0 metres");
+  std::string def;
+  if (e.contains("maps")) {
+    if (!e["maps"].is_string()) throw_bad_input(where + ".maps: must be a file name");
+    def = e["maps"].get<std::string>();
+  }
+  const std::filesystem::path base = std::filesystem::path(lights_path).parent_path();
+  // One map: its own file (default channel names, else the plain ones) or the "maps" file.
+  const auto read = [&](const char* field, std::vector<std::string> names, std::vector<std::string> plain,
+                        bool required, Image& out) {
+    std::string file = def;
+    bool own = false;
+    if (e.contains(field)) {
+      if (!e[field].is_string()) throw_bad_input(where + "." + field + ": must be a file name");
+      file = e[field].get<std::string>();
+      own = true;
+    }
+    if (file.empty()) {
+      if (required) throw_bad_input(where + "." + field + ": required (or \"maps\")");
+      return;
+    }
+    const std::string path = (base / file).string();
+    const std::string role = where + "." + field;
+    std::vector<std::string> miss;
+    Image im = io::read_named_channels(path, role.c_str(), names, std::vector<bool>(names.size(), true), &miss);
+    if (!miss.empty() && own) {
+      miss.clear();
+      names = plain;
+      im = io::read_named_channels(path, role.c_str(), names, std::vector<bool>(names.size(), true), &miss);
+    }
+    if (!miss.empty()) {
+      if (required || own || miss.size() != names.size())
+        throw_bad_input(role + ": " + path + " has no channel " + miss.front());
+      return;  // an optional map absent from the shared file
+    }
+    if (im.width() != sw || im.height() != sh)
+      throw_bad_input(role + ": " + path + " is " + std::to_string(im.width()) + "x" + std::to_string(im.height()) +
+                      ", size_px says " + std::to_string(sw) + "x" + std::to_string(sh));
+    out = std::move(im);
+  };
+  read("opaque_depth", {"opaque.Z"}, {"Z"}, true, m->opaque_depth);
+  read("translucent_depth", {"translucent.Z"}, {"Z"}, e.contains("translucent_color"), m->translucent_depth);
+  read("translucent_color", {"translucent.R", "translucent.G", "translucent.B"}, {"R", "G", "B"},
+       e.contains("translucent_depth"), m->translucent_color);
+  validate_shadow_maps(*m, where);
+  return m;
 }
 
 const char* kind_name(Light::Kind k) {
@@ -102,9 +199,9 @@ std::vector<Light> read_lights_file(const std::string& path, const CameraFile* c
   if (static_cast<long long>(arr.size()) > kMaxLights)
     throw_bad_input(file + ": lights: " + std::to_string(arr.size()) + " lights, more than the limit of " +
                     std::to_string(kMaxLights));
-  static const std::set<std::string> keys = {"type",      "name",      "space",     "position_m",
-                                             "direction", "color",     "intensity", "radius_m",
-                                             "inner_deg", "outer_deg", "ao",        "comment"};
+  static const std::set<std::string> keys = {"type",  "name",      "space",    "position_m", "direction",
+                                             "color", "intensity", "radius_m", "inner_deg",  "outer_deg",
+                                             "ao",    "shadow",    "comment"};
   std::vector<Light> out;
   for (std::size_t i = 0; i < arr.size(); ++i) {
     const std::string where = file + ": lights[" + std::to_string(i) + "]";
@@ -175,6 +272,12 @@ std::vector<Light> read_lights_file(const std::string& path, const CameraFile* c
       l.position_m = apply(view, l.position_m, true);
       l.direction = apply(view, l.direction, false);
     }
+    if (e.contains("shadow")) {
+      if (l.kind == Light::Kind::ambient) throw_bad_input(where + ".shadow: an ambient light casts no shadow");
+      static const std::array<double, 16> identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+      l.shadow = read_shadow(e["shadow"], where + ".shadow", path, space == "world" ? rigid_inverse(view) : identity);
+      l.casts_shadows = true;
+    }
     // Field names in the messages are the file's ("lights[3].radius_m: …").
     validate_light(l, where);
     out.push_back(std::move(l));
@@ -182,19 +285,16 @@ std::vector<Light> read_lights_file(const std::string& path, const CameraFile* c
   return out;
 }
 
-nlohmann::json lights_json(const std::vector<Light>& lights, bool world, const std::array<double, 16>& m) {
+nlohmann::json lights_json(const std::vector<Light>& lights, bool world, const std::array<double, 16>& m,
+                           const std::vector<std::string>& shadow_files) {
   nlohmann::json j;
   j["version"] = 1;
   j["space"] = world ? "world" : "camera";
   if (world) j["view_matrix"] = m;
   j["lights"] = nlohmann::json::array();
-  // The inverse of a rotation + translation: Rᵀ, −Rᵀ·t.
-  std::array<double, 16> inv{};
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) inv[4 * r + c] = m[4 * c + r];
-  for (int r = 0; r < 3; ++r) inv[4 * r + 3] = -(inv[4 * r] * m[3] + inv[4 * r + 1] * m[7] + inv[4 * r + 2] * m[11]);
-  inv[15] = 1;
-  for (const Light& l : lights) {
+  const std::array<double, 16> inv = rigid_inverse(m);
+  for (std::size_t k = 0; k < lights.size(); ++k) {
+    const Light& l = lights[k];
     nlohmann::json e;
     e["type"] = kind_name(l.kind);
     if (!l.name.empty()) e["name"] = l.name;
@@ -212,9 +312,33 @@ nlohmann::json lights_json(const std::vector<Light>& lights, bool world, const s
     e["color"] = l.color;
     e["intensity"] = l.intensity;
     e["ao"] = l.ao;
+    if (l.shadow && k < shadow_files.size() && !shadow_files[k].empty()) {
+      const ShadowMaps& sm = *l.shadow;
+      nlohmann::json sj;
+      sj["maps"] = shadow_files[k];
+      sj["size_px"] = {sm.opaque_depth.width(), sm.opaque_depth.height()};
+      // The file's view matrix maps the light's own space (world here) to light space.
+      sj["view_matrix"] = world ? mul4(sm.view, m) : sm.view;
+      sj["projection_matrix"] = sm.projection;
+      sj["bias_m"] = sm.bias_m;
+      e["shadow"] = sj;
+    }
     j["lights"].push_back(e);
   }
   return j;
+}
+
+void write_shadow_maps(const std::string& path, const ShadowMaps& m) {
+  std::vector<io::exr::OutChannel> ch = {{"opaque.Z", m.opaque_depth.plane(0)}};
+  if (!m.translucent_depth.empty()) {
+    ch.push_back({"translucent.Z", m.translucent_depth.plane(0)});
+    ch.push_back({"translucent.R", m.translucent_color.plane(0)});
+    ch.push_back({"translucent.G", m.translucent_color.plane(1)});
+    ch.push_back({"translucent.B", m.translucent_color.plane(2)});
+  }
+  io::write_atomically(path, [&](const std::string& tmp) {
+    io::exr::write_scanline(tmp, path, m.opaque_depth.width(), m.opaque_depth.height(), ch, false, "zip");
+  });
 }
 
 GBufferRef GBufferImages::ref() const {

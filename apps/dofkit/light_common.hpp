@@ -22,7 +22,14 @@ std::vector<Light> read_lights_file(const std::string& path, const CameraFile* c
 
 /// The lights as a lights file (JSON): in world space through `world_to_camera`'s inverse when
 /// `world` is set (the view matrix is written into the file as well), else in camera space.
-nlohmann::json lights_json(const std::vector<Light>& lights, bool world, const std::array<double, 16>& world_to_camera);
+/// A light with shadow maps and a non-empty `shadow_files[k]` gets a "shadow" entry naming
+/// that file (relative to the lights file) and its matrices in the light's space.
+nlohmann::json lights_json(const std::vector<Light>& lights, bool world, const std::array<double, 16>& world_to_camera,
+                           const std::vector<std::string>& shadow_files = {});
+
+/// Writes a light's maps as one float EXR: opaque.Z, translucent.Z, translucent.R/G/B (the
+/// channel names a lights file's "maps" entry reads by default).
+void write_shadow_maps(const std::string& path, const ShadowMaps& m);
 
 /// A G-buffer read from files: one path for everything (dofkit scene's gbuffer.exr) or one per
 /// buffer; channel names per buffer (docs/lighting.md's --channels).

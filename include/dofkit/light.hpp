@@ -1,4 +1,4 @@
-// dofkit — deferred lighting from a G-buffer (StarCraft II §5.4, docs/methods/lighting.md).
+// dofkit — deferred lighting from a G-buffer (StarCraft II §5.4, §5.8 translucent shadows; docs/lighting.md).
 //
 // Local point and spot lights with a finite radius of influence are applied from the deferred
 // buffers (depth, normals, diffuse albedo, specular colour + gloss, emissive): each light
@@ -19,6 +19,7 @@
 // lights, summed in the lights' order in double precision.
 #pragma once
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,37 @@ inline constexpr int kMaxLights = 1024;
 inline constexpr int kMaxLightLayers = 64;
 /// The floor of d² in the attenuation, m² (keeps a surface at the light's centre finite).
 inline constexpr double kMinLightDistance2 = 1e-4;
+
+/// The largest side of a shadow map, texels.
+inline constexpr int kMaxShadowMapSide = 8192;
+
+/// A light's translucent shadow maps (StarCraft II §5.8), all of one size, rendered from the
+/// light's view. A camera-space point p is looked up by q = view · p (light space: the light
+/// looks along −Z), c = projection · q, texel (⌊(c.x/c.w + 1)/2 · W⌋, ⌊(1 − c.y/c.w)/2 · H⌋)
+/// (row 0 at the top); its depth from the light is d = −q.z (metres; the maps store the same
+/// measure, not the projection's z). Nearest texel, no filtering. With the bias b:
+///   opaque test passes      iff d <= opaque_depth + b;
+///   translucent test passes iff d <= translucent_depth + b (no translucent map: passes);
+///   factor = 1; if the translucent test fails, factor ·= translucent_color; if the opaque
+///   test fails, factor = 0.
+/// A point behind the light (c.w <= 0) or outside the map's square is not shadowed.
+struct ShadowMaps {
+  Image opaque_depth;       ///< 1 plane: depth of the nearest opaque caster, metres (+inf: none)
+  Image translucent_depth;  ///< 1 plane or empty: depth of the nearest translucent caster (+inf: none)
+  Image translucent_color;  ///< 3 planes or empty: white filtered by the translucent casters in
+                            ///< front of the opaque depth (the product of their colours)
+  std::array<double, 16> view{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  ///< camera → light space, row-major
+  std::array<double, 16> projection{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  ///< light space → clip
+  double bias_m = 0.02;  ///< depth bias of both tests, metres (>= 0)
+};
+
+/// Throws Error(bad_input) with `where` + the field for maps of mismatched size or channel
+/// count, a side above kMaxShadowMapSide, NaN or negative depths, colours outside [0, 1] or
+/// non-finite matrices / bias.
+void validate_shadow_maps(const ShadowMaps& m, const std::string& where);
+
+/// The §5.8 lookup above: the light's RGB transmittance at camera-space point p, in [0, 1].
+std::array<double, 3> shadow_factor(const ShadowMaps& m, const std::array<double, 3>& p);
 
 struct Light {
   enum class Kind { point, spot, directional, ambient };
@@ -56,6 +88,11 @@ struct Light {
   /// Whether an ambient-occlusion term (LightSettings::ao) modulates this light (default:
   /// ambient lights only; docs/methods/lighting.md).
   bool ao = false;
+  /// Whether the light casts shadows (the tracer's ground truth traces shadow rays for it; the
+  /// built-in scenes render its maps).
+  bool casts_shadows = false;
+  /// The maps the deferred pass looks up (null: unshadowed). Any kind but ambient.
+  std::shared_ptr<const ShadowMaps> shadow;
 };
 
 /// Throws Error(bad_input) with `where` + the field name for any value out of range (NaN or

@@ -496,7 +496,25 @@ Hit closest(const Scene& scene, const std::vector<int>& cand, Vec3 o, Vec3 d) {
 
 Rgb radiance(const Scene& scene, const Hit& h, Vec3 o, Vec3 d) {
   if (h.prim < 0) return shade_background(scene.background, d);
-  if (scene.lit) return lit_at(scene, scene.prims[h.prim], o + d * h.z, o);
+  if (scene.lit) {
+    const Primitive& p = scene.prims[h.prim];
+    const Rgb c = lit_at(scene, p, o + d * h.z, o);
+    if (!(p.camera_alpha < 1)) return c;
+    // A key transparency: its coverage of its own radiance over what lies behind it (the
+    // nearest surface past it among all primitives but itself).
+    Hit behind;
+    for (int i = 0; i < static_cast<int>(scene.prims.size()); ++i) {
+      if (i == h.prim) continue;
+      const double t = intersect(scene.prims[i], o, d);
+      if (t < behind.z) {
+        behind.z = t;
+        behind.prim = i;
+      }
+    }
+    const Rgb b = radiance(scene, behind, o, d);
+    const float a = p.camera_alpha;
+    return {a * c.r + (1 - a) * b.r, a * c.g + (1 - a) * b.g, a * c.b + (1 - a) * b.b};
+  }
   return shade_at(scene.prims[h.prim], o + d * h.z);
 }
 
@@ -882,7 +900,15 @@ PrimaryHit primary_hit(const Scene& scene, const std::vector<int>& cand, const L
                        int y) {
   PrimaryHit r;
   r.dir = {(x + 0.5 - 0.5 * cam.width) / f, (y + 0.5 - 0.5 * cam.height) / f, 1.0};
-  r.hit = closest(scene, cand, {0, 0, 0}, r.dir);
+  // The opaque surface: key transparencies (camera_alpha < 1) are not in the opaque buffers.
+  for (int i : cand) {
+    if (scene.prims[i].camera_alpha < 1) continue;
+    const double t = intersect(scene.prims[i], {0, 0, 0}, r.dir);
+    if (t < r.hit.z) {
+      r.hit.z = t;
+      r.hit.prim = i;
+    }
+  }
   if (r.hit.prim >= 0) r.point = r.dir * r.hit.z;
   return r;
 }
@@ -892,6 +918,19 @@ Vec3 facing_normal(const Scene& scene, const PrimaryHit& h) {
   Vec3 n = normal_at(scene.prims[h.hit.prim], h.point);
   if (dot(n, h.dir) > 0) n = n * -1.0;
   return n;
+}
+
+// Calls body(x, y, hit) for every pixel centre's opaque primary hit, tile by tile in parallel
+// (each pixel once, so writes to the pixel's own output are thread-count independent).
+template <class Body>
+void for_each_primary_hit(const Scene& scene, const LensCamera& cam, Body body) {
+  const double f = cam.f_px();
+  const Culler culler(scene, cam, false);
+  for_each_tile(cam, {}, [&](int x0, int y0, int x1, int y1) {
+    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) body(x, y, primary_hit(scene, cand, cam, f, x, y));
+  });
 }
 
 }  // namespace
@@ -1012,31 +1051,227 @@ Rgb lit_at(const Scene& scene, const Primitive& p, Vec3 x, Vec3 eye) {
     spec[ch] = std::clamp(sp[ch], 0.0f, 1.0f);
   }
   const double gloss = std::clamp(p.gloss, 0.0f, 1.0f);
+  const int own = (&p >= scene.prims.data() && &p < scene.prims.data() + scene.prims.size())
+                      ? static_cast<int>(&p - scene.prims.data())
+                      : -1;
   double acc[3] = {0, 0, 0};
   for (const Light& l : scene.lights) {
     const std::array<double, 3> c3 = shade_light(l, P, N, V, albedo, spec, gloss);
-    for (int ch = 0; ch < 3; ++ch) acc[ch] += c3[ch];
+    if (c3[0] == 0 && c3[1] == 0 && c3[2] == 0) continue;
+    const Rgb t = shadow_transmittance(scene, l, x, own);
+    const double tr[3] = {t.r, t.g, t.b};
+    for (int ch = 0; ch < 3; ++ch) acc[ch] += c3[ch] * tr[ch];
   }
   return {static_cast<float>(acc[0]), static_cast<float>(acc[1]), static_cast<float>(acc[2])};
 }
 
 Image render_lit(const Scene& scene, const LensCamera& cam) {
   check_camera(cam);
-  const int w = cam.width, h = cam.height;
-  const double f = cam.f_px();
-  Image out(w, h, 3, 0.0f);
-  const Culler culler(scene, cam, false);
-  for_each_tile(cam, {}, [&](int x0, int y0, int x1, int y1) {
-    const std::vector<int> cand = culler.candidates(x0, y0, x1, y1);
+  Image out(cam.width, cam.height, 3, 0.0f);
+  for_each_primary_hit(scene, cam, [&](int x, int y, const PrimaryHit& ph) {
+    const Rgb c = ph.hit.prim < 0 ? shade_background(scene.background, ph.dir)
+                                  : lit_at(scene, scene.prims[ph.hit.prim], ph.point, {0, 0, 0});
+    out.at(x, y, 0) = c.r;
+    out.at(x, y, 1) = c.g;
+    out.at(x, y, 2) = c.b;
+  });
+  return out;
+}
+
+Rgb shadow_transmittance(const Scene& scene, const Light& l, Vec3 x, int own) {
+  if (!l.casts_shadows || l.kind == Light::Kind::ambient) return {1, 1, 1};
+  // The files' camera space is the tracer's (x, −y, −z).
+  Vec3 d;
+  double t_max;
+  if (l.kind == Light::Kind::directional) {
+    d = {-l.direction[0], l.direction[1], l.direction[2]};
+    t_max = kInf;
+  } else {
+    d = Vec3{l.position_m[0], -l.position_m[1], -l.position_m[2]} - x;
+    t_max = 1;  // the light itself
+  }
+  double f[3] = {1, 1, 1};
+  for (int i = 0; i < static_cast<int>(scene.prims.size()); ++i) {
+    const Primitive& p = scene.prims[i];
+    if (i == own || p.camera_alpha < 1) continue;  // key transparencies cast no shadow
+    const double t = intersect(p, x, d);
+    if (!(t < t_max)) continue;
+    if (!p.translucent) return {0, 0, 0};
+    f[0] *= p.filter.r;
+    f[1] *= p.filter.g;
+    f[2] *= p.filter.b;
+  }
+  return {static_cast<float>(f[0]), static_cast<float>(f[1]), static_cast<float>(f[2])};
+}
+
+namespace {
+
+// A spot light's map frame: camera → light space (the light looks along −Z, its axis) and a
+// square perspective projection; f = the projection's focal factor.
+void shadow_frame(const Light& l, std::array<double, 16>& view, std::array<double, 16>& proj, double& f) {
+  const std::array<double, 3> z = {-l.direction[0], -l.direction[1], -l.direction[2]};
+  const std::array<double, 3> up =
+      std::abs(z[1]) < 0.9 ? std::array<double, 3>{0, 1, 0} : std::array<double, 3>{1, 0, 0};
+  std::array<double, 3> x = {up[1] * z[2] - up[2] * z[1], up[2] * z[0] - up[0] * z[2], up[0] * z[1] - up[1] * z[0]};
+  const double xl = std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+  for (double& v : x) v /= xl;
+  const std::array<double, 3> y = {z[1] * x[2] - z[2] * x[1], z[2] * x[0] - z[0] * x[2], z[0] * x[1] - z[1] * x[0]};
+  const std::array<double, 3>* rows[3] = {&x, &y, &z};
+  view = {};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) view[4 * r + c] = (*rows[r])[c];
+    view[4 * r + 3] =
+        -((*rows[r])[0] * l.position_m[0] + (*rows[r])[1] * l.position_m[1] + (*rows[r])[2] * l.position_m[2]);
+  }
+  view[15] = 1;
+  f = 1 / std::tan((l.outer_deg + 2) * std::numbers::pi / 180);
+  // An OpenGL-style projection with near 0.01 m and far at the light's radius (its z row is
+  // for a rasteriser; the lookup compares the light's planar depth −q.z).
+  const double n = 0.01, fr = std::max(l.radius_m, 0.02);
+  proj = {f, 0, 0, 0, 0, f, 0, 0, 0, 0, (fr + n) / (n - fr), 2 * fr * n / (n - fr), 0, 0, -1, 0};
+}
+
+// Camera-space point → tracer axes, and a light-space vector → camera space (the view's
+// rotation transposed).
+Vec3 tracer_of(const std::array<double, 3>& p) { return {p[0], -p[1], -p[2]}; }
+std::array<double, 3> light_to_camera(const std::array<double, 16>& view, double lx, double ly, double lz) {
+  std::array<double, 3> o{};
+  for (int c = 0; c < 3; ++c) o[c] = view[c] * lx + view[4 + c] * ly + view[8 + c] * lz;
+  return o;
+}
+
+// The primitives (bit i = primitive i, the first 64) that the whole line from the light through
+// x crosses: from a point or spot light's position on, or along a directional light's
+// direction through x.
+std::uint64_t casters_on_line(const Scene& scene, const Light& l, Vec3 x) {
+  Vec3 o, d;
+  if (l.kind == Light::Kind::directional) {
+    d = tracer_of(l.direction);
+    o = x - d * 1e4;
+  } else {
+    o = tracer_of(l.position_m);
+    d = x - o;
+  }
+  std::uint64_t set = 0;
+  for (std::size_t i = 0; i < scene.prims.size() && i < 64; ++i)
+    if (!(scene.prims[i].camera_alpha < 1) && intersect(scene.prims[i], o, d) < kInf) set |= std::uint64_t{1} << i;
+  return set;
+}
+
+}  // namespace
+
+ShadowMaps render_shadow_maps(const Scene& scene, const Light& l, int size_px, double bias_m) {
+  if (l.kind != Light::Kind::spot) throw_usage("shadow maps: only spot lights get rendered maps");
+  if (!(l.outer_deg <= 80)) throw_usage("shadow maps: a spot's outer cone must be <= 80 degrees");
+  if (size_px < 1 || size_px > kMaxShadowMapSide)
+    throw_usage("shadow maps: size must be 1.." + std::to_string(kMaxShadowMapSide));
+  ShadowMaps m;
+  double f = 1;
+  shadow_frame(l, m.view, m.projection, f);
+  m.bias_m = bias_m;
+  m.opaque_depth = Image(size_px, size_px, 1, static_cast<float>(kInf));
+  m.translucent_depth = Image(size_px, size_px, 1, static_cast<float>(kInf));
+  m.translucent_color = Image(size_px, size_px, 3, 1.0f);
+  const Vec3 o = tracer_of(l.position_m);
+  core::parallel_for(size_px, [&](int y0, int y1) {
+    std::vector<double> ts(scene.prims.size());
     for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) {
-        const PrimaryHit ph = primary_hit(scene, cand, cam, f, x, y);
-        const Rgb c = ph.hit.prim < 0 ? shade_background(scene.background, ph.dir)
-                                      : lit_at(scene, scene.prims[ph.hit.prim], ph.point, {0, 0, 0});
-        out.at(x, y, 0) = c.r;
-        out.at(x, y, 1) = c.g;
-        out.at(x, y, 2) = c.b;
+      for (int x = 0; x < size_px; ++x) {
+        // Texel centre → NDC → light-space ray with z = −1, so the ray parameter is the depth.
+        const double u = 2 * (x + 0.5) / size_px - 1, v = 1 - 2 * (y + 0.5) / size_px;
+        const Vec3 d = tracer_of(light_to_camera(m.view, u / f, v / f, -1));
+        double opaque = kInf, trans = kInf;
+        for (std::size_t i = 0; i < scene.prims.size(); ++i) {
+          ts[i] = scene.prims[i].camera_alpha < 1 ? kInf : intersect(scene.prims[i], o, d);
+          if (!scene.prims[i].translucent) opaque = std::min(opaque, ts[i]);
+        }
+        double c[3] = {1, 1, 1};
+        for (std::size_t i = 0; i < scene.prims.size(); ++i) {
+          const Primitive& p = scene.prims[i];
+          if (!p.translucent || !(ts[i] < kInf)) continue;
+          trans = std::min(trans, ts[i]);
+          if (ts[i] <= opaque) {  // the colour pass's less-equal test against the opaque map
+            c[0] *= p.filter.r;
+            c[1] *= p.filter.g;
+            c[2] *= p.filter.b;
+          }
+        }
+        m.opaque_depth.at(x, y) = static_cast<float>(opaque);
+        m.translucent_depth.at(x, y) = static_cast<float>(trans);
+        for (int k = 0; k < 3; ++k) m.translucent_color.at(x, y, k) = static_cast<float>(c[k]);
       }
+  });
+  return m;
+}
+
+Image render_transparency(const Scene& scene, const LensCamera& cam) {
+  check_camera(cam);
+  const double f = cam.f_px();
+  Image out(cam.width, cam.height, 5, 0.0f);
+  for (std::size_t i = 0; i < out.plane_size(); ++i) out.plane(4)[i] = static_cast<float>(kInf);
+  core::parallel_for(cam.height, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < cam.width; ++x) {
+        const Vec3 d{(x + 0.5 - 0.5 * cam.width) / f, (y + 0.5 - 0.5 * cam.height) / f, 1.0};
+        Hit opaque, key;
+        for (int i = 0; i < static_cast<int>(scene.prims.size()); ++i) {
+          const double t = intersect(scene.prims[i], {0, 0, 0}, d);
+          Hit& h = scene.prims[i].camera_alpha < 1 ? key : opaque;
+          if (t < h.z) {
+            h.z = t;
+            h.prim = i;
+          }
+        }
+        if (key.prim < 0 || !(key.z < opaque.z)) continue;
+        const Primitive& p = scene.prims[key.prim];
+        const Rgb c = lit_at(scene, p, d * key.z, {0, 0, 0});
+        const float a = p.camera_alpha;
+        out.at(x, y, 0) = a * c.r;
+        out.at(x, y, 1) = a * c.g;
+        out.at(x, y, 2) = a * c.b;
+        out.at(x, y, 3) = a;
+        out.at(x, y, 4) = static_cast<float>(key.z);
+      }
+  });
+  return out;
+}
+
+Image primitive_ids(const Scene& scene, const LensCamera& cam) {
+  check_camera(cam);
+  Image out(cam.width, cam.height, 1, -1.0f);
+  for_each_primary_hit(scene, cam,
+                       [&](int x, int y, const PrimaryHit& ph) { out.at(x, y) = static_cast<float>(ph.hit.prim); });
+  return out;
+}
+
+Image shadow_band(const Scene& scene, const LensCamera& cam, const Light& l, const ShadowMaps& m, double texels) {
+  check_camera(cam);
+  const int mw = m.opaque_depth.width();
+  Image out(cam.width, cam.height, 1, 0.0f);
+  for_each_primary_hit(scene, cam, [&](int x, int y, const PrimaryHit& ph) {
+    if (ph.hit.prim < 0) return;
+    const std::array<double, 3> p = {ph.point.x, -ph.point.y, -ph.point.z};
+    double q[4], c[4];
+    for (int r = 0; r < 4; ++r)
+      q[r] = m.view[4 * r] * p[0] + m.view[4 * r + 1] * p[1] + m.view[4 * r + 2] * p[2] + m.view[4 * r + 3];
+    for (int r = 0; r < 4; ++r)
+      c[r] = m.projection[4 * r] * q[0] + m.projection[4 * r + 1] * q[1] + m.projection[4 * r + 2] * q[2] +
+             m.projection[4 * r + 3] * q[3];
+    if (!(c[3] > 0) || std::abs(c[0] / c[3]) >= 1 || std::abs(c[1] / c[3]) >= 1) {
+      out.at(x, y) = 1;
+      return;
+    }
+    // One texel across the light's view at this depth (light-space metres).
+    const double step = 2 * c[3] / (m.projection[0] * mw);
+    const std::uint64_t here = casters_on_line(scene, l, ph.point);
+    bool edge = false;
+    for (int j = -2; j <= 2 && !edge; ++j)
+      for (int i = -2; i <= 2 && !edge; ++i) {
+        if (i == 0 && j == 0) continue;
+        const std::array<double, 3> off = light_to_camera(m.view, i * 0.5 * texels * step, j * 0.5 * texels * step, 0);
+        edge = casters_on_line(scene, l, ph.point + tracer_of(off)) != here;
+      }
+    if (edge) out.at(x, y) = 1;
   });
   return out;
 }

@@ -97,6 +97,17 @@ struct Primitive {
   /// radiance does not depend on them (every surface is emissive).
   Rgb specular{0.04f, 0.04f, 0.04f};
   float gloss = 0.3f;
+  /// Shadows (Scene::lights that cast them): a translucent caster filters the light that
+  /// crosses it by `filter` (once per entry), any other primitive blocks it. The camera sees
+  /// every primitive as an opaque surface either way.
+  bool translucent = false;
+  Rgb filter{1, 1, 1};
+  /// Coverage the camera sees the primitive with. 1: an ordinary surface. < 1: a key
+  /// transparency (StarCraft II §5.7): left out of the opaque buffers (render_gbuffer,
+  /// render_lit, render_ao and the other pinhole-hit passes), drawn over what lies behind it
+  /// with this coverage in the lit thin-lens render (Scene::lit), written by
+  /// render_transparency; it casts no shadow.
+  float camera_alpha = 1;
 
   static Primitive plane(Vec3 point, Vec3 normal, Vec3 u_axis, Texture t, std::string name = "plane");
   static Primitive box(Vec3 lo, Vec3 hi, Texture t, std::string name = "box");
@@ -173,6 +184,32 @@ Rgb shade_at(const Primitive& p, Vec3 x);
 /// HDR emitter (emission > 1) its emission; any other surface the sum of shade_light with the
 /// material render_gbuffer records, the geometric normal turned towards the eye (no shadows).
 Rgb lit_at(const Scene& scene, const Primitive& p, Vec3 x, Vec3 eye);
+/// The transmittance of light `l` towards the surface point x (tracer axes) of primitive `own`
+/// (skipped: a convex solid or a plane cannot shadow its own lit side; −1: none): along the
+/// segment to a point or spot light, or the ray against a directional light's direction, the
+/// product of the filters of the translucent primitives crossed, 0 at any other primitive.
+/// 1 for a light that casts no shadows and for ambient light.
+Rgb shadow_transmittance(const Scene& scene, const Light& l, Vec3 x, int own);
+/// The §5.8 maps of a shadow-casting spot light (camera space as Scene::lights), rendered by
+/// one ray per texel centre from the light's position: a square perspective map of
+/// `size_px`² texels whose half angle is the outer cone + 2° (outer_deg must be <= 80), the
+/// opaque depth, the nearest translucent depth and the product of the filters of the
+/// translucent primitives no farther than the opaque depth. Depths are the light's planar
+/// depth (light space −Z). Same for any thread count.
+ShadowMaps render_shadow_maps(const Scene& scene, const Light& l, int size_px, double bias_m);
+/// Pixels near a caster's silhouette as the light sees it (1 plane, 1 = in the band): the set
+/// of primitives on the line from the light through the pixel's first hit differs from that
+/// through a point moved by up to ±`texels` texels of `m` across the light's view (same light
+/// depth), or the hit lies outside the map. 0 for the background. Scenes of at most 64
+/// primitives (the others are ignored).
+Image shadow_band(const Scene& scene, const LensCamera& cam, const Light& l, const ShadowMaps& m, double texels);
+/// The key transparencies of the pinhole view (Primitive::camera_alpha < 1) in front of the
+/// opaque surface at each pixel centre: 5 planes, premultiplied R, G, B (lit_at's radiance ×
+/// alpha), A, and Z, its planar depth (+inf where none; the nearest one only).
+Image render_transparency(const Scene& scene, const LensCamera& cam);
+/// The index of the opaque primitive each pixel centre of the pinhole view sees (1 plane, −1: none).
+Image primitive_ids(const Scene& scene, const LensCamera& cam);
+
 /// Radiance of the background in direction d.
 Rgb shade_background(const Background& bg, Vec3 d);
 

@@ -312,9 +312,10 @@ Scene build_scene(const std::string& name) {
     if (name == ao) return build_ao_scene(name);
   for (const std::string& l : light_scene_names())
     if (name == l) return build_light_scene(name);
-  throw_usage("unknown scene '" + name +
-              "' (known: occluder, fence, ground, highlights, portrait, sky, ao_corner, ao_shelf, lights; see dofkit "
-              "scene --list)");
+  throw_usage(
+      "unknown scene '" + name +
+      "' (known: occluder, fence, ground, highlights, portrait, sky, ao_corner, ao_shelf, lights, shadows; see dofkit "
+      "scene --list)");
 }
 
 }  // namespace dofkit::scene

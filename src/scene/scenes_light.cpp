@@ -52,6 +52,17 @@ Light spot(const char* name, Vec3 at, Vec3 towards, std::array<double, 3> colour
   return l;
 }
 
+// A cool ambient term, the light AO modulates.
+Light ambient_light(double intensity) {
+  Light l;
+  l.kind = Light::Kind::ambient;
+  l.name = "ambient";
+  l.color = {0.7, 0.75, 0.9};
+  l.intensity = intensity;
+  l.ao = true;
+  return l;
+}
+
 Scene lights_scene() {
   Scene s;
   s.name = "lights";
@@ -98,25 +109,67 @@ Scene lights_scene() {
   moon.color = {0.6, 0.7, 1.0};
   moon.intensity = 0.4;
   s.lights.push_back(moon);
-  Light ambient;
-  ambient.kind = Light::Kind::ambient;
-  ambient.name = "ambient";
-  ambient.color = {0.7, 0.75, 0.9};
-  ambient.intensity = 0.05;
-  ambient.ao = true;
-  s.lights.push_back(ambient);
+  s.lights.push_back(ambient_light(0.05));
   for (Light& l : s.lights) validate_light(l, "scene lights");
   pitch_scene(s, 15);
   return s;
 }
 
+// A thin translucent slab (level frame) that filters light by `filter`; its albedo is a paler
+// version of the same colour.
+Primitive slab(const char* name, Vec3 lo, Vec3 hi, Rgb filter, std::uint32_t seed) {
+  const Rgb pale{0.5f + 0.5f * filter.r, 0.5f + 0.5f * filter.g, 0.5f + 0.5f * filter.b};
+  Primitive p = Primitive::box(lo, hi, matte(pale, {pale.r * 0.85f, pale.g * 0.85f, pale.b * 0.85f}, 0.4, seed), name);
+  p.translucent = true;
+  p.filter = filter;
+  return p;
+}
+
+Scene shadows_scene() {
+  Scene s;
+  s.name = "shadows";
+  s.description =
+      "translucent shadows: a spot light over a floor, a red slab, a blue and a yellow slab that overlap, an opaque "
+      "block over the red slab, a glass pane in front (a key transparency) (lights.json + shadow maps + "
+      "transparency.exr + lit.exr with --gbuffer)";
+  s.hfov_deg = 60;
+  s.focus_m = 3.5;
+  s.k_px_at_640 = 10;
+  s.samples = 64;
+  const double fy = 1.6;  // floor, metres below the camera
+  const Texture floor = matte({0.75f, 0.74f, 0.7f}, {0.6f, 0.6f, 0.62f}, 0.8, 911, 0.5);
+  const Texture block = matte({0.55f, 0.55f, 0.5f}, {0.4f, 0.42f, 0.45f}, 0.3, 912);
+  s.prims.push_back(Primitive::plane({0, fy, 0}, {0, -1, 0}, {1, 0, 0}, floor, "floor"));
+  s.prims.push_back(slab("red slab", {-1.55, fy - 0.75, 3.0}, {-0.45, fy - 0.71, 4.0}, {1.0f, 0.3f, 0.25f}, 913));
+  s.prims.push_back(slab("blue slab", {0.1, fy - 0.95, 3.0}, {1.1, fy - 0.91, 4.0}, {0.3f, 0.55f, 1.0f}, 914));
+  s.prims.push_back(slab("yellow slab", {0.55, fy - 0.55, 3.45}, {1.55, fy - 0.51, 4.45}, {1.0f, 0.85f, 0.3f}, 915));
+  // The opaque caster, over the red slab's near half.
+  s.prims.push_back(Primitive::box({-1.2, fy - 1.12, 3.0}, {-0.85, fy - 0.97, 3.3}, block, "block"));
+
+  // A key transparency (§5.7): a half-covering glass pane in the near field, left out of the
+  // opaque G-buffer and written as transparency.exr.
+  Texture glass = matte({0.55f, 0.8f, 0.9f}, {0.5f, 0.75f, 0.85f}, 0.5, 916);
+  Primitive pane = Primitive::box({-0.9, fy - 1.05, 2.0}, {-0.2, fy - 0.55, 2.02}, glass, "glass pane");
+  pane.camera_alpha = 0.5f;
+  s.prims.push_back(pane);
+
+  Light key = spot("key spot", {-0.1, fy - 4.2, 2.2}, {0.0, fy, 4.0}, {1.0, 0.97, 0.92}, 40, 9.0, 30, 42);
+  key.casts_shadows = true;
+  s.lights.push_back(key);
+  s.lights.push_back(ambient_light(0.08));
+  for (Light& l : s.lights) validate_light(l, "scene shadows");
+  pitch_scene(s, 25);
+  return s;
+}
+
 }  // namespace
 
-std::vector<std::string> light_scene_names() { return {"lights"}; }
+std::vector<std::string> light_scene_names() { return {"lights", "shadows"}; }
 
 Scene build_light_scene(const std::string& name) {
   if (name == "lights") return lights_scene();
-  throw_usage("unknown lighting scene '" + name + "' (known: lights)");
+  if (name == "shadows") return shadows_scene();
+  throw_usage("unknown lighting scene '" + name + "' (known: lights, shadows)");
 }
 
 }  // namespace dofkit::scene

@@ -5,6 +5,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "dofkit/image.hpp"
 #include "io/io_test_util.hpp"
 
 namespace dofkit::test {
@@ -36,6 +38,13 @@ inline CliRun dofkit_run(const ScratchDir& dir, const std::string& args) {
   std::filesystem::remove(err);
   std::filesystem::remove(out);
   return r;
+}
+
+/// The R, G, B planes of an RGBA image (what read_color returns).
+inline Image rgb_planes(const Image& im) {
+  Image o(im.width(), im.height(), 3);
+  std::copy(im.data().begin(), im.data().begin() + 3 * im.plane_size(), o.data().begin());
+  return o;
 }
 
 /// The channel names of an image file (empty if it cannot be opened).

@@ -59,12 +59,7 @@ class LightCli : public ::testing::Test {
   }
 };
 
-// The R, G, B planes of an image read with read_color (which adds alpha).
-dofkit::Image rgb(const dofkit::Image& im) {
-  dofkit::Image o(im.width(), im.height(), 3);
-  std::copy(im.data().begin(), im.data().begin() + 3 * im.plane_size(), o.data().begin());
-  return o;
-}
+dofkit::Image rgb(const dofkit::Image& im) { return dofkit::test::rgb_planes(im); }
 
 }  // namespace
 

@@ -56,6 +56,7 @@ struct Prepared {
   double stencil_r2 = 0;  // the grown sphere, squared
   double cos_outer_grown = 0, sin_outer = 0;
   bool local = false;  // point / spot: culled; directional / ambient: everywhere
+  const ShadowMaps* shadow = nullptr;
 };
 
 Prepared prepare(const Light& l) {
@@ -65,6 +66,7 @@ Prepared prepare(const Light& l) {
   p.axis = l.direction;
   for (int c = 0; c < 3; ++c) p.rad[c] = l.color[c] * l.intensity;
   p.ao = l.ao;
+  p.shadow = l.shadow.get();
   p.local = l.kind == Light::Kind::point || l.kind == Light::Kind::spot;
   if (!p.local) return p;
   p.r2 = l.radius_m * l.radius_m;
@@ -201,6 +203,10 @@ void shade_pixel(const Buffers& b, bool lit, const Pixel& px, int x, int y, cons
     for (int k = 0; k < count; ++k) {
       double contrib[3];
       shade(px, *list[k], contrib);
+      if (list[k]->shadow && (contrib[0] != 0 || contrib[1] != 0 || contrib[2] != 0)) {
+        const std::array<double, 3> t = shadow_factor(*list[k]->shadow, px.p);
+        for (int c = 0; c < 3; ++c) contrib[c] *= t[c];
+      }
       for (int c = 0; c < 3; ++c) acc[c] += contrib[c];
       if (layers)
         for (int c = 0; c < 3; ++c) (*layers)[index[k]].plane(c)[i] = static_cast<float>(contrib[c] + 0.0);
@@ -391,6 +397,70 @@ std::vector<Light> checked_lights(const std::vector<Light>& lights) {
 
 }  // namespace
 
+void validate_shadow_maps(const ShadowMaps& m, const std::string& where) {
+  const Image& o = m.opaque_depth;
+  if (o.empty() || o.channels() != 1) throw_bad_input(where + ".opaque_depth: required, 1 channel");
+  if (o.width() > kMaxShadowMapSide || o.height() > kMaxShadowMapSide)
+    throw_bad_input(where + ".opaque_depth: " + std::to_string(o.width()) + "x" + std::to_string(o.height()) +
+                    " is larger than the limit of " + std::to_string(kMaxShadowMapSide) + " texels a side");
+  const auto size_of = [](const Image& im) { return std::to_string(im.width()) + "x" + std::to_string(im.height()); };
+  if (m.translucent_depth.empty() != m.translucent_color.empty())
+    throw_bad_input(where + ": translucent_depth and translucent_color go together (both or neither)");
+  if (!m.translucent_depth.empty()) {
+    if (!m.translucent_depth.same_size(o) || m.translucent_depth.channels() != 1)
+      throw_bad_input(where + ".translucent_depth: " + size_of(m.translucent_depth) + ", " +
+                      std::to_string(m.translucent_depth.channels()) + " channel(s); need " + size_of(o) +
+                      " (the opaque map's size), 1 channel");
+    if (!m.translucent_color.same_size(o) || m.translucent_color.channels() != 3)
+      throw_bad_input(where + ".translucent_color: " + size_of(m.translucent_color) + ", " +
+                      std::to_string(m.translucent_color.channels()) + " channel(s); need " + size_of(o) +
+                      " (the opaque map's size), 3 channels");
+  }
+  const auto depth_ok = [&](const Image& im, const char* field) {
+    if (im.empty()) return;
+    const long long i = first_bad(im, 0, [](float v) { return std::isnan(v) || v < 0; });
+    if (i >= 0)
+      throw_bad_input(where + "." + field + ": invalid depth at texel " + pixel_of(im, i) +
+                      " (need >= 0 metres or +inf)");
+  };
+  depth_ok(o, "opaque_depth");
+  depth_ok(m.translucent_depth, "translucent_depth");
+  if (!m.translucent_color.empty())
+    for (int c = 0; c < 3; ++c) {
+      const long long i = first_bad(m.translucent_color, c, [](float v) { return !(v >= 0 && v <= 1); });
+      if (i >= 0)
+        throw_bad_input(where + ".translucent_color: value outside [0, 1] at texel " +
+                        pixel_of(m.translucent_color, i));
+    }
+  for (double v : m.view)
+    if (!std::isfinite(v)) throw_bad_input(where + ".view_matrix: not all finite numbers");
+  for (double v : m.projection)
+    if (!std::isfinite(v)) throw_bad_input(where + ".projection_matrix: not all finite numbers");
+  if (!std::isfinite(m.bias_m) || m.bias_m < 0)
+    throw_bad_input(where + ".bias_m: must be a finite number of metres >= 0, got " + num(m.bias_m));
+}
+
+std::array<double, 3> shadow_factor(const ShadowMaps& m, const std::array<double, 3>& p) {
+  const auto& V = m.view;
+  const auto& P = m.projection;
+  double q[4];
+  for (int r = 0; r < 4; ++r) q[r] = V[4 * r] * p[0] + V[4 * r + 1] * p[1] + V[4 * r + 2] * p[2] + V[4 * r + 3];
+  double c[4];
+  for (int r = 0; r < 4; ++r) c[r] = P[4 * r] * q[0] + P[4 * r + 1] * q[1] + P[4 * r + 2] * q[2] + P[4 * r + 3] * q[3];
+  if (!(c[3] > 0)) return {1, 1, 1};
+  const double u = 0.5 * (c[0] / c[3] + 1), v = 0.5 * (1 - c[1] / c[3]);
+  if (!(u >= 0 && u < 1 && v >= 0 && v < 1)) return {1, 1, 1};
+  const int w = m.opaque_depth.width(), h = m.opaque_depth.height();
+  const int x = std::min(static_cast<int>(u * w), w - 1), y = std::min(static_cast<int>(v * h), h - 1);
+  const double d = -q[2];
+  // The chapter's order: the translucent test colours the light, the opaque test removes it.
+  std::array<double, 3> f{1, 1, 1};
+  if (!m.translucent_depth.empty() && !(d <= m.translucent_depth.at(x, y) + m.bias_m))
+    for (int k = 0; k < 3; ++k) f[k] *= m.translucent_color.at(x, y, k);
+  if (!(d <= m.opaque_depth.at(x, y) + m.bias_m)) f = {0, 0, 0};
+  return f;
+}
+
 void validate_light(Light& l, const std::string& where) {
   const auto finite3 = [&](const std::array<double, 3>& v, const char* field) {
     for (double x : v)
@@ -411,6 +481,10 @@ void validate_light(Light& l, const std::string& where) {
         !(l.inner_deg < l.outer_deg))
       throw_bad_input(where + ".inner_deg/outer_deg: need 0 <= inner_deg < outer_deg <= 90, got " + num(l.inner_deg) +
                       " and " + num(l.outer_deg));
+  }
+  if (l.shadow) {
+    if (l.kind == Light::Kind::ambient) throw_bad_input(where + ".shadow: an ambient light casts no shadow");
+    validate_shadow_maps(*l.shadow, where + ".shadow");
   }
   if (l.kind == Light::Kind::spot || l.kind == Light::Kind::directional) {
     const double len = std::sqrt(dot3(l.direction, l.direction));
@@ -598,7 +672,8 @@ Image forward_lighting(const GBufferRef& g, const std::vector<Light>& in_lights,
         const double a = ao ? std::clamp(static_cast<double>(ao->at(x, y)), 0.0, 1.0) : 1.0;
         for (const Light& l : lights) {
           const std::array<double, 3> c3 = shade_light(l, P, N, V, alb, spec, gl);
-          for (int c = 0; c < 3; ++c) acc[c] += LD(c3[c]) * (l.ao ? a : 1.0);
+          const std::array<double, 3> t = l.shadow ? shadow_factor(*l.shadow, P) : std::array<double, 3>{1, 1, 1};
+          for (int c = 0; c < 3; ++c) acc[c] += LD(c3[c]) * (l.ao ? a : 1.0) * t[c];
         }
       }
       for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(acc[c]);

@@ -137,7 +137,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (b < 128) continue;
     static const char* kValues[] = {"0",   "1",    "-1", "0.5", "2",   "8", "64", "1e9",   "1e-320", "nan",
                                     "inf", "-inf", "on", "off", "yes", "x", "",   "1e400", "0x10",   "3.5"};
-    settings.params[p.name] = b < 200 ? p.default_value : kValues[b % (sizeof kValues / sizeof kValues[0])];
+    // A default that depends on another key: one of its cases' values (the text lists them all).
+    const std::string def =
+        p.default_cases.empty() ? p.default_value : p.default_cases[b % p.default_cases.size()].second;
+    settings.params[p.name] = b < 200 ? def : kValues[b % (sizeof kValues / sizeof kValues[0])];
   }
   Frame frame;
   frame.color = Image(w, h, 4);

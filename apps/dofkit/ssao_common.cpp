@@ -90,7 +90,8 @@ std::string ssao_params_help() {
   std::string s = "\nAO methods, their --set parameters (units, defaults, ranges) and debug views:\n";
   for (const MethodInfo& m : ao_methods()) {
     s += "\n  " + m.name + ": " + m.summary + "\n";
-    for (const ParamInfo& p : m.params) s += "    " + p.name + " (default " + p.default_value + "): " + p.help + "\n";
+    for (const ParamInfo& p : m.params)
+      s += "    " + p.name + " (" + param_kind(p) + ", default " + p.default_value + "): " + p.help + "\n";
     s += "    debug views:";
     for (const DebugViewInfo& v : m.debug_views) s += " " + v.name;
     s += "\n";

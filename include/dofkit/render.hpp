@@ -5,6 +5,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "dofkit/aperture.hpp"
@@ -133,12 +134,35 @@ std::uint64_t render_memory_bytes(const RenderSettings& settings, int width, int
 /// Computes the signed, clamped CoC map (pixels) of a depth map for a camera.
 Image compute_coc(const Image& depth, const CameraModel& camera, int threads = 0);
 
-/// Description of a method parameter (for --help and docs).
+/// The kind of value a method parameter takes.
+enum class ParamType {
+  integer,  ///< a whole number in [min, max]
+  real,     ///< a number in [min, max] (or one of `choices`, words accepted instead: "auto")
+  choice,   ///< one of `choices`
+  boolean,  ///< on/off (also true/false, 1/0, yes/no)
+};
+
+/// One method parameter, declared once: render() validates and reads `--set` values by this,
+/// and `dofkit methods` (--json), the CLI help and the docs check are made from it.
 struct ParamInfo {
   std::string name;           ///< key for RenderSettings::params
-  std::string default_value;  ///< as text
-  std::string help;           ///< meaning, with units and range
+  std::string default_value;  ///< as text ("4 (demo), 2 (book, g3d)" when it depends on another key)
+  std::string help;           ///< meaning, one line (type, range, unit and default are the fields)
+  ParamType type = ParamType::real;
+  std::string unit;                  ///< "px", "deg", "m", … ("" = dimensionless)
+  double min = 0, max = 0;           ///< integer / real: the accepted closed range
+  std::vector<std::string> choices;  ///< choice: the values; real: words accepted instead of a number
+  /// A default that depends on another parameter: that parameter's name and, per value of it
+  /// (in the order `default_value` lists them), the default as text. Empty: one default.
+  std::string default_depends_on;
+  std::vector<std::pair<std::string, std::string>> default_cases;
 };
+
+/// "int", "float", "choice" or "bool".
+const char* param_type_name(ParamType type);
+/// A parameter's type, range / choices and unit in a few words, e.g. "int 3..16",
+/// "float 0..4096 px", "float 0.01..50 or auto", "one of mean, max", "on/off".
+std::string param_kind(const ParamInfo& p);
 
 /// Description of a debug view.
 struct DebugViewInfo {

@@ -1,3 +1,4 @@
+// Over 800 lines: one byte-level walker per format (EXR, PNG, TIFF) behind one entry point and its shared checks.
 // The checks of header_check.hpp, format by format, on the raw bytes.
 //
 // EXR (OpenEXR file format, "Technical Introduction"): magic 76 2f 31 01; int32 version +

@@ -1,3 +1,4 @@
+// Over 800 lines: every image read and write (colour, depth, masks, normals, encoders) shares one checked open.
 // Image IO (see image_io.hpp for the conventions): the common EXRs, PNGs and JPEGs through
 // exr_direct.hpp, png_direct.hpp and jpeg_direct.hpp, everything else through OpenImageIO 2.4
 // in its module (oiio_module.hpp). The direct readers give what OpenImageIO gives (tested),

@@ -1,3 +1,4 @@
+// Over 800 lines: XMP / base64 decoding, the JPEG and optional HEIC readers share the property and temp-file helpers.
 // Depth maps embedded in phone photos (see phone_depth.hpp).
 #include "io/phone_depth.hpp"
 

@@ -21,27 +21,9 @@
 
 #include "core/aperture.hpp"
 #include "core/coc_range.hpp"
+#include "methods/params.hpp"
 
 namespace dofkit::detail {
-
-/// Typed, validated access to a method's `--set k=v` parameters. Every key a method reads
-/// must be declared in its MethodDef::params; values are range-checked and a bad one throws
-/// Error(usage) naming the method and key.
-class Params {
- public:
-  Params(const std::string& method, const std::map<std::string, std::string>& values)
-      : method_(method), values_(values) {}
-  bool has(const std::string& key) const { return values_.count(key) != 0; }
-  double get_double(const std::string& key, double def, double lo, double hi) const;
-  int get_int(const std::string& key, int def, int lo, int hi) const;
-  bool get_bool(const std::string& key, bool def) const;  // on/off, true/false, 1/0, yes/no
-  /// One of `choices` (exact match).
-  std::string get_choice(const std::string& key, const std::string& def, const std::vector<std::string>& choices) const;
-
- private:
-  std::string method_;
-  const std::map<std::string, std::string>& values_;
-};
 
 /// Receives intermediate buffers. A method offers each view it declares; only the one the
 /// user asked for is kept (a copy), so offering costs nothing when no view is requested.

@@ -34,55 +34,7 @@ std::string known_names(const std::vector<std::string>& names) {
   for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
   return s;
 }
-[[noreturn]] void bad_param(const std::string& method, const std::string& key, const std::string& value,
-                            const std::string& why) {
-  throw_usage("--set " + key + "=" + value + ": " + why + " (method " + method + ")");
-}
 }  // namespace
-
-double Params::get_double(const std::string& key, double def, double lo, double hi) const {
-  auto it = values_.find(key);
-  if (it == values_.end()) return def;
-  const std::string& v = it->second;
-  double d;
-  try {
-    std::size_t used = 0;
-    d = std::stod(v, &used);
-    if (used != v.size()) throw std::invalid_argument(v);
-  } catch (const std::exception&) {
-    bad_param(method_, key, v, "not a number");
-  }
-  if (!(d >= lo && d <= hi)) {
-    std::ostringstream s;
-    s << "must be in [" << lo << ", " << hi << "]";
-    bad_param(method_, key, v, s.str());
-  }
-  return d;
-}
-
-int Params::get_int(const std::string& key, int def, int lo, int hi) const {
-  const double d = get_double(key, def, lo, hi);
-  if (d != std::floor(d)) bad_param(method_, key, values_.at(key), "must be an integer");
-  return static_cast<int>(d);
-}
-
-bool Params::get_bool(const std::string& key, bool def) const {
-  auto it = values_.find(key);
-  if (it == values_.end()) return def;
-  const std::string& v = it->second;
-  if (v == "on" || v == "true" || v == "1" || v == "yes") return true;
-  if (v == "off" || v == "false" || v == "0" || v == "no") return false;
-  bad_param(method_, key, v, "must be on or off");
-}
-
-std::string Params::get_choice(const std::string& key, const std::string& def,
-                               const std::vector<std::string>& choices) const {
-  auto it = values_.find(key);
-  if (it == values_.end()) return def;
-  if (std::find(choices.begin(), choices.end(), it->second) == choices.end())
-    bad_param(method_, key, it->second, "must be one of " + known_names(choices));
-  return it->second;
-}
 
 void Progress::pass(double lo, double hi, long units) {
   if (!fn_) return;
@@ -255,14 +207,15 @@ const detail::MethodDef& checked_method(const RenderSettings& settings) {
     // Not a structured binding: clang 14 (the fuzz build) cannot capture those in a lambda.
     const std::string& key = kv.first;
     const std::string& value = kv.second;
-    const bool known =
-        std::any_of(method->params.begin(), method->params.end(), [&](const ParamInfo& p) { return p.name == key; });
-    if (!known) {
+    const auto it =
+        std::find_if(method->params.begin(), method->params.end(), [&](const ParamInfo& p) { return p.name == key; });
+    if (it == method->params.end()) {
       std::vector<std::string> names;
       for (const auto& p : method->params) names.push_back(p.name);
       throw_usage("--set " + key + "=" + value + ": unknown parameter for method " + method->name +
                   (names.empty() ? std::string(" (it has none)") : " (known: " + detail::known_names(names) + ")"));
     }
+    detail::check_param_value(method->name, *it, value);  // type and range, by the method's table
   }
   if (!settings.debug_view.empty()) {
     std::vector<DebugViewInfo> views = method->debug_views;
@@ -357,7 +310,7 @@ const RenderResult& Renderer::render(const Frame& frame_in) {
     validate_frame(frame_in, "frame", false);  // the depth values are checked by fill_coc
   }
   RenderResult& result = impl_->result;
-  const detail::Params params(method.name, settings.params);
+  const detail::Params params(method.name, method.params, settings.params);
   std::optional<detail::DebugSink> sink;
   const int threads = settings.threads > 0 ? settings.threads : core::hardware_threads();
   detail::Progress progress(&settings.progress);

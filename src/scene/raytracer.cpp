@@ -1,3 +1,4 @@
+// Over 800 lines: every pass (pinhole, thin lens, AO, G-buffer, lit) shares the file-local primitive routines.
 // The ray tracer of raytracer.hpp: intersections, procedural textures, pinhole and thin-lens
 // passes.
 #include "scene/raytracer.hpp"

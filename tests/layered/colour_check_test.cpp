@@ -67,7 +67,7 @@ bool method_flags(const Frame& f, const RenderSettings& s) {
   Image coc(f.width(), f.height(), 1);
   for (int y = 0; y < f.height(); ++y)
     for (int x = 0; x < f.width(); ++x) coc.at(x, y) = coc_of(f.depth.at(x, y));
-  const detail::Params params("layered", s.params);
+  const detail::Params params("layered", detail::find_method("layered")->params, s.params);
   detail::DebugSink sink(s.debug_view);
   detail::Workspace ws;
   std::atomic<bool> dirty{false};

@@ -116,7 +116,7 @@ TEST(FastMatchesPlain, RenderersCocRangeEqualsAScanOfTheMap) {
       s.threads = 2;
       const RenderResult got = render(frame, s);
       // The same method with no range given: it scans got.coc itself.
-      const detail::Params params(name, s.params);
+      const detail::Params params(name, m->params, s.params);
       detail::DebugSink sink("");
       detail::Workspace ws;
       const CocFunction coc_of(s.camera, w);

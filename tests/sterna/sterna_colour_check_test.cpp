@@ -119,7 +119,7 @@ bool method_flags(const Frame& f, const RenderSettings& s) {
   const CocFunction coc_of(s.camera, f.width());
   Image coc(f.width(), f.height(), 1);
   for (int y = 0; y < f.height(); ++y) coc_of.evaluate(f.depth.row(0, y), coc.row(0, y), f.width());
-  const detail::Params params("sterna", s.params);
+  const detail::Params params("sterna", def->params, s.params);
   detail::DebugSink sink("");
   detail::Workspace workspace;
   std::atomic<bool> dirty{false};

@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -78,9 +79,10 @@ struct GtaoParams {
 };
 
 std::vector<MethodInfo> method_infos();
-/// Parses and validates `params` for `method` (Error(usage) naming the key).
-Sc2Params parse_sc2(const std::map<std::string, std::string>& params);
-GtaoParams parse_gtao(const std::map<std::string, std::string>& params);
+/// Parses and validates `params` by the method's table (Error(usage) naming the key);
+/// keys_read: where to put the keys the parser looked up (the table test).
+Sc2Params parse_sc2(const std::map<std::string, std::string>& params, std::set<std::string>* keys_read = nullptr);
+GtaoParams parse_gtao(const std::map<std::string, std::string>& params, std::set<std::string>* keys_read = nullptr);
 /// The debug view names of a method (for validation).
 std::vector<std::string> debug_view_names(const std::string& method);
 

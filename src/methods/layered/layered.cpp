@@ -59,16 +59,16 @@ std::vector<DebugViewInfo> debug_views() {
 
 void render_layered(const MethodContext& ctx, Image& out) {
   using namespace layered;
-  const int cap = ctx.params.get_int("layers", 9, 3, kMaxLayers);
-  const double c = ctx.params.get_double("sigma_per_radius", 0.6, 0.1, 2.0);
-  const double unit = ctx.params.get_double("step_px", 1.0, 0.1, 8.0);
-  const bool half_res = ctx.params.get_bool("half_res", true);
-  const bool quarter_res = half_res && ctx.params.get_bool("quarter_res", true);
-  const std::string fill = ctx.params.get_choice("fill", "auto", {"auto", "on", "off", "under"});
-  const std::string psf = ctx.params.get_choice("psf", "auto", {"auto", "gaussian", "disc"});
+  const int cap = ctx.params.get_int("layers");
+  const double c = ctx.params.get_double("sigma_per_radius");
+  const double unit = ctx.params.get_double("step_px");
+  const bool half_res = ctx.params.get_bool("half_res");
+  const bool quarter_res = half_res && ctx.params.get_bool("quarter_res");
+  const std::string fill = ctx.params.get_choice("fill");
+  const std::string psf = ctx.params.get_choice("psf");
   // fast: the same arithmetic as plain in the same order (bit-identical, tests/layered/
   // fast_test.cpp) with fused passes and workspace buffers (fast.hpp); plain is the oracle.
-  const bool fast = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
+  const bool fast = ctx.params.get_choice("impl") == "fast";
   const Frame& frame = ctx.frame;
   const bool multi = frame.has_layers();
   // auto: the disc for multi-layer input (it beats every single-layer method there, see
@@ -124,7 +124,7 @@ void render_layered(const MethodContext& ctx, Image& out) {
   // Matte ramp: S&W's full-gap ramp for the Gaussian; a quarter of the gap for the disc
   // (measured, docs/methods/layered.md: 0 leaves seams on continuous surfaces, wider bands
   // count thin near objects up to 1 + u times).
-  plan.band = ctx.params.get_double("matte_band", disc ? 0.25 : 1.0, 0.0, 1.0);
+  plan.band = ctx.params.get_double("matte_band", disc ? "disc" : "gaussian");
 
   // The fused Gaussian stack (one fragment per pixel, no debug view): no layer is stored.
   if (fast && !disc) {
@@ -257,31 +257,34 @@ const MethodDef& layered_method() {
       "layered",
       "Schedl & Wimmer layered DoF: depth layers blurred recursively and composited; partial occlusion from "
       "deep/multi-layer input",
-      {{"layers", "9", "maximum number of depth layers K (3-16); fewer are used when the CoC range needs fewer"},
-       {"sigma_per_radius", "0.6",
-        "Gaussian sigma per px of CoC radius (0.1-2); S4 d_pix = 4 sigma gives 0.5, 0.6 measured best against the "
-        "ground truth"},
-       {"step_px", "1",
-        "unit of the per-step sigma sigma_k = unit * |k - k_focus| before fitting the scene's CoC range, px (0.1-8); "
-        "smaller = more, finer layers"},
-       {"half_res", "on",
-        "blur steps of sigma >= 4 px at half resolution (same variance, about 4x less blur work): on/off"},
-       {"quarter_res", "on",
-        "with half_res, blur steps of sigma >= 8 px at quarter resolution (same variance, 4x less blur work again): "
-        "on/off"},
-       {"fill", "auto",
-        "inpaint disoccluded layer pixels by push-pull: auto (single-layer input only), on, off, under (the fill goes "
-        "behind what the layer holds there: hidden fragments of multi-layer input stay in front)"},
-       {"psf", "auto",
-        "layer blur: auto (disc for multi-layer input, gaussian for one RGB-D frame), gaussian (S&W's recursive "
-        "Gaussians, O(1) per pixel) or disc (each layer blurred once by the anti-aliased disc of its anchor CoC radius "
-        "and composited with over, O(R) per pixel)"},
-       {"impl", "fast",
-        "fast (fused passes, workspace buffers; same arithmetic) or plain (the straightforward form, the test oracle)"},
-       {"matte_band", "1 (gaussian) / 0.25 (disc)",
-        "width of the matte ramp between two anchors as a fraction of the gap (0-1): 1 = S&W (u in the nearer layer "
-        "over 1 in the farther, blur interpolated), 0 = each fragment wholly in its nearest anchor's layer (counted "
-        "once)"}},
+      {int_param("layers", 9, 3, kMaxLayers, "",
+                 "maximum number of depth layers K; fewer are used when the CoC range needs fewer"),
+       float_param("sigma_per_radius", 0.6, 0.1, 2.0, "",
+                   "Gaussian sigma per px of CoC radius; S4 d_pix = 4 sigma gives 0.5, 0.6 measured best against the "
+                   "ground truth"),
+       float_param("step_px", 1.0, 0.1, 8.0, "px",
+                   "unit of the per-step sigma sigma_k = unit * |k - k_focus| before fitting the scene's CoC range; "
+                   "smaller = more, finer layers"),
+       bool_param("half_res", true,
+                  "blur steps of sigma >= 4 px at half resolution (same variance, about 4x less blur work)"),
+       bool_param("quarter_res", true,
+                  "with half_res, blur steps of sigma >= 8 px at quarter resolution (same variance, 4x less blur "
+                  "work again)"),
+       choice_param("fill", "auto", {"auto", "on", "off", "under"},
+                    "inpaint disoccluded layer pixels by push-pull: auto (single-layer input only), on, off, under "
+                    "(the fill goes behind what the layer holds there: hidden fragments of multi-layer input stay in "
+                    "front)"),
+       choice_param("psf", "auto", {"auto", "gaussian", "disc"},
+                    "layer blur: auto (disc for multi-layer input, gaussian for one RGB-D frame), gaussian (S&W's "
+                    "recursive Gaussians, O(1) per pixel) or disc (each layer blurred once by the anti-aliased disc "
+                    "of its anchor CoC radius and composited with over, O(R) per pixel)"),
+       choice_param("impl", "fast", {"fast", "plain"},
+                    "fast (fused passes, workspace buffers; same arithmetic) or plain (the straightforward form, the "
+                    "test oracle)"),
+       float_param("matte_band", param_by("psf", {{"gaussian", 1.0}, {"disc", 0.25}}), 0.0, 1.0, "",
+                   "width of the matte ramp between two anchors as a fraction of the gap: 1 = S&W (u in the nearer "
+                   "layer over 1 in the farther, blur interpolated), 0 = each fragment wholly in its nearest "
+                   "anchor's layer (counted once); the default follows the psf in use")},
       debug_views(),
       render_layered,
       /*checks_colour=*/true,

@@ -16,14 +16,14 @@ namespace {
 
 void render_lens(const MethodContext& ctx, Image& out) {
   lens::LensOptions opt;
-  opt.depth_softness = static_cast<float>(ctx.params.get_double("depth_softness", 0.05, 0.001, 1.0));
-  opt.slice_px = static_cast<float>(ctx.params.get_double("slice_px", 1.0, 0.25, 64.0));
-  opt.slice_rel = static_cast<float>(ctx.params.get_double("slice_rel", 0.15, 0.0, 4.0));
-  opt.level_px = static_cast<float>(ctx.params.get_double("level_px", 3.0, 1.0, 1e6));
-  opt.hidden = ctx.params.get_bool("hidden", true);
-  opt.highlight_abs = static_cast<float>(ctx.params.get_double("highlight_abs", 1.0, 0.0, 1e30));
-  opt.highlight_rel = static_cast<float>(ctx.params.get_double("highlight_rel", 4.0, 1.0, 1e30));
-  opt.simd = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
+  opt.depth_softness = static_cast<float>(ctx.params.get_double("depth_softness"));
+  opt.slice_px = static_cast<float>(ctx.params.get_double("slice_px"));
+  opt.slice_rel = static_cast<float>(ctx.params.get_double("slice_rel"));
+  opt.level_px = static_cast<float>(ctx.params.get_double("level_px"));
+  opt.hidden = ctx.params.get_bool("hidden");
+  opt.highlight_abs = static_cast<float>(ctx.params.get_double("highlight_abs"));
+  opt.highlight_rel = static_cast<float>(ctx.params.get_double("highlight_rel"));
+  opt.simd = ctx.params.get_choice("impl") == "fast";
   opt.progress = ctx.progress;
   opt.shape = lens::Shape(ctx.aperture);  // usage error for the cat's eye or an aperture image
   core::CocRange range = ctx.coc_range ? *ctx.coc_range : core::coc_range(ctx.coc);
@@ -84,18 +84,21 @@ const MethodDef& lens_method() {
       "lens",
       "the reference's picture fast: depth slices of per-pixel discs scattered as row spans at reduced resolution "
       "for large blur, composited in depth order with the hidden-background estimate",
-      {{"depth_softness", "0.05", "relative inverse-depth difference over which a source becomes 'in front' (0.001-1)"},
-       {"slice_px", "1", "depth-slice spacing near focus, px of CoC (0.25-64)"},
-       {"slice_rel", "0.15", "depth-slice spacing as a fraction of the CoC radius, beyond slice_px (0-4)"},
-       {"level_px", "3",
-        "a slice is scattered at 1/2^L resolution when its smallest radius is >= level_px * 2^L px (1-1e6; large = "
-        "full resolution everywhere)"},
-       {"highlight_abs", "1",
-        "a source brighter than this luminance (linear) and than highlight_rel times its neighbourhood is scattered "
-        "at full resolution (0-1e30)"},
-       {"highlight_rel", "4", "see highlight_abs: times the mean luminance of the area its footprint covers (1-1e30)"},
-       {"hidden", "on", "hidden-background estimate behind blurred near objects: on/off"},
-       {"impl", "fast", "fast (SIMD, tiled) or plain (the straightforward form, the test oracle)"}},
+      {depth_softness_param(),
+       float_param("slice_px", 1.0, 0.25, 64.0, "px", "depth-slice spacing near focus, px of CoC"),
+       float_param("slice_rel", 0.15, 0.0, 4.0, "",
+                   "depth-slice spacing as a fraction of the CoC radius, beyond slice_px"),
+       float_param("level_px", 3.0, 1.0, 1e6, "px",
+                   "a slice is scattered at 1/2^L resolution when its smallest radius is >= level_px * 2^L px "
+                   "(large = full resolution everywhere)"),
+       float_param("highlight_abs", 1.0, 0.0, 1e30, "",
+                   "a source brighter than this luminance (linear) and than highlight_rel times its neighbourhood "
+                   "is scattered at full resolution"),
+       float_param("highlight_rel", 4.0, 1.0, 1e30, "",
+                   "see highlight_abs: times the mean luminance of the area its footprint covers"),
+       bool_param("hidden", true, "hidden-background estimate behind blurred near objects"),
+       choice_param("impl", "fast", {"fast", "plain"},
+                    "fast (SIMD, tiled) or plain (the straightforward form, the test oracle)")},
       {{"coverage",
         "R: weight of the sources in front of each pixel (F), G: of its own surface and behind (B), B: the uncovered "
         "share filled by hidden fragments or the hidden-background estimate"},

@@ -32,26 +32,26 @@ Setup read_setup(const MethodContext& ctx, float max_near, float max_far) {
   const Params& p = ctx.params;
   Setup st;
   Constants& k = st.k;
-  const std::string v = p.get_choice("variant", "demo", {"book", "demo", "g3d"});
+  const std::string v = p.get_choice("variant");
   k.variant = v == "book" ? Variant::book : v == "demo" ? Variant::demo : Variant::g3d;
-  const bool book = k.variant == Variant::book, demo = k.variant == Variant::demo;
-  k.f = p.get_int("reduction", demo ? 4 : 2, 1, 4);
+  const bool demo = k.variant == Variant::demo;
+  k.f = p.get_int("reduction", v);
   // coverage_boost: 1.5 is the chapter's and the 2013 demo's value (book keeps it). The demo
   // default is 1: the box-blurred coverage of an opaque near object is already 0.5 on its
   // silhouette, as a thin lens gives it, and any gain > 1 moves the 50 % point outward and
   // makes the blurred rim opaque where the true image shows the background through it.
   // Measured on all six scenes (docs/methods/mcguire.md): 1 is best or equal on every one.
-  k.coverage_boost = static_cast<float>(p.get_double("coverage_boost", demo ? 1.0 : 1.5, 1.0, 100.0));
-  k.far_occlusion = p.get_bool("far_occlusion_test", !demo);
-  k.double_coc = p.get_bool("double_coc", demo);  // measured: +0.8 dB mean on the six scenes (docs)
-  k.near_alpha_code = p.get_choice("near_alpha", "code", {"code", "book"}) == "code";
-  k.lowres_offset_fix = p.get_bool("lowres_offset_fix", true);
-  k.focus_px = static_cast<float>(p.get_double("focus_px", 0.5, 0.0, 1e6));
-  k.g3d_fov_rad = static_cast<float>(p.get_double("g3d_fov_deg", 40.0, 1.0, 179.0) * M_PI / 180.0);
-  const bool far_rescale = p.get_bool("far_rescale", !book);
-  st.guard = p.get_int("guard_band_px", 0, 0, 1 << 20);
-  st.guard_taps = p.get_bool("guard_band_taps", true);
-  const double near_param = p.get_double("near_radius_px", 0.0, 0.0, 1e5);
+  k.coverage_boost = static_cast<float>(p.get_double("coverage_boost", v));
+  k.far_occlusion = p.get_bool("far_occlusion_test", v);
+  k.double_coc = p.get_bool("double_coc", v);  // demo: measured +0.8 dB mean on the six scenes (docs)
+  k.near_alpha_code = p.get_choice("near_alpha") == "code";
+  k.lowres_offset_fix = p.get_bool("lowres_offset_fix");
+  k.focus_px = static_cast<float>(p.get_double("focus_px"));
+  k.g3d_fov_rad = static_cast<float>(p.get_double("g3d_fov_deg") * M_PI / 180.0);
+  const bool far_rescale = p.get_bool("far_rescale", v);
+  st.guard = p.get_int("guard_band_px");
+  st.guard_taps = p.get_bool("guard_band_taps");
+  const double near_param = p.get_double("near_radius_px");
 
   // Radii (image px). R_n: the near blur radius — given, or the largest near radius in the
   // frame. R_f: the largest far radius in the frame. R_max bounds every tap loop and
@@ -61,7 +61,7 @@ Setup read_setup(const MethodContext& ctx, float max_near, float max_far) {
   k.r_max = static_cast<int>(std::ceil(std::max({r_n, max_near, max_far})));
   // Which pixels count as blurred at all: with focus_px the packed |s| is 0 below it.
   if (std::max(max_near, max_far) <= k.focus_px) k.r_max = 0;
-  k.r_near = p.get_bool("near_field", true) ? std::ceil(r_n) : 0.0f;
+  k.r_near = p.get_bool("near_field") ? std::ceil(r_n) : 0.0f;
   // A near radius too small to blur would show the decimated buffer unblurred: drop it
   // (demo: < 2 px; g3d: < f − 1 px).
   if (demo && k.r_near < 2) k.r_near = 0;
@@ -76,11 +76,11 @@ Setup read_setup(const MethodContext& ctx, float max_near, float max_far) {
 FrameSetup frame_setup(const MethodContext& ctx) {
   const Image& colour = ctx.frame.color;
   const int W = colour.width(), H = colour.height();
-  const int g_req = ctx.params.get_int("guard_band_px", 0, 0, 1 << 20);
+  const int g_req = ctx.params.get_int("guard_band_px");
   if (2 * g_req >= std::min(W, H))
     throw_usage("--set guard_band_px=" + std::to_string(g_req) + ": leaves no inner image in a " + std::to_string(W) +
                 "x" + std::to_string(H) + " frame (method mcguire)");
-  const bool taps_req = ctx.params.get_bool("guard_band_taps", true);
+  const bool taps_req = ctx.params.get_bool("guard_band_taps");
   FrameSetup fs;
   // Region whose pixels the passes read: whole image, or the inner rect if the guard band
   // must not be read at all.
@@ -120,7 +120,7 @@ void render_mcguire(const MethodContext& ctx, Image& out) {
   Workspace& ws = ctx.workspace;
   // impl=plain runs the obviously-correct passes (the test oracle); fast runs the SIMD /
   // box-sum passes for book/demo and the tap-bounded passes of blur.cpp for g3d.
-  const bool plain = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
+  const bool plain = ctx.params.get_choice("impl") == "plain";
   const bool fast_blur = !plain && mcguire::fast_supported(k);
   const bool plain_composite = plain || ctx.debug.wants("weights");
   // render() left the colour check to this method (MethodContext::colour_dirty): the fast
@@ -230,37 +230,39 @@ const MethodDef& mcguire_method() {
       "McGuire et al. (Skylanders / VVDoF / G3D): dual separable near/far blur at reduced resolution, "
       "near-field inpainting, coverage-boosted composite",
       {
-          {"variant", "demo",
-           "book (GPU Pro 4: 2x, Gaussian far kernel, far occlusion test) | demo (2013 web demo: 4x, disc-like "
-           "far kernel, no far test, far-radius rescale) | g3d (G3D 10 rules, docs/methods/mcguire.md)"},
-          {"reduction", "4 (demo), 2 (book, g3d)", "reduced-resolution factor per axis of the blur buffers (1-4)"},
-          {"coverage_boost", "1 (demo), 1.5 (book)",
-           "near-field alpha gain, dimensionless (>= 1; book/demo only): > 1 makes near objects more solid "
-           "than a lens does"},
-          {"near_radius_px", "0",
-           "fixed near-field blur radius in image px; 0 = the largest near CoC radius in the frame"},
-          {"near_field", "on",
-           "off = no separate near-field layer (Gillham-style: blurry near objects keep hard silhouettes); "
-           "a baseline that shows what the near field buys"},
-          {"far_occlusion_test", "on (book, g3d), off (demo)",
-           "far taps count only if not meaningfully farther than the centre (on/off)"},
-          {"far_rescale", "on (demo, g3d), off (book)",
-           "Sept-2013 fix: far |s| reaches 1 at the largest far radius instead of at R_max (on/off)"},
-          {"double_coc", "on (demo), off (book)",
-           "composite doubles s, clamp(2s, -1, 1), as some 2013 ports do (on/off; book/demo)"},
-          {"near_alpha", "code", "near coverage curve: code = saturate(4 r/R_near)^4, book = min(1, r/R_near)^4"},
-          {"focus_px", "0.5", "pixels with |CoC| <= this many px are exactly sharp (>= 0)"},
-          {"lowres_offset_fix", "on",
-           "sample the point-decimated buffers where their texels came from (off = centred lookup, "
-           "shifts by (f-1)/2 px)"},
-          {"g3d_fov_deg", "40", "g3d near coverage curve: field of view in degrees (1-179)"},
-          {"guard_band_px", "0",
-           "border in px on every side that is read as context but not rendered: output there is "
-           "transparent black"},
-          {"guard_band_taps", "on", "blur taps may read into the guard band (off = it is never read)"},
-          {"impl", "fast",
-           "fast = SIMD / box-sum passes (book, demo; g3d: tap-bounded passes), plain = the unoptimised "
-           "passes kept as the test oracle; both agree within float rounding"},
+          choice_param("variant", "demo", {"book", "demo", "g3d"},
+                       "book (GPU Pro 4: 2x, Gaussian far kernel, far occlusion test) | demo (2013 web demo: 4x, "
+                       "disc-like far kernel, no far test, far-radius rescale) | g3d (G3D 10 rules, "
+                       "docs/methods/mcguire.md)"),
+          int_param("reduction", param_by("variant", {{"demo", 4}, {"book", 2}, {"g3d", 2}}), 1, 4, "",
+                    "reduced-resolution factor per axis of the blur buffers"),
+          float_param("coverage_boost", param_by("variant", {{"demo", 1.0}, {"book", 1.5}, {"g3d", 1.5}}), 1.0, 100.0,
+                      "", "near-field alpha gain (book/demo only): > 1 makes near objects more solid than a lens does"),
+          float_param("near_radius_px", 0.0, 0.0, 1e5, "px",
+                      "fixed near-field blur radius in image px; 0 = the largest near CoC radius in the frame"),
+          bool_param("near_field", true,
+                     "off = no separate near-field layer (Gillham-style: blurry near objects keep hard silhouettes); "
+                     "a baseline that shows what the near field buys"),
+          bool_param("far_occlusion_test", param_by("variant", {{"book", true}, {"g3d", true}, {"demo", false}}),
+                     "far taps count only if not meaningfully farther than the centre"),
+          bool_param("far_rescale", param_by("variant", {{"demo", true}, {"g3d", true}, {"book", false}}),
+                     "Sept-2013 fix: far |s| reaches 1 at the largest far radius instead of at R_max"),
+          bool_param("double_coc", param_by("variant", {{"demo", true}, {"book", false}, {"g3d", false}}),
+                     "composite doubles s, clamp(2s, -1, 1), as some 2013 ports do (book/demo)"),
+          choice_param("near_alpha", "code", {"code", "book"},
+                       "near coverage curve: code = saturate(4 r/R_near)^4, book = min(1, r/R_near)^4"),
+          float_param("focus_px", 0.5, 0.0, 1e6, "px", "pixels with |CoC| <= this many px are exactly sharp"),
+          bool_param("lowres_offset_fix", true,
+                     "sample the point-decimated buffers where their texels came from (off = centred lookup, "
+                     "shifts by (f-1)/2 px)"),
+          float_param("g3d_fov_deg", 40.0, 1.0, 179.0, "deg", "g3d near coverage curve: field of view"),
+          int_param("guard_band_px", 0, 0, 1 << 20, "px",
+                    "border on every side that is read as context but not rendered: output there is transparent "
+                    "black"),
+          bool_param("guard_band_taps", true, "blur taps may read into the guard band (off = it is never read)"),
+          choice_param("impl", "fast", {"fast", "plain"},
+                       "fast = SIMD / box-sum passes (book, demo; g3d: tap-bounded passes), plain = the unoptimised "
+                       "passes kept as the test oracle; both agree within float rounding"),
       },
       {
           {"coc", "packed signed CoC s*0.5+0.5 (0.5 = in focus, > 0.5 near), 1 plane, full size"},

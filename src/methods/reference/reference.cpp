@@ -10,13 +10,12 @@ const MethodDef& reference_method() {
   static const MethodDef def{
       "reference",
       "exact single-layer scatter: every pixel spreads its disc of confusion, composited in depth order",
-      {{"depth_softness", "0.05",
-        "relative inverse-depth difference over which a source becomes 'in front' (0.001-1)"}},
+      {depth_softness_param()},
       {},
       [](const MethodContext& ctx, Image& out) {
         DiscScatterOptions opt;
         opt.depth_order = true;
-        opt.depth_softness = static_cast<float>(ctx.params.get_double("depth_softness", 0.05, 0.001, 1.0));
+        opt.depth_softness = static_cast<float>(ctx.params.get_double("depth_softness"));
         opt.max_work = ctx.max_work;
         opt.aperture = ctx.aperture;
         opt.progress = ctx.progress;

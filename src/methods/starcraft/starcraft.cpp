@@ -13,14 +13,14 @@ namespace dofkit::detail {
 
 starcraft::Settings starcraft::read_settings(const MethodContext& ctx) {
   Settings s;
-  s.large_radius_px = ctx.params.get_double("large_radius_px", 0.0, 0.0, 4096.0);
-  s.medium_fraction = ctx.params.get_double("medium_fraction", s.medium_fraction, 0.05, 0.95);
-  s.sigma_per_radius = ctx.params.get_double("sigma_per_radius", s.sigma_per_radius, 0.1, 2.0);
-  s.depth_blur = ctx.params.get_double("depth_blur", s.depth_blur, 0.1, 4.0);
-  s.medium_boxes = ctx.params.get_int("medium_boxes", s.medium_boxes, 1, 3);
-  s.keep_own_blur = ctx.params.get_bool("keep_own_blur", s.keep_own_blur);
-  s.coc_reduce_max = ctx.params.get_choice("coc_reduce", "mean", {"mean", "max"}) == "max";
-  s.plain = ctx.params.get_choice("impl", "fast", {"fast", "plain"}) == "plain";
+  s.large_radius_px = ctx.params.get_double("large_radius_px");
+  s.medium_fraction = ctx.params.get_double("medium_fraction");
+  s.sigma_per_radius = ctx.params.get_double("sigma_per_radius");
+  s.depth_blur = ctx.params.get_double("depth_blur");
+  s.medium_boxes = ctx.params.get_int("medium_boxes");
+  s.keep_own_blur = ctx.params.get_bool("keep_own_blur");
+  s.coc_reduce_max = ctx.params.get_choice("coc_reduce") == "max";
+  s.plain = ctx.params.get_choice("impl") == "plain";
   return s;
 }
 
@@ -124,31 +124,36 @@ void render_starcraft(const MethodContext& ctx, Image& out) {
 }  // namespace
 
 const MethodDef& starcraft_method() {
+  const starcraft::Settings d;  // the defaults (starcraft.hpp)
   static const MethodDef def{
       "starcraft",
       "StarCraft II (2008): sharp/small/medium/large blur levels mixed by CoC, CoC-weighted blurs, "
       "blurred CoC, blurred-depth ordering",
       {
-          {"large_radius_px", "0",
-           "disc radius (px at the camera's reference width) the large level stands for; 0 = auto: the "
-           "camera's characteristic radius (thin lens: K, the blur at infinity; artist models: their maximum "
-           "radius; StarCraft: max_radius_px). Radii beyond it saturate at the large level (0-4096)"},
-          {"medium_fraction", "0.5", "radius of the medium level as a fraction of the large level's (0.05-0.95)"},
-          {"sigma_per_radius", "0.6",
-           "Gaussian sigma per disc radius for the medium and large levels; 0.5 would match the disc's "
-           "variance, 0.6 measured best against the ground truth (0.1-2)"},
-          {"medium_boxes", "2",
-           "box passes per axis of the medium level's Gaussian (1-3; the variance is the same for any count): "
-           "2 measured as good as 3 against the ground truth (mean PSNR 29.86 vs 29.85 dB, SSIM 0.902 vs 0.901 "
-           "over the built-in scenes at 320x180) at two thirds of the medium level's blur cost; 1 is a plain box"},
-          {"depth_blur", "1", "sigma of the depth blur of the ordering test relative to the CoC blur (0.1-4)"},
-          {"keep_own_blur", "off",
-           "on: a pixel is never sharper than its own CoC (max of own and blurred level); off: the chapter's "
-           "rule (blurred level when the neighbourhood is in front)"},
-          {"coc_reduce", "mean", "how a 4x4 block's CoC is reduced to the quarter-res map: mean or max"},
-          {"impl", "fast",
-           "fast: SIMD/cache-blocked passes; plain: the straightforward passes (double-sum Gaussians, per-pixel "
-           "final pass), kept as the test oracle of the fast form (equal within 1e-4)"},
+          float_param("large_radius_px", d.large_radius_px, 0.0, 4096.0, "px",
+                      "disc radius (px at the camera's reference width) the large level stands for; 0 = auto: the "
+                      "camera's characteristic radius (thin lens: K, the blur at infinity; artist models: their "
+                      "maximum radius; StarCraft: max_radius_px). Radii beyond it saturate at the large level"),
+          float_param("medium_fraction", d.medium_fraction, 0.05, 0.95, "",
+                      "radius of the medium level as a fraction of the large level's"),
+          float_param("sigma_per_radius", d.sigma_per_radius, 0.1, 2.0, "",
+                      "Gaussian sigma per disc radius for the medium and large levels; 0.5 would match the disc's "
+                      "variance, 0.6 measured best against the ground truth"),
+          int_param("medium_boxes", d.medium_boxes, 1, 3, "",
+                    "box passes per axis of the medium level's Gaussian (the variance is the same for any count): "
+                    "2 measured as good as 3 against the ground truth (mean PSNR 29.86 vs 29.85 dB, SSIM 0.902 vs "
+                    "0.901 over the built-in scenes at 320x180) at two thirds of the medium level's blur cost; 1 is "
+                    "a plain box"),
+          float_param("depth_blur", d.depth_blur, 0.1, 4.0, "",
+                      "sigma of the depth blur of the ordering test relative to the CoC blur"),
+          bool_param("keep_own_blur", d.keep_own_blur,
+                     "on: a pixel is never sharper than its own CoC (max of own and blurred level); off: the "
+                     "chapter's rule (blurred level when the neighbourhood is in front)"),
+          choice_param("coc_reduce", d.coc_reduce_max ? "max" : "mean", {"mean", "max"},
+                       "how a 4x4 block's CoC is reduced to the quarter-res map"),
+          choice_param("impl", d.plain ? "plain" : "fast", {"fast", "plain"},
+                       "fast: SIMD/cache-blocked passes; plain: the straightforward passes (double-sum Gaussians, "
+                       "per-pixel final pass), kept as the test oracle of the fast form (equal within 1e-4)"),
       },
       {
           {"coc", "blur level c in [0,1] per pixel (full resolution)"},

@@ -24,6 +24,7 @@
 // composite; near-CoC dilation radius scales with the kernel (6 at kernelScale 1).
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "core/coc_range.hpp"
 #include "dofkit/error.hpp"
@@ -42,19 +43,10 @@ namespace {
 // scale that gives that ring radius: 12 full-res px per unit of kernel_scale.
 void choose_kernel(const MethodContext& ctx, Settings& s) {
   const Params& p = ctx.params;
-  bool automatic = true;
-  double ks_user = 1.0;
-  if (p.has("kernel_scale")) {
-    try {
-      p.get_choice("kernel_scale", "auto", {"auto"});
-    } catch (const Error&) {
-      automatic = false;
-      ks_user = p.get_double("kernel_scale", 1.0, 0.01, 50.0);
-    }
-  }
+  const std::optional<double> ks_user = p.get_double_or_auto("kernel_scale");
   double radius_px;
-  if (!automatic) {
-    radius_px = 2.0 * kOuterRadius * ks_user * ctx.coc_of.scale();
+  if (ks_user) {
+    radius_px = 2.0 * kOuterRadius * *ks_user * ctx.coc_of.scale();
   } else if (const auto* nfb = std::get_if<NearFarBlend>(&ctx.camera.model)) {
     radius_px = nfb->max_radius_px * ctx.coc_of.scale();
     radius_px = std::min(radius_px, ctx.coc_of.max_coc_px());
@@ -71,7 +63,7 @@ void choose_kernel(const MethodContext& ctx, Settings& s) {
   s.blend_radius_px = static_cast<float>(radius_px);
   const double ks_base = radius_px / (2.0 * kOuterRadius);
   // Strength split of docs/methods/sterna.md: shrink the kernel down to ¼, then fade the blend.
-  const double strength = p.get_double("strength", 1.0, 0.0, 1.0);
+  const double strength = p.get_double("strength");
   double ks_mul = strength, blend = 1.0;
   if (strength < 0.25) {
     ks_mul = 0.25;
@@ -88,14 +80,14 @@ Settings read_settings(const MethodContext& ctx) {
   const Params& p = ctx.params;
   Settings s;
   choose_kernel(ctx, s);
-  s.bicubic_near = p.get_choice("near_upsample", "bilinear", {"bilinear", "bicubic"}) == "bicubic";
-  s.per_pixel_scale = p.get_bool("per_pixel_scale", false);
-  s.karis = p.get_choice("firefly", "off", {"off", "karis"}) == "karis";
+  s.bicubic_near = p.get_choice("near_upsample") == "bicubic";
+  s.per_pixel_scale = p.get_bool("per_pixel_scale");
+  s.karis = p.get_choice("firefly") == "karis";
   BokehShape shape;
-  shape.polygon = p.get_choice("bokeh", "circle", {"circle", "polygon"}) == "polygon";
-  shape.blades = p.get_int("blades", 6, 5, 9);
-  shape.rotation_deg = p.get_double("rotation_deg", 0.0, -360.0, 360.0);
-  shape.anamorphic = p.get_double("anamorphic", 1.0, 0.5, 2.0);
+  shape.polygon = p.get_choice("bokeh") == "polygon";
+  shape.blades = p.get_int("blades");
+  shape.rotation_deg = p.get_double("rotation_deg");
+  shape.anamorphic = p.get_double("anamorphic");
   // The shared aperture (RenderSettings::aperture) or sterna's own keys, not both. Its fixed
   // 49 taps take the shape (blades, rotation, curvature, anamorphic); an aperture image or the
   // cat's eye (per pixel) cannot be drawn by one tap set and is left out.
@@ -131,7 +123,7 @@ Image plane_copy(const Image& img, int c) {
 void render_sterna(const MethodContext& ctx, Image& out) {
   const Params& p = ctx.params;
   const Settings s = read_settings(ctx);
-  const bool fast = p.get_choice("impl", "fast", {"fast", "plain"}) == "fast";
+  const bool fast = p.get_choice("impl") == "fast";
 
   const bool want_view = ctx.debug.wants("near_coc") || ctx.debug.wants("far_coc") ||
                          ctx.debug.wants("near_coc_dilated") || ctx.debug.wants("near") || ctx.debug.wants("far") ||
@@ -179,23 +171,26 @@ const MethodDef& sterna_method() {
       "Sterna's gather-based bokeh: half-res 49-tap ring gather (circle or n-gon), separate near/far fields, "
       "max fill, CoC-bilateral composite",
       {
-          {"strength", "1", "effect strength 0-1: >= 0.25 scales the kernel, below fades the blend out (0 = input)"},
-          {"kernel_scale", "auto",
-           "auto (kernel radius = largest far CoC of the frame, else largest near CoC) or a number 0.01-50: ring "
-           "radius 12 px x this at the "
-           "camera's reference width"},
-          {"near_upsample", "bilinear", "near-field upsampling: bilinear or bicubic (cubic B-spline)"},
-          {"per_pixel_scale", "off", "on/off: scale the far kernel by each pixel's far CoC (S2 §3.5)"},
-          {"bokeh", "circle",
-           "kernel shape: circle or polygon (sterna's own keys; the shared --blades, --blade-rotation, "
-           "--blade-curvature, --anamorphic flags work too, not both)"},
-          {"blades", "6", "polygon sides, 5-9 (bokeh=polygon)"},
-          {"rotation_deg", "0", "polygon rotation, degrees clockwise on screen (-360-360); 0 = edge midpoint at +x"},
-          {"anamorphic", "1", "bokeh width/height ratio 0.5-2 (area preserving)"},
-          {"firefly", "off", "HDR firefly suppression in the downsample: off or karis (weights 1/(1+luma))"},
-          {"impl", "fast",
-           "fast (optimised passes; debug views use plain) or plain "
-           "(the reference passes, the test oracle); same output"},
+          float_param("strength", 1.0, 0.0, 1.0, "",
+                      "effect strength: >= 0.25 scales the kernel, below fades the blend out (0 = input)"),
+          float_or_auto_param("kernel_scale", 0.01, 50.0, "",
+                              "auto (kernel radius = largest far CoC of the frame, else largest near CoC) or a "
+                              "number: ring radius 12 px x this at the camera's reference width"),
+          choice_param("near_upsample", "bilinear", {"bilinear", "bicubic"},
+                       "near-field upsampling: bilinear or bicubic (cubic B-spline)"),
+          bool_param("per_pixel_scale", false, "scale the far kernel by each pixel's far CoC (S2 §3.5)"),
+          choice_param("bokeh", "circle", {"circle", "polygon"},
+                       "kernel shape (sterna's own keys; the shared --blades, --blade-rotation, --blade-curvature, "
+                       "--anamorphic flags work too, not both)"),
+          int_param("blades", 6, 5, 9, "", "polygon sides (bokeh=polygon)"),
+          float_param("rotation_deg", 0.0, -360.0, 360.0, "deg",
+                      "polygon rotation, clockwise on screen; 0 = edge midpoint at +x"),
+          float_param("anamorphic", 1.0, 0.5, 2.0, "", "bokeh width/height ratio (area preserving)"),
+          choice_param("firefly", "off", {"off", "karis"},
+                       "HDR firefly suppression in the downsample: off or karis (weights 1/(1+luma))"),
+          choice_param("impl", "fast", {"fast", "plain"},
+                       "fast (optimised passes; debug views use plain) or plain (the reference passes, the test "
+                       "oracle); same output"),
       },
       {
           {"near_coc", "full-res near blend factor 0-1 (1 plane)"},

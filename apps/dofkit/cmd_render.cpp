@@ -37,6 +37,7 @@
 #include "io/image_io.hpp"
 #include "io/layers_io.hpp"
 #include "io/phone_depth.hpp"
+#include "methods/params.hpp"
 
 namespace dofkit::cli {
 
@@ -247,11 +248,11 @@ void check_method(const std::string& method, const std::map<std::string, std::st
       // Not a structured binding: clang 14 cannot capture those in a lambda.
       const std::string& key = kv.first;
       const std::string& value = kv.second;
-      const bool known =
-          std::any_of(m.params.begin(), m.params.end(), [&](const ParamInfo& p) { return p.name == key; });
-      if (!known)
+      const auto it = std::find_if(m.params.begin(), m.params.end(), [&](const ParamInfo& p) { return p.name == key; });
+      if (it == m.params.end())
         throw_usage("--set " + key + "=" + value + ": unknown parameter for method " + method +
                     (keys.empty() ? std::string(" (it has none)") : " (known: " + keys + ")"));
+      detail::check_param_value(method, *it, value);  // type and range, before any file is read
     }
     if (!debug_view.empty()) {
       const bool known = std::any_of(m.debug_views.begin(), m.debug_views.end(),

@@ -615,6 +615,9 @@ TEST_F(RenderCli, FlagErrorsAreFoundBeforeReadingInputs) {
   a.insert(a.end(), {"--focus", "4", "--blur-at-infinity", "8", "--set", "bogus=1"});
   expect_failure(a, 2, {"--set bogus=1"});
   a = base();
+  a.insert(a.end(), {"--focus", "4", "--blur-at-infinity", "8", "--method", "layered", "--set", "layers=99"});
+  expect_failure(a, 2, {"layers", "99"});  // out of range: refused before the missing colour is noticed
+  a = base();
   a.insert(a.end(), {"--focus", "4", "--blur-at-infinity", "8"});
   a[5] = dir_ / "o.gif";
   expect_failure(a, 2, {"o.gif"});

@@ -142,7 +142,8 @@ TEST(DepthRefine, ASoftEdgeIsSnappedBackToTheColourEdge) {
   EXPECT_LT(soft_ok, 48 * 16 * 2 / 3);
   // A flat map stays flat.
   const Image flat(64, 48, 1, 2.5f);
-  for (const float z : io::refine_depth(flat, s.color).data()) ASSERT_FLOAT_EQ(z, 2.5f);
+  const Image flat_refined = io::refine_depth(flat, s.color);
+  for (const float z : flat_refined.data()) ASSERT_FLOAT_EQ(z, 2.5f);
 }
 
 TEST(DepthResample, SameOutputForAnyThreadCount) {

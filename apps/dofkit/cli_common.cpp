@@ -341,6 +341,31 @@ long parse_key_frame(const std::string& flag, const std::string& text, const std
     throw_usage(flag + " " + whole + ": frame '" + text + "' is not a frame number (0 to 999999999)");
   return std::stol(text);
 }
+
+// The comma-separated parts of a key flag's text, trimmed (a trailing comma gives an empty
+// last part, which no key form accepts).
+std::vector<std::string> key_parts(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  std::string part;
+  while (std::getline(ss, part, ',')) parts.push_back(trim(part));
+  if (text.empty() || text.back() == ',') parts.push_back("");
+  return parts;
+}
+
+// Keys must come in increasing frame order: `frame` after `previous` (none: -1).
+void check_key_order(const std::string& flag, const std::string& text, long previous, long frame) {
+  if (previous >= 0 && frame <= previous)
+    throw_usage(flag + " " + text + ": frame " + std::to_string(frame) +
+                (frame == previous ? " is given twice" : " comes after frame " + std::to_string(previous)) +
+                "; keys must be in increasing frame order");
+}
+
+// A key's value error (parse_number's "FLAG VALUE: why") restated for the key flag.
+[[noreturn]] void bad_key_value(const std::string& flag, const std::string& text, long frame, const Error& e) {
+  const std::string m = e.what();
+  throw_usage(flag + " " + text + ": key at frame " + std::to_string(frame) + ": " + m.substr(m.find(": ") + 2));
+}
 }  // namespace
 
 std::vector<FocusKey> CameraFlags::focus_keys() const {
@@ -350,11 +375,7 @@ std::vector<FocusKey> CameraFlags::focus_keys() const {
   const std::string flag = at ? "--focus-at-keys" : "--focus-keys";
   const std::string& text = at ? focus_at_keys_text_ : focus_keys_text_;
   const std::string form = at ? "FRAME:X,Y,FRAME:X,Y,..." : "FRAME:METRES,FRAME:METRES,...";
-  std::vector<std::string> parts;
-  std::stringstream ss(text);
-  std::string part;
-  while (std::getline(ss, part, ',')) parts.push_back(trim(part));
-  if (text.empty() || text.back() == ',') parts.push_back("");
+  const std::vector<std::string> parts = key_parts(text);
   const std::size_t per_key = at ? 2 : 1;
   if (parts.size() % per_key != 0) throw_usage(flag + " " + text + ": expected " + form);
   for (std::size_t i = 0; i < parts.size(); i += per_key) {
@@ -372,14 +393,9 @@ std::vector<FocusKey> CameraFlags::focus_keys() const {
         k.focus_m = parse_number("--focus", value);
       }
     } catch (const Error& e) {
-      const std::string m = e.what();
-      throw_usage(flag + " " + text + ": key at frame " + std::to_string(k.frame) + ": " + m.substr(m.find(": ") + 2));
+      bad_key_value(flag, text, k.frame, e);
     }
-    if (!keys.empty() && k.frame <= keys.back().frame)
-      throw_usage(flag + " " + text + ": frame " + std::to_string(k.frame) +
-                  (k.frame == keys.back().frame ? " is given twice"
-                                                : " comes after frame " + std::to_string(keys.back().frame)) +
-                  "; keys must be in increasing frame order");
+    check_key_order(flag, text, keys.empty() ? -1 : keys.back().frame, k.frame);
     keys.push_back(k);
   }
   return keys;
@@ -388,12 +404,7 @@ std::vector<FocusKey> CameraFlags::focus_keys() const {
 std::vector<std::pair<long, double>> CameraFlags::value_keys(const std::string& flag, const std::string& text,
                                                              const std::string& value_flag) const {
   std::vector<std::pair<long, double>> keys;
-  std::vector<std::string> parts;
-  std::stringstream ss(text);
-  std::string part;
-  while (std::getline(ss, part, ',')) parts.push_back(trim(part));
-  if (text.empty() || text.back() == ',') parts.push_back("");
-  for (const std::string& key : parts) {
+  for (const std::string& key : key_parts(text)) {
     const auto colon = key.find(':');
     if (colon == std::string::npos) throw_usage(flag + " " + text + ": expected FRAME:VALUE,FRAME:VALUE,...");
     const long frame = parse_key_frame(flag, key.substr(0, colon), text);
@@ -401,14 +412,9 @@ std::vector<std::pair<long, double>> CameraFlags::value_keys(const std::string& 
     try {
       value = parse_number(value_flag, key.substr(colon + 1));
     } catch (const Error& e) {
-      const std::string m = e.what();
-      throw_usage(flag + " " + text + ": key at frame " + std::to_string(frame) + ": " + m.substr(m.find(": ") + 2));
+      bad_key_value(flag, text, frame, e);
     }
-    if (!keys.empty() && frame <= keys.back().first)
-      throw_usage(
-          flag + " " + text + ": frame " + std::to_string(frame) +
-          (frame == keys.back().first ? " is given twice" : " comes after frame " + std::to_string(keys.back().first)) +
-          "; keys must be in increasing frame order");
+    check_key_order(flag, text, keys.empty() ? -1 : keys.back().first, frame);
     keys.emplace_back(frame, value);
   }
   return keys;

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -127,6 +128,13 @@ Image guided_filter(const Image& bilinear_z, const std::vector<float>& guide, do
   return out;
 }
 
+// The colour pixels [first, last) that depth sample i covers along an axis of n colour pixels,
+// s = depth size / colour size: [floor(i/s), floor((i+1)/s)), at least one pixel, clipped to n.
+std::pair<int, int> footprint(int i, double s, int n) {
+  const int first = static_cast<int>(std::floor(i / s));
+  return {first, std::min(n, std::max(first + 1, static_cast<int>(std::floor((i + 1) / s))))};
+}
+
 // The colour as three sRGB-like encoded planes in [0, 1] (the guide of `guided`).
 std::vector<float> colour_guide(const Image& color) {
   const std::size_t n = color.plane_size();
@@ -163,12 +171,10 @@ Image edge_aware_upsample(const Image& depth, const Image& color) {
   std::vector<float> mean(3 * nd, 0.0f), var(nd, 0.0f);
   std::vector<unsigned char> mixed(nd, 0);
   tbb::parallel_for(0, dh, [&](int j) {
-    const int y0 = static_cast<int>(std::floor(j / sy)),
-              y1 = std::min(ch, std::max(y0 + 1, static_cast<int>(std::floor((j + 1) / sy))));
+    const auto [y0, y1] = footprint(j, sy, ch);
     for (int i = 0; i < dw; ++i) {
       const std::size_t k = static_cast<std::size_t>(j) * dw + i;
-      const int x0 = static_cast<int>(std::floor(i / sx)),
-                x1 = std::min(cw, std::max(x0 + 1, static_cast<int>(std::floor((i + 1) / sx))));
+      const auto [x0, x1] = footprint(i, sx, cw);
       const int n = std::max(0, (y1 - y0) * (x1 - x0));
       double v = 0;
       for (int c = 0; c < 3; ++c) {
@@ -297,15 +303,13 @@ Image refine_depth(const Image& depth, const Image& color) {
   const int dw = std::max(1, (cw + kRefineFactor / 2) / kRefineFactor),
             dh = std::max(1, (ch + kRefineFactor / 2) / kRefineFactor);
   if (dw == cw && dh == ch) return depth;
-  // The same footprints as edge_aware_upsample's: sample i covers [floor(i/s), floor((i+1)/s)).
+  // The same footprints as edge_aware_upsample's.
   const double sx = static_cast<double>(dw) / cw, sy = static_cast<double>(dh) / ch;
   Image low(dw, dh, 1);
   tbb::parallel_for(0, dh, [&](int j) {
-    const int y0 = static_cast<int>(std::floor(j / sy)),
-              y1 = std::min(ch, std::max(y0 + 1, static_cast<int>(std::floor((j + 1) / sy))));
+    const auto [y0, y1] = footprint(j, sy, ch);
     for (int i = 0; i < dw; ++i) {
-      const int x0 = static_cast<int>(std::floor(i / sx)),
-                x1 = std::min(cw, std::max(x0 + 1, static_cast<int>(std::floor((i + 1) / sx))));
+      const auto [x0, x1] = footprint(i, sx, cw);
       double sum = 0;
       int n = 0;
       for (int y = y0; y < y1; ++y)

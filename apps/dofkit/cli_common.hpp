@@ -140,8 +140,8 @@ class DepthFlags {
   io::DepthOptions build() const;
   /// Whether --depth-kind was given.
   bool kind_given() const { return kind_opt_ && kind_opt_->count() > 0; }
-  /// Whether --depth-channel was given.
-  bool channel_given() const { return !channel_.empty(); }
+  /// The --depth-channel name ("" if not given).
+  const std::string& channel() const { return channel_; }
 
  private:
   CLI::Option* kind_opt_ = nullptr;

@@ -574,8 +574,7 @@ void run_render(RenderArgs& a) {
   color_channel_names(a.color_channels);  // syntax
   a.budget.apply();
   // A phone photo without --depth may record its focus distance (checked once it is read).
-  const bool photo_depth = a.depth.empty() && a.layers.empty() && !a.depth_flags.channel_given() &&
-                           (io::looks_like_jpeg(a.color) || io::looks_like_heif(a.color));
+  const bool photo_depth = a.layers.empty() && io::reads_embedded_depth(a.color, a.depth, a.depth_flags.channel());
   a.camera.check(photo_depth);
   if (a.camera.animated() && a.frames.empty())
     throw_usage(

@@ -851,7 +851,7 @@ Frame load_frame(const std::string& color_path, const std::string& depth_path, c
   Frame frame;
   frame.color = read_color(color_path, color_channels);
   bool resampled = false;  // a smaller map brought up (then --depth-refine has nothing to add)
-  if (depth_path.empty() && opt.channel.empty() && (looks_like_jpeg(color_path) || looks_like_heif(color_path))) {
+  if (reads_embedded_depth(color_path, depth_path, opt.channel)) {
     // A phone photo: the depth map it carries (GDepth XMP, HEIC auxiliary depth image),
     // converted per its own metadata, at its own size, then brought to the photo's.
     std::string missing;

@@ -553,7 +553,7 @@ std::string container_depth(const std::string& path, const std::vector<XmpProper
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec) throw_bad_input(path + ": cannot read its size: " + ec.message());
   // Offsets from the end of the file: every item after the primary one has a length.
-  std::uintmax_t tail = 0, before = 0;
+  std::uintmax_t tail = 0, before = 0, length = 0;
   for (std::size_t i = 1; i < items.size(); ++i) {
     const auto field = [&](const char* name, bool required) -> std::uintmax_t {
       const auto it = items[i].find(name);
@@ -567,15 +567,15 @@ std::string container_depth(const std::string& path, const std::vector<XmpProper
                         "' is not a byte count within the file's " + std::to_string(size) + " bytes");
       return static_cast<std::uintmax_t>(*v);
     };
-    const std::uintmax_t len = field("Length", true) + field("Padding", false);
+    const std::uintmax_t item_length = field("Length", true);
+    if (i == depth) length = item_length;
+    const std::uintmax_t len = item_length + field("Padding", false);
     if (i < depth) before += len;
     tail += len;
     if (tail > size)
       throw_bad_input(path + ": its container directory lists " + std::to_string(tail) +
                       " bytes of appended items, more than the file's " + std::to_string(size));
   }
-  const auto len_it = items[depth].find("Length");
-  const std::uintmax_t length = static_cast<std::uintmax_t>(*number(&len_it->second));
   if (length == 0) throw_bad_input(path + ": container Item " + std::to_string(depth + 1) + " (Depth) is empty");
   if (length > kMaxJpegHead)
     throw_bad_input(path + ": container Item " + std::to_string(depth + 1) + " (Depth) declares " +
@@ -961,6 +961,11 @@ bool looks_like_heif(const std::string& path) {
   for (const char* b : {"heic", "heix", "heim", "heis", "hevc", "hevx", "mif1", "msf1"})
     if (brand == b) return true;
   return false;
+}
+
+bool reads_embedded_depth(const std::string& color_path, const std::string& depth_path,
+                          const std::string& depth_channel) {
+  return depth_path.empty() && depth_channel.empty() && (looks_like_jpeg(color_path) || looks_like_heif(color_path));
 }
 
 Image read_embedded_depth(const std::string& path, int width, int height, const DepthOptions& opt, DepthFacts* facts,

@@ -49,6 +49,11 @@ bool jpeg_xmp(std::string_view bytes, JpegXmp& out, std::string& why);
 bool looks_like_jpeg(const std::string& path);
 bool looks_like_heif(const std::string& path);
 
+/// Whether load_frame takes the depth from the photo `color_path` itself (a JPEG or HEIF given
+/// without a depth file and without --depth-channel).
+bool reads_embedded_depth(const std::string& color_path, const std::string& depth_path,
+                          const std::string& depth_channel);
+
 /// A HEIF photo's primary image as its header declares it (libheif; nothing decoded): size
 /// and channels (3, or 4 with an alpha image). Throws Error(bad_input) naming the file if
 /// libheif cannot read it or it is beyond the pixel budget, and "built without HEIC support"
